@@ -1,0 +1,22 @@
+/* The esr subcommands. Each lives in its own cmd_<name>.c and is listed once in main.c's table. */
+#ifndef ESR_CLI_COMMANDS_H
+#define ESR_CLI_COMMANDS_H
+
+struct esr_command {
+    const char *name;
+    const char *summary; /* one line for `esr --help` */
+    const char *usage;   /* full text for `esr <cmd> --help` (options included) */
+    int (*run)(int argc, char **argv); /* argv[0] is the command name; returns the exit code */
+};
+
+/* Prints "esr <cmd>: error: <message>" (with the library's pending error if any) and the
+ * command's usage hint; returns exit code 1. */
+int cli_fail(const struct esr_command *cmd, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
+/* Prints the library's pending error for cmd and returns 1. */
+int cli_fail_lib(const struct esr_command *cmd);
+/* 1 if argv contains -h or --help (then usage has been printed). */
+int cli_wants_help(const struct esr_command *cmd, int argc, char **argv);
+
+/* Add `extern const struct esr_command cmd_<name>;` here and a row in main.c's table. */
+
+#endif

@@ -1,0 +1,70 @@
+/* esr: emissive source reconstruction. Dispatches to the subcommands in commands.h. */
+#include <stdarg.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "cli/commands.h"
+#include "core/error.h"
+
+/* One row per subcommand, in the order `esr --help` lists them. */
+static const struct esr_command *const commands[] = {
+    NULL, /* keeps the table non-empty; skipped */
+};
+#define N_COMMANDS (int)(sizeof commands / sizeof commands[0])
+
+int cli_wants_help(const struct esr_command *cmd, int argc, char **argv)
+{
+    for (int i = 1; i < argc; i++) {
+        if (!strcmp(argv[i], "-h") || !strcmp(argv[i], "--help")) {
+            printf("%s", cmd->usage);
+            return 1;
+        }
+    }
+    return 0;
+}
+
+int cli_fail(const struct esr_command *cmd, const char *fmt, ...)
+{
+    fprintf(stderr, "esr %s: error: ", cmd->name);
+    va_list args;
+    va_start(args, fmt);
+    vfprintf(stderr, fmt, args);
+    va_end(args);
+    fprintf(stderr, "\n(see `esr %s --help`)\n", cmd->name);
+    return 1;
+}
+
+int cli_fail_lib(const struct esr_command *cmd)
+{
+    fprintf(stderr, "esr %s: error: %s\n", cmd->name,
+            esr_error_pending() ? esr_error_message() : "unknown failure");
+    return 1;
+}
+
+static void print_help(FILE *out)
+{
+    fprintf(out, "esr - emissive source reconstruction (ESR-NeRF in C)\n\n"
+                 "usage: esr <command> [options]\n\ncommands:\n");
+    for (int i = 0; i < N_COMMANDS; i++)
+        if (commands[i])
+            fprintf(out, "  %-10s %s\n", commands[i]->name, commands[i]->summary);
+    fprintf(out, "\n`esr <command> --help` describes a command's options.\n");
+}
+
+int main(int argc, char **argv)
+{
+    if (argc < 2) {
+        print_help(stderr);
+        return 1;
+    }
+    if (!strcmp(argv[1], "-h") || !strcmp(argv[1], "--help") || !strcmp(argv[1], "help")) {
+        print_help(stdout);
+        return 0;
+    }
+    for (int i = 0; i < N_COMMANDS; i++)
+        if (commands[i] && !strcmp(argv[1], commands[i]->name))
+            return commands[i]->run(argc - 1, argv + 1);
+    fprintf(stderr, "esr: unknown command '%s'\n\n", argv[1]);
+    print_help(stderr);
+    return 1;
+}

@@ -1,0 +1,20 @@
+/* Colour maths from the seed: sRGB transfer curve (eq. 9) and RGB <-> HSV (eqs. 10-15). */
+#ifndef ESR_CORE_COLOUR_H
+#define ESR_CORE_COLOUR_H
+
+/* IEC 61966-2-1 OETF: linear -> sRGB-encoded (seed eq. 9). Negative input maps through the
+ * linear segment; the caller clamps where display values are wanted. */
+float esr_srgb_from_linear(float linear);
+/* Its exact inverse (EOTF): sRGB-encoded -> linear. */
+float esr_linear_from_srgb(float encoded);
+/* Derivative of esr_srgb_from_linear, for backward passes. */
+float esr_srgb_from_linear_grad(float linear);
+
+/* RGB (linear, V unbounded) -> HSV with H, S in [0,1], V = max(R,G,B) (seed eqs. 10-13). */
+void esr_rgb_to_hsv(const float rgb[3], float hsv[3]);
+/* HSV -> RGB (seed eqs. 14-15); H is taken modulo 1. */
+void esr_hsv_to_rgb(const float hsv[3], float rgb[3]);
+/* The seed's edit rule: replace hue and saturation of `rgb` by those of `target_hs`, keep V. */
+void esr_recolour_keep_value(const float rgb[3], float target_h, float target_s, float out[3]);
+
+#endif

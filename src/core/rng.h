@@ -1,0 +1,48 @@
+/* Counter-based random numbers: every value is a pure function of (seed, stream, counter), so
+ * results do not depend on thread count or scheduling. Give each pixel / ray its own stream. */
+#ifndef ESR_CORE_RNG_H
+#define ESR_CORE_RNG_H
+
+#include <stdint.h>
+
+#include "core/simd.h"
+
+struct esr_rng {
+    uint64_t key;     /* hash of (seed, stream) */
+    uint64_t counter; /* advanced by every draw */
+};
+
+/* SplitMix64 finaliser: a bijective 64-bit mixer with full avalanche. */
+ESR_INLINE uint64_t esr_mix64(uint64_t z)
+{
+    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
+    z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
+    return z ^ (z >> 31);
+}
+
+ESR_INLINE struct esr_rng esr_rng_init(uint64_t seed, uint64_t stream)
+{
+    struct esr_rng rng;
+    rng.key = esr_mix64(esr_mix64(seed ^ 0x9e3779b97f4a7c15ULL) + stream);
+    rng.counter = 0;
+    return rng;
+}
+
+ESR_INLINE uint32_t esr_rng_u32(struct esr_rng *rng)
+{
+    return (uint32_t)(esr_mix64(rng->key + 0x9e3779b97f4a7c15ULL * ++rng->counter) >> 32);
+}
+
+/* Uniform in [0, 1): 24 random mantissa bits, never returns 1.0f. */
+ESR_INLINE float esr_rng_float(struct esr_rng *rng)
+{
+    return (float)(esr_rng_u32(rng) >> 8) * (1.0f / 16777216.0f);
+}
+
+/* Uniform integer in [0, n), n > 0 (Lemire's multiply-shift; bias < n / 2^32). */
+ESR_INLINE uint32_t esr_rng_below(struct esr_rng *rng, uint32_t n)
+{
+    return (uint32_t)(((uint64_t)esr_rng_u32(rng) * n) >> 32);
+}
+
+#endif

@@ -1,0 +1,22 @@
+/* Pinhole cameras in the Blender/OpenGL convention used by the dataset (see FORMAT.md):
+ * camera looks along local -Z, +Y is image-up, +X image-right; pixel centres at +0.5. */
+#ifndef ESR_IO_CAMERA_H
+#define ESR_IO_CAMERA_H
+
+struct esr_camera {
+    float c2w[3][4]; /* camera-to-world rotation | centre, row-major */
+    int width, height;
+    float focal;     /* pixels: 0.5 * width / tan(0.5 * camera_angle_x) */
+};
+
+float esr_focal_from_fov(int width, float camera_angle_x);
+
+/* Ray through continuous pixel position (px, py), px in [0,width) from the left, py in
+ * [0,height) from the top; the centre of pixel (i, j) is (i + 0.5, j + 0.5).
+ * dir is unit length. */
+void esr_camera_ray(const struct esr_camera *cam, float px, float py, float origin[3], float dir[3]);
+
+/* Projects a world point; returns 0 when it is behind the camera. */
+int esr_camera_project(const struct esr_camera *cam, const float world[3], float *px, float *py);
+
+#endif

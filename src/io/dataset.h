@@ -1,0 +1,93 @@
+/* Scene datasets: the authors' ESR-NeRF layout (../shared/scenes/FORMAT.md, five phases with
+ * per-frame lights) and the plain NeRF-synthetic layout (train/val/test, all frames "off").
+ * Loading reads and validates the JSON; images are read on demand. */
+#ifndef ESR_IO_DATASET_H
+#define ESR_IO_DATASET_H
+
+#include "io/camera.h"
+#include "io/image.h"
+
+enum esr_phase_id {
+    ESR_PHASE_TRAIN,
+    ESR_PHASE_TEST_NV,
+    ESR_PHASE_TEST_NVI,
+    ESR_PHASE_TEST_NVC,
+    ESR_PHASE_TEST_NVIC,
+    ESR_PHASE_VAL, /* NeRF-synthetic only */
+    ESR_PHASE_COUNT
+};
+const char *esr_phase_name(enum esr_phase_id phase); /* "train", "test_nv", ... */
+int esr_phase_from_name(const char *name, enum esr_phase_id *out);
+
+enum esr_light_mode {
+    ESR_LIGHT_OFF,
+    ESR_LIGHT_ON,
+    ESR_LIGHT_I_CHANGE,
+    ESR_LIGHT_C_CHANGE,
+    ESR_LIGHT_IC_CHANGE,
+    ESR_LIGHT_MODE_COUNT
+};
+const char *esr_light_mode_name(enum esr_light_mode mode); /* "off", "on", "i_change", ... */
+
+enum esr_layout { ESR_LAYOUT_ESR, ESR_LAYOUT_NERF_SYNTHETIC };
+
+#define ESR_PATH_MAX 1024
+#define ESR_NAME_MAX 128
+
+struct esr_light_state {
+    enum esr_light_mode mode;
+    float hsv[3];      /* target colour; [0,0,1] = original colour */
+    float intensity;   /* multiplier of the light's "on" strength */
+    char mask_path[ESR_PATH_MAX]; /* relative, no extension; "" when none */
+};
+
+struct esr_frame {
+    char file_path[ESR_PATH_MAX]; /* relative to the scene dir, no extension */
+    char name[ESR_NAME_MAX];      /* last path component, e.g. "c003_on" */
+    struct esr_camera camera;
+    int lights_on;                /* 1 when any light has intensity > 0 */
+    struct esr_light_state *lights; /* dataset.n_lights entries */
+};
+
+struct esr_phase {
+    int present;
+    int n_frames;
+    struct esr_frame *frames;
+};
+
+struct esr_dataset {
+    char root[ESR_PATH_MAX];
+    enum esr_layout layout;
+    int width, height;        /* from the first image of the first phase */
+    float camera_angle_x;
+    float focal;
+    int n_lights;
+    float bbox_min[3], bbox_max[3]; /* scene box: scene.json when present, else [-1.5,1.5]^3 */
+    struct esr_phase phases[ESR_PHASE_COUNT];
+};
+
+/* Reads the transforms JSON of every phase and the size of the first image. Fails with a
+ * message naming the file and the problem on malformed or incomplete JSON, unknown light
+ * modes, non-finite matrices, or a light count that differs between frames. */
+int esr_dataset_load(const char *dir, struct esr_dataset *ds);
+void esr_dataset_free(struct esr_dataset *ds);
+
+/* Full path of a frame's image (".png" appended) / its EXR / its emission mask / light K's mask. */
+void esr_frame_image_path(const struct esr_dataset *ds, const struct esr_frame *f, char *out, size_t n);
+void esr_frame_exr_path(const struct esr_dataset *ds, const struct esr_frame *f, char *out, size_t n);
+void esr_frame_emission_path(const struct esr_dataset *ds, const struct esr_frame *f, char *out, size_t n);
+void esr_frame_light_mask_path(const struct esr_dataset *ds, const struct esr_frame *f, int light, char *out,
+                               size_t n);
+
+/* Loads a frame's PNG composited on white as RGB (the authors' loader: rgb*a + (1-a)), also
+ * returning alpha when `alpha` is non-NULL (1 channel). Checks the size against the dataset. */
+int esr_frame_load_rgb(const struct esr_dataset *ds, const struct esr_frame *f, struct esr_image *rgb,
+                       struct esr_image *alpha);
+
+/* Checks every referenced file exists, decodes, and has the dataset's size; calls `report`
+ * once per problem found. Returns the number of problems (0 = valid), or ESR_ERR if the check
+ * itself could not run. */
+typedef void (*esr_problem_fn)(void *user, const char *message);
+int esr_dataset_check(const struct esr_dataset *ds, esr_problem_fn report, void *user);
+
+#endif

@@ -1,0 +1,46 @@
+/* In-memory images and PNG / EXR files.
+ * Pixels are float, interleaved, rows top-first (PNG/EXR order), pixel (0,0) top-left.
+ * PNG values are the stored code values scaled to [0,1] (no colour conversion);
+ * EXR values are linear as stored. */
+#ifndef ESR_IO_IMAGE_H
+#define ESR_IO_IMAGE_H
+
+#include <stddef.h>
+
+struct esr_image {
+    int width, height;
+    int channels; /* 1 = grey, 2 = grey+alpha, 3 = RGB, 4 = RGBA */
+    float *data;  /* width * height * channels floats, owned */
+};
+
+int esr_image_alloc(struct esr_image *img, int width, int height, int channels);
+void esr_image_free(struct esr_image *img);
+static inline size_t esr_image_count(const struct esr_image *img)
+{
+    return (size_t)img->width * (size_t)img->height * (size_t)img->channels;
+}
+
+/* PNG, 8- or 16-bit, any colour type (palette and grey are expanded; output keeps alpha if the
+ * file has it: grey -> 1, grey+alpha -> 2, RGB -> 3, RGBA/palette with tRNS -> 4 channels). */
+int esr_png_read(const char *path, struct esr_image *out);
+/* bits = 8 or 16; channels 1, 2, 3 or 4; values are clamped to [0,1] and rounded. Written atomically. */
+int esr_png_write(const char *path, const struct esr_image *img, int bits);
+
+/* Scanline or tiled EXR, half/float/uint channels, any compression the core library decodes.
+ * Returns 4 channels R,G,B,A (A = 1 when absent; a single Y channel fills R,G,B). Values are as
+ * stored: premultiplied by alpha when the file has alpha (OpenEXR convention). */
+int esr_exr_read(const char *path, struct esr_image *out);
+/* Writes channels as R,G,B(,A) (1 channel: Y); half = 1 for 16-bit floats, else 32-bit float;
+ * ZIP compression. Written atomically. */
+int esr_exr_write(const char *path, const struct esr_image *img, int half);
+
+/* Dispatch on the extension (.png / .exr, case-insensitive). */
+int esr_image_read(const char *path, struct esr_image *out);
+
+/* Straight-alpha RGBA (as in the dataset PNGs) -> RGB on background bg: c = rgb*a + bg*(1-a).
+ * Accepts 3-channel input unchanged. Output is a new 3-channel image. */
+int esr_image_composite(const struct esr_image *rgba, const float bg[3], struct esr_image *rgb);
+/* Premultiplied RGBA (EXR) -> RGB on background bg: c = rgb + bg*(1-a). */
+int esr_image_composite_premultiplied(const struct esr_image *rgba, const float bg[3], struct esr_image *rgb);
+
+#endif

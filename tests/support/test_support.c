@@ -1,0 +1,60 @@
+#include "test_support.h"
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+
+const char *test_shared_scene(const char *name)
+{
+    static char path[1024];
+    struct stat st;
+    snprintf(path, sizeof path, "%s/%s", ESR_SHARED_SCENES, name);
+    if (stat(path, &st) == 0 && S_ISDIR(st.st_mode))
+        return path;
+    return NULL;
+}
+
+char *test_make_tmpdir(void)
+{
+    char templ[] = "/tmp/esr-test-XXXXXX";
+    char *dir = mkdtemp(templ);
+    return dir ? strdup(dir) : NULL;
+}
+
+void test_rmtree(const char *dir)
+{
+    if (!dir || strncmp(dir, "/tmp/esr-test-", 14) != 0)
+        return; /* refuse to remove anything we did not create */
+    char cmd[1200];
+    snprintf(cmd, sizeof cmd, "rm -rf '%s'", dir);
+    if (system(cmd) != 0)
+        fprintf(stderr, "warning: could not remove %s\n", dir);
+}
+
+int test_run_esr(const char *args, char *out, size_t n)
+{
+    char cmd[4096];
+    snprintf(cmd, sizeof cmd, "'%s' %s 2>&1", ESR_BINARY, args);
+    FILE *p = popen(cmd, "r");
+    if (!p)
+        return -1;
+    size_t used = fread(out, 1, n - 1, p);
+    out[used] = '\0';
+    char sink[4096];
+    while (fread(sink, 1, sizeof sink, p) > 0) {
+    }
+    int status = pclose(p);
+    return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+int test_write_file(const char *path, const char *text)
+{
+    FILE *f = fopen(path, "wb");
+    if (!f)
+        return -1;
+    size_t len = strlen(text);
+    int ok = fwrite(text, 1, len, f) == len;
+    return (fclose(f) == 0 && ok) ? 0 : -1;
+}

@@ -1,0 +1,18 @@
+/* Helpers shared by the cmocka test programs. */
+#ifndef ESR_TEST_SUPPORT_H
+#define ESR_TEST_SUPPORT_H
+
+#include <stddef.h>
+
+/* Path of ../shared/scenes/<name> when present, else NULL (tests then skip the real-scene part). */
+const char *test_shared_scene(const char *name);
+/* A fresh empty temporary directory (removed by test_rmtree). Returns a static-lifetime copy. */
+char *test_make_tmpdir(void);
+void test_rmtree(const char *dir);
+/* Runs the esr binary with the given argument string through the shell; captures stdout+stderr
+ * into `out` (truncated to n). Returns the exit code. */
+int test_run_esr(const char *args, char *out, size_t n);
+/* Writes `text` to path; returns 0 on success. */
+int test_write_file(const char *path, const char *text);
+
+#endif
