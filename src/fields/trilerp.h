@@ -1,0 +1,139 @@
+/* Per-point trilinear interpolation on a struct esr_grid lattice: pure functions in the C/C++
+ * common subset, so a CUDA backend can call them one thread per point. The batch loops are in
+ * grid.c. A point is first "located" (cell, fractions, derivative of the lattice coordinate);
+ * forward, backward and spatial-gradient kernels then only read that record. */
+#ifndef ESR_FIELDS_TRILERP_H
+#define ESR_FIELDS_TRILERP_H
+
+#include <stddef.h>
+
+#include "core/simd.h"
+#include "fields/grid.h"
+
+struct esr_trilerp {
+    size_t base;    /* lattice index of the cell's corner (ix0, iy0, iz0) */
+    size_t stride[3]; /* lattice-index step to the +1 corner along x, y, z */
+    int iz0;        /* z-plane of the first corner (for z-plane ownership in backward passes) */
+    float f[3];     /* position inside the cell, each in [0, 1] */
+    float du[3];    /* d(lattice coordinate)/d(world) per axis; 0 where the point was clamped */
+};
+
+/* Locates p on g's lattice, clamping to the box (NaN coordinates clamp to the minimum). */
+ESR_INLINE void esr_trilerp_locate(const struct esr_grid *g, const float p[3], struct esr_trilerp *t)
+{
+    int n[3];
+    int i0[3];
+    n[0] = g->nx;
+    n[1] = g->ny;
+    n[2] = g->nz;
+    for (int a = 0; a < 3; a++) {
+        float scale = (float)(n[a] - 1) / (g->bmax[a] - g->bmin[a]);
+        float u = (p[a] - g->bmin[a]) * scale;
+        float hi = (float)(n[a] - 1);
+        t->du[a] = scale;
+        if (!(u > 0.0f)) {
+            u = 0.0f;
+            t->du[a] = 0.0f;
+        } else if (u >= hi) {
+            u = hi;
+            t->du[a] = 0.0f;
+        }
+        i0[a] = (int)u;
+        if (i0[a] > n[a] - 2)
+            i0[a] = n[a] - 2;
+        t->f[a] = u - (float)i0[a];
+    }
+    t->stride[0] = 1;
+    t->stride[1] = (size_t)n[0];
+    t->stride[2] = (size_t)n[0] * (size_t)n[1];
+    t->base = (size_t)i0[0] + t->stride[1] * (size_t)i0[1] + t->stride[2] * (size_t)i0[2];
+    t->iz0 = i0[2];
+}
+
+/* Lattice index and weight of corner k (bit 0: +x, bit 1: +y, bit 2: +z). */
+ESR_INLINE size_t esr_trilerp_corner(const struct esr_trilerp *t, int k, float *w)
+{
+    float wx = (k & 1) ? t->f[0] : 1.0f - t->f[0];
+    float wy = (k & 2) ? t->f[1] : 1.0f - t->f[1];
+    float wz = (k & 4) ? t->f[2] : 1.0f - t->f[2];
+    *w = wx * wy * wz;
+    return t->base + ((k & 1) ? t->stride[0] : 0) + ((k & 2) ? t->stride[1] : 0) +
+           ((k & 4) ? t->stride[2] : 0);
+}
+
+/* d(weight of corner k)/d(world p_a), a = 0..2 (includes du, so 0 along clamped axes). */
+ESR_INLINE void esr_trilerp_corner_dw(const struct esr_trilerp *t, int k, float dw[3])
+{
+    float w[3], s[3];
+    for (int a = 0; a < 3; a++) {
+        int bit = (k >> a) & 1;
+        w[a] = bit ? t->f[a] : 1.0f - t->f[a];
+        s[a] = (bit ? 1.0f : -1.0f) * t->du[a];
+    }
+    dw[0] = s[0] * w[1] * w[2];
+    dw[1] = w[0] * s[1] * w[2];
+    dw[2] = w[0] * w[1] * s[2];
+}
+
+/* out[c] = sum_k w_k data[corner_k * C + c] for c < C. */
+ESR_INLINE void esr_trilerp_fwd(const float *ESR_RESTRICT data, int C, const struct esr_trilerp *t,
+                                float *ESR_RESTRICT out)
+{
+    for (int c = 0; c < C; c++)
+        out[c] = 0.0f;
+    for (int k = 0; k < 8; k++) {
+        float w;
+        const float *v = data + esr_trilerp_corner(t, k, &w) * (size_t)C;
+        for (int c = 0; c < C; c++)
+            out[c] += w * v[c];
+    }
+}
+
+/* Scatters w_k * d_out[c] into grad for the corners whose z-plane lies in [z_lo, z_hi)
+ * (pass 0, INT_MAX for all). The caller guarantees no other thread writes those planes. */
+ESR_INLINE void esr_trilerp_bwd(float *ESR_RESTRICT grad, int C, const struct esr_trilerp *t,
+                                const float *ESR_RESTRICT d_out, int z_lo, int z_hi)
+{
+    for (int k = 0; k < 8; k++) {
+        int z = t->iz0 + ((k >> 2) & 1);
+        if (z < z_lo || z >= z_hi)
+            continue;
+        float w;
+        float *gv = grad + esr_trilerp_corner(t, k, &w) * (size_t)C;
+        for (int c = 0; c < C; c++)
+            gv[c] += w * d_out[c];
+    }
+}
+
+/* Spatial gradient of channel ch: dp[a] = d value_ch / d p_a. */
+ESR_INLINE void esr_trilerp_dpoint(const float *data, int C, int ch, const struct esr_trilerp *t,
+                                   float dp[3])
+{
+    dp[0] = dp[1] = dp[2] = 0.0f;
+    for (int k = 0; k < 8; k++) {
+        float w, dw[3];
+        float v = data[esr_trilerp_corner(t, k, &w) * (size_t)C + (size_t)ch];
+        esr_trilerp_corner_dw(t, k, dw);
+        dp[0] += dw[0] * v;
+        dp[1] += dw[1] * v;
+        dp[2] += dw[2] * v;
+    }
+}
+
+/* Adjoint of esr_trilerp_dpoint w.r.t. the grid values of channel ch, restricted to z-planes
+ * [z_lo, z_hi): grad[corner_k*C + ch] += dw_k . d_dp. */
+ESR_INLINE void esr_trilerp_dpoint_bwd(float *grad, int C, int ch, const struct esr_trilerp *t,
+                                       const float d_dp[3], int z_lo, int z_hi)
+{
+    for (int k = 0; k < 8; k++) {
+        int z = t->iz0 + ((k >> 2) & 1);
+        if (z < z_lo || z >= z_hi)
+            continue;
+        float w, dw[3];
+        size_t idx = esr_trilerp_corner(t, k, &w);
+        esr_trilerp_corner_dw(t, k, dw);
+        grad[idx * (size_t)C + (size_t)ch] += dw[0] * d_dp[0] + dw[1] * d_dp[1] + dw[2] * d_dp[2];
+    }
+}
+
+#endif

@@ -1,0 +1,11 @@
+/* PLY mesh output (binary little-endian): float x y z, float nx ny nz, and uchar red green blue
+ * when the mesh has colours; faces as uchar count + uint vertex indices. Written atomically. */
+#ifndef ESR_IO_PLY_H
+#define ESR_IO_PLY_H
+
+#include "render/mesh.h"
+
+/* Writes m to path (atomic: a failed write leaves an existing file untouched). */
+int esr_ply_write(const char *path, const struct esr_mesh *m);
+
+#endif

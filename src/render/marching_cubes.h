@@ -1,0 +1,23 @@
+/* Marching cubes (Lorensen & Cline 1987; case tables after Paul Bourke's public-domain
+ * "Polygonising a scalar field") on a 1-channel grid: the `level` iso-surface as an indexed
+ * triangle mesh. Vertices on shared cube edges are shared, so a closed surface gives a closed
+ * (watertight) mesh. Vertex normals are the normalised trilinear gradient of the field. */
+#ifndef ESR_RENDER_MARCHING_CUBES_H
+#define ESR_RENDER_MARCHING_CUBES_H
+
+#include "fields/grid.h"
+#include "render/mesh.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* Extracts the level set of channel 0 of g (g->channels must be 1). *out is overwritten; free it
+ * with esr_mesh_free (also after an error). An empty surface gives an empty mesh. */
+int esr_marching_cubes(const struct esr_grid *g, const float *field, float level,
+                       struct esr_mesh *out);
+
+#ifdef __cplusplus
+}
+#endif
+#endif
