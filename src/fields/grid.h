@@ -57,6 +57,10 @@ void esr_grid_sample_dpoint(const struct esr_grid *g, const float *data, int ch,
 void esr_grid_sample_dpoint_bwd(const struct esr_grid *g, int ch, const float *pts, size_t n,
                                 const float *d_dpts, float *grad);
 
+/* Inside an OpenMP parallel region: the z-planes [*lo, *hi) of g that the calling thread owns in
+ * a deterministic backward pass (contiguous, disjoint, covering 0..nz-1 over the team). */
+void esr_grid_own_planes(const struct esr_grid *g, int *lo, int *hi);
+
 #ifdef __cplusplus
 }
 #endif

@@ -44,9 +44,10 @@ struct esr_tv_params {
 /* Total variation with DVGO's Huber form: loss = w / V * sum over axis-neighbour pairs (p, q)
  * and channels of h(v_p - v_q), h(d) = d^2/2 for |d| <= 1 else |d| - 1/2, V = voxel count.
  * Adds d loss / d v into grad, only at voxels where mask is set (others are treated as constant;
- * pairs with no masked end are skipped). Returns the loss. Parallel, deterministic. */
-double esr_grid_tv_add_grad(const struct esr_grid *g, const float *data,
-                            const struct esr_tv_params *p, float *grad);
+ * pairs with no masked end are skipped). *loss (may be NULL) receives the loss. Parallel and
+ * deterministic (per-plane partial sums added in order). */
+int esr_grid_tv_add_grad(const struct esr_grid *g, const float *data, const struct esr_tv_params *p,
+                         float *grad, double *loss);
 
 #ifdef __cplusplus
 }

@@ -50,6 +50,17 @@ ESR_INLINE void esr_trilerp_locate(const struct esr_grid *g, const float p[3], s
     t->iz0 = i0[2];
 }
 
+/* The z-plane of the cell containing world coordinate z (as esr_trilerp_locate computes it);
+ * lets backward passes skip points whose corners are all outside a thread's planes cheaply. */
+ESR_INLINE int esr_trilerp_iz0(const struct esr_grid *g, float z)
+{
+    float u = (z - g->bmin[2]) * ((float)(g->nz - 1) / (g->bmax[2] - g->bmin[2]));
+    if (!(u > 0.0f))
+        return 0;
+    int i = u >= (float)(g->nz - 1) ? g->nz - 2 : (int)u;
+    return i > g->nz - 2 ? g->nz - 2 : i;
+}
+
 /* Lattice index and weight of corner k (bit 0: +x, bit 1: +y, bit 2: +z). */
 ESR_INLINE size_t esr_trilerp_corner(const struct esr_trilerp *t, int k, float *w)
 {

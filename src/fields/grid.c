@@ -1,0 +1,114 @@
+/* Batch loops over the trilinear kernels of fields/trilerp.h. */
+#include "fields/grid.h"
+
+#include <math.h>
+#include <omp.h>
+
+#include "core/error.h"
+#include "fields/trilerp.h"
+
+int esr_grid_init(struct esr_grid *g, int channels, int nx, int ny, int nz, const float bmin[3],
+                  const float bmax[3])
+{
+    if (channels < 1)
+        return ESR_FAIL("voxel grid: channel count %d must be >= 1", channels);
+    if (nx < 2 || ny < 2 || nz < 2)
+        return ESR_FAIL("voxel grid: resolution %dx%dx%d must be >= 2 along every axis", nx, ny, nz);
+    for (int a = 0; a < 3; a++)
+        if (!(bmax[a] > bmin[a]) || !isfinite(bmin[a]) || !isfinite(bmax[a]))
+            return ESR_FAIL("voxel grid: box axis %d [%g, %g] is empty or not finite", a,
+                            (double)bmin[a], (double)bmax[a]);
+    g->channels = channels;
+    g->nx = nx;
+    g->ny = ny;
+    g->nz = nz;
+    for (int a = 0; a < 3; a++) {
+        g->bmin[a] = bmin[a];
+        g->bmax[a] = bmax[a];
+    }
+    return ESR_OK;
+}
+
+size_t esr_grid_voxels(const struct esr_grid *g) { return (size_t)g->nx * (size_t)g->ny * (size_t)g->nz; }
+
+size_t esr_grid_count(const struct esr_grid *g) { return esr_grid_voxels(g) * (size_t)g->channels; }
+
+float esr_grid_voxel_size(const struct esr_grid *g, int axis)
+{
+    int n = axis == 0 ? g->nx : axis == 1 ? g->ny : g->nz;
+    return (g->bmax[axis] - g->bmin[axis]) / (float)(n - 1);
+}
+
+void esr_grid_voxel_pos(const struct esr_grid *g, int ix, int iy, int iz, float pos[3])
+{
+    const int i[3] = {ix, iy, iz};
+    for (int a = 0; a < 3; a++)
+        pos[a] = g->bmin[a] + (float)i[a] * esr_grid_voxel_size(g, a);
+}
+
+ESR_HOT void esr_grid_sample_fwd(const struct esr_grid *g, const float *data, const float *pts,
+                                 size_t n, float *out)
+{
+    const int C = g->channels;
+#pragma omp parallel for schedule(static)
+    for (size_t i = 0; i < n; i++) {
+        struct esr_trilerp t;
+        esr_trilerp_locate(g, pts + i * 3, &t);
+        esr_trilerp_fwd(data, C, &t, out + i * (size_t)C);
+    }
+}
+
+void esr_grid_sample_dpoint(const struct esr_grid *g, const float *data, int ch, const float *pts,
+                            size_t n, float *dpts)
+{
+#pragma omp parallel for schedule(static)
+    for (size_t i = 0; i < n; i++) {
+        struct esr_trilerp t;
+        esr_trilerp_locate(g, pts + i * 3, &t);
+        esr_trilerp_dpoint(data, g->channels, ch, &t, dpts + i * 3);
+    }
+}
+
+void esr_grid_own_planes(const struct esr_grid *g, int *lo, int *hi)
+{
+    long nt = omp_get_num_threads(), tid = omp_get_thread_num();
+    *lo = (int)((long)g->nz * tid / nt);
+    *hi = (int)((long)g->nz * (tid + 1) / nt);
+}
+
+ESR_HOT void esr_grid_sample_bwd(const struct esr_grid *g, const float *pts, size_t n,
+                                 const float *d_out, float *grad)
+{
+    const int C = g->channels;
+#pragma omp parallel
+    {
+        int lo, hi;
+        esr_grid_own_planes(g, &lo, &hi);
+        for (size_t i = 0; i < n; i++) {
+            int iz = esr_trilerp_iz0(g, pts[i * 3 + 2]);
+            if (iz + 1 < lo || iz >= hi)
+                continue;
+            struct esr_trilerp t;
+            esr_trilerp_locate(g, pts + i * 3, &t);
+            esr_trilerp_bwd(grad, C, &t, d_out + i * (size_t)C, lo, hi);
+        }
+    }
+}
+
+void esr_grid_sample_dpoint_bwd(const struct esr_grid *g, int ch, const float *pts, size_t n,
+                                const float *d_dpts, float *grad)
+{
+#pragma omp parallel
+    {
+        int lo, hi;
+        esr_grid_own_planes(g, &lo, &hi);
+        for (size_t i = 0; i < n; i++) {
+            int iz = esr_trilerp_iz0(g, pts[i * 3 + 2]);
+            if (iz + 1 < lo || iz >= hi)
+                continue;
+            struct esr_trilerp t;
+            esr_trilerp_locate(g, pts + i * 3, &t);
+            esr_trilerp_dpoint_bwd(grad, g->channels, ch, &t, d_dpts + i * 3, lo, hi);
+        }
+    }
+}

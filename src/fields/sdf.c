@@ -1,0 +1,226 @@
+/* Whole-grid SDF operations: sphere init, Gaussian smoothing (and adjoint), resampling, TV. */
+#include "fields/sdf.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "core/error.h"
+#include "fields/trilerp.h"
+
+#define SMOOTH_MAX_TAPS 15
+
+int esr_sdf_init_sphere(const struct esr_grid *g, float *data, float radius)
+{
+    if (g->channels != 1)
+        return ESR_FAIL("sphere SDF init: grid must have 1 channel, has %d", g->channels);
+#pragma omp parallel for schedule(static)
+    for (int iz = 0; iz < g->nz; iz++)
+        for (int iy = 0; iy < g->ny; iy++)
+            for (int ix = 0; ix < g->nx; ix++) {
+                float p[3], r2 = 0.0f;
+                esr_grid_voxel_pos(g, ix, iy, iz, p);
+                for (int a = 0; a < 3; a++) {
+                    float u = (2.0f * p[a] - g->bmin[a] - g->bmax[a]) / (g->bmax[a] - g->bmin[a]);
+                    r2 += u * u;
+                }
+                data[((size_t)iz * g->ny + iy) * g->nx + ix] = sqrtf(r2) - radius;
+            }
+    return ESR_OK;
+}
+
+struct line_op {
+    int n;             /* samples along the line */
+    size_t stride;     /* floats between them */
+    int r;             /* kernel radius */
+    float w[SMOOTH_MAX_TAPS];
+};
+
+/* Forward 1-D smoothing of one line with point-reflected extension (see sdf.h). */
+static void line_fwd(const struct line_op *op, const float *src, float *dst)
+{
+    const int n = op->n, last = n - 1;
+    for (int i = 0; i < n; i++) {
+        float acc = 0.0f;
+        for (int k = -op->r; k <= op->r; k++) {
+            int j = i + k;
+            float v;
+            if (j < 0)
+                v = 2.0f * src[0] - src[(size_t)(-j) * op->stride];
+            else if (j > last)
+                v = 2.0f * src[(size_t)last * op->stride] - src[(size_t)(2 * last - j) * op->stride];
+            else
+                v = src[(size_t)j * op->stride];
+            acc += op->w[k + op->r] * v;
+        }
+        dst[(size_t)i * op->stride] = acc;
+    }
+}
+
+/* Transpose of line_fwd: dst = L^T src (dst overwritten). */
+static void line_adj(const struct line_op *op, const float *src, float *dst)
+{
+    const int n = op->n, last = n - 1;
+    for (int i = 0; i < n; i++)
+        dst[(size_t)i * op->stride] = 0.0f;
+    for (int i = 0; i < n; i++) {
+        float d = src[(size_t)i * op->stride];
+        for (int k = -op->r; k <= op->r; k++) {
+            int j = i + k;
+            float wd = op->w[k + op->r] * d;
+            if (j < 0) {
+                dst[0] += 2.0f * wd;
+                dst[(size_t)(-j) * op->stride] -= wd;
+            } else if (j > last) {
+                dst[(size_t)last * op->stride] += 2.0f * wd;
+                dst[(size_t)(2 * last - j) * op->stride] -= wd;
+            } else {
+                dst[(size_t)j * op->stride] += wd;
+            }
+        }
+    }
+}
+
+/* Applies the 1-D operator (or its transpose) along `axis` to every line of the grid. */
+static void smooth_axis(const struct esr_grid *g, int axis, const float *w, int r, int adjoint,
+                        const float *src, float *dst)
+{
+    const int C = g->channels;
+    const int n[3] = {g->nx, g->ny, g->nz};
+    const size_t s[3] = {(size_t)C, (size_t)g->nx * C, (size_t)g->nx * g->ny * C};
+    const int b = axis == 0 ? 1 : 0, c = axis == 2 ? 1 : 2; /* the two other axes */
+    struct line_op op;
+    op.n = n[axis];
+    op.stride = s[axis];
+    op.r = r;
+    memcpy(op.w, w, sizeof(float) * (size_t)(2 * r + 1));
+    const long lines = (long)n[b] * n[c] * C;
+#pragma omp parallel for schedule(static)
+    for (long L = 0; L < lines; L++) {
+        long ch = L % C, rest = L / C;
+        size_t start = (size_t)ch + (size_t)(rest % n[b]) * s[b] + (size_t)(rest / n[b]) * s[c];
+        if (adjoint)
+            line_adj(&op, src + start, dst + start);
+        else
+            line_fwd(&op, src + start, dst + start);
+    }
+}
+
+static int smooth_kernel(const struct esr_grid *g, int ksize, float sigma, float *w)
+{
+    if (ksize < 1 || ksize % 2 == 0 || ksize > SMOOTH_MAX_TAPS)
+        return ESR_FAIL("Gaussian smoothing: kernel size %d must be odd and in 1..%d", ksize,
+                        SMOOTH_MAX_TAPS);
+    if (!(sigma > 0.0f))
+        return ESR_FAIL("Gaussian smoothing: sigma %g must be > 0", (double)sigma);
+    const int r = ksize / 2;
+    if (g->nx <= r || g->ny <= r || g->nz <= r)
+        return ESR_FAIL("Gaussian smoothing: grid %dx%dx%d too small for kernel size %d", g->nx,
+                        g->ny, g->nz, ksize);
+    float sum = 0.0f;
+    for (int k = -r; k <= r; k++)
+        sum += w[k + r] = expf(-(float)(k * k) / (2.0f * sigma * sigma));
+    for (int k = 0; k < ksize; k++)
+        w[k] /= sum;
+    return ESR_OK;
+}
+
+int esr_grid_smooth_fwd(const struct esr_grid *g, const float *src, float *dst, float *scratch,
+                        int ksize, float sigma)
+{
+    float w[SMOOTH_MAX_TAPS];
+    ESR_TRY(smooth_kernel(g, ksize, sigma, w));
+    const int r = ksize / 2;
+    smooth_axis(g, 0, w, r, 0, src, scratch);
+    smooth_axis(g, 1, w, r, 0, scratch, dst);
+    smooth_axis(g, 2, w, r, 0, dst, scratch);
+    memcpy(dst, scratch, sizeof(float) * esr_grid_count(g));
+    return ESR_OK;
+}
+
+int esr_grid_smooth_bwd(const struct esr_grid *g, float *d_dst, float *d_src, float *scratch,
+                        int ksize, float sigma)
+{
+    float w[SMOOTH_MAX_TAPS];
+    ESR_TRY(smooth_kernel(g, ksize, sigma, w));
+    const int r = ksize / 2;
+    smooth_axis(g, 2, w, r, 1, d_dst, scratch);
+    smooth_axis(g, 1, w, r, 1, scratch, d_dst);
+    smooth_axis(g, 0, w, r, 1, d_dst, scratch);
+    const size_t count = esr_grid_count(g);
+#pragma omp parallel for schedule(static)
+    for (size_t i = 0; i < count; i++)
+        d_src[i] += scratch[i];
+    return ESR_OK;
+}
+
+int esr_grid_resample(const struct esr_grid *src_g, const float *src, const struct esr_grid *dst_g,
+                      float *dst)
+{
+    if (src_g->channels != dst_g->channels)
+        return ESR_FAIL("grid resample: channel counts differ (%d -> %d)", src_g->channels,
+                        dst_g->channels);
+    const int C = dst_g->channels;
+#pragma omp parallel for schedule(static)
+    for (int iz = 0; iz < dst_g->nz; iz++)
+        for (int iy = 0; iy < dst_g->ny; iy++)
+            for (int ix = 0; ix < dst_g->nx; ix++) {
+                float p[3];
+                struct esr_trilerp t;
+                esr_grid_voxel_pos(dst_g, ix, iy, iz, p);
+                esr_trilerp_locate(src_g, p, &t);
+                esr_trilerp_fwd(src, C, &t, dst + (((size_t)iz * dst_g->ny + iy) * dst_g->nx + ix) * C);
+            }
+    return ESR_OK;
+}
+
+/* DVGO's Huber penalty and its derivative (clamped difference). */
+static double huber(float d) { return fabsf(d) <= 1.0f ? 0.5 * (double)d * d : fabs((double)d) - 0.5; }
+static float huber_grad(float d) { return fminf(fmaxf(d, -1.0f), 1.0f); }
+
+int esr_grid_tv_add_grad(const struct esr_grid *g, const float *data, const struct esr_tv_params *p,
+                         float *grad, double *loss)
+{
+    double *plane_loss = (double *)calloc((size_t)g->nz, sizeof(double));
+    if (!plane_loss)
+        return ESR_FAIL("total variation: out of memory for %d plane sums", g->nz);
+    const int C = g->channels;
+    const int n[3] = {g->nx, g->ny, g->nz};
+    const size_t vs[3] = {1, (size_t)g->nx, (size_t)g->nx * g->ny}; /* voxel strides */
+    const float scale = p->weight / (float)esr_grid_voxels(g);
+    const uint8_t *mask = p->mask;
+#pragma omp parallel for schedule(static)
+    for (int iz = 0; iz < g->nz; iz++) {
+        double acc = 0.0;
+        for (int iy = 0; iy < g->ny; iy++)
+            for (int ix = 0; ix < g->nx; ix++) {
+                const int i[3] = {ix, iy, iz};
+                size_t v = ((size_t)iz * g->ny + iy) * g->nx + ix;
+                int on = !mask || mask[v];
+                for (int a = 0; a < 3; a++) {
+                    /* pair (v, v + e_a): its loss is counted here, once */
+                    if (i[a] + 1 < n[a] && (on || mask[v + vs[a]]))
+                        for (int c = 0; c < C; c++)
+                            acc += huber(data[v * C + c] - data[(v + vs[a]) * C + c]);
+                    if (!on)
+                        continue;
+                    for (int c = 0; c < C; c++) {
+                        float g_add = 0.0f;
+                        if (i[a] + 1 < n[a])
+                            g_add += huber_grad(data[v * C + c] - data[(v + vs[a]) * C + c]);
+                        if (i[a] > 0)
+                            g_add += huber_grad(data[v * C + c] - data[(v - vs[a]) * C + c]);
+                        grad[v * C + c] += scale * g_add;
+                    }
+                }
+            }
+        plane_loss[iz] = acc;
+    }
+    double total = 0.0;
+    for (int iz = 0; iz < g->nz; iz++)
+        total += plane_loss[iz];
+    free(plane_loss);
+    if (loss)
+        *loss = total * scale;
+    return ESR_OK;
+}
