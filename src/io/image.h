@@ -26,12 +26,20 @@ int esr_png_read(const char *path, struct esr_image *out);
 /* bits = 8 or 16; channels 1, 2, 3 or 4; values are clamped to [0,1] and rounded. Written atomically. */
 int esr_png_write(const char *path, const struct esr_image *img, int bits);
 
-/* Scanline or tiled EXR, half/float/uint channels, any compression the core library decodes.
- * Returns 4 channels R,G,B,A (A = 1 when absent; a single Y channel fills R,G,B). Values are as
- * stored: premultiplied by alpha when the file has alpha (OpenEXR convention). */
+/* Scanline or tiled EXR (part 0, level 0 of a tiled part), half/float/uint channels, any
+ * compression the core library decodes. Returns the data window as 4 channels R,G,B,A (A = 1
+ * when absent, missing colour channels 0; a luminance-only Y channel fills R,G,B; other channels
+ * are ignored). Values are as stored: premultiplied by alpha when the file has alpha (OpenEXR
+ * convention). Fails naming the file when it is missing, truncated or corrupt. */
 int esr_exr_read(const char *path, struct esr_image *out);
-/* Writes channels as R,G,B(,A) (1 channel: Y); half = 1 for 16-bit floats, else 32-bit float;
- * ZIP compression. Written atomically. */
+
+enum esr_exr_pixel { ESR_EXR_HALF, ESR_EXR_FLOAT, ESR_EXR_UINT };
+enum esr_exr_compression { ESR_EXR_NONE, ESR_EXR_RLE, ESR_EXR_ZIPS, ESR_EXR_ZIP, ESR_EXR_PIZ };
+/* Writes a scanline EXR with channels R,G,B(,A) (1 channel: Y; 2 channels: Y,A) of the given
+ * pixel type (UINT rounds and clamps to [0, 2^32)) and compression. Written atomically. */
+int esr_exr_write_as(const char *path, const struct esr_image *img, enum esr_exr_pixel pixel,
+                     enum esr_exr_compression compression);
+/* Shorthand: half = 1 for 16-bit floats, else 32-bit float; ZIP compression. */
 int esr_exr_write(const char *path, const struct esr_image *img, int half);
 
 /* Dispatch on the extension (.png / .exr, case-insensitive). */

@@ -33,6 +33,24 @@ void test_rmtree(const char *dir)
         fprintf(stderr, "warning: could not remove %s\n", dir);
 }
 
+char *test_tmpdir;
+
+int test_setup_tmpdir(void **state)
+{
+    (void)state;
+    test_tmpdir = test_make_tmpdir();
+    return test_tmpdir ? 0 : -1;
+}
+
+int test_teardown_tmpdir(void **state)
+{
+    (void)state;
+    test_rmtree(test_tmpdir);
+    free(test_tmpdir);
+    test_tmpdir = NULL;
+    return 0;
+}
+
 int test_run_esr(const char *args, char *out, size_t n)
 {
     char cmd[4096];

@@ -9,6 +9,10 @@ const char *test_shared_scene(const char *name);
 /* A fresh empty temporary directory (removed by test_rmtree). Returns a static-lifetime copy. */
 char *test_make_tmpdir(void);
 void test_rmtree(const char *dir);
+/* cmocka group setup/teardown that create and remove a temporary directory, test_tmpdir. */
+extern char *test_tmpdir;
+int test_setup_tmpdir(void **state);
+int test_teardown_tmpdir(void **state);
 /* Runs the esr binary with the given argument string through the shell; captures stdout+stderr
  * into `out` (truncated to n). Returns the exit code. */
 int test_run_esr(const char *args, char *out, size_t n);
