@@ -9,6 +9,7 @@ struct esr_camera {
     float focal;     /* pixels: 0.5 * width / tan(0.5 * camera_angle_x) */
 };
 
+/* Focal length in pixels of a pinhole with full horizontal field of view camera_angle_x (radians). */
 float esr_focal_from_fov(int width, float camera_angle_x);
 
 /* Ray through continuous pixel position (px, py), px in [0,width) from the left, py in
@@ -16,7 +17,8 @@ float esr_focal_from_fov(int width, float camera_angle_x);
  * dir is unit length. */
 void esr_camera_ray(const struct esr_camera *cam, float px, float py, float origin[3], float dir[3]);
 
-/* Projects a world point; returns 0 when it is behind the camera. */
+/* Projects a world point to continuous pixel coordinates (inverse of esr_camera_ray, assuming the
+ * rotation part of c2w is orthonormal); returns 0 when it is not in front of the camera. */
 int esr_camera_project(const struct esr_camera *cam, const float world[3], float *px, float *py);
 
 #endif

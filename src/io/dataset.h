@@ -63,16 +63,26 @@ struct esr_dataset {
     float focal;
     int n_lights;
     float bbox_min[3], bbox_max[3]; /* scene box: scene.json when present, else [-1.5,1.5]^3 */
+    int bbox_from_scene;      /* 1 when bbox_min/max come from scene.json */
     struct esr_phase phases[ESR_PHASE_COUNT];
 };
 
-/* Reads the transforms JSON of every phase and the size of the first image. Fails with a
- * message naming the file and the problem on malformed or incomplete JSON, unknown light
- * modes, non-finite matrices, or a light count that differs between frames. */
+/* Reads the transforms JSON of every phase and the size of the first image. The layout is
+ * detected: DIR/transforms/transforms_train.json (ESR; test phases whose file is absent are
+ * marked not present) or DIR/transforms_train.json (NeRF-synthetic: train, val, test -> the
+ * test_nv slot; no lights). Fails with a message naming the file (and frame) and the problem on
+ * malformed or incomplete JSON, unknown light modes, non-finite or degenerate matrices, a light
+ * count that differs between frames, or an unreadable first image. On failure ds is left freed. */
 int esr_dataset_load(const char *dir, struct esr_dataset *ds);
 void esr_dataset_free(struct esr_dataset *ds);
 
-/* Full path of a frame's image (".png" appended) / its EXR / its emission mask / light K's mask. */
+/* The lighting mode of a frame: its first light's mode ("off" when the dataset has no lights). */
+enum esr_light_mode esr_frame_mode(const struct esr_dataset *ds, const struct esr_frame *f);
+/* Name of the phase's transforms file as this layout spells it, e.g. "transforms_test.json". */
+const char *esr_phase_file_name(const struct esr_dataset *ds, enum esr_phase_id phase);
+
+/* Full path of a frame's image (".png" appended) / its EXR / its emission mask / light K's mask
+ * ("" when the light has no mask_path). */
 void esr_frame_image_path(const struct esr_dataset *ds, const struct esr_frame *f, char *out, size_t n);
 void esr_frame_exr_path(const struct esr_dataset *ds, const struct esr_frame *f, char *out, size_t n);
 void esr_frame_emission_path(const struct esr_dataset *ds, const struct esr_frame *f, char *out, size_t n);
@@ -84,9 +94,10 @@ void esr_frame_light_mask_path(const struct esr_dataset *ds, const struct esr_fr
 int esr_frame_load_rgb(const struct esr_dataset *ds, const struct esr_frame *f, struct esr_image *rgb,
                        struct esr_image *alpha);
 
-/* Checks every referenced file exists, decodes, and has the dataset's size; calls `report`
- * once per problem found. Returns the number of problems (0 = valid), or ESR_ERR if the check
- * itself could not run. */
+/* Checks every referenced file exists, decodes, and has the dataset's size: each frame's PNG,
+ * each light mask named in the JSON, and for test phases that have an exr/ (emission/) folder
+ * the frame's EXR (emission mask). Calls `report` once per problem found, in frame order.
+ * Returns the number of problems (0 = valid), or ESR_ERR if the check itself could not run. */
 typedef void (*esr_problem_fn)(void *user, const char *message);
 int esr_dataset_check(const struct esr_dataset *ds, esr_problem_fn report, void *user);
 

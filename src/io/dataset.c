@@ -1,0 +1,535 @@
+/* Dataset loading (JSON, validated) and file checks. See dataset.h and FORMAT.md. */
+#include "io/dataset.h"
+
+#include <cJSON.h>
+#include <math.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+
+#include "core/error.h"
+#include "io/file.h"
+
+static const char *const phase_names[ESR_PHASE_COUNT] = {"train", "test_nv", "test_nvi", "test_nvc", "test_nvic",
+                                                         "val"};
+static const char *const mode_names[ESR_LIGHT_MODE_COUNT] = {"off", "on", "i_change", "c_change", "ic_change"};
+
+const char *esr_phase_name(enum esr_phase_id phase)
+{
+    return (unsigned)phase < ESR_PHASE_COUNT ? phase_names[phase] : "?";
+}
+
+int esr_phase_from_name(const char *name, enum esr_phase_id *out)
+{
+    for (int p = 0; p < ESR_PHASE_COUNT; p++)
+        if (!strcmp(name, phase_names[p])) {
+            *out = (enum esr_phase_id)p;
+            return ESR_OK;
+        }
+    return ESR_FAIL("unknown phase '%s'", name);
+}
+
+const char *esr_light_mode_name(enum esr_light_mode mode)
+{
+    return (unsigned)mode < ESR_LIGHT_MODE_COUNT ? mode_names[mode] : "?";
+}
+
+const char *esr_phase_file_name(const struct esr_dataset *ds, enum esr_phase_id phase)
+{
+    static const char *const esr_files[ESR_PHASE_COUNT] = {
+        "transforms/transforms_train.json", "transforms/transforms_test_nv.json", "transforms/transforms_test_nvi.json",
+        "transforms/transforms_test_nvc.json", "transforms/transforms_test_nvic.json", NULL};
+    static const char *const nerf_files[ESR_PHASE_COUNT] = {"transforms_train.json", "transforms_test.json", NULL,
+                                                            NULL, NULL, "transforms_val.json"};
+    if ((unsigned)phase >= ESR_PHASE_COUNT)
+        return NULL;
+    return ds->layout == ESR_LAYOUT_ESR ? esr_files[phase] : nerf_files[phase];
+}
+
+enum esr_light_mode esr_frame_mode(const struct esr_dataset *ds, const struct esr_frame *f)
+{
+    return ds->n_lights > 0 ? f->lights[0].mode : ESR_LIGHT_OFF;
+}
+
+/* ---- JSON parsing ---- */
+
+/* What the frame parsers need to name the place of a problem. */
+struct json_where {
+    const char *file;
+    int frame; /* -1: top level */
+};
+
+#define JSON_FAIL(w, ...) json_fail(w, __FILE__, __LINE__, __VA_ARGS__)
+static int json_fail(const struct json_where *w, const char *src, int line, const char *fmt, ...)
+    __attribute__((format(printf, 4, 5)));
+static int json_fail(const struct json_where *w, const char *src, int line, const char *fmt, ...)
+{
+    char what[512];
+    va_list args;
+    va_start(args, fmt);
+    vsnprintf(what, sizeof what, fmt, args);
+    va_end(args);
+    if (w->frame >= 0)
+        return esr_error_set(src, line, "'%s', frame %d: %s", w->file, w->frame, what);
+    return esr_error_set(src, line, "'%s': %s", w->file, what);
+}
+
+static int json_number(const struct json_where *w, const cJSON *obj, const char *key, float *out)
+{
+    const cJSON *item = cJSON_GetObjectItemCaseSensitive(obj, key);
+    if (!item)
+        return JSON_FAIL(w, "missing key '%s'", key);
+    if (!cJSON_IsNumber(item) || !isfinite(item->valuedouble))
+        return JSON_FAIL(w, "'%s' must be a finite number", key);
+    *out = (float)item->valuedouble;
+    return ESR_OK;
+}
+
+static int json_string(const struct json_where *w, const cJSON *obj, const char *key, char *out, size_t n)
+{
+    const cJSON *item = cJSON_GetObjectItemCaseSensitive(obj, key);
+    if (!item)
+        return JSON_FAIL(w, "missing key '%s'", key);
+    if (!cJSON_IsString(item))
+        return JSON_FAIL(w, "'%s' must be a string", key);
+    if (strlen(item->valuestring) >= n)
+        return JSON_FAIL(w, "'%s' is too long", key);
+    strcpy(out, item->valuestring);
+    return ESR_OK;
+}
+
+/* A JSON array of exactly n finite numbers. */
+static int json_vector(const struct json_where *w, const cJSON *arr, const char *what, float *out, int n)
+{
+    if (!cJSON_IsArray(arr) || cJSON_GetArraySize(arr) != n)
+        return JSON_FAIL(w, "'%s' must be an array of %d numbers", what, n);
+    for (int i = 0; i < n; i++) {
+        const cJSON *v = cJSON_GetArrayItem(arr, i);
+        if (!cJSON_IsNumber(v) || !isfinite(v->valuedouble))
+            return JSON_FAIL(w, "'%s' has a non-finite or non-numeric entry", what);
+        out[i] = (float)v->valuedouble;
+    }
+    return ESR_OK;
+}
+
+static int parse_matrix(const struct json_where *w, const cJSON *frame, struct esr_camera *cam)
+{
+    const cJSON *m = cJSON_GetObjectItemCaseSensitive(frame, "transform_matrix");
+    if (!m)
+        return JSON_FAIL(w, "missing key 'transform_matrix'");
+    if (!cJSON_IsArray(m) || cJSON_GetArraySize(m) != 4)
+        return JSON_FAIL(w, "'transform_matrix' must be 4 rows of 4 numbers");
+    float last[4];
+    for (int r = 0; r < 4; r++)
+        ESR_TRY(json_vector(w, cJSON_GetArrayItem(m, r), "transform_matrix", r < 3 ? cam->c2w[r] : last, 4));
+    float(*a)[4] = cam->c2w;
+    double det = (double)a[0][0] * ((double)a[1][1] * a[2][2] - (double)a[1][2] * a[2][1]) -
+                 (double)a[0][1] * ((double)a[1][0] * a[2][2] - (double)a[1][2] * a[2][0]) +
+                 (double)a[0][2] * ((double)a[1][0] * a[2][1] - (double)a[1][1] * a[2][0]);
+    if (fabs(det) < 1e-6)
+        return JSON_FAIL(w, "'transform_matrix' is degenerate (rotation determinant %g)", det);
+    if (fabsf(last[0]) + fabsf(last[1]) + fabsf(last[2]) + fabsf(last[3] - 1.0f) > 1e-4f)
+        return JSON_FAIL(w, "'transform_matrix' last row must be [0, 0, 0, 1]");
+    return ESR_OK;
+}
+
+static int parse_light(const struct json_where *w, const cJSON *obj, struct esr_light_state *light)
+{
+    char mode[32];
+    if (!cJSON_IsObject(obj))
+        return JSON_FAIL(w, "each entry of 'lights' must be an object");
+    ESR_TRY(json_string(w, obj, "mode", mode, sizeof mode));
+    int m = 0;
+    while (m < ESR_LIGHT_MODE_COUNT && strcmp(mode, mode_names[m]))
+        m++;
+    if (m == ESR_LIGHT_MODE_COUNT)
+        return JSON_FAIL(w, "unknown light mode '%s'", mode);
+    light->mode = (enum esr_light_mode)m;
+    ESR_TRY(json_number(w, obj, "intensity", &light->intensity));
+    const cJSON *color = cJSON_GetObjectItemCaseSensitive(obj, "color");
+    if (!color)
+        return JSON_FAIL(w, "missing key 'color'");
+    ESR_TRY(json_vector(w, color, "color", light->hsv, 3));
+    light->mask_path[0] = '\0';
+    if (cJSON_GetObjectItemCaseSensitive(obj, "mask_path"))
+        ESR_TRY(json_string(w, obj, "mask_path", light->mask_path, sizeof light->mask_path));
+    return ESR_OK;
+}
+
+/* Lights of an ESR frame; the first frame parsed fixes the dataset's light count. */
+static int parse_lights(const struct json_where *w, const cJSON *frame, struct esr_dataset *ds, struct esr_frame *f)
+{
+    const cJSON *lights = cJSON_GetObjectItemCaseSensitive(frame, "lights");
+    if (!lights)
+        return JSON_FAIL(w, "missing key 'lights'");
+    if (!cJSON_IsArray(lights))
+        return JSON_FAIL(w, "'lights' must be an array");
+    int n = cJSON_GetArraySize(lights);
+    if (ds->n_lights < 0)
+        ds->n_lights = n;
+    if (n != ds->n_lights)
+        return JSON_FAIL(w, "has %d lights but earlier frames have %d", n, ds->n_lights);
+    if (n == 0)
+        return ESR_OK;
+    f->lights = calloc((size_t)n, sizeof *f->lights);
+    if (!f->lights)
+        return JSON_FAIL(w, "out of memory");
+    for (int k = 0; k < n; k++) {
+        ESR_TRY(parse_light(w, cJSON_GetArrayItem(lights, k), &f->lights[k]));
+        if (f->lights[k].intensity > 0.0f)
+            f->lights_on = 1;
+    }
+    return ESR_OK;
+}
+
+static int parse_frame(const struct json_where *w, const cJSON *obj, struct esr_dataset *ds, struct esr_frame *f)
+{
+    if (!cJSON_IsObject(obj))
+        return JSON_FAIL(w, "frame must be an object");
+    ESR_TRY(json_string(w, obj, "file_path", f->file_path, sizeof f->file_path));
+    if (!f->file_path[0])
+        return JSON_FAIL(w, "'file_path' is empty");
+    const char *slash = strrchr(f->file_path, '/');
+    const char *base = slash ? slash + 1 : f->file_path;
+    if (strlen(base) >= sizeof f->name)
+        return JSON_FAIL(w, "'file_path' name is too long");
+    strcpy(f->name, base);
+    char *dot = strrchr(f->name, '.');
+    if (dot && !strcmp(dot, ".png"))
+        *dot = '\0';
+    ESR_TRY(parse_matrix(w, obj, &f->camera));
+    if (ds->layout == ESR_LAYOUT_ESR)
+        ESR_TRY(parse_lights(w, obj, ds, f));
+    return ESR_OK;
+}
+
+static cJSON *parse_json_file(const char *path)
+{
+    unsigned char *text;
+    size_t size;
+    if (esr_file_read_all(path, &text, &size) != ESR_OK)
+        return NULL;
+    cJSON *root = cJSON_ParseWithLength((const char *)text, size);
+    if (!root) {
+        const char *at = cJSON_GetErrorPtr();
+        long offset = at && at >= (const char *)text && at <= (const char *)text + size ? (long)(at - (const char *)text) : -1;
+        ESR_FAIL("'%s': malformed JSON (near byte %ld)", path, offset);
+    }
+    free(text);
+    return root;
+}
+
+static int load_phase(struct esr_dataset *ds, enum esr_phase_id phase, const char *path)
+{
+    cJSON *root = parse_json_file(path);
+    if (!root)
+        return ESR_ERR;
+    struct json_where w = {path, -1};
+    struct esr_phase *ph = &ds->phases[phase];
+    int status = ESR_OK;
+    float angle = 0.0f;
+    const cJSON *frames = cJSON_GetObjectItemCaseSensitive(root, "frames");
+    if (!cJSON_IsObject(root))
+        status = JSON_FAIL(&w, "top level must be an object");
+    else if (json_number(&w, root, "camera_angle_x", &angle) != ESR_OK)
+        status = ESR_ERR;
+    else if (!(angle > 0.0f && angle < 3.1f))
+        status = JSON_FAIL(&w, "'camera_angle_x' = %g is not a field of view in radians", (double)angle);
+    else if (ds->camera_angle_x > 0.0f && fabsf(angle - ds->camera_angle_x) > 1e-6f)
+        status = JSON_FAIL(&w, "'camera_angle_x' differs from the other phases");
+    else if (!frames)
+        status = JSON_FAIL(&w, "missing key 'frames'");
+    else if (!cJSON_IsArray(frames) || cJSON_GetArraySize(frames) == 0)
+        status = JSON_FAIL(&w, "'frames' must be a non-empty array");
+    if (status == ESR_OK) {
+        ds->camera_angle_x = angle;
+        ph->present = 1;
+        ph->n_frames = cJSON_GetArraySize(frames);
+        ph->frames = calloc((size_t)ph->n_frames, sizeof *ph->frames);
+        if (!ph->frames)
+            status = JSON_FAIL(&w, "out of memory");
+        for (int i = 0; i < ph->n_frames && status == ESR_OK; i++) {
+            w.frame = i;
+            status = parse_frame(&w, cJSON_GetArrayItem(frames, i), ds, &ph->frames[i]);
+        }
+    }
+    cJSON_Delete(root);
+    return status;
+}
+
+/* scene.json is ground truth and optional; when present it must parse, and its box is used. */
+static int load_scene_box(struct esr_dataset *ds)
+{
+    for (int k = 0; k < 3; k++) {
+        ds->bbox_min[k] = -1.5f;
+        ds->bbox_max[k] = 1.5f;
+    }
+    char path[ESR_PATH_MAX + 16];
+    snprintf(path, sizeof path, "%s/scene.json", ds->root);
+    if (!esr_file_exists(path))
+        return ESR_OK;
+    cJSON *root = parse_json_file(path);
+    if (!root)
+        return ESR_ERR;
+    struct json_where w = {path, -1};
+    const cJSON *box = cJSON_GetObjectItemCaseSensitive(root, "bounding_box");
+    int status = ESR_OK;
+    if (box) {
+        status = json_vector(&w, cJSON_GetObjectItemCaseSensitive(box, "min"), "bounding_box.min", ds->bbox_min, 3);
+        if (status == ESR_OK)
+            status = json_vector(&w, cJSON_GetObjectItemCaseSensitive(box, "max"), "bounding_box.max", ds->bbox_max, 3);
+        for (int k = 0; k < 3 && status == ESR_OK; k++)
+            if (!(ds->bbox_min[k] < ds->bbox_max[k]))
+                status = JSON_FAIL(&w, "'bounding_box' min must be below max");
+        ds->bbox_from_scene = status == ESR_OK;
+    }
+    cJSON_Delete(root);
+    return status;
+}
+
+/* Size from the first frame's image (the check compares every other image with it). */
+static int load_size(struct esr_dataset *ds)
+{
+    const struct esr_frame *first = &ds->phases[ESR_PHASE_TRAIN].frames[0];
+    char path[ESR_PATH_MAX * 2 + 8];
+    esr_frame_image_path(ds, first, path, sizeof path);
+    struct esr_image img;
+    ESR_TRY(esr_png_read(path, &img));
+    ds->width = img.width;
+    ds->height = img.height;
+    esr_image_free(&img);
+    ds->focal = esr_focal_from_fov(ds->width, ds->camera_angle_x);
+    for (int p = 0; p < ESR_PHASE_COUNT; p++)
+        for (int i = 0; i < ds->phases[p].n_frames; i++) {
+            struct esr_camera *cam = &ds->phases[p].frames[i].camera;
+            cam->width = ds->width;
+            cam->height = ds->height;
+            cam->focal = ds->focal;
+        }
+    return ESR_OK;
+}
+
+static int load_all(const char *dir, struct esr_dataset *ds)
+{
+    if (strlen(dir) >= sizeof ds->root)
+        return ESR_FAIL("dataset path too long: '%s'", dir);
+    strcpy(ds->root, dir);
+    char path[ESR_PATH_MAX + 64];
+    snprintf(path, sizeof path, "%s/transforms/transforms_train.json", dir);
+    if (esr_file_exists(path)) {
+        ds->layout = ESR_LAYOUT_ESR;
+    } else {
+        snprintf(path, sizeof path, "%s/transforms_train.json", dir);
+        if (!esr_file_exists(path))
+            return ESR_FAIL("'%s' is not a dataset: neither transforms/transforms_train.json (ESR layout) nor "
+                            "transforms_train.json (NeRF-synthetic) exists",
+                            dir);
+        ds->layout = ESR_LAYOUT_NERF_SYNTHETIC;
+    }
+    for (int p = 0; p < ESR_PHASE_COUNT; p++) {
+        const char *file = esr_phase_file_name(ds, (enum esr_phase_id)p);
+        if (!file)
+            continue;
+        snprintf(path, sizeof path, "%s/%s", dir, file);
+        if (p != ESR_PHASE_TRAIN && !esr_file_exists(path))
+            continue;
+        ESR_TRY(load_phase(ds, (enum esr_phase_id)p, path));
+    }
+    if (ds->n_lights < 0)
+        ds->n_lights = 0;
+    ESR_TRY(load_scene_box(ds));
+    return load_size(ds);
+}
+
+int esr_dataset_load(const char *dir, struct esr_dataset *ds)
+{
+    memset(ds, 0, sizeof *ds);
+    ds->n_lights = -1; /* fixed by the first frame with lights */
+    if (load_all(dir, ds) != ESR_OK) {
+        esr_dataset_free(ds);
+        return ESR_ERR;
+    }
+    return ESR_OK;
+}
+
+void esr_dataset_free(struct esr_dataset *ds)
+{
+    for (int p = 0; p < ESR_PHASE_COUNT; p++) {
+        struct esr_phase *ph = &ds->phases[p];
+        for (int i = 0; i < ph->n_frames && ph->frames; i++)
+            free(ph->frames[i].lights);
+        free(ph->frames);
+        ph->frames = NULL;
+        ph->n_frames = 0;
+        ph->present = 0;
+    }
+}
+
+/* ---- paths ---- */
+
+void esr_frame_image_path(const struct esr_dataset *ds, const struct esr_frame *f, char *out, size_t n)
+{
+    size_t len = strlen(f->file_path);
+    int has_ext = len > 4 && !strcmp(f->file_path + len - 4, ".png");
+    snprintf(out, n, "%s/%s%s", ds->root, f->file_path, has_ext ? "" : ".png");
+}
+
+/* "<root>/<dir of file_path>/<sub>/<name><ext>" */
+static void frame_side_path(const struct esr_dataset *ds, const struct esr_frame *f, const char *sub,
+                            const char *ext, char *out, size_t n)
+{
+    const char *slash = strrchr(f->file_path, '/');
+    int dir_len = slash ? (int)(slash - f->file_path) : 0;
+    snprintf(out, n, "%s/%.*s%s%s/%s%s", ds->root, dir_len, f->file_path, dir_len ? "/" : "", sub, f->name, ext);
+}
+
+void esr_frame_exr_path(const struct esr_dataset *ds, const struct esr_frame *f, char *out, size_t n)
+{
+    frame_side_path(ds, f, "exr", ".exr", out, n);
+}
+
+void esr_frame_emission_path(const struct esr_dataset *ds, const struct esr_frame *f, char *out, size_t n)
+{
+    frame_side_path(ds, f, "emission", ".png", out, n);
+}
+
+void esr_frame_light_mask_path(const struct esr_dataset *ds, const struct esr_frame *f, int light, char *out,
+                               size_t n)
+{
+    if (light < 0 || light >= ds->n_lights || !f->lights[light].mask_path[0]) {
+        if (n)
+            out[0] = '\0';
+        return;
+    }
+    snprintf(out, n, "%s/%s.png", ds->root, f->lights[light].mask_path);
+}
+
+int esr_frame_load_rgb(const struct esr_dataset *ds, const struct esr_frame *f, struct esr_image *rgb,
+                       struct esr_image *alpha)
+{
+    char path[ESR_PATH_MAX * 2 + 8];
+    esr_frame_image_path(ds, f, path, sizeof path);
+    struct esr_image img;
+    ESR_TRY(esr_png_read(path, &img));
+    int status = ESR_OK;
+    if (img.width != ds->width || img.height != ds->height)
+        status = ESR_FAIL("'%s' is %dx%d, the dataset's images are %dx%d", path, img.width, img.height, ds->width,
+                          ds->height);
+    else if (img.channels < 3)
+        status = ESR_FAIL("'%s' is not an RGB(A) image (%d channels)", path, img.channels);
+    static const float white[3] = {1.0f, 1.0f, 1.0f};
+    if (status == ESR_OK)
+        status = esr_image_composite(&img, white, rgb);
+    if (status == ESR_OK && alpha) {
+        status = esr_image_alloc(alpha, img.width, img.height, 1);
+        size_t n = (size_t)img.width * (size_t)img.height;
+        for (size_t p = 0; p < n && status == ESR_OK; p++)
+            alpha->data[p] = img.channels == 4 ? img.data[p * 4 + 3] : 1.0f;
+        if (status != ESR_OK)
+            esr_image_free(rgb);
+    }
+    esr_image_free(&img);
+    return status;
+}
+
+/* ---- file checks ---- */
+
+#define CHECK_MSG 768
+
+/* Problems of one frame, collected per frame so the check can run in parallel and still report
+ * in frame order. */
+struct frame_problems {
+    int count;
+    char text[4][CHECK_MSG]; /* the first few; count keeps the total */
+};
+
+static void add_problem(struct frame_problems *fp, const char *message)
+{
+    if (fp->count < 4)
+        snprintf(fp->text[fp->count], CHECK_MSG, "%s", message);
+    fp->count++;
+}
+
+static void check_image(const struct esr_dataset *ds, const char *path, int is_exr, struct frame_problems *fp)
+{
+    struct esr_image img;
+    esr_error_clear();
+    if ((is_exr ? esr_exr_read(path, &img) : esr_png_read(path, &img)) != ESR_OK) {
+        add_problem(fp, esr_error_message());
+        esr_error_clear();
+        return;
+    }
+    if (img.width != ds->width || img.height != ds->height) {
+        char msg[CHECK_MSG];
+        snprintf(msg, sizeof msg, "'%s' is %dx%d, the dataset's images are %dx%d", path, img.width, img.height,
+                 ds->width, ds->height);
+        add_problem(fp, msg);
+    }
+    esr_image_free(&img);
+}
+
+static int dir_exists(const char *path)
+{
+    struct stat st;
+    return stat(path, &st) == 0 && S_ISDIR(st.st_mode);
+}
+
+static void check_frame(const struct esr_dataset *ds, const struct esr_frame *f, int with_exr, int with_emission,
+                        struct frame_problems *fp)
+{
+    char path[ESR_PATH_MAX * 2 + 32];
+    esr_frame_image_path(ds, f, path, sizeof path);
+    check_image(ds, path, 0, fp);
+    if (with_exr) {
+        esr_frame_exr_path(ds, f, path, sizeof path);
+        check_image(ds, path, 1, fp);
+    }
+    if (with_emission) {
+        esr_frame_emission_path(ds, f, path, sizeof path);
+        check_image(ds, path, 0, fp);
+    }
+    for (int k = 0; k < ds->n_lights; k++) {
+        esr_frame_light_mask_path(ds, f, k, path, sizeof path);
+        if (path[0])
+            check_image(ds, path, 0, fp);
+    }
+}
+
+int esr_dataset_check(const struct esr_dataset *ds, esr_problem_fn report, void *user)
+{
+    int total = 0;
+    for (int p = 0; p < ESR_PHASE_COUNT; p++) {
+        const struct esr_phase *ph = &ds->phases[p];
+        if (!ph->present)
+            continue;
+        /* EXRs / emission masks are checked where the phase has those folders (test phases). */
+        int with_exr = 0, with_emission = 0;
+        if (p != ESR_PHASE_TRAIN && ds->layout == ESR_LAYOUT_ESR) {
+            char dir[ESR_PATH_MAX + 64];
+            snprintf(dir, sizeof dir, "%s/%s/exr", ds->root, phase_names[p]);
+            with_exr = dir_exists(dir);
+            snprintf(dir, sizeof dir, "%s/%s/emission", ds->root, phase_names[p]);
+            with_emission = dir_exists(dir);
+        }
+        struct frame_problems *fps = calloc((size_t)ph->n_frames, sizeof *fps);
+        if (!fps)
+            return ESR_FAIL("out of memory checking '%s'", ds->root);
+#pragma omp parallel for schedule(dynamic, 4)
+        for (int i = 0; i < ph->n_frames; i++)
+            check_frame(ds, &ph->frames[i], with_exr, with_emission, &fps[i]);
+        for (int i = 0; i < ph->n_frames; i++) {
+            for (int k = 0; k < fps[i].count && k < 4; k++)
+                report(user, fps[i].text[k]);
+            if (fps[i].count > 4) {
+                char msg[256];
+                snprintf(msg, sizeof msg, "%s frame %d: %d more problems", phase_names[p], i, fps[i].count - 4);
+                report(user, msg);
+            }
+            total += fps[i].count;
+        }
+        free(fps);
+    }
+    return total;
+}

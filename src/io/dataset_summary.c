@@ -1,0 +1,105 @@
+#include "io/dataset_summary.h"
+
+#include <cJSON.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "core/error.h"
+#include "io/file.h"
+
+static void summarise_phase(const struct esr_dataset *ds, const struct esr_phase *ph, struct esr_phase_summary *s)
+{
+    memset(s, 0, sizeof *s);
+    s->present = ph->present;
+    s->n_frames = ph->n_frames;
+    if (ph->n_frames == 0)
+        return;
+    s->radius_min = INFINITY;
+    s->radius_max = 0.0f;
+    for (int k = 0; k < 3; k++) {
+        s->centre_min[k] = INFINITY;
+        s->centre_max[k] = -INFINITY;
+    }
+    for (int i = 0; i < ph->n_frames; i++) {
+        const struct esr_frame *f = &ph->frames[i];
+        s->mode_counts[esr_frame_mode(ds, f)]++;
+        float r2 = 0.0f;
+        for (int k = 0; k < 3; k++) {
+            float c = f->camera.c2w[k][3];
+            s->centre_min[k] = fminf(s->centre_min[k], c);
+            s->centre_max[k] = fmaxf(s->centre_max[k], c);
+            r2 += c * c;
+        }
+        s->radius_min = fminf(s->radius_min, sqrtf(r2));
+        s->radius_max = fmaxf(s->radius_max, sqrtf(r2));
+    }
+}
+
+void esr_dataset_summarise(const struct esr_dataset *ds, struct esr_dataset_summary *out)
+{
+    for (int p = 0; p < ESR_PHASE_COUNT; p++)
+        summarise_phase(ds, &ds->phases[p], &out->phases[p]);
+}
+
+static cJSON *float_array(const float *v, int n)
+{
+    cJSON *arr = cJSON_CreateArray();
+    for (int i = 0; arr && i < n; i++)
+        cJSON_AddItemToArray(arr, cJSON_CreateNumber((double)v[i]));
+    return arr;
+}
+
+static cJSON *phase_json(const struct esr_phase_summary *s)
+{
+    cJSON *obj = cJSON_CreateObject();
+    cJSON_AddNumberToObject(obj, "frames", s->n_frames);
+    cJSON *modes = cJSON_AddObjectToObject(obj, "modes");
+    for (int m = 0; m < ESR_LIGHT_MODE_COUNT; m++)
+        if (s->mode_counts[m])
+            cJSON_AddNumberToObject(modes, esr_light_mode_name((enum esr_light_mode)m), s->mode_counts[m]);
+    cJSON_AddItemToObject(obj, "camera_centre_min", float_array(s->centre_min, 3));
+    cJSON_AddItemToObject(obj, "camera_centre_max", float_array(s->centre_max, 3));
+    cJSON_AddNumberToObject(obj, "camera_radius_min", (double)s->radius_min);
+    cJSON_AddNumberToObject(obj, "camera_radius_max", (double)s->radius_max);
+    return obj;
+}
+
+static cJSON *summary_json(const struct esr_dataset *ds, const struct esr_dataset_summary *s,
+                           const char *const *problems, int n_problems)
+{
+    cJSON *root = cJSON_CreateObject();
+    cJSON_AddStringToObject(root, "root", ds->root);
+    cJSON_AddStringToObject(root, "layout", ds->layout == ESR_LAYOUT_ESR ? "esr" : "nerf_synthetic");
+    cJSON_AddNumberToObject(root, "width", ds->width);
+    cJSON_AddNumberToObject(root, "height", ds->height);
+    cJSON_AddNumberToObject(root, "camera_angle_x", (double)ds->camera_angle_x);
+    cJSON_AddNumberToObject(root, "focal", (double)ds->focal);
+    cJSON_AddNumberToObject(root, "n_lights", ds->n_lights);
+    cJSON_AddItemToObject(root, "bbox_min", float_array(ds->bbox_min, 3));
+    cJSON_AddItemToObject(root, "bbox_max", float_array(ds->bbox_max, 3));
+    cJSON_AddStringToObject(root, "bbox_source", ds->bbox_from_scene ? "scene.json" : "default");
+    cJSON *phases = cJSON_AddObjectToObject(root, "phases");
+    for (int p = 0; p < ESR_PHASE_COUNT; p++)
+        if (s->phases[p].present)
+            cJSON_AddItemToObject(phases, esr_phase_name((enum esr_phase_id)p), phase_json(&s->phases[p]));
+    cJSON *list = cJSON_AddArrayToObject(root, "problems");
+    for (int i = 0; i < n_problems; i++)
+        cJSON_AddItemToArray(list, cJSON_CreateString(problems[i]));
+    return root;
+}
+
+int esr_dataset_summary_write(const char *path, const struct esr_dataset *ds, const struct esr_dataset_summary *s,
+                              const char *const *problems, int n_problems)
+{
+    cJSON *root = summary_json(ds, s, problems, n_problems);
+    char *text = root ? cJSON_Print(root) : NULL;
+    cJSON_Delete(root);
+    if (!text)
+        return ESR_FAIL("out of memory writing '%s'", path);
+    size_t len = strlen(text);
+    text[len] = '\n'; /* replace the terminator: the file ends with a newline */
+    int status = esr_file_write_atomic(path, text, len + 1);
+    free(text);
+    return status;
+}
