@@ -6,9 +6,11 @@
  * outside the cube, the contour leaves the inside region at "A" crossings and enters it at "B"
  * crossings; every A is joined to the crossing just before it, which cuts off each inside corner
  * (this also resolves ambiguous faces, and the two cells sharing a face decide it identically, so
- * the mesh has no cracks). The directed face segments chain into closed loops around the cube,
- * each triangulated as a fan. This reproduces the topology of Lorensen & Cline's 1987 table
- * (Bourke's widely used version) with the face ambiguity resolved the same way in every cell. */
+ * the mesh has no cracks). The directed face segments chain into closed loops around the cube.
+ * A loop is fanned from a point whose chords all pass through the cube's interior (a chord lying
+ * in a face would coincide with the neighbouring cell's triangles); when no such point exists,
+ * as in some ambiguous configurations, it is fanned from an extra vertex at its centroid. For
+ * non-ambiguous cells this reproduces Lorensen & Cline's 1987 cases (as tabulated by Bourke). */
 #include "render/marching_cubes.h"
 
 #include <math.h>
@@ -18,10 +20,20 @@
 #include "core/error.h"
 #include "fields/trilerp.h"
 
-#define MC_MAX_TRI_ENTRIES 31 /* at most 10 triangles per cell, plus the -1 terminator */
+#define MC_MAX_LOOPS 4 /* e.g. four isolated inside corners */
+
+/* The contour loops of one corner configuration: loop l has len[l] edge ids in pts (loops stored
+ * one after another) and is fanned from its point apex[l], or from a new vertex at its centroid
+ * when apex[l] < 0 (no apex whose chords all avoid the cube's faces exists). */
+struct mc_case {
+    signed char n_loops;
+    signed char len[MC_MAX_LOOPS];
+    signed char apex[MC_MAX_LOOPS];
+    signed char pts[12];
+};
 
 struct mc_table {
-    signed char tri[256][MC_MAX_TRI_ENTRIES];
+    struct mc_case cases[256];
 };
 
 static int edge_between(int c0, int c1)
@@ -35,6 +47,16 @@ static int edge_between(int c0, int c1)
     return 4 * a + j;
 }
 
+/* Bit mask of the two cube faces (2 * axis + side) that contain edge e. */
+static int edge_faces(int e)
+{
+    int a = e / 4, j = e % 4, mask = 0, bit = 0;
+    for (int b = 0; b < 3; b++)
+        if (b != a)
+            mask |= 1 << (2 * b + ((j >> bit++) & 1));
+    return mask;
+}
+
 /* Corner cycle of face (axis a, side s), counter-clockwise seen from outside. */
 static void face_cycle(int a, int s, int q[4])
 {
@@ -46,7 +68,21 @@ static void face_cycle(int a, int s, int q[4])
     }
 }
 
-static void build_case(int cs, signed char *out)
+/* A fan apex of the loop whose chords (to non-neighbouring points) all cross the cube's interior:
+ * a chord lying in a face would be shared with the neighbouring cell's triangles. -1 if none. */
+static int fan_apex(const signed char *loop, int m)
+{
+    for (int j = 0; j < m; j++) {
+        int ok = 1;
+        for (int k = 2; k <= m - 2 && ok; k++)
+            ok = !(edge_faces(loop[j]) & edge_faces(loop[(j + k) % m]));
+        if (ok)
+            return j;
+    }
+    return -1;
+}
+
+static void build_case(int cs, struct mc_case *out)
 {
     int next[12];
     for (int e = 0; e < 12; e++)
@@ -66,27 +102,27 @@ static void build_case(int cs, signed char *out)
                 next[xe[k]] = xe[(k + nx - 1) % nx];
     }
     int used[12] = {0}, n = 0;
+    out->n_loops = 0;
     for (int e0 = 0; e0 < 12; e0++) {
         if (next[e0] < 0 || used[e0])
             continue;
-        int loop[12], m = 0;
+        if (out->n_loops == MC_MAX_LOOPS)
+            break; /* unreachable: every loop has >= 3 of the 12 edges */
+        int m = 0;
         for (int e = e0; !used[e]; e = next[e]) {
             used[e] = 1;
-            loop[m++] = e;
+            out->pts[n + m++] = (signed char)e;
         }
-        for (int k = 1; k + 1 < m; k++) {
-            out[n++] = (signed char)loop[0];
-            out[n++] = (signed char)loop[k + 1];
-            out[n++] = (signed char)loop[k];
-        }
+        out->len[(int)out->n_loops] = (signed char)m;
+        out->apex[(int)out->n_loops++] = (signed char)fan_apex(out->pts + n, m);
+        n += m;
     }
-    out[n] = -1;
 }
 
 static void build_table(struct mc_table *t)
 {
     for (int cs = 0; cs < 256; cs++)
-        build_case(cs, t->tri[cs]);
+        build_case(cs, &t->cases[cs]);
 }
 
 struct mc_build {
@@ -118,6 +154,31 @@ static float value_at(const struct mc_build *b, int x, int y, int z)
     return b->field[((size_t)z * b->g->ny + y) * b->g->nx + x];
 }
 
+/* Appends a vertex at p; its id goes to *id. */
+static int add_vertex(struct mc_build *b, const float p[3], int32_t *id)
+{
+    size_t vcap = b->vcap;
+    if (b->m->n_vertices >= (size_t)INT32_MAX)
+        return ESR_FAIL("marching cubes: more than %d vertices", INT32_MAX);
+    ESR_TRY(grow((void **)&b->m->pos, &vcap, (b->m->n_vertices + 1) * 3, sizeof(float)));
+    b->vcap = vcap;
+    memcpy(b->m->pos + b->m->n_vertices * 3, p, 3 * sizeof(float));
+    *id = (int32_t)b->m->n_vertices++;
+    return ESR_OK;
+}
+
+static int add_triangle(struct mc_build *b, int32_t i0, int32_t i1, int32_t i2)
+{
+    size_t tcap = b->tcap;
+    ESR_TRY(grow((void **)&b->m->tri, &tcap, (b->m->n_triangles + 1) * 3, sizeof(uint32_t)));
+    b->tcap = tcap;
+    uint32_t *t = b->m->tri + b->m->n_triangles++ * 3;
+    t[0] = (uint32_t)i0;
+    t[1] = (uint32_t)i1;
+    t[2] = (uint32_t)i2;
+    return ESR_OK;
+}
+
 /* Vertex id on lattice edge from (x,y,z) along axis a, created on first use. */
 static int edge_vertex(struct mc_build *b, int x, int y, int z, int a, int iz, int32_t *id)
 {
@@ -126,23 +187,36 @@ static int edge_vertex(struct mc_build *b, int x, int y, int z, int a, int iz, i
                     : a == 1 ? &b->ye[z - iz][(size_t)y * nx + x]
                              : &b->ze[(size_t)y * nx + x];
     if (*slot < 0) {
-        size_t vcap = b->vcap;
-        ESR_TRY(grow((void **)&b->m->pos, &vcap, (b->m->n_vertices + 1) * 3, sizeof(float)));
-        b->vcap = vcap;
-        float p0[3], p1[3];
+        float p0[3], p1[3], p[3];
         int x1 = x + (a == 0), y1 = y + (a == 1), z1 = z + (a == 2);
         float v0 = value_at(b, x, y, z), v1 = value_at(b, x1, y1, z1);
         float t = (b->level - v0) / (v1 - v0);
         esr_grid_voxel_pos(b->g, x, y, z, p0);
         esr_grid_voxel_pos(b->g, x1, y1, z1, p1);
-        float *p = b->m->pos + b->m->n_vertices * 3;
         for (int k = 0; k < 3; k++)
             p[k] = p0[k] + t * (p1[k] - p0[k]);
-        if (b->m->n_vertices >= (size_t)INT32_MAX)
-            return ESR_FAIL("marching cubes: more than %d vertices", INT32_MAX);
-        *slot = (int32_t)b->m->n_vertices++;
+        ESR_TRY(add_vertex(b, p, slot));
     }
     *id = *slot;
+    return ESR_OK;
+}
+
+/* Triangulates one contour loop (vertex ids ids[0..m)) as described in struct mc_case. */
+static int fan_loop(struct mc_build *b, const int32_t *ids, int m, int apex)
+{
+    if (apex >= 0) {
+        for (int k = 1; k + 1 < m; k++)
+            ESR_TRY(add_triangle(b, ids[apex], ids[(apex + k + 1) % m], ids[(apex + k) % m]));
+        return ESR_OK;
+    }
+    float c[3] = {0.0f, 0.0f, 0.0f};
+    for (int k = 0; k < m; k++)
+        for (int a = 0; a < 3; a++)
+            c[a] += b->m->pos[(size_t)ids[k] * 3 + a] / (float)m;
+    int32_t cid;
+    ESR_TRY(add_vertex(b, c, &cid));
+    for (int k = 0; k < m; k++)
+        ESR_TRY(add_triangle(b, cid, ids[(k + 1) % m], ids[k]));
     return ESR_OK;
 }
 
@@ -150,23 +224,21 @@ static int polygonise_cell(struct mc_build *b, const struct mc_table *t, int x, 
 {
     int cs = 0;
     for (int c = 0; c < 8; c++)
-        cs |= (value_at(b, x + (c & 1), y + ((c >> 1) & 1), z + ((c >> 2) & 1)) < b->level) << c;
-    const signed char *tri = t->tri[cs];
-    for (int k = 0; tri[k] >= 0; k += 3) {
-        size_t tcap = b->tcap;
-        ESR_TRY(grow((void **)&b->m->tri, &tcap, (b->m->n_triangles + 1) * 3, sizeof(uint32_t)));
-        b->tcap = tcap;
-        for (int v = 0; v < 3; v++) {
-            int e = tri[k + v], a = e / 4, j = e % 4;
+            cs |= (value_at(b, x + (c & 1), y + ((c >> 1) & 1), z + ((c >> 2) & 1)) < b->level) << c;
+    const struct mc_case *mc = &t->cases[cs];
+    const signed char *pts = mc->pts;
+    for (int l = 0; l < mc->n_loops; l++) {
+        int32_t ids[12];
+        for (int k = 0; k < mc->len[l]; k++) {
+            int e = pts[k], a = e / 4, j = e % 4;
             int o[3] = {0, 0, 0}, bit = 0;
             for (int d = 0; d < 3; d++)
                 if (d != a)
                     o[d] = (j >> bit++) & 1;
-            int32_t id = -1;
-            ESR_TRY(edge_vertex(b, x + o[0], y + o[1], z + o[2], a, z, &id));
-            b->m->tri[b->m->n_triangles * 3 + v] = (uint32_t)id;
+            ESR_TRY(edge_vertex(b, x + o[0], y + o[1], z + o[2], a, z, &ids[k]));
         }
-        b->m->n_triangles++;
+        ESR_TRY(fan_loop(b, ids, mc->len[l], mc->apex[l]));
+        pts += mc->len[l];
     }
     return ESR_OK;
 }

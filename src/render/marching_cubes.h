@@ -1,7 +1,9 @@
-/* Marching cubes (Lorensen & Cline 1987; case tables after Paul Bourke's public-domain
- * "Polygonising a scalar field") on a 1-channel grid: the `level` iso-surface as an indexed
- * triangle mesh. Vertices on shared cube edges are shared, so a closed surface gives a closed
- * (watertight) mesh. Vertex normals are the normalised trilinear gradient of the field. */
+/* Marching cubes (Lorensen & Cline 1987) on a 1-channel grid: the `level` iso-surface as an
+ * indexed triangle mesh. The case table is generated from the cube-face contours (see
+ * marching_cubes.c) with face ambiguities resolved consistently between neighbouring cells, and
+ * vertices on shared cube edges are shared, so a surface that does not leave the grid gives a
+ * closed, consistently oriented mesh (triangles face increasing field). Vertex normals are the
+ * normalised trilinear gradient of the field. */
 #ifndef ESR_RENDER_MARCHING_CUBES_H
 #define ESR_RENDER_MARCHING_CUBES_H
 
