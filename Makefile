@@ -3,7 +3,7 @@
 .PHONY: all deps build demo test test-release test-asan bench clean
 
 DEB_PACKAGES := build-essential cmake pkg-config libspng-dev libopenexr-dev libcjson-dev \
-                libcmocka-dev zlib1g-dev imagemagick
+                libcmocka-dev zlib1g-dev imagemagick libdnnl-dev libopenblas-pthread-dev
 JOBS  ?= $(shell nproc)
 DEMO_OUT ?= runs/demo
 

@@ -1,0 +1,319 @@
+/* Tiled, fused MLP forward/backward on the CPU; see nn/mlp.h for layout and determinism. */
+#include "nn/mlp.h"
+
+#include <math.h>
+#include <omp.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "core/error.h"
+#include "core/rng.h"
+#include "nn/tile_gemm.h"
+
+#define INFER_TILE 64 /* rows per inference tile: two ping-pong buffers stay on the stack */
+
+static int desc_valid(const struct esr_mlp_desc *d)
+{
+    return d->n_in >= 1 && d->n_in <= ESR_MLP_MAX_WIDTH && d->width >= 1 &&
+           d->width <= ESR_MLP_MAX_WIDTH && d->n_out >= 1 && d->n_out <= ESR_MLP_MAX_WIDTH &&
+           d->n_hidden >= 0 && d->n_hidden < ESR_MLP_MAX_LAYERS &&
+           (unsigned)d->hidden_act < ESR_NN_ACT_COUNT && (unsigned)d->out_act < ESR_NN_ACT_COUNT;
+}
+
+/* Fan-in / fan-out of layer l. */
+static void layer_dims(const struct esr_mlp_desc *d, int l, int *fan_in, int *fan_out)
+{
+    *fan_in = l == 0 ? d->n_in : d->width;
+    *fan_out = l == d->n_hidden ? d->n_out : d->width;
+}
+
+size_t esr_mlp_param_count(const struct esr_mlp_desc *d)
+{
+    if (!desc_valid(d))
+        return 0;
+    size_t n = 0;
+    for (int l = 0; l <= d->n_hidden; l++) {
+        int fi, fo;
+        layer_dims(d, l, &fi, &fo);
+        n += (size_t)fi * fo + fo;
+    }
+    return n;
+}
+
+int esr_mlp_init(struct esr_mlp *m, const struct esr_mlp_desc *d, struct esr_nn_params *p)
+{
+    memset(m, 0, sizeof(*m));
+    if (!desc_valid(d))
+        return ESR_FAIL("invalid MLP: n_in %d, width %d, n_hidden %d, n_out %d (sizes 1..%d, "
+                        "hidden layers 0..%d, known activations)",
+                        d->n_in, d->width, d->n_hidden, d->n_out, ESR_MLP_MAX_WIDTH,
+                        ESR_MLP_MAX_LAYERS - 1);
+    m->desc = *d;
+    m->n_layers = d->n_hidden + 1;
+    m->count = esr_mlp_param_count(d);
+    ESR_TRY(esr_nn_params_take(p, m->count, &m->offset));
+    size_t off = m->offset;
+    for (int l = 0; l < m->n_layers; l++) {
+        layer_dims(d, l, &m->fan_in[l], &m->fan_out[l]);
+        m->w_off[l] = off;
+        m->b_off[l] = off + (size_t)m->fan_in[l] * m->fan_out[l];
+        off = m->b_off[l] + m->fan_out[l];
+    }
+    return ESR_OK;
+}
+
+void esr_mlp_init_weights(const struct esr_mlp *m, float *params, uint64_t seed, float last_bias)
+{
+    for (int l = 0; l < m->n_layers; l++) {
+        int fi = m->fan_in[l], fo = m->fan_out[l];
+        struct esr_rng rng = esr_rng_init(seed, (uint64_t)l);
+        int last = l == m->n_layers - 1;
+        /* Kaiming gain sqrt(2) keeps ReLU activations' variance; the output layer is linear. */
+        float wb = sqrtf((last ? 3.0f : 6.0f) / (float)fi), bb = 1.0f / sqrtf((float)fi);
+        float *w = params + m->w_off[l], *b = params + m->b_off[l];
+        for (size_t i = 0; i < (size_t)fi * fo; i++)
+            w[i] = wb * (2.0f * esr_rng_float(&rng) - 1.0f);
+        for (int i = 0; i < fo; i++)
+            b[i] = last && isfinite(last_bias) ? last_bias : bb * (2.0f * esr_rng_float(&rng) - 1.0f);
+    }
+}
+
+/* Per-thread backward scratch: dZ and dH tiles plus a transposed input tile. */
+static size_t scratch_per_thread(void)
+{
+    return 3 * (size_t)ESR_MLP_TILE * ESR_MLP_MAX_WIDTH;
+}
+
+int esr_mlp_ctx_init(struct esr_mlp_ctx *c, const struct esr_mlp *m, size_t max_rows)
+{
+    memset(c, 0, sizeof(*c));
+    c->max_rows = max_rows;
+    c->n_threads = omp_get_max_threads();
+    size_t n_act = (size_t)m->desc.n_hidden * m->desc.width * (max_rows ? max_rows : 1);
+    c->act = malloc(n_act ? n_act * sizeof(float) : sizeof(float));
+    c->slices = malloc((size_t)ESR_MLP_GRAD_SLICES * m->count * sizeof(float));
+    c->wt = malloc(m->count * sizeof(float));
+    c->scratch = malloc((size_t)c->n_threads * scratch_per_thread() * sizeof(float));
+    if (!c->act || !c->slices || !c->wt || !c->scratch) {
+        esr_mlp_ctx_free(c);
+        return ESR_FAIL("out of memory for an MLP workspace of %zu rows", max_rows);
+    }
+    return ESR_OK;
+}
+
+void esr_mlp_ctx_free(struct esr_mlp_ctx *c)
+{
+    free(c->act);
+    free(c->slices);
+    free(c->wt);
+    free(c->scratch);
+    memset(c, 0, sizeof(*c));
+}
+
+/* C = A B over a tile of the given shape: no bias, no activation, C overwritten. */
+static struct esr_gemm_tile gemm_plain(const float *a, int lda, const float *b, int ldb, float *c,
+                                       int ldc, int m, int n, int k)
+{
+    struct esr_gemm_tile t;
+    t.a = a;
+    t.b = b;
+    t.c = c;
+    t.bias = NULL;
+    t.m = m;
+    t.n = n;
+    t.k = k;
+    t.lda = lda;
+    t.ldb = ldb;
+    t.ldc = ldc;
+    t.accumulate = 0;
+    t.act = ESR_NN_ACT_NONE;
+    return t;
+}
+
+/* Runs layer l on `rows` rows: y = act(x W_l + b_l). */
+static void layer_fwd(const struct esr_mlp *m, const float *params, int l, const float *x, int ldx,
+                      float *y, int ldy, int rows)
+{
+    struct esr_gemm_tile t = gemm_plain(x, ldx, params + m->w_off[l], m->fan_out[l], y, ldy, rows,
+                                        m->fan_out[l], m->fan_in[l]);
+    t.bias = params + m->b_off[l];
+    t.act = l == m->n_layers - 1 ? m->desc.out_act : m->desc.hidden_act;
+    esr_gemm_tile(&t);
+}
+
+/* Hidden activations of layer l for row r in the training workspace. */
+static float *act_row(const struct esr_mlp *m, struct esr_mlp_ctx *c, int l, size_t r)
+{
+    return c->act + ((size_t)l * c->max_rows + r) * m->desc.width;
+}
+
+int esr_mlp_fwd(const struct esr_mlp *m, const float *params, struct esr_mlp_ctx *c,
+                const float *in, float *out, size_t n)
+{
+    if (n > c->max_rows)
+        return ESR_FAIL("MLP forward of %zu rows exceeds the workspace's %zu", n, c->max_rows);
+    c->in = in;
+    c->out = out;
+    c->rows = n;
+    const int w = m->desc.width, L = m->n_layers;
+    size_t n_tiles = (n + ESR_MLP_TILE - 1) / ESR_MLP_TILE;
+#pragma omp parallel for schedule(static) num_threads(c->n_threads) if (n_tiles > 1)
+    for (size_t t = 0; t < n_tiles; t++) {
+        size_t r0 = t * ESR_MLP_TILE;
+        int rows = (int)(n - r0 < ESR_MLP_TILE ? n - r0 : ESR_MLP_TILE);
+        const float *x = in + r0 * m->desc.n_in;
+        int ldx = m->desc.n_in;
+        for (int l = 0; l < L - 1; l++) {
+            float *y = act_row(m, c, l, r0);
+            layer_fwd(m, params, l, x, ldx, y, w, rows);
+            x = y;
+            ldx = w;
+        }
+        layer_fwd(m, params, L - 1, x, ldx, out + r0 * m->desc.n_out, m->desc.n_out, rows);
+    }
+    return ESR_OK;
+}
+
+void esr_mlp_infer(const struct esr_mlp *m, const float *params, const float *in, float *out,
+                   size_t n)
+{
+    const int w = m->desc.width, L = m->n_layers;
+    size_t n_tiles = (n + INFER_TILE - 1) / INFER_TILE;
+#pragma omp parallel for schedule(static) if (n_tiles > 1)
+    for (size_t t = 0; t < n_tiles; t++) {
+        float buf[2][INFER_TILE * ESR_MLP_MAX_WIDTH];
+        size_t r0 = t * INFER_TILE;
+        int rows = (int)(n - r0 < INFER_TILE ? n - r0 : INFER_TILE);
+        const float *x = in + r0 * m->desc.n_in;
+        int ldx = m->desc.n_in;
+        for (int l = 0; l < L - 1; l++) {
+            layer_fwd(m, params, l, x, ldx, buf[l & 1], w, rows);
+            x = buf[l & 1];
+            ldx = w;
+        }
+        layer_fwd(m, params, L - 1, x, ldx, out + r0 * m->desc.n_out, m->desc.n_out, rows);
+    }
+}
+
+/* ---- backward ---- */
+
+struct bwd_job {
+    const struct esr_mlp *m;
+    const float *params;
+    struct esr_mlp_ctx *c;
+    const float *d_out;
+    float *d_in;
+    enum esr_nn_grad_mode mode;
+};
+
+/* Column sums of dz [rows][n] added to db, rows in order. */
+static void bias_grad(const float *dz, int rows, int n, float *db)
+{
+    for (int r = 0; r < rows; r++)
+        for (int j = 0; j < n; j++)
+            db[j] += dz[r * n + j];
+}
+
+/* xt[k][rows] = x[rows][k] (ldx apart) so dW = xt dz is a plain tile product. */
+static void transpose_tile(const float *x, int ldx, int rows, int k, float *xt)
+{
+    for (int r = 0; r < rows; r++)
+        for (int i = 0; i < k; i++)
+            xt[i * rows + r] = x[(size_t)r * ldx + i];
+}
+
+/* C (+)= A B over a tile, no bias, no activation. */
+static void tile_product(const float *a, int lda, const float *b, int ldb, float *c, int ldc,
+                         int m, int n, int k, int accumulate)
+{
+    struct esr_gemm_tile t = gemm_plain(a, lda, b, ldb, c, ldc, m, n, k);
+    t.accumulate = accumulate;
+    esr_gemm_tile(&t);
+}
+
+/* Backward of one tile through all layers; weight gradients go to the slice buffer g (laid out
+ * like the parameters, relative to m->offset). */
+static void tile_bwd(const struct bwd_job *j, size_t r0, int rows, float *g, float *scratch)
+{
+    const struct esr_mlp *m = j->m;
+    struct esr_mlp_ctx *c = j->c;
+    const int w = m->desc.width, L = m->n_layers, n_out = m->desc.n_out, n_in = m->desc.n_in;
+    float *dz = scratch, *dh = dz + ESR_MLP_TILE * ESR_MLP_MAX_WIDTH;
+    float *xt = dh + ESR_MLP_TILE * ESR_MLP_MAX_WIDTH;
+    const float *y = c->out + r0 * n_out, *dy = j->d_out + r0 * n_out;
+    for (int i = 0; i < rows * n_out; i++)
+        dz[i] = esr_nn_act_bwd(m->desc.out_act, y[i], dy[i]);
+    for (int l = L - 1; l >= 0; l--) {
+        int fi = m->fan_in[l], fo = m->fan_out[l];
+        const float *x = l == 0 ? c->in + r0 * n_in : act_row(m, c, l - 1, r0);
+        int ldx = l == 0 ? n_in : w;
+        bias_grad(dz, rows, fo, g + (m->b_off[l] - m->offset));
+        transpose_tile(x, ldx, rows, fi, xt);
+        tile_product(xt, rows, dz, fo, g + (m->w_off[l] - m->offset), fo, fi, fo, rows, 1);
+        const float *wt = c->wt + (m->w_off[l] - m->offset);
+        if (l > 0) {
+            tile_product(dz, fo, wt, fi, dh, fi, rows, fi, fo, 0);
+            for (int r = 0; r < rows; r++)
+                for (int i = 0; i < fi; i++)
+                    dz[r * fi + i] = esr_nn_act_bwd(m->desc.hidden_act, x[(size_t)r * ldx + i],
+                                                    dh[r * fi + i]);
+        } else if (j->mode != ESR_NN_GRAD_IGNORE) {
+            tile_product(dz, fo, wt, fi, j->d_in + r0 * n_in, n_in, rows, fi, fo,
+                         j->mode == ESR_NN_GRAD_ACCUMULATE);
+        }
+    }
+}
+
+/* wt holds each W_l transposed to [fan_out][fan_in] for the d_in products. */
+static void transpose_weights(const struct esr_mlp *m, const float *params, float *wt)
+{
+    for (int l = 0; l < m->n_layers; l++) {
+        int fi = m->fan_in[l], fo = m->fan_out[l];
+        const float *src = params + m->w_off[l];
+        float *dst = wt + (m->w_off[l] - m->offset);
+        for (int i = 0; i < fi; i++)
+            for (int o = 0; o < fo; o++)
+                dst[o * fi + i] = src[i * fo + o];
+    }
+}
+
+int esr_mlp_bwd(const struct esr_mlp *m, const float *params, float *grads, struct esr_mlp_ctx *c,
+                const float *d_out, float *d_in, enum esr_nn_grad_mode mode)
+{
+    if (!c->in || !c->out)
+        return ESR_FAIL("MLP backward without a preceding forward on this workspace");
+    if (mode != ESR_NN_GRAD_IGNORE && !d_in)
+        return ESR_FAIL("MLP backward asked for d_in but got no buffer");
+    struct bwd_job job = {m, params, c, d_out, d_in, mode};
+    transpose_weights(m, params, c->wt);
+    const size_t n = c->rows, count = m->count;
+    size_t n_tiles = (n + ESR_MLP_TILE - 1) / ESR_MLP_TILE;
+    /* Slice s owns a fixed run of tiles: the partial sums, and their in-order reduction below,
+     * depend on n only, never on the thread count. */
+    int n_slices = n_tiles < ESR_MLP_GRAD_SLICES ? (int)n_tiles : ESR_MLP_GRAD_SLICES;
+#pragma omp parallel for schedule(static) num_threads(c->n_threads) if (n_slices > 1)
+    for (int s = 0; s < n_slices; s++) {
+        float *g = c->slices + (size_t)s * count;
+        float *scratch = c->scratch + (size_t)omp_get_thread_num() * scratch_per_thread();
+        memset(g, 0, count * sizeof(float));
+        size_t t_end = n_tiles * (size_t)(s + 1) / n_slices;
+        for (size_t t = n_tiles * (size_t)s / n_slices; t < t_end; t++) {
+            size_t r0 = t * ESR_MLP_TILE;
+            int rows = (int)(n - r0 < ESR_MLP_TILE ? n - r0 : ESR_MLP_TILE);
+            tile_bwd(&job, r0, rows, g, scratch);
+        }
+    }
+    float *dst = grads + m->offset;
+    const size_t chunk = 4096;
+    size_t n_chunks = (count + chunk - 1) / chunk;
+#pragma omp parallel for schedule(static) num_threads(c->n_threads) if (n_chunks > 16)
+    for (size_t ch = 0; ch < n_chunks; ch++) {
+        size_t b = ch * chunk, e = b + chunk < count ? b + chunk : count;
+        for (int s = 0; s < n_slices; s++) {
+            const float *src = c->slices + (size_t)s * count;
+            for (size_t i = b; i < e; i++)
+                dst[i] += src[i];
+        }
+    }
+    return ESR_OK;
+}

@@ -1,0 +1,152 @@
+/* Register-blocked tile GEMM; see nn/tile_gemm.h. */
+#include "nn/tile_gemm.h"
+
+#include <string.h>
+
+#include "core/simd.h"
+
+#define NR 16     /* columns per micro-block: two 8-float vectors */
+#define MR_MAX 8  /* rows per micro-block on the widest path */
+
+typedef float v8 __attribute__((vector_size(32)));
+typedef int v8i __attribute__((vector_size(32)));
+
+/* Vectors go through pointers: passing 32-byte vectors by value draws GCC's ABI note in the
+ * baseline build, although these helpers are always inlined. */
+ESR_INLINE void load8(v8 *v, const float *p) { memcpy(v, p, sizeof(*v)); }
+ESR_INLINE void store8(float *p, const v8 *v) { memcpy(p, v, sizeof(*v)); }
+ESR_INLINE void relu8(v8 *x)
+{
+    v8 zero = {0};
+    *x = (v8)((v8i)*x & (*x > zero));
+}
+
+/* Non-ReLU activations on a stored block (output layers only: few columns, not hot). */
+ESR_INLINE void act_block(enum esr_nn_act act, float *c, int ldc, int rows, int cols)
+{
+    for (int r = 0; r < rows; r++)
+        for (int j = 0; j < cols; j++)
+            c[r * ldc + j] = esr_nn_act_fwd(act, c[r * ldc + j]);
+}
+
+/* mr x 16 block of C over the full k; mr is a literal at every call so the accumulators live in
+ * registers. b and bias point at 16 readable floats per row (padded by the caller if needed). */
+ESR_INLINE void micro(int mr, const float *a, int lda, const float *b, int ldb, float *c, int ldc,
+                      int k, const float *bias, int accumulate, enum esr_nn_act act)
+{
+    v8 acc0[MR_MAX], acc1[MR_MAX];
+    for (int r = 0; r < mr; r++) {
+        if (accumulate) {
+            load8(&acc0[r], c + r * ldc);
+            load8(&acc1[r], c + r * ldc + 8);
+        } else if (bias) {
+            load8(&acc0[r], bias);
+            load8(&acc1[r], bias + 8);
+        } else {
+            acc0[r] = (v8){0};
+            acc1[r] = (v8){0};
+        }
+    }
+    for (int p = 0; p < k; p++) {
+        v8 b0, b1;
+        load8(&b0, b + p * ldb);
+        load8(&b1, b + p * ldb + 8);
+        for (int r = 0; r < mr; r++) {
+            float s = a[r * lda + p];
+            v8 x = {s, s, s, s, s, s, s, s};
+            acc0[r] += x * b0;
+            acc1[r] += x * b1;
+        }
+    }
+    for (int r = 0; r < mr; r++) {
+        if (act == ESR_NN_ACT_RELU) {
+            relu8(&acc0[r]);
+            relu8(&acc1[r]);
+        }
+        store8(c + r * ldc, &acc0[r]);
+        store8(c + r * ldc + 8, &acc1[r]);
+    }
+    if (act != ESR_NN_ACT_RELU && act != ESR_NN_ACT_NONE)
+        act_block(act, c, ldc, mr, NR);
+}
+
+/* All rows of one 16-column panel: blocks of mr_main rows, then single rows. */
+ESR_INLINE void panel(int mr_main, const struct esr_gemm_tile *t, const float *b, int ldb,
+                      float *c, int ldc, const float *bias)
+{
+    int r = 0;
+    for (; r + mr_main <= t->m; r += mr_main)
+        micro(mr_main, t->a + (size_t)r * t->lda, t->lda, b, ldb, c + (size_t)r * ldc, ldc, t->k,
+              bias, t->accumulate, t->act);
+    for (; r < t->m; r++)
+        micro(1, t->a + (size_t)r * t->lda, t->lda, b, ldb, c + (size_t)r * ldc, ldc, t->k, bias,
+              t->accumulate, t->act);
+}
+
+/* Full panels run in place; the last partial panel (n % 16 columns) runs on zero-padded copies
+ * of B, the bias and C so the micro-kernel never reads or writes past the matrix. */
+ESR_INLINE void gemm_impl(int mr_main, const struct esr_gemm_tile *t)
+{
+    int j = 0;
+    for (; j + NR <= t->n; j += NR)
+        panel(mr_main, t, t->b + j, t->ldb, t->c + j, t->ldc, t->bias ? t->bias + j : NULL);
+    if (j == t->n)
+        return;
+    int cols = t->n - j;
+    float bp[ESR_GEMM_MAX_DIM * NR], cp[ESR_GEMM_MAX_DIM * NR], biasp[NR] = {0};
+    for (int p = 0; p < t->k; p++) {
+        memset(bp + p * NR, 0, sizeof(float) * NR);
+        memcpy(bp + p * NR, t->b + (size_t)p * t->ldb + j, sizeof(float) * cols);
+    }
+    if (t->bias)
+        memcpy(biasp, t->bias + j, sizeof(float) * cols);
+    for (int r = 0; r < t->m; r++) {
+        memset(cp + r * NR, 0, sizeof(float) * NR);
+        if (t->accumulate)
+            memcpy(cp + r * NR, t->c + (size_t)r * t->ldc + j, sizeof(float) * cols);
+    }
+    panel(mr_main, t, bp, NR, cp, NR, t->bias ? biasp : NULL);
+    for (int r = 0; r < t->m; r++)
+        memcpy(t->c + (size_t)r * t->ldc + j, cp + r * NR, sizeof(float) * cols);
+}
+
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && !defined(__SANITIZE_ADDRESS__)
+#define GEMM_MULTI_ISA 1
+/* 16 accumulators + 2 B vectors + 1 broadcast fit AVX-512VL's 32 registers; AVX2's 16 hold 6
+ * rows (12 accumulators). */
+__attribute__((target("arch=x86-64-v4"))) static void gemm_v4(const struct esr_gemm_tile *t)
+{
+    gemm_impl(8, t);
+}
+__attribute__((target("arch=x86-64-v3"))) static void gemm_v3(const struct esr_gemm_tile *t)
+{
+    gemm_impl(6, t);
+}
+#endif
+static void gemm_base(const struct esr_gemm_tile *t) { gemm_impl(4, t); }
+
+struct gemm_impl_choice {
+    void (*fn)(const struct esr_gemm_tile *t);
+    const char *name;
+};
+
+static struct gemm_impl_choice gemm_pick(void)
+{
+    struct gemm_impl_choice ch = {gemm_base, "generic"};
+#ifdef GEMM_MULTI_ISA
+    if (__builtin_cpu_supports("x86-64-v4")) {
+        ch.fn = gemm_v4;
+        ch.name = "avx512";
+    } else if (__builtin_cpu_supports("x86-64-v3")) {
+        ch.fn = gemm_v3;
+        ch.name = "avx2";
+    }
+#endif
+    return ch;
+}
+
+/* Picking per call costs two loads of the CPU-feature word: nothing next to a tile, and no
+ * shared mutable state. */
+void esr_gemm_tile(const struct esr_gemm_tile *t) { gemm_pick().fn(t); }
+
+const char *esr_gemm_isa(void) { return gemm_pick().name; }
