@@ -1,0 +1,239 @@
+/* `esr synth` end to end: plan, render every frame, masks and ground truth, JSON, then publish the
+ * staging directory. */
+#include <errno.h>
+#include <stdio.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <time.h>
+
+#include "core/colour.h"
+#include "core/error.h"
+#include "io/ply.h"
+#include "synth/json.h"
+#include "synth/plan.h"
+#include "synth/staging.h"
+#include "synth/synth.h"
+#include "synth/trace.h"
+
+#define PATH_LEN 4096
+#define MESH_SEGMENTS 64
+
+static const enum esr_phase_id phases[] = {ESR_PHASE_TRAIN, ESR_PHASE_TEST_NV, ESR_PHASE_TEST_NVI,
+                                           ESR_PHASE_TEST_NVC, ESR_PHASE_TEST_NVIC};
+#define N_PHASES 5
+
+static double now_s(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+static int make_dir(const char *root, const char *sub)
+{
+    char path[PATH_LEN];
+    snprintf(path, sizeof path, "%s/%s", root, sub);
+    if (mkdir(path, 0777) != 0 && errno != EEXIST)
+        return ESR_FAIL("cannot create directory '%s': %s", path, strerror(errno));
+    return ESR_OK;
+}
+
+static int make_layout(const char *root)
+{
+    static const char *const dirs[] = {"transforms", "train", "test_nv", "test_nv/exr", "test_nv/emission",
+                                       "test_nvi", "test_nvi/exr", "test_nvc", "test_nvc/exr", "test_nvic",
+                                       "test_nvic/exr", "masks", "gt"};
+    for (size_t i = 0; i < sizeof dirs / sizeof dirs[0]; i++)
+        ESR_TRY(make_dir(root, dirs[i]));
+    return ESR_OK;
+}
+
+/* Premultiplied linear RGBA -> the dataset's PNG: straight alpha, sRGB of clip(rgb / alpha). */
+static int write_png_from_linear(const char *path, const struct esr_image *lin, struct esr_image *tmp)
+{
+    size_t n = (size_t)lin->width * (size_t)lin->height;
+    for (size_t i = 0; i < n; i++) {
+        const float *src = lin->data + 4 * i;
+        float *dst = tmp->data + 4 * i, a = src[3];
+        for (int c = 0; c < 3; c++)
+            dst[c] = a > 0.0f ? esr_srgb_from_linear(fminf(fmaxf(src[c] / a, 0.0f), 1.0f)) : 0.0f;
+        dst[3] = a;
+    }
+    return esr_png_write(path, tmp, 8);
+}
+
+/* Grey 0/255 mask of the pixels whose centre ray hits light `light` (-1: any emitter). */
+static int write_mask(const char *path, const struct esr_synth_scene *s, const int *prim, int light,
+                      struct esr_image *mask)
+{
+    size_t n = (size_t)mask->width * (size_t)mask->height;
+    for (size_t i = 0; i < n; i++) {
+        int k = prim[i] >= 0 ? s->prims[prim[i]].light : -1;
+        mask->data[i] = (k >= 0 && (light < 0 || k == light)) ? 1.0f : 0.0f;
+    }
+    return esr_png_write(path, mask, 8);
+}
+
+struct job {
+    const char *root;
+    const struct esr_synth_scene *scene;
+    const struct esr_synth_plan *plan;
+    const struct esr_synth_options *opt;
+    int res, spp;
+    uint64_t image_id;               /* next RNG image index */
+    struct esr_image lin, png, mask; /* scratch */
+};
+
+/* Masks of one test frame: per light in masks/, and the union in test_nv/emission/. */
+static int write_frame_masks(struct job *j, enum esr_phase_id ph, const struct esr_synth_frame *f, const int *prim)
+{
+    char path[PATH_LEN];
+    for (int k = 0; k < j->scene->n_lights; k++) {
+        snprintf(path, sizeof path, "%s/masks/%s_%s_l%d.png", j->root, esr_synth_mask_tag(ph), f->name, k);
+        ESR_TRY(write_mask(path, j->scene, prim, k, &j->mask));
+    }
+    if (ph == ESR_PHASE_TEST_NV) {
+        snprintf(path, sizeof path, "%s/test_nv/emission/%s.png", j->root, f->name);
+        ESR_TRY(write_mask(path, j->scene, prim, -1, &j->mask));
+    }
+    return ESR_OK;
+}
+
+static int write_gt_maps(struct job *j, int cam, const struct esr_synth_gt *gt)
+{
+    const struct {
+        const char *name;
+        const struct esr_image *img;
+    } maps[] = {{"normal", &gt->normal},
+                {"base_color", &gt->base},
+                {"roughness", &gt->roughness},
+                {"metallic", &gt->metallic},
+                {"emission", &gt->emission}};
+    char path[PATH_LEN];
+    for (size_t i = 0; i < sizeof maps / sizeof maps[0]; i++) {
+        snprintf(path, sizeof path, "%s/gt/c%03d_%s.exr", j->root, cam, maps[i].name);
+        ESR_TRY(esr_exr_write(path, maps[i].img, 0));
+    }
+    return ESR_OK;
+}
+
+static void report(const struct job *j, const char *phase, int done, int total, double t0)
+{
+    if (!j->opt->progress)
+        return;
+    struct esr_synth_progress p;
+    p.phase = phase;
+    p.done = done;
+    p.total = total;
+    p.elapsed_s = now_s() - t0;
+    p.samples_per_s = p.elapsed_s > 0.0 ? (double)done * j->res * j->res * j->spp / p.elapsed_s : 0.0;
+    j->opt->progress(j->opt->user, &p);
+}
+
+static int render_phase(struct job *j, enum esr_phase_id ph)
+{
+    const char *pname = esr_phase_name(ph);
+    int test = ph != ESR_PHASE_TRAIN, n = j->plan->n_frames[ph];
+    struct esr_synth_gt gt;
+    memset(&gt, 0, sizeof gt);
+    int gt_cam = -1, rc = ESR_OK;
+    double t0 = now_s();
+    for (int i = 0; i < n && rc == ESR_OK; i++) {
+        const struct esr_synth_frame *f = &j->plan->frames[ph][i];
+        const struct esr_camera *cam = test ? &j->plan->test_cams[f->cam] : &j->plan->train_cams[f->cam];
+        struct esr_synth_trace_params params;
+        esr_synth_trace_setup(j->scene, (const float(*)[3])f->emission, &params);
+        char path[PATH_LEN];
+        rc = esr_synth_render(&params, cam, j->spp, j->opt->seed, j->image_id++, &j->lin);
+        if (rc == ESR_OK) {
+            snprintf(path, sizeof path, "%s/%s/%s.png", j->root, pname, f->name);
+            rc = write_png_from_linear(path, &j->lin, &j->png);
+        }
+        if (rc == ESR_OK && test) {
+            snprintf(path, sizeof path, "%s/%s/exr/%s.exr", j->root, pname, f->name);
+            rc = esr_exr_write(path, &j->lin, 1);
+        }
+        esr_image_free(&j->lin);
+        if (rc == ESR_OK && test && gt_cam != f->cam) {
+            /* Frames come grouped by camera, so each camera's centre rays are traced once. */
+            esr_synth_gt_free(&gt);
+            gt_cam = f->cam;
+            rc = esr_synth_render_gt(j->scene, cam, &gt);
+            if (rc == ESR_OK && ph == ESR_PHASE_TEST_NV)
+                rc = write_gt_maps(j, f->cam, &gt);
+        }
+        if (rc == ESR_OK && test)
+            rc = write_frame_masks(j, ph, f, gt.prim);
+        report(j, pname, i + 1, n, t0);
+    }
+    esr_synth_gt_free(&gt);
+    return rc;
+}
+
+static int write_all(struct job *j, const struct esr_synth_settings *set)
+{
+    ESR_TRY(make_layout(j->root));
+    for (int i = 0; i < N_PHASES; i++)
+        ESR_TRY(render_phase(j, phases[i]));
+    for (int i = 0; i < N_PHASES; i++)
+        ESR_TRY(esr_synth_json_transforms(j->root, j->scene, j->plan, phases[i]));
+    ESR_TRY(esr_synth_json_scene(j->root, j->scene, j->plan, set));
+    struct esr_mesh mesh;
+    ESR_TRY(esr_synth_scene_mesh(j->scene, MESH_SEGMENTS, &mesh));
+    char path[PATH_LEN];
+    snprintf(path, sizeof path, "%s/gt/mesh.ply", j->root);
+    int rc = esr_ply_write(path, &mesh);
+    esr_mesh_free(&mesh);
+    return rc;
+}
+
+static int check_range(const char *what, int v, int lo, int hi)
+{
+    if (v < lo || v > hi)
+        return ESR_FAIL("%s %d is out of range %d..%d", what, v, lo, hi);
+    return ESR_OK;
+}
+
+int esr_synth_write_dataset(const char *out_dir, const struct esr_synth_options *opt)
+{
+    struct esr_synth_scene scene;
+    ESR_TRY(esr_synth_scene_get(opt->scene, &scene));
+    struct esr_synth_settings set;
+    set.res = opt->res ? opt->res : scene.res;
+    set.spp = opt->spp ? opt->spp : scene.spp;
+    set.n_train = opt->n_train ? opt->n_train : scene.n_train;
+    set.n_test = opt->n_test ? opt->n_test : scene.n_test;
+    set.seed = (unsigned long long)opt->seed;
+    ESR_TRY(check_range("resolution", set.res, ESR_SYNTH_RES_MIN, ESR_SYNTH_RES_MAX));
+    ESR_TRY(check_range("samples per pixel", set.spp, ESR_SYNTH_SPP_MIN, ESR_SYNTH_SPP_MAX));
+    ESR_TRY(check_range("train views per condition", set.n_train, 1, 500));
+    ESR_TRY(check_range("test cameras", set.n_test, 1, 500));
+
+    struct esr_synth_plan plan;
+    ESR_TRY(esr_synth_plan_make(&scene, set.res, set.n_train, set.n_test, opt->seed, &plan));
+    char staging[PATH_LEN];
+    struct job j;
+    memset(&j, 0, sizeof j);
+    j.root = staging;
+    j.scene = &scene;
+    j.plan = &plan;
+    j.opt = opt;
+    j.res = set.res;
+    j.spp = set.spp;
+    int rc = esr_synth_staging_begin(out_dir, opt->force, staging, sizeof staging);
+    if (rc == ESR_OK) {
+        rc = esr_image_alloc(&j.png, set.res, set.res, 4);
+        if (rc == ESR_OK)
+            rc = esr_image_alloc(&j.mask, set.res, set.res, 1);
+        if (rc == ESR_OK)
+            rc = write_all(&j, &set);
+        if (rc == ESR_OK)
+            rc = esr_synth_staging_commit(staging, out_dir);
+        if (rc != ESR_OK)
+            esr_synth_remove_tree(staging); /* keeps the first (real) error message */
+    }
+    esr_image_free(&j.png);
+    esr_image_free(&j.mask);
+    esr_synth_plan_free(&plan);
+    return rc;
+}

@@ -1,0 +1,21 @@
+/* The JSON files of a synthetic dataset: transforms_<phase>.json and scene.json. */
+#ifndef ESR_SYNTH_JSON_H
+#define ESR_SYNTH_JSON_H
+
+#include "synth/plan.h"
+
+/* Writes <dir>/transforms/transforms_<phase>.json for the plan's frames of phase. */
+int esr_synth_json_transforms(const char *dir, const struct esr_synth_scene *s, const struct esr_synth_plan *plan,
+                              enum esr_phase_id phase);
+
+/* Render settings recorded in scene.json. */
+struct esr_synth_settings {
+    int res, spp, n_train, n_test;
+    unsigned long long seed;
+};
+
+/* Writes <dir>/scene.json: lights, world, bounding boxes, cameras, settings, ground-truth files. */
+int esr_synth_json_scene(const char *dir, const struct esr_synth_scene *s, const struct esr_synth_plan *plan,
+                         const struct esr_synth_settings *set);
+
+#endif

@@ -1,0 +1,202 @@
+/* Analytic primitives of the built-in scenes: spheres, axis-aligned boxes and z-axis capped
+ * cylinders, all closed. Exact ray intersection, surface normal, area and uniform-by-area point
+ * sampling (for next-event estimation on emitters). Per-element pure functions, C/C++ common
+ * subset, so a CUDA port can include this header unchanged. */
+#ifndef ESR_SYNTH_PRIM_H
+#define ESR_SYNTH_PRIM_H
+
+#include <math.h>
+
+#include "core/brdf.h"
+#include "core/sampling.h"
+#include "core/vec3.h"
+
+enum esr_synth_prim_kind { ESR_SYNTH_SPHERE, ESR_SYNTH_BOX, ESR_SYNTH_CYLINDER };
+enum esr_synth_texture { ESR_SYNTH_TEX_NONE, ESR_SYNTH_TEX_CHECKER, ESR_SYNTH_TEX_STRIPES };
+
+struct esr_synth_prim {
+    enum esr_synth_prim_kind kind;
+    struct esr_vec3 a;         /* sphere: centre; box: min corner; cylinder: centre of the bottom cap */
+    struct esr_vec3 b;         /* sphere: (radius,0,0); box: max corner; cylinder: (radius, height, 0) */
+    struct esr_material mat;   /* base colour is texture colour 0 */
+    enum esr_synth_texture texture;
+    float base2[3];            /* texture colour 1 */
+    float tex_period;          /* size of one checker square / stripe, metres */
+    int light;                 /* index of the light this primitive is, -1 when not emissive */
+    const char *name;          /* object name (scene.json) */
+};
+
+/* Nearest intersection distance in (tmin, tmax), or INFINITY. d need not be unit length. */
+ESR_INLINE float esr_synth_prim_hit(const struct esr_synth_prim *p, struct esr_vec3 o, struct esr_vec3 d, float tmin,
+                                    float tmax)
+{
+    float t0 = INFINITY, t1 = INFINITY;
+    if (p->kind == ESR_SYNTH_SPHERE) {
+        /* Distance from the centre to the ray's closest point, not b^2 - c, to avoid cancellation. */
+        float dd = esr_v3_dot(d, d);
+        struct esr_vec3 oc = esr_v3_sub(o, p->a);
+        float tc = -esr_v3_dot(oc, d) / dd;
+        struct esr_vec3 q = esr_v3_add(oc, esr_v3_scale(d, tc));
+        float h2 = p->b.x * p->b.x - esr_v3_dot(q, q);
+        if (h2 < 0.0f)
+            return INFINITY;
+        float dt = sqrtf(h2 / dd);
+        t0 = tc - dt;
+        t1 = tc + dt;
+    } else if (p->kind == ESR_SYNTH_BOX) {
+        float lo[3] = {p->a.x, p->a.y, p->a.z}, hi[3] = {p->b.x, p->b.y, p->b.z};
+        float oo[3] = {o.x, o.y, o.z}, dv[3] = {d.x, d.y, d.z};
+        float tn = -INFINITY, tf = INFINITY;
+        for (int k = 0; k < 3; k++) {
+            float inv = 1.0f / dv[k]; /* +-inf for axis-parallel rays: the slab test still works */
+            float ta = (lo[k] - oo[k]) * inv, tb = (hi[k] - oo[k]) * inv;
+            if (ta > tb) {
+                float s = ta;
+                ta = tb;
+                tb = s;
+            }
+            if (!(ta <= tf && tb >= tn)) /* also rejects NaN from 0 * inf */
+                return INFINITY;
+            tn = fmaxf(tn, ta);
+            tf = fminf(tf, tb);
+        }
+        t0 = tn;
+        t1 = tf;
+    } else {
+        float r = p->b.x, z0 = p->a.z, z1 = p->a.z + p->b.y;
+        float ox = o.x - p->a.x, oy = o.y - p->a.y;
+        /* Infinite cylinder, then clip the interval by the two cap planes (a convex slab). */
+        float qa = d.x * d.x + d.y * d.y, tn = -INFINITY, tf = INFINITY;
+        if (qa > 0.0f) {
+            float tc = -(ox * d.x + oy * d.y) / qa;
+            float qx = ox + tc * d.x, qy = oy + tc * d.y;
+            float h2 = r * r - (qx * qx + qy * qy);
+            if (h2 < 0.0f)
+                return INFINITY;
+            float dt = sqrtf(h2 / qa);
+            tn = tc - dt;
+            tf = tc + dt;
+        } else if (ox * ox + oy * oy > r * r) {
+            return INFINITY;
+        }
+        float inv = 1.0f / d.z;
+        float ta = (z0 - o.z) * inv, tb = (z1 - o.z) * inv;
+        if (ta > tb) {
+            float s = ta;
+            ta = tb;
+            tb = s;
+        }
+        if (!(ta <= tf && tb >= tn))
+            return INFINITY;
+        t0 = fmaxf(tn, ta);
+        t1 = fminf(tf, tb);
+        if (t0 > t1)
+            return INFINITY;
+    }
+    if (t0 > tmin && t0 < tmax)
+        return t0;
+    if (t1 > tmin && t1 < tmax)
+        return t1;
+    return INFINITY;
+}
+
+/* Outward unit normal at a surface point x of p. */
+ESR_INLINE struct esr_vec3 esr_synth_prim_normal(const struct esr_synth_prim *p, struct esr_vec3 x)
+{
+    if (p->kind == ESR_SYNTH_SPHERE)
+        return esr_v3_normalize(esr_v3_sub(x, p->a));
+    if (p->kind == ESR_SYNTH_BOX) {
+        /* The face whose plane x is closest to, relative to the half extent. */
+        struct esr_vec3 c = esr_v3_scale(esr_v3_add(p->a, p->b), 0.5f);
+        struct esr_vec3 h = esr_v3_scale(esr_v3_sub(p->b, p->a), 0.5f);
+        struct esr_vec3 q = esr_v3_sub(x, c);
+        float rx = fabsf(q.x) / h.x, ry = fabsf(q.y) / h.y, rz = fabsf(q.z) / h.z;
+        if (rx >= ry && rx >= rz)
+            return esr_v3(copysignf(1.0f, q.x), 0.0f, 0.0f);
+        if (ry >= rz)
+            return esr_v3(0.0f, copysignf(1.0f, q.y), 0.0f);
+        return esr_v3(0.0f, 0.0f, copysignf(1.0f, q.z));
+    }
+    float r = p->b.x, hh = 0.5f * p->b.y;
+    float qx = x.x - p->a.x, qy = x.y - p->a.y, qz = x.z - (p->a.z + hh);
+    float radial = sqrtf(qx * qx + qy * qy);
+    if (hh - fabsf(qz) < r - radial)
+        return esr_v3(0.0f, 0.0f, copysignf(1.0f, qz));
+    return esr_v3(qx / radial, qy / radial, 0.0f);
+}
+
+ESR_INLINE float esr_synth_prim_area(const struct esr_synth_prim *p)
+{
+    if (p->kind == ESR_SYNTH_SPHERE)
+        return 4.0f * ESR_PI * p->b.x * p->b.x;
+    if (p->kind == ESR_SYNTH_BOX) {
+        struct esr_vec3 e = esr_v3_sub(p->b, p->a);
+        return 2.0f * (e.x * e.y + e.y * e.z + e.z * e.x);
+    }
+    return 2.0f * ESR_PI * p->b.x * (p->b.x + p->b.y);
+}
+
+/* A point uniformly distributed over the surface by area (pdf 1 / area) and its outward normal;
+ * u0 picks the face / part, (u1, u2) the position on it. */
+ESR_INLINE void esr_synth_prim_sample(const struct esr_synth_prim *p, float u0, float u1, float u2,
+                                      struct esr_vec3 *x, struct esr_vec3 *n)
+{
+    if (p->kind == ESR_SYNTH_SPHERE) {
+        *n = esr_sample_sphere_uniform(u1, u2);
+        *x = esr_v3_add(p->a, esr_v3_scale(*n, p->b.x));
+        return;
+    }
+    if (p->kind == ESR_SYNTH_BOX) {
+        struct esr_vec3 e = esr_v3_sub(p->b, p->a);
+        float axy = e.x * e.y, ayz = e.y * e.z, azx = e.z * e.x;
+        float pick = u0 * (axy + ayz + azx); /* axis by face-pair area, then side by halves */
+        float lo[3] = {p->a.x, p->a.y, p->a.z}, ext[3] = {e.x, e.y, e.z};
+        int axis = pick < axy ? 2 : (pick < axy + ayz ? 0 : 1);
+        float area = axis == 2 ? axy : (axis == 0 ? ayz : azx);
+        float start = axis == 2 ? 0.0f : (axis == 0 ? axy : axy + ayz);
+        float v = (pick - start) / area; /* uniform in [0,1) again */
+        int side = v >= 0.5f;
+        float pos[3], nor[3] = {0.0f, 0.0f, 0.0f};
+        int k1 = (axis + 1) % 3, k2 = (axis + 2) % 3;
+        pos[axis] = lo[axis] + (side ? ext[axis] : 0.0f);
+        pos[k1] = lo[k1] + u1 * ext[k1];
+        pos[k2] = lo[k2] + u2 * ext[k2];
+        nor[axis] = side ? 1.0f : -1.0f;
+        *x = esr_v3(pos[0], pos[1], pos[2]);
+        *n = esr_v3(nor[0], nor[1], nor[2]);
+        return;
+    }
+    float r = p->b.x, h = p->b.y;
+    float side_area = 2.0f * ESR_PI * r * h, cap_area = ESR_PI * r * r;
+    float pick = u0 * (side_area + 2.0f * cap_area);
+    float phi = 2.0f * ESR_PI * u1;
+    if (pick < side_area) {
+        *n = esr_v3(cosf(phi), sinf(phi), 0.0f);
+        *x = esr_v3(p->a.x + r * n->x, p->a.y + r * n->y, p->a.z + u2 * h);
+        return;
+    }
+    int top = pick >= side_area + cap_area;
+    float rr = r * sqrtf(u2);
+    *n = esr_v3(0.0f, 0.0f, top ? 1.0f : -1.0f);
+    *x = esr_v3(p->a.x + rr * cosf(phi), p->a.y + rr * sinf(phi), p->a.z + (top ? h : 0.0f));
+}
+
+/* Material at surface point x: the procedural texture picks base colour 0 or 1 (checker in x,y
+ * for floors, stripes across x+z), so multi-view geometry has texture to lock onto. */
+ESR_INLINE struct esr_material esr_synth_prim_material(const struct esr_synth_prim *p, struct esr_vec3 x)
+{
+    struct esr_material m = p->mat;
+    int alt = 0;
+    if (p->texture == ESR_SYNTH_TEX_CHECKER)
+        alt = ((int)floorf(x.x / p->tex_period) + (int)floorf(x.y / p->tex_period)) & 1;
+    else if (p->texture == ESR_SYNTH_TEX_STRIPES)
+        alt = (int)floorf((x.x + x.z) / p->tex_period) & 1;
+    if (alt) {
+        m.base[0] = p->base2[0];
+        m.base[1] = p->base2[1];
+        m.base[2] = p->base2[2];
+    }
+    return m;
+}
+
+#endif

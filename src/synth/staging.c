@@ -1,0 +1,95 @@
+#define _XOPEN_SOURCE 700
+#include "synth/staging.h"
+
+#include <dirent.h>
+#include <errno.h>
+#include <ftw.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include "core/error.h"
+
+static int dir_is_empty(const char *dir)
+{
+    DIR *d = opendir(dir);
+    if (!d)
+        return 0;
+    struct dirent *e;
+    int empty = 1;
+    while (empty && (e = readdir(d)))
+        if (strcmp(e->d_name, ".") && strcmp(e->d_name, ".."))
+            empty = 0;
+    closedir(d);
+    return empty;
+}
+
+/* "<parent>/.<base>.<tag>-XXXXXX" for out_dir (trailing slashes ignored). */
+static int sibling_template(const char *out_dir, const char *tag, char *buf, size_t n)
+{
+    size_t len = strlen(out_dir);
+    while (len > 1 && out_dir[len - 1] == '/')
+        len--;
+    size_t slash = len;
+    while (slash > 0 && out_dir[slash - 1] != '/')
+        slash--;
+    int w = snprintf(buf, n, "%.*s.%.*s.%s-XXXXXX", (int)slash, out_dir, (int)(len - slash), out_dir + slash, tag);
+    if (w < 0 || (size_t)w >= n)
+        return ESR_FAIL("output path '%s' is too long", out_dir);
+    return ESR_OK;
+}
+
+int esr_synth_staging_begin(const char *out_dir, int force, char *staging, size_t n)
+{
+    struct stat st;
+    if (stat(out_dir, &st) == 0) {
+        if (!S_ISDIR(st.st_mode))
+            return ESR_FAIL("output '%s' exists and is not a directory", out_dir);
+        if (!force && !dir_is_empty(out_dir))
+            return ESR_FAIL("output directory '%s' exists and is not empty (use --force to replace it)", out_dir);
+    } else if (errno != ENOENT) {
+        return ESR_FAIL("cannot inspect output '%s': %s", out_dir, strerror(errno));
+    }
+    ESR_TRY(sibling_template(out_dir, "partial", staging, n));
+    if (!mkdtemp(staging))
+        return ESR_FAIL("cannot create staging directory '%s': %s", staging, strerror(errno));
+    return ESR_OK;
+}
+
+int esr_synth_staging_commit(const char *staging, const char *out_dir)
+{
+    /* rename() replaces an empty directory; a non-empty one is first moved aside. */
+    if (rename(staging, out_dir) == 0)
+        return ESR_OK;
+    if (errno != ENOTEMPTY && errno != EEXIST)
+        return ESR_FAIL("cannot move '%s' to '%s': %s", staging, out_dir, strerror(errno));
+    char old[4096];
+    ESR_TRY(sibling_template(out_dir, "old", old, sizeof old));
+    if (!mkdtemp(old))
+        return ESR_FAIL("cannot create '%s' to replace '%s': %s", old, out_dir, strerror(errno));
+    if (rename(out_dir, old) != 0) {
+        rmdir(old);
+        return ESR_FAIL("cannot move the old '%s' aside: %s", out_dir, strerror(errno));
+    }
+    if (rename(staging, out_dir) != 0) {
+        int err = errno;
+        rename(old, out_dir); /* put the old dataset back */
+        return ESR_FAIL("cannot move '%s' to '%s': %s", staging, out_dir, strerror(err));
+    }
+    return esr_synth_remove_tree(old);
+}
+
+static int remove_entry(const char *path, const struct stat *st, int flag, struct FTW *ftw)
+{
+    (void)st, (void)flag, (void)ftw;
+    return remove(path) == 0 ? 0 : -1;
+}
+
+int esr_synth_remove_tree(const char *dir)
+{
+    if (nftw(dir, remove_entry, 16, FTW_DEPTH | FTW_PHYS) != 0)
+        return ESR_FAIL("cannot remove '%s': %s", dir, strerror(errno));
+    return ESR_OK;
+}

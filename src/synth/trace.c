@@ -1,0 +1,185 @@
+#include "synth/trace.h"
+
+#include <string.h>
+
+#include "synth/bsdf.h"
+
+/* Offset of secondary ray origins along the normal, against self-intersection (scene scale ~1 m). */
+#define RAY_EPS 1e-4f
+
+static float luminance(const float c[3]) { return 0.2126f * c[0] + 0.7152f * c[1] + 0.0722f * c[2]; }
+
+void esr_synth_trace_setup(const struct esr_synth_scene *s, const float emission[][3],
+                           struct esr_synth_trace_params *p)
+{
+    memset(p, 0, sizeof *p);
+    p->scene = s;
+    p->max_bounces = s->max_bounces;
+    for (int c = 0; c < 3; c++)
+        p->world[c] = s->world_rgb[c] * s->world_strength;
+    float total = 0.0f;
+    for (int k = 0; k < s->n_lights; k++) {
+        memcpy(p->emission[k], emission[k], sizeof p->emission[k]);
+        p->select_prob[k] = fmaxf(luminance(emission[k]), 0.0f) * esr_synth_prim_area(&s->prims[s->lights[k].prim]);
+        total += p->select_prob[k];
+    }
+    for (int k = 0; k < s->n_lights; k++)
+        p->select_prob[k] = total > 0.0f ? p->select_prob[k] / total : 0.0f;
+}
+
+int esr_synth_intersect(const struct esr_synth_scene *s, struct esr_vec3 o, struct esr_vec3 d, float tmin, float *t)
+{
+    int best = -1;
+    for (int i = 0; i < s->n_prims; i++) {
+        float ti = esr_synth_prim_hit(&s->prims[i], o, d, tmin, *t);
+        if (ti < *t) {
+            *t = ti;
+            best = i;
+        }
+    }
+    return best;
+}
+
+static int occluded(const struct esr_synth_scene *s, struct esr_vec3 o, struct esr_vec3 d, float tmax)
+{
+    for (int i = 0; i < s->n_prims; i++)
+        if (esr_synth_prim_hit(&s->prims[i], o, d, 0.0f, tmax) < tmax)
+            return 1;
+    return 0;
+}
+
+static float power_heuristic(float a, float b) { return a * a / (a * a + b * b); }
+
+/* Light k's contribution at x by one point sampled on its surface, MIS-weighted against BRDF
+ * sampling. Adds beta * R * Le * w / pdf to l. */
+static void sample_emitter(const struct esr_synth_trace_params *p, struct esr_vec3 x, struct esr_vec3 n,
+                           struct esr_vec3 wo, const struct esr_material *m, struct esr_rng *rng, const float beta[3],
+                           float l[3])
+{
+    const struct esr_synth_scene *s = p->scene;
+    float u = esr_rng_float(rng), cdf = 0.0f;
+    int k = -1;
+    for (int j = 0; j < s->n_lights; j++) {
+        if (p->select_prob[j] <= 0.0f)
+            continue;
+        k = j; /* the last selectable light absorbs rounding at u ~ 1 */
+        cdf += p->select_prob[j];
+        if (u < cdf)
+            break;
+    }
+    if (k < 0)
+        return;
+    const struct esr_synth_prim *lp = &s->prims[s->lights[k].prim];
+    struct esr_vec3 y, ny;
+    float u0 = esr_rng_float(rng), u1 = esr_rng_float(rng), u2 = esr_rng_float(rng);
+    esr_synth_prim_sample(lp, u0, u1, u2, &y, &ny);
+    struct esr_vec3 o = esr_v3_add(x, esr_v3_scale(n, RAY_EPS));
+    struct esr_vec3 to = esr_v3_sub(y, o);
+    float dist2 = esr_v3_dot(to, to), dist = sqrtf(dist2);
+    struct esr_vec3 wi = esr_v3_scale(to, 1.0f / dist);
+    float cos_l = -esr_v3_dot(ny, wi);
+    if (cos_l <= 0.0f || esr_v3_dot(n, wi) <= 0.0f)
+        return;
+    if (occluded(s, o, to, 1.0f - 1e-3f))
+        return;
+    float pdf_l = p->select_prob[k] * dist2 / (cos_l * esr_synth_prim_area(lp));
+    float f[3];
+    esr_brdf_eval(m, n, wo, wi, f);
+    float w = power_heuristic(pdf_l, esr_synth_bsdf_pdf(m, n, wo, wi)) / pdf_l;
+    for (int c = 0; c < 3; c++)
+        l[c] += beta[c] * f[c] * p->emission[k][c] * w;
+}
+
+/* The world light's contribution at x by one cosine-distributed direction, MIS-weighted. */
+static void sample_world(const struct esr_synth_trace_params *p, struct esr_vec3 x, struct esr_vec3 n,
+                         struct esr_vec3 wo, const struct esr_material *m, struct esr_rng *rng, const float beta[3],
+                         float l[3])
+{
+    struct esr_vec3 t, b;
+    esr_v3_basis(n, &t, &b);
+    float u1 = esr_rng_float(rng), u2 = esr_rng_float(rng);
+    struct esr_vec3 local = esr_sample_hemisphere_cosine(u1, u2);
+    float pdf_e = esr_pdf_hemisphere_cosine(local);
+    if (pdf_e <= 0.0f)
+        return;
+    struct esr_vec3 wi = esr_v3_from_local(local, t, b, n);
+    if (occluded(p->scene, esr_v3_add(x, esr_v3_scale(n, RAY_EPS)), wi, INFINITY))
+        return;
+    float f[3];
+    esr_brdf_eval(m, n, wo, wi, f);
+    float w = power_heuristic(pdf_e, esr_synth_bsdf_pdf(m, n, wo, wi)) / pdf_e;
+    for (int c = 0; c < 3; c++)
+        l[c] += beta[c] * f[c] * p->world[c] * w;
+}
+
+int esr_synth_trace_path(const struct esr_synth_trace_params *p, struct esr_vec3 o, struct esr_vec3 d,
+                         struct esr_rng *rng, float rgb[3])
+{
+    const struct esr_synth_scene *s = p->scene;
+    float beta[3] = {1.0f, 1.0f, 1.0f};
+    float l[3] = {0.0f, 0.0f, 0.0f};
+    int world_on = p->world[0] > 0.0f || p->world[1] > 0.0f || p->world[2] > 0.0f;
+    float prev_pdf = 0.0f;          /* BRDF pdf of the direction that led here (0 at the camera) */
+    struct esr_vec3 prev_n = esr_v3(0, 0, 0);
+    int primary_hit = 0;
+    for (int depth = 0;; depth++) {
+        float t = INFINITY;
+        int hit = esr_synth_intersect(s, o, d, 0.0f, &t);
+        if (hit < 0) {
+            /* The camera sees a transparent film; later vertices see the world light. */
+            if (depth > 0 && world_on) {
+                float w = power_heuristic(prev_pdf, fmaxf(esr_v3_dot(prev_n, d), 0.0f) * ESR_INV_PI);
+                for (int c = 0; c < 3; c++)
+                    l[c] += beta[c] * p->world[c] * w;
+            }
+            break;
+        }
+        if (depth == 0)
+            primary_hit = 1;
+        const struct esr_synth_prim *prim = &s->prims[hit];
+        struct esr_vec3 x = esr_v3_add(o, esr_v3_scale(d, t));
+        struct esr_vec3 n = esr_synth_prim_normal(prim, x);
+        int k = prim->light;
+        if (k >= 0 && esr_v3_dot(n, d) < 0.0f && p->select_prob[k] > 0.0f) {
+            float w = 1.0f;
+            if (depth > 0) {
+                float cos_l = -esr_v3_dot(n, d);
+                float pdf_l = p->select_prob[k] * t * t / (cos_l * esr_synth_prim_area(prim));
+                w = power_heuristic(prev_pdf, pdf_l);
+            }
+            for (int c = 0; c < 3; c++)
+                l[c] += beta[c] * p->emission[k][c] * w;
+        }
+        if (depth >= p->max_bounces)
+            break;
+        struct esr_vec3 wo = esr_v3_scale(d, -1.0f);
+        if (esr_v3_dot(n, wo) < 0.0f) /* reached from inside through rounding: shade the side seen */
+            n = esr_v3_scale(n, -1.0f);
+        struct esr_material m = esr_synth_prim_material(prim, x);
+        sample_emitter(p, x, n, wo, &m, rng, beta, l);
+        if (world_on)
+            sample_world(p, x, n, wo, &m, rng, beta, l);
+        struct esr_vec3 wi;
+        float pdf, f[3];
+        float u0 = esr_rng_float(rng), u1 = esr_rng_float(rng), u2 = esr_rng_float(rng);
+        if (!esr_synth_bsdf_sample(&m, n, wo, u0, u1, u2, &wi, &pdf))
+            break;
+        esr_brdf_eval(&m, n, wo, wi, f);
+        for (int c = 0; c < 3; c++)
+            beta[c] *= f[c] / pdf;
+        if (depth >= 2) {
+            /* Russian roulette keeps long paths unbiased: survivors are reweighted by 1/q. */
+            float q = fminf(fmaxf(beta[0], fmaxf(beta[1], beta[2])), 0.95f);
+            if (esr_rng_float(rng) >= q)
+                break;
+            for (int c = 0; c < 3; c++)
+                beta[c] /= q;
+        }
+        prev_pdf = pdf;
+        prev_n = n;
+        o = esr_v3_add(x, esr_v3_scale(n, RAY_EPS));
+        d = wi;
+    }
+    memcpy(rgb, l, sizeof l);
+    return primary_hit;
+}

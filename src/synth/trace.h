@@ -1,0 +1,57 @@
+/* The path tracer of `esr synth`: unidirectional path tracing with next-event estimation on the
+ * emitters (points sampled by area) and on the uniform world light (cosine-weighted directions),
+ * MIS with the power heuristic against BRDF sampling, Russian roulette, no clamping. */
+#ifndef ESR_SYNTH_TRACE_H
+#define ESR_SYNTH_TRACE_H
+
+#include <stdint.h>
+
+#include "core/rng.h"
+#include "io/camera.h"
+#include "io/image.h"
+#include "synth/scene.h"
+
+/* Everything one image's paths need: the scene plus this image's light state. */
+struct esr_synth_trace_params {
+    const struct esr_synth_scene *scene;
+    float emission[ESR_SYNTH_MAX_LIGHTS][3]; /* emitted radiance of each light in this image (0 = off) */
+    float select_prob[ESR_SYNTH_MAX_LIGHTS]; /* chance that NEE picks light k (by emitted power) */
+    float world[3];                          /* world radiance (colour * strength) */
+    int max_bounces;
+};
+
+/* Fills p for scene s with light k emitting emission[k] (linear radiance). */
+void esr_synth_trace_setup(const struct esr_synth_scene *s, const float emission[][3],
+                           struct esr_synth_trace_params *p);
+
+/* Index of the first primitive hit by the ray (o, d) in (tmin, *t), or -1; *t becomes its distance
+ * in units of |d|. */
+int esr_synth_intersect(const struct esr_synth_scene *s, struct esr_vec3 o, struct esr_vec3 d, float tmin, float *t);
+
+/* Radiance arriving at o from unit direction d along one random path, into rgb. Returns 1 when the
+ * primary ray hit geometry, 0 when it escaped (rgb = 0: the film is transparent, the world only
+ * lights the scene). */
+int esr_synth_trace_path(const struct esr_synth_trace_params *p, struct esr_vec3 o, struct esr_vec3 d,
+                         struct esr_rng *rng, float rgb[3]);
+
+/* Renders cam with spp jittered samples per pixel (box filter) into out (allocated here):
+ * RGBA, linear radiance premultiplied by alpha, alpha = fraction of samples whose primary ray hit.
+ * Pixel i of image image_id uses RNG stream image_id * width * height + i of seed, so the result
+ * does not depend on the thread count. */
+int esr_synth_render(const struct esr_synth_trace_params *p, const struct esr_camera *cam, int spp, uint64_t seed,
+                     uint64_t image_id, struct esr_image *out);
+
+/* Per-pixel ground truth from one ray through each pixel centre (no anti-aliasing). */
+struct esr_synth_gt {
+    int *prim;                  /* [w*h] primitive hit, -1 for background */
+    struct esr_image normal;    /* 3 channels, world-space outward unit normal (0 on background) */
+    struct esr_image base;      /* 3 channels, linear base colour (texture applied) */
+    struct esr_image roughness; /* 1 channel */
+    struct esr_image metallic;  /* 1 channel */
+    struct esr_image emission;  /* 3 channels, emitted radiance with every light "on" */
+};
+
+int esr_synth_render_gt(const struct esr_synth_scene *s, const struct esr_camera *cam, struct esr_synth_gt *out);
+void esr_synth_gt_free(struct esr_synth_gt *gt);
+
+#endif
