@@ -20,5 +20,6 @@ int cli_wants_help(const struct esr_command *cmd, int argc, char **argv);
 /* Add `extern const struct esr_command cmd_<name>;` here and a row in main.c's table. */
 extern const struct esr_command cmd_metrics;
 extern const struct esr_command cmd_info;
+extern const struct esr_command cmd_synth;
 
 #endif

@@ -11,6 +11,7 @@ static const struct esr_command *const commands[] = {
     NULL, /* keeps the table non-empty; skipped */
     &cmd_info,
     &cmd_metrics,
+    &cmd_synth,
 };
 #define N_COMMANDS (int)(sizeof commands / sizeof commands[0])
 
