@@ -404,6 +404,48 @@ static void test_cli_metrics(void **state)
     free(dir);
 }
 
+/* EXR inputs are premultiplied RGBA: the command composites them on white (rgb + 1 - a), so its
+ * MSE equals esr_metric_hdr_mse of the composited prediction against the raw ground truth. */
+static void test_cli_metrics_exr(void **state)
+{
+    (void)state;
+    static const float white[3] = {1, 1, 1};
+    char *dir = test_make_tmpdir();
+    assert_non_null(dir);
+    char pa[512], pb[512], args[1200], out[4096];
+    snprintf(pa, sizeof pa, "%s/pred.exr", dir);
+    snprintf(pb, sizeof pb, "%s/gt.EXR", dir); /* extension case does not matter */
+    struct esr_image a = make_image(16, 12, 4), b = make_image(16, 12, 4);
+    struct esr_rng rng = esr_rng_init(66, 0);
+    for (size_t p = 0; p < (size_t)16 * 12; p++) {
+        float alpha_a = esr_rng_float(&rng), alpha_b = esr_rng_float(&rng);
+        for (int c = 0; c < 3; c++) { /* premultiplied HDR colour: rgb <= 4 a */
+            a.data[4 * p + c] = 4.0f * alpha_a * esr_rng_float(&rng);
+            b.data[4 * p + c] = 4.0f * alpha_b * esr_rng_float(&rng);
+        }
+        a.data[4 * p + 3] = alpha_a;
+        b.data[4 * p + 3] = alpha_b;
+    }
+    assert_int_equal(esr_exr_write(pa, &a, 0), ESR_OK);
+    assert_int_equal(esr_exr_write(pb, &b, 0), ESR_OK);
+    struct esr_image pred = {0};
+    assert_int_equal(esr_image_composite_premultiplied(&a, white, &pred), ESR_OK);
+    double mse;
+    assert_int_equal(esr_metric_hdr_mse(&pred, &b, &mse), ESR_OK);
+    snprintf(args, sizeof args, "metrics '%s' '%s'", pa, pb);
+    assert_int_equal(test_run_esr(args, out, sizeof out), 0);
+    cJSON *obj = cJSON_Parse(out);
+    assert_non_null(obj);
+    assert_true(fabs(json_number(obj, "mse") - mse) < 1e-9 * fmax(1.0, mse));
+    assert_true(mse > 0.1); /* HDR values well beyond [0,1] took part */
+    cJSON_Delete(obj);
+    esr_image_free(&a);
+    esr_image_free(&b);
+    esr_image_free(&pred);
+    test_rmtree(dir);
+    free(dir);
+}
+
 /* Dataset RGBA PNGs are composited on white: the command's numbers equal the in-process ones
  * computed from the composited images. */
 static void test_cli_metrics_real_scene(void **state)
@@ -453,6 +495,7 @@ int main(void)
         cmocka_unit_test(test_iou_by_hand),
         cmocka_unit_test(test_iou_real_mask),
         cmocka_unit_test(test_cli_metrics),
+        cmocka_unit_test(test_cli_metrics_exr),
         cmocka_unit_test(test_cli_metrics_real_scene),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
