@@ -1,10 +1,10 @@
 /* SSIM as in JAXNeRF / mip-NeRF `compute_ssim` (see metrics.h for the exact variant).
  * Separable: per channel, a horizontal 11-tap pass over every row of the five moment images (a,
  * b, a^2, b^2, ab), then a vertical pass that produces one output row at a time and reduces it
- * straight into the SSIM sum. Double precision throughout: E[x^2] - mu^2 cancels in flat regions,
- * where float would leave errors comparable to C2. Rows are independent, so both passes run OpenMP-parallel over rows; each output
- * row's sum is kept separately and added up serially, so the result is identical for any thread
- * count. */
+ * straight into the SSIM sum. Double precision throughout: E[x^2] - mu^2 cancels in flat
+ * regions, where float would leave errors comparable to C2. Rows are independent, so both passes
+ * run OpenMP-parallel over rows; each output row's sum is kept separately and added up serially,
+ * so the result is identical for any thread count. */
 #include <math.h>
 #include <omp.h>
 #include <stdlib.h>
