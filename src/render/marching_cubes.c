@@ -109,7 +109,7 @@ static void build_case(int cs, struct mc_case *out)
         if (out->n_loops == MC_MAX_LOOPS)
             break; /* unreachable: every loop has >= 3 of the 12 edges */
         int m = 0;
-        for (int e = e0; !used[e]; e = next[e]) {
+        for (int e = e0; e >= 0 && !used[e] && n + m < 12; e = next[e]) {
             used[e] = 1;
             out->pts[n + m++] = (signed char)e;
         }
