@@ -186,8 +186,13 @@ static int exr_read_setup(struct exr_reader *r, exr_storage_t *storage, const ch
     }
     if (!colour)
         return ESR_FAIL("'%s': EXR has none of the channels R, G, B or Y", path);
-    int64_t chunk_pixels = w * 64; /* scanline chunks hold at most 32 lines (PIZ) */
-    if (*storage == EXR_STORAGE_TILED) {
+    int64_t chunk_pixels;
+    if (*storage == EXR_STORAGE_SCANLINE) {
+        int32_t lines;
+        if (exr_get_scanlines_per_chunk(r->ctx, 0, &lines) != EXR_ERR_SUCCESS || lines <= 0 || lines > 256)
+            return ESR_FAIL("'%s': bad EXR scanlines per chunk", path);
+        chunk_pixels = w * lines;
+    } else {
         uint32_t tw, th;
         exr_tile_level_mode_t level;
         exr_tile_round_mode_t round;
