@@ -149,11 +149,13 @@ static void test_ply_write(void **state)
     hdr = (size_t)(end - buf);
     assert_int_equal(got, hdr + 3 * 27 + 13);
     assert_int_equal((unsigned char)buf[hdr + 24], 255);
-    free(m.colour);
     /* unwritable path: one clear error */
     assert_int_equal(esr_ply_write("/nonexistent-dir/x.ply", &m), ESR_ERR);
+    assert_non_null(strstr(esr_error_message(), "/nonexistent-dir/x.ply"));
     esr_error_clear();
+    free(m.colour);
     test_rmtree(dir);
+    free(dir); /* test_make_tmpdir returns a heap copy */
 }
 
 int main(void)
