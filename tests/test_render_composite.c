@@ -196,12 +196,7 @@ static void test_end_to_end_one_ray(void **state)
     sc.target[2] = 0.4f;
     sc.dt = 0.5f * esr_grid_voxel_size(&sc.gs, 0);
     struct esr_sample_params p;
-    memset(&p, 0, sizeof(p));
-    memcpy(p.bmin, bmin, sizeof(bmin));
-    memcpy(p.bmax, bmax, sizeof(bmax));
-    p.near = 2.0f;
-    p.far = 6.0f;
-    p.step = sc.dt;
+    esr_sample_params_init(&p, bmin, bmax, sc.dt);
     assert_int_equal(esr_samples_alloc(&sc.smp, 64, 1), ESR_OK);
     assert_int_equal(esr_sample_rays(&p, o, sc.dir, 1, &sc.smp), ESR_OK);
     assert_true(sc.smp.count > 10 && sc.smp.count <= 64);

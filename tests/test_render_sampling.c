@@ -50,12 +50,7 @@ static void test_sampler_positions_and_order(void **state)
     struct esr_samples s;
     assert_int_equal(esr_samples_alloc(&s, 1000, 4), ESR_OK);
     struct esr_sample_params p;
-    memset(&p, 0, sizeof(p));
-    memcpy(p.bmin, BMIN, sizeof(BMIN));
-    memcpy(p.bmax, BMAX, sizeof(BMAX));
-    p.near = 2.0f;
-    p.far = 6.0f;
-    p.step = 0.25f;
+    esr_sample_params_init(&p, BMIN, BMAX, 0.25f);
     const float o[9] = {0, 0, 4, 5, 5, 5, 0, 4, 0};
     const float d[9] = {0, 0, -1, 0, 0, 1, 0, -1, 0};
     assert_int_equal(esr_sample_rays(&p, o, d, 3, &s), ESR_OK);
@@ -107,12 +102,7 @@ static void test_sampler_jitter_and_mask(void **state)
         d[r * 3 + 2] = 0.0f;
     }
     struct esr_sample_params p;
-    memset(&p, 0, sizeof(p));
-    memcpy(p.bmin, BMIN, sizeof(BMIN));
-    memcpy(p.bmax, BMAX, sizeof(BMAX));
-    p.near = 2.0f;
-    p.far = 6.0f;
-    p.step = 0.05f;
+    esr_sample_params_init(&p, BMIN, BMAX, 0.05f);
     p.jitter = 1;
     p.seed = 42;
     struct esr_samples a, b;

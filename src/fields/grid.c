@@ -76,8 +76,11 @@ void esr_grid_own_planes(const struct esr_grid *g, int *lo, int *hi)
     *hi = (int)((long)g->nz * (tid + 1) / nt);
 }
 
-ESR_HOT void esr_grid_sample_bwd(const struct esr_grid *g, const float *pts, size_t n,
-                                 const float *d_out, float *grad)
+/* Deterministic scatter shared by the two backward passes: every thread scans all points and
+ * writes only its own z-planes. `dpoint` selects the adjoint of the point-gradient (3 floats of
+ * d per point, channel ch) instead of the value's (C floats of d per point). */
+ESR_HOT static void scatter(const struct esr_grid *g, const float *pts, size_t n, const float *d, int dpoint,
+                    int ch, float *grad)
 {
     const int C = g->channels;
 #pragma omp parallel
@@ -90,25 +93,22 @@ ESR_HOT void esr_grid_sample_bwd(const struct esr_grid *g, const float *pts, siz
                 continue;
             struct esr_trilerp t;
             esr_trilerp_locate(g, pts + i * 3, &t);
-            esr_trilerp_bwd(grad, C, &t, d_out + i * (size_t)C, lo, hi);
+            if (dpoint)
+                esr_trilerp_dpoint_bwd(grad, C, ch, &t, d + i * 3, lo, hi);
+            else
+                esr_trilerp_bwd(grad, C, &t, d + i * (size_t)C, lo, hi);
         }
     }
+}
+
+void esr_grid_sample_bwd(const struct esr_grid *g, const float *pts, size_t n,
+                                 const float *d_out, float *grad)
+{
+    scatter(g, pts, n, d_out, 0, 0, grad);
 }
 
 void esr_grid_sample_dpoint_bwd(const struct esr_grid *g, int ch, const float *pts, size_t n,
                                 const float *d_dpts, float *grad)
 {
-#pragma omp parallel
-    {
-        int lo, hi;
-        esr_grid_own_planes(g, &lo, &hi);
-        for (size_t i = 0; i < n; i++) {
-            int iz = esr_trilerp_iz0(g, pts[i * 3 + 2]);
-            if (iz + 1 < lo || iz >= hi)
-                continue;
-            struct esr_trilerp t;
-            esr_trilerp_locate(g, pts + i * 3, &t);
-            esr_trilerp_dpoint_bwd(grad, g->channels, ch, &t, d_dpts + i * 3, lo, hi);
-        }
-    }
+    scatter(g, pts, n, d_dpts, 1, ch, grad);
 }

@@ -125,15 +125,24 @@ static int smooth_kernel(const struct esr_grid *g, int ksize, float sigma, float
     return ESR_OK;
 }
 
-int esr_grid_smooth_fwd(const struct esr_grid *g, const float *src, float *dst, float *scratch,
-                        int ksize, float sigma)
+/* Runs the three axis passes (forward: x, y, z; adjoint: z, y, x) through buffers a -> b -> a -> b
+ * starting from src; the result is in `b`. */
+static int smooth_passes(const struct esr_grid *g, int adjoint, const float *src, float *a, float *b,
+                         int ksize, float sigma)
 {
     float w[SMOOTH_MAX_TAPS];
     ESR_TRY(smooth_kernel(g, ksize, sigma, w));
-    const int r = ksize / 2;
-    smooth_axis(g, 0, w, r, 0, src, scratch);
-    smooth_axis(g, 1, w, r, 0, scratch, dst);
-    smooth_axis(g, 2, w, r, 0, dst, scratch);
+    const int r = ksize / 2, first = adjoint ? 2 : 0, dir = adjoint ? -1 : 1;
+    smooth_axis(g, first, w, r, adjoint, src, b);
+    smooth_axis(g, first + dir, w, r, adjoint, b, a);
+    smooth_axis(g, first + 2 * dir, w, r, adjoint, a, b);
+    return ESR_OK;
+}
+
+int esr_grid_smooth_fwd(const struct esr_grid *g, const float *src, float *dst, float *scratch,
+                        int ksize, float sigma)
+{
+    ESR_TRY(smooth_passes(g, 0, src, dst, scratch, ksize, sigma));
     memcpy(dst, scratch, sizeof(float) * esr_grid_count(g));
     return ESR_OK;
 }
@@ -141,12 +150,7 @@ int esr_grid_smooth_fwd(const struct esr_grid *g, const float *src, float *dst, 
 int esr_grid_smooth_bwd(const struct esr_grid *g, float *d_dst, float *d_src, float *scratch,
                         int ksize, float sigma)
 {
-    float w[SMOOTH_MAX_TAPS];
-    ESR_TRY(smooth_kernel(g, ksize, sigma, w));
-    const int r = ksize / 2;
-    smooth_axis(g, 2, w, r, 1, d_dst, scratch);
-    smooth_axis(g, 1, w, r, 1, scratch, d_dst);
-    smooth_axis(g, 0, w, r, 1, d_dst, scratch);
+    ESR_TRY(smooth_passes(g, 1, d_dst, d_dst, scratch, ksize, sigma));
     const size_t count = esr_grid_count(g);
 #pragma omp parallel for schedule(static)
     for (size_t i = 0; i < count; i++)

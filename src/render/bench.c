@@ -107,12 +107,7 @@ static int bench_setup(struct bench *b, int n_rays)
     ESR_TRY(esr_mask_alloc(&b->mask, &b->gs));
     ESR_TRY(esr_mask_from_sdf(&b->mask, &b->gs, b->sdf, 0.1f, 1));
     ESR_TRY(esr_samples_alloc(&b->smp, cap, n_rays));
-    memset(&b->sp, 0, sizeof(b->sp));
-    memcpy(b->sp.bmin, bmin, sizeof(bmin));
-    memcpy(b->sp.bmax, bmax, sizeof(bmax));
-    b->sp.near = 2.0f;
-    b->sp.far = 6.0f;
-    b->sp.step = 0.5f * esr_grid_voxel_size(&b->gs, 0);
+    esr_sample_params_init(&b->sp, bmin, bmax, 0.5f * esr_grid_voxel_size(&b->gs, 0));
     b->sp.jitter = 1;
     b->sp.max_per_ray = BENCH_MAX_PER_RAY;
     b->sp.mask = &b->mask;

@@ -9,6 +9,19 @@
 #include "core/rng.h"
 #include "render/ray.h"
 
+void esr_sample_params_init(struct esr_sample_params *p, const float bmin[3], const float bmax[3],
+                            float step)
+{
+    memset(p, 0, sizeof(*p));
+    for (int a = 0; a < 3; a++) {
+        p->bmin[a] = bmin[a];
+        p->bmax[a] = bmax[a];
+    }
+    p->near = 2.0f;
+    p->far = 6.0f;
+    p->step = step;
+}
+
 int esr_samples_alloc(struct esr_samples *s, size_t capacity, int max_rays)
 {
     memset(s, 0, sizeof(*s));

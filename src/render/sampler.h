@@ -36,6 +36,11 @@ struct esr_samples {
     size_t *ray_start;  /* [max_rays + 1]: ray r owns samples ray_start[r] .. ray_start[r+1]-1 */
 };
 
+/* Parameters for marching the box [bmin, bmax] at `step` with the dataset's near/far (2, 6),
+ * no jitter, no cap and no mask; callers then adjust fields. */
+void esr_sample_params_init(struct esr_sample_params *p, const float bmin[3], const float bmax[3],
+                            float step);
+
 /* Allocates buffers for up to `capacity` samples over up to `max_rays` rays. */
 int esr_samples_alloc(struct esr_samples *s, size_t capacity, int max_rays);
 void esr_samples_free(struct esr_samples *s);
