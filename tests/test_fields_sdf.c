@@ -161,6 +161,59 @@ static void test_tv(void **state)
     free(mask);
 }
 
+/* Smoothed-gradient TV: zero for a linear SDF (constant gradient, kept by the smoothing), and
+ * gradient against central differences of its own loss on a noisy field, with a mask. */
+static void test_grad_tv(void **state)
+{
+    (void)state;
+    struct esr_grid g = make_grid(1, 6, 7, 5);
+    size_t nv = esr_grid_voxels(&g);
+    float *f = malloc(nv * sizeof(float)), *gr = calloc(nv, sizeof(float));
+    float *work = malloc(esr_sdf_grad_tv_work(&g) * sizeof(float));
+    uint8_t *mask = malloc(nv);
+    for (int z = 0; z < g.nz; z++)
+        for (int y = 0; y < g.ny; y++)
+            for (int x = 0; x < g.nx; x++)
+                f[vidx(&g, x, y, z)] = 0.3f * x - 0.2f * y + 0.1f * z;
+    struct esr_tv_params p = {1.0f, NULL};
+    double loss;
+    assert_int_equal(esr_sdf_grad_tv_add_grad(&g, f, &p, 5, 0.8f, work, gr, &loss), ESR_OK);
+    assert_true(loss < 1e-10);
+    for (size_t v = 0; v < nv; v++)
+        assert_true(fabsf(gr[v]) < 1e-5f);
+    test_fill_uniform(f, nv, -0.5f, 0.5f, 61);
+    p.weight = 3.0f;
+    for (int ks = 1; ks <= 5; ks += 4) {
+        memset(gr, 0, nv * sizeof(float));
+        assert_int_equal(esr_sdf_grad_tv_add_grad(&g, f, &p, ks, 0.8f, work, gr, &loss), ESR_OK);
+        assert_true(loss > 0.0);
+        float *scratch = calloc(nv, sizeof(float));
+        for (size_t e = 0; e < nv; e += 5) {
+            const float h = 1e-3f;
+            float keep = f[e];
+            double lp, lm;
+            f[e] = keep + h;
+            esr_sdf_grad_tv_add_grad(&g, f, &p, ks, 0.8f, work, scratch, &lp);
+            f[e] = keep - h;
+            esr_sdf_grad_tv_add_grad(&g, f, &p, ks, 0.8f, work, scratch, &lm);
+            f[e] = keep;
+            assert_true(test_close(gr[e], (lp - lm) / (2.0 * h), 1e-4, 5e-3));
+        }
+        free(scratch);
+    }
+    /* a mask limits the TV to the masked gradient voxels: smaller loss, still finite gradient */
+    double full = loss;
+    for (size_t v = 0; v < nv; v++)
+        mask[v] = v < nv / 2;
+    p.mask = mask;
+    assert_int_equal(esr_sdf_grad_tv_add_grad(&g, f, &p, 5, 0.8f, work, gr, &loss), ESR_OK);
+    assert_true(loss > 0.0 && loss < full);
+    free(f);
+    free(gr);
+    free(work);
+    free(mask);
+}
+
 /* alpha = 1 - exp(-softplus(d + shift) interval) against direct values and central differences;
  * the shift gives alpha_init at interval 1. */
 static void test_density_alpha(void **state)
@@ -232,7 +285,8 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_sphere_init),       cmocka_unit_test(test_smooth),
         cmocka_unit_test(test_resample_linear),   cmocka_unit_test(test_tv),
-        cmocka_unit_test(test_density_alpha),     cmocka_unit_test(test_mask_cache),
+        cmocka_unit_test(test_grad_tv),           cmocka_unit_test(test_density_alpha),
+        cmocka_unit_test(test_mask_cache),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -228,3 +228,84 @@ int esr_grid_tv_add_grad(const struct esr_grid *g, const float *data, const stru
         *loss = total * scale;
     return ESR_OK;
 }
+
+size_t esr_sdf_grad_tv_work(const struct esr_grid *g) { return 8 * esr_grid_voxels(g); }
+
+/* Neighbour indices and spacing of the central (one-sided at the faces) difference along axis a
+ * at lattice coordinate i of n: G = (f[hi] - f[lo]) * inv. */
+static void cdiff(int i, int n, size_t stride, float h, size_t v, size_t *lo, size_t *hi, float *inv)
+{
+    *lo = i > 0 ? v - stride : v;
+    *hi = i + 1 < n ? v + stride : v;
+    *inv = 1.0f / ((float)((i > 0) + (i + 1 < n)) * h);
+}
+
+/* G[v*3 + a] = central difference of f (forward) */
+static void grad_field_fwd(const struct esr_grid *g, const float *f, float *G)
+{
+    const int n[3] = {g->nx, g->ny, g->nz};
+    const size_t s[3] = {1, (size_t)g->nx, (size_t)g->nx * g->ny};
+#pragma omp parallel for schedule(static)
+    for (int iz = 0; iz < g->nz; iz++)
+        for (int iy = 0; iy < g->ny; iy++)
+            for (int ix = 0; ix < g->nx; ix++) {
+                const int i[3] = {ix, iy, iz};
+                size_t v = ix + s[1] * iy + s[2] * iz, lo, hi;
+                for (int a = 0; a < 3; a++) {
+                    float inv;
+                    cdiff(i[a], n[a], s[a], esr_grid_voxel_size(g, a), v, &lo, &hi, &inv);
+                    G[v * 3 + a] = (f[hi] - f[lo]) * inv;
+                }
+            }
+}
+
+/* df = D^T dG, written as a gather over the (at most two) G entries that read each f so it runs
+ * in parallel without races. */
+static void grad_field_adj(const struct esr_grid *g, const float *dG, float *df)
+{
+    const int n[3] = {g->nx, g->ny, g->nz};
+    const size_t s[3] = {1, (size_t)g->nx, (size_t)g->nx * g->ny};
+#pragma omp parallel for schedule(static)
+    for (int iz = 0; iz < g->nz; iz++)
+        for (int iy = 0; iy < g->ny; iy++)
+            for (int ix = 0; ix < g->nx; ix++) {
+                const int i[3] = {ix, iy, iz};
+                size_t v = ix + s[1] * iy + s[2] * iz;
+                float acc = 0.0f;
+                for (int a = 0; a < 3; a++) {
+                    const float h = esr_grid_voxel_size(g, a);
+                    /* readers of f[v] along a: the voxels u in {v - s, v, v + s} whose stencil
+                     * (lo, hi) contains v */
+                    for (int k = -1; k <= 1; k++) {
+                        int j = i[a] + k;
+                        if (j < 0 || j >= n[a])
+                            continue;
+                        size_t u = (size_t)((ptrdiff_t)v + k * (ptrdiff_t)s[a]), lo, hi;
+                        float inv;
+                        cdiff(j, n[a], s[a], h, u, &lo, &hi, &inv);
+                        if (hi == v)
+                            acc += dG[u * 3 + a] * inv;
+                        if (lo == v)
+                            acc -= dG[u * 3 + a] * inv;
+                    }
+                }
+                df[v] = acc;
+            }
+}
+
+int esr_sdf_grad_tv_add_grad(const struct esr_grid *g, const float *sdf, const struct esr_tv_params *p,
+                             int ksize, float sigma, float *work, float *grad, double *loss)
+{
+    if (g->channels != 1)
+        return ESR_FAIL("smoothed-gradient TV: SDF grid must have 1 channel, has %d", g->channels);
+    const size_t V = esr_grid_voxels(g);
+    float *S = work, *scratch = work + V, *G = work + 2 * V, *dG = work + 5 * V;
+    ESR_TRY(esr_grid_smooth_fwd(g, sdf, S, scratch, ksize, sigma));
+    grad_field_fwd(g, S, G);
+    struct esr_grid g3 = *g;
+    g3.channels = 3;
+    memset(dG, 0, 3 * V * sizeof(float));
+    ESR_TRY(esr_grid_tv_add_grad(&g3, G, p, dG, loss));
+    grad_field_adj(g, dG, S);
+    return esr_grid_smooth_bwd(g, S, grad, scratch, ksize, sigma);
+}

@@ -49,6 +49,16 @@ struct esr_tv_params {
 int esr_grid_tv_add_grad(const struct esr_grid *g, const float *data, const struct esr_tv_params *p,
                          float *grad, double *loss);
 
+/* Floats of work space esr_sdf_grad_tv_add_grad needs: 8 * esr_grid_voxels(g). */
+size_t esr_sdf_grad_tv_work(const struct esr_grid *g);
+/* Voxurf-style smoothed-gradient TV: G = D(S(f)), with S the Gaussian smoothing above
+ * (ksize, sigma; ksize 1 = none) and D the central-difference gradient (one-sided at the box
+ * faces, in world units), regularised by esr_grid_tv_add_grad on the 3-channel field G (weight
+ * and mask as there). Adds the exact gradient S^T D^T dG into grad; *loss (may be NULL) gets the
+ * loss. g must have 1 channel; work holds esr_sdf_grad_tv_work(g) floats. */
+int esr_sdf_grad_tv_add_grad(const struct esr_grid *g, const float *sdf, const struct esr_tv_params *p,
+                             int ksize, float sigma, float *work, float *grad, double *loss);
+
 #ifdef __cplusplus
 }
 #endif
