@@ -240,8 +240,31 @@ static void cdiff(int i, int n, size_t stride, float h, size_t v, size_t *lo, si
     *inv = 1.0f / ((float)((i > 0) + (i + 1 < n)) * h);
 }
 
-/* G[v*3 + a] = central difference of f (forward) */
-static void grad_field_fwd(const struct esr_grid *g, const float *f, float *G)
+/* df[v] = (D^T dG)[v], gathered from the (at most three) G entries along axis a whose stencil
+ * reads f[v], so the adjoint runs in parallel without races. */
+static float grad_adj_at(const struct esr_grid *g, const float *dG, size_t v, int a, int i, int n,
+                         size_t stride)
+{
+    const float h = esr_grid_voxel_size(g, a);
+    float acc = 0.0f;
+    for (int k = -1; k <= 1; k++) {
+        int j = i + k;
+        if (j < 0 || j >= n)
+            continue;
+        size_t u = (size_t)((ptrdiff_t)v + k * (ptrdiff_t)stride), lo, hi;
+        float inv;
+        cdiff(j, n, stride, h, u, &lo, &hi, &inv);
+        if (hi == v)
+            acc += dG[u * 3 + a] * inv;
+        if (lo == v)
+            acc -= dG[u * 3 + a] * inv;
+    }
+    return acc;
+}
+
+/* Forward: out[v*3 + a] = central difference of in (= f) along a.
+ * Adjoint: out[v] = (D^T in)[v] with in = dG. */
+static void grad_field(const struct esr_grid *g, int adjoint, const float *in, float *out)
 {
     const int n[3] = {g->nx, g->ny, g->nz};
     const size_t s[3] = {1, (size_t)g->nx, (size_t)g->nx * g->ny};
@@ -251,45 +274,18 @@ static void grad_field_fwd(const struct esr_grid *g, const float *f, float *G)
             for (int ix = 0; ix < g->nx; ix++) {
                 const int i[3] = {ix, iy, iz};
                 size_t v = ix + s[1] * iy + s[2] * iz, lo, hi;
-                for (int a = 0; a < 3; a++) {
-                    float inv;
-                    cdiff(i[a], n[a], s[a], esr_grid_voxel_size(g, a), v, &lo, &hi, &inv);
-                    G[v * 3 + a] = (f[hi] - f[lo]) * inv;
-                }
-            }
-}
-
-/* df = D^T dG, written as a gather over the (at most two) G entries that read each f so it runs
- * in parallel without races. */
-static void grad_field_adj(const struct esr_grid *g, const float *dG, float *df)
-{
-    const int n[3] = {g->nx, g->ny, g->nz};
-    const size_t s[3] = {1, (size_t)g->nx, (size_t)g->nx * g->ny};
-#pragma omp parallel for schedule(static)
-    for (int iz = 0; iz < g->nz; iz++)
-        for (int iy = 0; iy < g->ny; iy++)
-            for (int ix = 0; ix < g->nx; ix++) {
-                const int i[3] = {ix, iy, iz};
-                size_t v = ix + s[1] * iy + s[2] * iz;
                 float acc = 0.0f;
                 for (int a = 0; a < 3; a++) {
-                    const float h = esr_grid_voxel_size(g, a);
-                    /* readers of f[v] along a: the voxels u in {v - s, v, v + s} whose stencil
-                     * (lo, hi) contains v */
-                    for (int k = -1; k <= 1; k++) {
-                        int j = i[a] + k;
-                        if (j < 0 || j >= n[a])
-                            continue;
-                        size_t u = (size_t)((ptrdiff_t)v + k * (ptrdiff_t)s[a]), lo, hi;
-                        float inv;
-                        cdiff(j, n[a], s[a], h, u, &lo, &hi, &inv);
-                        if (hi == v)
-                            acc += dG[u * 3 + a] * inv;
-                        if (lo == v)
-                            acc -= dG[u * 3 + a] * inv;
+                    float inv;
+                    if (adjoint) {
+                        acc += grad_adj_at(g, in, v, a, i[a], n[a], s[a]);
+                        continue;
                     }
+                    cdiff(i[a], n[a], s[a], esr_grid_voxel_size(g, a), v, &lo, &hi, &inv);
+                    out[v * 3 + a] = (in[hi] - in[lo]) * inv;
                 }
-                df[v] = acc;
+                if (adjoint)
+                    out[v] = acc;
             }
 }
 
@@ -301,11 +297,11 @@ int esr_sdf_grad_tv_add_grad(const struct esr_grid *g, const float *sdf, const s
     const size_t V = esr_grid_voxels(g);
     float *S = work, *scratch = work + V, *G = work + 2 * V, *dG = work + 5 * V;
     ESR_TRY(esr_grid_smooth_fwd(g, sdf, S, scratch, ksize, sigma));
-    grad_field_fwd(g, S, G);
+    grad_field(g, 0, S, G);
     struct esr_grid g3 = *g;
     g3.channels = 3;
     memset(dG, 0, 3 * V * sizeof(float));
     ESR_TRY(esr_grid_tv_add_grad(&g3, G, p, dG, loss));
-    grad_field_adj(g, dG, S);
+    grad_field(g, 1, dG, S);
     return esr_grid_smooth_bwd(g, S, grad, scratch, ksize, sigma);
 }
