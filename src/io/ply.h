@@ -1,4 +1,4 @@
-/* PLY mesh output (binary little-endian): float x y z, float nx ny nz, and uchar red green blue
+/* PLY meshes. Output (binary little-endian): float x y z, float nx ny nz, and uchar red green blue
  * when the mesh has colours; faces as uchar count + uint vertex indices. Written atomically. */
 #ifndef ESR_IO_PLY_H
 #define ESR_IO_PLY_H
@@ -7,5 +7,9 @@
 
 /* Writes m to path (atomic: a failed write leaves an existing file untouched). */
 int esr_ply_write(const char *path, const struct esr_mesh *m);
+/* Reads vertex positions and faces (polygons fan-triangulated) from an ASCII or binary
+ * little-endian PLY; normals and colours are not read (left NULL). Clear error on malformed
+ * files. The element order must be vertex then face. */
+int esr_ply_read(const char *path, struct esr_mesh *m);
 
 #endif
