@@ -107,7 +107,12 @@ static void time_op(enum bench_op op, const struct bench_env *e, int reps,
                     struct esr_nn_bench_row *row)
 {
     static const char *const kernels[] = {"esr", "esr", "onednn", "onednn", "openblas", "openblas"};
-    run_op(op, e); /* warm-up: page faults, library dispatch */
+    /* Warm-up for at least 50 ms: page faults, library dispatch, thread start-up and clock
+     * ramp-up otherwise land in the first kernel's figures. */
+    double w0 = omp_get_wtime();
+    do
+        run_op(op, e);
+    while (omp_get_wtime() - w0 < 0.05);
     double best = 1e30;
     for (int r = 0; r < reps; r++) {
         double t0 = omp_get_wtime();
@@ -125,8 +130,10 @@ static void time_op(enum bench_op op, const struct bench_env *e, int reps,
     row->gflops = (bwd ? 4.0 : 2.0) * e->s->n * e->s->k * e->s->m / best * 1e-9;
 }
 
-/* One shape: a single-layer MLP (no activation) holds the weights for the own kernel. */
-static int bench_shape_run(const struct bench_shape *s, int reps, struct esr_nn_bench_result *res)
+/* One kernel's fwd and bwd (ops fwd_op, fwd_op + 1) on one shape; a single-layer MLP (no
+ * activation) holds the weights for the own kernel. */
+static int bench_shape_run(const struct bench_shape *s, enum bench_op fwd_op, int reps,
+                           struct esr_nn_bench_result *res)
 {
     struct bench_bufs b = {0};
     struct esr_nn_params p = {0};
@@ -144,7 +151,7 @@ static int bench_shape_run(const struct bench_shape *s, int reps, struct esr_nn_
         esr_mlp_init_weights(&mlp, p.w, 1, 0.0f);
         memset(b.dw, 0, (size_t)s->k * s->m * sizeof(float));
         struct bench_env e = {s, &b, &mlp, &p, &ctx};
-        for (int op = OP_ESR_FWD; op <= OP_BLAS_BWD; op++)
+        for (int op = fwd_op; op <= (int)fwd_op + 1; op++)
             if (res->n_rows < ESR_NN_BENCH_MAX_ROWS)
                 time_op((enum bench_op)op, &e, reps, &res->rows[res->n_rows++]);
     }
@@ -158,8 +165,17 @@ int esr_nn_bench(int reps, struct esr_nn_bench_result *res)
 {
     memset(res, 0, sizeof(*res));
     res->threads = omp_get_max_threads();
-    openblas_set_num_threads(res->threads);
-    for (size_t i = 0; i < sizeof(bench_shapes) / sizeof(bench_shapes[0]); i++)
-        ESR_TRY(bench_shape_run(&bench_shapes[i], reps < 1 ? 1 : reps, res));
-    return ESR_OK;
+    /* Kernel by kernel, OpenBLAS last: its pthread workers spin after each call and would steal
+     * the cores from whatever ran next. Its thread count goes back to 1 afterwards, the setting
+     * for calls made inside OpenMP regions. */
+    static const enum bench_op fwd_ops[] = {OP_ESR_FWD, OP_DNNL_FWD, OP_BLAS_FWD};
+    int rc = ESR_OK;
+    for (size_t k = 0; k < 3 && rc == ESR_OK; k++) {
+        if (fwd_ops[k] == OP_BLAS_FWD)
+            openblas_set_num_threads(res->threads);
+        for (size_t i = 0; i < sizeof(bench_shapes) / sizeof(bench_shapes[0]) && rc == ESR_OK; i++)
+            rc = bench_shape_run(&bench_shapes[i], fwd_ops[k], reps < 1 ? 1 : reps, res);
+    }
+    openblas_set_num_threads(1);
+    return rc;
 }

@@ -78,10 +78,10 @@ void esr_mlp_init_weights(const struct esr_mlp *m, float *params, uint64_t seed,
     }
 }
 
-/* Per-thread backward scratch: dZ and dH tiles plus a transposed input tile. */
+/* Per-thread backward scratch: dZ and dH tiles. */
 static size_t scratch_per_thread(void)
 {
-    return 3 * (size_t)ESR_MLP_TILE * ESR_MLP_MAX_WIDTH;
+    return 2 * (size_t)ESR_MLP_TILE * ESR_MLP_MAX_WIDTH;
 }
 
 int esr_mlp_ctx_init(struct esr_mlp_ctx *c, const struct esr_mlp *m, size_t max_rows)
@@ -125,6 +125,7 @@ static struct esr_gemm_tile gemm_plain(const float *a, int lda, const float *b, 
     t.lda = lda;
     t.ldb = ldb;
     t.ldc = ldc;
+    t.trans_a = 0;
     t.accumulate = 0;
     t.act = ESR_NN_ACT_NONE;
     return t;
@@ -157,7 +158,9 @@ int esr_mlp_fwd(const struct esr_mlp *m, const float *params, struct esr_mlp_ctx
     c->rows = n;
     const int w = m->desc.width, L = m->n_layers;
     size_t n_tiles = (n + ESR_MLP_TILE - 1) / ESR_MLP_TILE;
-#pragma omp parallel for schedule(static) num_threads(c->n_threads) if (n_tiles > 1)
+    /* Rows are independent, so dynamic scheduling (robust when a core is shared) cannot change
+     * any result. */
+#pragma omp parallel for schedule(dynamic, 2) num_threads(c->n_threads) if (n_tiles > 1)
     for (size_t t = 0; t < n_tiles; t++) {
         size_t r0 = t * ESR_MLP_TILE;
         int rows = (int)(n - r0 < ESR_MLP_TILE ? n - r0 : ESR_MLP_TILE);
@@ -179,7 +182,7 @@ void esr_mlp_infer(const struct esr_mlp *m, const float *params, const float *in
 {
     const int w = m->desc.width, L = m->n_layers;
     size_t n_tiles = (n + INFER_TILE - 1) / INFER_TILE;
-#pragma omp parallel for schedule(static) if (n_tiles > 1)
+#pragma omp parallel for schedule(dynamic, 4) if (n_tiles > 1)
     for (size_t t = 0; t < n_tiles; t++) {
         float buf[2][INFER_TILE * ESR_MLP_MAX_WIDTH];
         size_t r0 = t * INFER_TILE;
@@ -214,14 +217,6 @@ static void bias_grad(const float *dz, int rows, int n, float *db)
             db[j] += dz[r * n + j];
 }
 
-/* xt[k][rows] = x[rows][k] (ldx apart) so dW = xt dz is a plain tile product. */
-static void transpose_tile(const float *x, int ldx, int rows, int k, float *xt)
-{
-    for (int r = 0; r < rows; r++)
-        for (int i = 0; i < k; i++)
-            xt[i * rows + r] = x[(size_t)r * ldx + i];
-}
-
 /* C (+)= A B over a tile, no bias, no activation. */
 static void tile_product(const float *a, int lda, const float *b, int ldb, float *c, int ldc,
                          int m, int n, int k, int accumulate)
@@ -229,6 +224,25 @@ static void tile_product(const float *a, int lda, const float *b, int ldb, float
     struct esr_gemm_tile t = gemm_plain(a, lda, b, ldb, c, ldc, m, n, k);
     t.accumulate = accumulate;
     esr_gemm_tile(&t);
+}
+
+/* dz = act'(y) * dy over n contiguous values; the activation is switched once, outside the loop,
+ * so each case vectorises. */
+ESR_HOT static void act_bwd_block(enum esr_nn_act act, const float *ESR_RESTRICT y,
+                                  const float *ESR_RESTRICT dy, float *ESR_RESTRICT dz, int n)
+{
+    switch (act) {
+    case ESR_NN_ACT_RELU:
+        for (int i = 0; i < n; i++)
+            dz[i] = esr_nn_relu_bwd(y[i], dy[i]);
+        break;
+    case ESR_NN_ACT_NONE:
+        memcpy(dz, dy, sizeof(float) * (size_t)n);
+        break;
+    default:
+        for (int i = 0; i < n; i++)
+            dz[i] = esr_nn_act_bwd(act, y[i], dy[i]);
+    }
 }
 
 /* Backward of one tile through all layers; weight gradients go to the slice buffer g (laid out
@@ -239,26 +253,31 @@ static void tile_bwd(const struct bwd_job *j, size_t r0, int rows, float *g, flo
     struct esr_mlp_ctx *c = j->c;
     const int w = m->desc.width, L = m->n_layers, n_out = m->desc.n_out, n_in = m->desc.n_in;
     float *dz = scratch, *dh = dz + ESR_MLP_TILE * ESR_MLP_MAX_WIDTH;
-    float *xt = dh + ESR_MLP_TILE * ESR_MLP_MAX_WIDTH;
     const float *y = c->out + r0 * n_out, *dy = j->d_out + r0 * n_out;
-    for (int i = 0; i < rows * n_out; i++)
-        dz[i] = esr_nn_act_bwd(m->desc.out_act, y[i], dy[i]);
+    /* gz: d loss / d pre-activation of the current layer; a linear output reads d_out in place. */
+    const float *gz = dy;
+    if (m->desc.out_act != ESR_NN_ACT_NONE) {
+        act_bwd_block(m->desc.out_act, y, dy, dz, rows * n_out);
+        gz = dz;
+    }
     for (int l = L - 1; l >= 0; l--) {
         int fi = m->fan_in[l], fo = m->fan_out[l];
         const float *x = l == 0 ? c->in + r0 * n_in : act_row(m, c, l - 1, r0);
         int ldx = l == 0 ? n_in : w;
-        bias_grad(dz, rows, fo, g + (m->b_off[l] - m->offset));
-        transpose_tile(x, ldx, rows, fi, xt);
-        tile_product(xt, rows, dz, fo, g + (m->w_off[l] - m->offset), fo, fi, fo, rows, 1);
+        bias_grad(gz, rows, fo, g + (m->b_off[l] - m->offset));
+        struct esr_gemm_tile dw = gemm_plain(x, ldx, gz, fo, g + (m->w_off[l] - m->offset), fo,
+                                             fi, fo, rows);
+        dw.trans_a = 1; /* dW += X^T dZ */
+        dw.accumulate = 1;
+        esr_gemm_tile(&dw);
         const float *wt = c->wt + (m->w_off[l] - m->offset);
         if (l > 0) {
-            tile_product(dz, fo, wt, fi, dh, fi, rows, fi, fo, 0);
-            for (int r = 0; r < rows; r++)
-                for (int i = 0; i < fi; i++)
-                    dz[r * fi + i] = esr_nn_act_bwd(m->desc.hidden_act, x[(size_t)r * ldx + i],
-                                                    dh[r * fi + i]);
+            tile_product(gz, fo, wt, fi, dh, fi, rows, fi, fo, 0);
+            /* Hidden layers are width-wide rows (ldx == fi), so the tile is one flat block. */
+            act_bwd_block(m->desc.hidden_act, x, dh, dz, rows * fi);
+            gz = dz;
         } else if (j->mode != ESR_NN_GRAD_IGNORE) {
-            tile_product(dz, fo, wt, fi, j->d_in + r0 * n_in, n_in, rows, fi, fo,
+            tile_product(gz, fo, wt, fi, j->d_in + r0 * n_in, n_in, rows, fi, fo,
                          j->mode == ESR_NN_GRAD_ACCUMULATE);
         }
     }
@@ -291,7 +310,7 @@ int esr_mlp_bwd(const struct esr_mlp *m, const float *params, float *grads, stru
     /* Slice s owns a fixed run of tiles: the partial sums, and their in-order reduction below,
      * depend on n only, never on the thread count. */
     int n_slices = n_tiles < ESR_MLP_GRAD_SLICES ? (int)n_tiles : ESR_MLP_GRAD_SLICES;
-#pragma omp parallel for schedule(static) num_threads(c->n_threads) if (n_slices > 1)
+#pragma omp parallel for schedule(dynamic, 1) num_threads(c->n_threads) if (n_slices > 1)
     for (int s = 0; s < n_slices; s++) {
         float *g = c->slices + (size_t)s * count;
         float *scratch = c->scratch + (size_t)omp_get_thread_num() * scratch_per_thread();

@@ -30,9 +30,11 @@ ESR_INLINE void act_block(enum esr_nn_act act, float *c, int ldc, int rows, int 
 }
 
 /* mr x 16 block of C over the full k; mr is a literal at every call so the accumulators live in
- * registers. b and bias point at 16 readable floats per row (padded by the caller if needed). */
-ESR_INLINE void micro(int mr, const float *a, int lda, const float *b, int ldb, float *c, int ldc,
-                      int k, const float *bias, int accumulate, enum esr_nn_act act)
+ * registers. A(r, p) = a[r * rs + p * ks]. b and bias point at 16 readable floats per row
+ * (padded by the caller if needed). */
+ESR_INLINE void micro(int mr, const float *a, size_t rs, size_t ks, const float *b, int ldb,
+                      float *c, int ldc, int k, const float *bias, int accumulate,
+                      enum esr_nn_act act)
 {
     v8 acc0[MR_MAX], acc1[MR_MAX];
     for (int r = 0; r < mr; r++) {
@@ -52,7 +54,7 @@ ESR_INLINE void micro(int mr, const float *a, int lda, const float *b, int ldb, 
         load8(&b0, b + p * ldb);
         load8(&b1, b + p * ldb + 8);
         for (int r = 0; r < mr; r++) {
-            float s = a[r * lda + p];
+            float s = a[r * rs + p * ks];
             v8 x = {s, s, s, s, s, s, s, s};
             acc0[r] += x * b0;
             acc1[r] += x * b1;
@@ -70,17 +72,27 @@ ESR_INLINE void micro(int mr, const float *a, int lda, const float *b, int ldb, 
         act_block(act, c, ldc, mr, NR);
 }
 
-/* All rows of one 16-column panel: blocks of mr_main rows, then single rows. */
-ESR_INLINE void panel(int mr_main, const struct esr_gemm_tile *t, const float *b, int ldb,
-                      float *c, int ldc, const float *bias)
+/* All rows of one 16-column panel: blocks of mr_main rows, then single rows. rs and ks are A's
+ * row and k strides, literals at the call sites below so the common ks = 1 folds away. */
+ESR_INLINE void panel_strided(int mr_main, const struct esr_gemm_tile *t, size_t rs, size_t ks,
+                              const float *b, int ldb, float *c, int ldc, const float *bias)
 {
     int r = 0;
     for (; r + mr_main <= t->m; r += mr_main)
-        micro(mr_main, t->a + (size_t)r * t->lda, t->lda, b, ldb, c + (size_t)r * ldc, ldc, t->k,
-              bias, t->accumulate, t->act);
-    for (; r < t->m; r++)
-        micro(1, t->a + (size_t)r * t->lda, t->lda, b, ldb, c + (size_t)r * ldc, ldc, t->k, bias,
+        micro(mr_main, t->a + r * rs, rs, ks, b, ldb, c + (size_t)r * ldc, ldc, t->k, bias,
               t->accumulate, t->act);
+    for (; r < t->m; r++)
+        micro(1, t->a + r * rs, rs, ks, b, ldb, c + (size_t)r * ldc, ldc, t->k, bias,
+              t->accumulate, t->act);
+}
+
+ESR_INLINE void panel(int mr_main, const struct esr_gemm_tile *t, const float *b, int ldb,
+                      float *c, int ldc, const float *bias)
+{
+    if (t->trans_a)
+        panel_strided(mr_main, t, 1, (size_t)t->lda, b, ldb, c, ldc, bias);
+    else
+        panel_strided(mr_main, t, (size_t)t->lda, 1, b, ldb, c, ldc, bias);
 }
 
 /* Full panels run in place; the last partial panel (n % 16 columns) runs on zero-padded copies

@@ -11,12 +11,13 @@
 #define ESR_GEMM_MAX_DIM 256 /* m, n and k of one call */
 
 struct esr_gemm_tile {
-    const float *a;    /* [m][lda] */
+    const float *a;    /* [m][lda], or [k][lda] read as its transpose when trans_a */
     const float *b;    /* [k][ldb] */
     float *c;          /* [m][ldc] */
     const float *bias; /* [n] added to every row, or NULL; ignored when accumulate */
     int m, n, k;       /* each 1..ESR_GEMM_MAX_DIM (k may be 0: C = bias or C) */
     int lda, ldb, ldc;
+    int trans_a;       /* 1: use A^T (weight gradients X^T dY without a transposed copy) */
     int accumulate;    /* 1: C += A B; 0: C = A B + bias */
     enum esr_nn_act act; /* applied to the result before it is stored */
 };
