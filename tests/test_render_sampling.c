@@ -11,8 +11,11 @@
 
 #include "core/error.h"
 #include "fields/mask.h"
+#include "io/camera.h"
+#include "io/dataset.h"
 #include "render/ray.h"
 #include "render/sampler.h"
+#include "test_support.h"
 
 static const float BMIN[3] = {-1.5f, -1.5f, -1.5f};
 static const float BMAX[3] = {1.5f, 1.5f, 1.5f};
@@ -20,7 +23,7 @@ static const float BMAX[3] = {1.5f, 1.5f, 1.5f};
 static void test_box_clip_cases(void **state)
 {
     (void)state;
-    float t0, t1;
+    float t0 = 0.0f, t1 = 0.0f;
     /* camera at distance 4 looking at the origin: enters at 2.5, leaves at 5.5 */
     const float o[3] = {0.0f, 0.0f, 4.0f}, d[3] = {0.0f, 0.0f, -1.0f};
     assert_int_equal(esr_ray_box_clip(o, d, BMIN, BMAX, 2.0f, 6.0f, &t0, &t1), 1);
@@ -153,12 +156,58 @@ static void test_sampler_jitter_and_mask(void **state)
     esr_samples_free(&b);
 }
 
+/* Real scene: every pixel ray of a training camera, marched through the dataset's box at
+ * 0.5 voxel of a 96^3 grid: the centre ray hits, samples stay in the box and inside [2, 6], and
+ * each hitting ray gets its clipped length / step samples. */
+static void test_lamp_camera_rays(void **state)
+{
+    (void)state;
+    const char *dir = test_shared_scene("lamp");
+    if (!dir)
+        skip();
+    struct esr_dataset ds;
+    assert_int_equal(esr_dataset_load(dir, &ds), ESR_OK);
+    const struct esr_frame *f = &ds.phases[ESR_PHASE_TRAIN].frames[0];
+    const int W = f->camera.width, H = f->camera.height, R = W * H;
+    float *o = malloc((size_t)R * 3 * sizeof(float)), *d = malloc((size_t)R * 3 * sizeof(float));
+    for (int j = 0; j < H; j++)
+        for (int i = 0; i < W; i++)
+            esr_camera_ray(&f->camera, i + 0.5f, j + 0.5f, o + (j * W + i) * 3, d + (j * W + i) * 3);
+    float step = 0.5f * (ds.bbox_max[0] - ds.bbox_min[0]) / 95.0f;
+    struct esr_sample_params p;
+    esr_sample_params_init(&p, ds.bbox_min, ds.bbox_max, step);
+    struct esr_samples s;
+    assert_int_equal(esr_samples_alloc(&s, (size_t)R * 400, R), ESR_OK);
+    assert_int_equal(esr_sample_rays(&p, o, d, R, &s), ESR_OK);
+    int centre = (H / 2) * W + W / 2;
+    assert_true(s.ray_start[centre + 1] - s.ray_start[centre] > 100);
+    for (int r = 0; r < R; r++) {
+        float t0 = 0.0f, t1 = 0.0f;
+        size_t cnt = s.ray_start[r + 1] - s.ray_start[r];
+        if (!esr_ray_box_clip(o + r * 3, d + r * 3, ds.bbox_min, ds.bbox_max, 2.0f, 6.0f, &t0, &t1)) {
+            assert_int_equal(cnt, 0);
+            continue;
+        }
+        assert_true(fabs((double)cnt - (t1 - t0) / step) <= 1.0);
+    }
+    for (size_t i = 0; i < s.count; i++) {
+        assert_true(s.t[i] >= 2.0f && s.t[i] <= 6.0f);
+        for (int a = 0; a < 3; a++)
+            assert_true(s.pos[i * 3 + a] >= ds.bbox_min[a] - 1e-4f && s.pos[i * 3 + a] <= ds.bbox_max[a] + 1e-4f);
+    }
+    esr_samples_free(&s);
+    free(o);
+    free(d);
+    esr_dataset_free(&ds);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_box_clip_cases),
         cmocka_unit_test(test_sampler_positions_and_order),
         cmocka_unit_test(test_sampler_jitter_and_mask),
+        cmocka_unit_test(test_lamp_camera_rays),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
