@@ -1,7 +1,10 @@
 /* DVGO-style density -> alpha for the alphamask stage (METHOD.md stage 1):
  *     alpha = 1 - exp(-softplus(density + shift) * interval)
  * shift = log(1/(1 - alpha_init) - 1) makes a zero density give alpha_init at interval 1
- * (DVGO's act_shift). Per-element pure functions plus batch loops. */
+ * (DVGO's act_shift). The interval is DVGO's stepsize * voxel_size_ratio (0.5 for half-voxel
+ * steps on the base grid). The alphamask stage composites these alphas with render/composite.h
+ * and chains d_alpha back through esr_density_alpha_bwd into the density grid's trilinear
+ * backward. Per-element pure functions plus batch loops. */
 #ifndef ESR_FIELDS_DENSITY_H
 #define ESR_FIELDS_DENSITY_H
 
