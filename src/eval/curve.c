@@ -1,0 +1,107 @@
+/* JSON-lines training log -> SVG polyline. */
+#include "eval/curve.h"
+
+#include <cJSON.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "core/error.h"
+#include "io/file.h"
+
+static int append_point(struct esr_curve *c, int *cap, double x, double y)
+{
+    if (c->n == *cap) {
+        int next = *cap ? 2 * *cap : 256;
+        double *nx = realloc(c->x, (size_t)next * sizeof *nx);
+        if (nx)
+            c->x = nx;
+        double *ny = nx ? realloc(c->y, (size_t)next * sizeof *ny) : NULL;
+        if (!ny)
+            return ESR_FAIL("out of memory reading a training log");
+        c->y = ny;
+        *cap = next;
+    }
+    c->x[c->n] = x;
+    c->y[c->n] = y;
+    c->n++;
+    return ESR_OK;
+}
+
+static int parse_lines(char *text, const char *path, const char *key, struct esr_curve *c)
+{
+    int cap = 0, record = 0, line_no = 0;
+    for (char *line = text; line && *line;) {
+        char *next = strchr(line, '\n');
+        if (next)
+            *next++ = '\0';
+        line_no++;
+        if (line[strspn(line, " \t\r")] != '\0') {
+            cJSON *obj = cJSON_Parse(line);
+            if (!cJSON_IsObject(obj)) {
+                cJSON_Delete(obj);
+                return ESR_FAIL("'%s' line %d is not a JSON object", path, line_no);
+            }
+            const cJSON *v = cJSON_GetObjectItemCaseSensitive(obj, key);
+            int status = ESR_OK;
+            if (cJSON_IsNumber(v) && isfinite(v->valuedouble))
+                status = append_point(c, &cap, record, v->valuedouble);
+            cJSON_Delete(obj);
+            ESR_TRY(status);
+            record++;
+        }
+        line = next;
+    }
+    return ESR_OK;
+}
+
+int esr_curve_load_jsonl(const char *path, const char *key, struct esr_curve *c)
+{
+    memset(c, 0, sizeof *c);
+    unsigned char *text;
+    size_t size;
+    ESR_TRY(esr_file_read_all(path, &text, &size));
+    int status = parse_lines((char *)text, path, key, c);
+    free(text);
+    if (status != ESR_OK)
+        esr_curve_free(c);
+    return status;
+}
+
+void esr_curve_free(struct esr_curve *c)
+{
+    free(c->x);
+    free(c->y);
+    memset(c, 0, sizeof *c);
+}
+
+/* Maps v from [lo, hi] to [a, b]; the middle when the range is empty. */
+static double map_range(double v, double lo, double hi, double a, double b)
+{
+    return hi > lo ? a + (v - lo) / (hi - lo) * (b - a) : 0.5 * (a + b);
+}
+
+int esr_curve_write_svg(FILE *out, const struct esr_curve *c, const char *label, int width, int height)
+{
+    double xlo = c->x[0], xhi = c->x[0], ylo = c->y[0], yhi = c->y[0];
+    for (int i = 1; i < c->n; i++) {
+        xlo = fmin(xlo, c->x[i]);
+        xhi = fmax(xhi, c->x[i]);
+        ylo = fmin(ylo, c->y[i]);
+        yhi = fmax(yhi, c->y[i]);
+    }
+    const double margin = 40.0; /* room for the range labels */
+    fprintf(out, "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"%d\" height=\"%d\">\n", width, height);
+    fprintf(out, "<rect width=\"100%%\" height=\"100%%\" fill=\"#fff\" stroke=\"#ccc\"/>\n");
+    fprintf(out, "<text x=\"%g\" y=\"14\" font-size=\"12\">%s</text>\n", margin, label);
+    fprintf(out, "<text x=\"2\" y=\"%g\" font-size=\"10\">%.4g</text>\n", margin, yhi);
+    fprintf(out, "<text x=\"2\" y=\"%d\" font-size=\"10\">%.4g</text>\n", height - 20, ylo);
+    fprintf(out, "<text x=\"%g\" y=\"%d\" font-size=\"10\">record %.0f .. %.0f</text>\n", margin, height - 4, xlo,
+            xhi);
+    fprintf(out, "<polyline fill=\"none\" stroke=\"#1f5fbf\" stroke-width=\"1.2\" points=\"");
+    for (int i = 0; i < c->n; i++)
+        fprintf(out, "%.1f,%.1f ", map_range(c->x[i], xlo, xhi, margin, width - 8.0),
+                map_range(c->y[i], ylo, yhi, height - 24.0, margin - 20.0));
+    fprintf(out, "\"/>\n</svg>\n");
+    return ferror(out) ? ESR_FAIL("error writing an SVG curve") : ESR_OK;
+}

@@ -1,0 +1,164 @@
+/* Per-view metrics of a rendered directory against a dataset phase, and their means. */
+#include "eval/evaluate.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "core/error.h"
+#include "eval/metrics.h"
+#include "io/file.h"
+#include "render/view.h"
+
+static const float white[3] = {1.0f, 1.0f, 1.0f};
+
+static int is_exr(const char *path)
+{
+    const char *dot = strrchr(path, '.');
+    return dot && !strcmp(dot, ".exr");
+}
+
+/* Reads a rendered image as 3-channel RGB on white (PNG: straight alpha; EXR: premultiplied)
+ * and checks it has the dataset's size. */
+static int load_rendered(const struct esr_dataset *ds, const char *path, struct esr_image *rgb)
+{
+    struct esr_image raw = {0};
+    if (!esr_file_exists(path))
+        return ESR_FAIL("rendered image '%s' is missing (run `esr render` for this phase first)", path);
+    ESR_TRY(esr_image_read(path, &raw));
+    int status = ESR_OK;
+    if (raw.width != ds->width || raw.height != ds->height)
+        status = ESR_FAIL("rendered image '%s' is %dx%d but the dataset's images are %dx%d", path, raw.width,
+                          raw.height, ds->width, ds->height);
+    else if (raw.channels == 3)
+        *rgb = raw;
+    else if (raw.channels != 4)
+        status = ESR_FAIL("rendered image '%s' has %d channels; expected RGB or RGBA", path, raw.channels);
+    else if (is_exr(path))
+        status = esr_image_composite_premultiplied(&raw, white, rgb);
+    else
+        status = esr_image_composite(&raw, white, rgb);
+    if (rgb->data != raw.data) /* raw was converted (or refused), not handed over */
+        esr_image_free(&raw);
+    return status;
+}
+
+/* PSNR (capped) and SSIM of the rendered image at path against gt. */
+static int compare_ldr(const struct esr_dataset *ds, const char *path, const struct esr_image *gt, double *psnr,
+                       double *ssim)
+{
+    struct esr_image img = {0};
+    double mse = 0.0;
+    ESR_TRY(load_rendered(ds, path, &img));
+    int status = esr_metric_mse(&img, gt, &mse);
+    if (status == ESR_OK)
+        status = esr_metric_ssim(&img, gt, ssim);
+    *psnr = fmin(esr_metric_psnr_from_mse(mse), ESR_EVAL_PSNR_CAP);
+    esr_image_free(&img);
+    return status;
+}
+
+/* HDR MSE of the rendered EXR against the frame's ground-truth EXR; NAN when there is none. */
+static int compare_hdr(const struct esr_dataset *ds, const struct esr_frame *f, const char *path, double *hdr_mse)
+{
+    char gt_path[ESR_PATH_MAX];
+    esr_frame_exr_path(ds, f, gt_path, sizeof gt_path);
+    *hdr_mse = NAN;
+    if (!esr_file_exists(gt_path))
+        return ESR_OK;
+    struct esr_image pred = {0}, gt = {0};
+    ESR_TRY(load_rendered(ds, path, &pred));
+    int status = esr_exr_read(gt_path, &gt);
+    if (status == ESR_OK)
+        status = esr_metric_hdr_mse(&pred, &gt, hdr_mse);
+    esr_image_free(&pred);
+    esr_image_free(&gt);
+    return status;
+}
+
+static int eval_view(const struct esr_dataset *ds, const struct esr_frame *f, const char *dir,
+                     struct esr_eval_view *v)
+{
+    char path[ESR_PATH_MAX];
+    struct esr_image gt = {0};
+    snprintf(v->name, sizeof v->name, "%s", f->name);
+    v->mode = esr_frame_mode(ds, f);
+    ESR_TRY(esr_frame_load_rgb(ds, f, &gt, NULL));
+    int status = esr_view_path(path, sizeof path, dir, f->name, ".png");
+    if (status == ESR_OK)
+        status = compare_ldr(ds, path, &gt, &v->psnr, &v->ssim);
+    if (status == ESR_OK)
+        status = esr_view_path(path, sizeof path, dir, f->name, "_linear.png");
+    if (status == ESR_OK)
+        status = compare_ldr(ds, path, &gt, &v->psnr_linear, &v->ssim_linear);
+    if (status == ESR_OK)
+        status = esr_view_path(path, sizeof path, dir, f->name, ".exr");
+    if (status == ESR_OK)
+        status = compare_hdr(ds, f, path, &v->hdr_mse);
+    esr_image_free(&gt);
+    return status;
+}
+
+/* Mean of the views whose mode is `mode` (every view when mode < 0). */
+static struct esr_eval_mean mean_of(const struct esr_eval_result *res, int mode)
+{
+    struct esr_eval_mean m;
+    memset(&m, 0, sizeof m);
+    int n_hdr = 0;
+    for (int i = 0; i < res->n_views; i++) {
+        const struct esr_eval_view *v = &res->views[i];
+        if (mode >= 0 && (int)v->mode != mode)
+            continue;
+        m.n++;
+        m.psnr += v->psnr;
+        m.ssim += v->ssim;
+        m.psnr_linear += v->psnr_linear;
+        m.ssim_linear += v->ssim_linear;
+        if (!isnan(v->hdr_mse)) {
+            m.hdr_mse += v->hdr_mse;
+            n_hdr++;
+        }
+    }
+    if (m.n > 0) {
+        m.psnr /= m.n;
+        m.ssim /= m.n;
+        m.psnr_linear /= m.n;
+        m.ssim_linear /= m.n;
+    }
+    m.hdr_mse = n_hdr ? m.hdr_mse / n_hdr : NAN;
+    return m;
+}
+
+int esr_eval_phase(const struct esr_dataset *ds, enum esr_phase_id phase, const int *idx, int n,
+                   const char *render_dir, struct esr_eval_result *res)
+{
+    memset(res, 0, sizeof *res);
+    res->phase = phase;
+    if ((int)phase < 0 || phase >= ESR_PHASE_COUNT || !ds->phases[phase].present)
+        return ESR_FAIL("dataset '%s' has no phase %s", ds->root, esr_phase_name(phase));
+    if (n <= 0)
+        return ESR_FAIL("no frames selected to evaluate");
+    if (snprintf(res->render_dir, sizeof res->render_dir, "%s", render_dir) >= (int)sizeof res->render_dir)
+        return ESR_FAIL("render directory path '%s' is too long", render_dir);
+    const struct esr_phase *ph = &ds->phases[phase];
+    res->views = calloc((size_t)n, sizeof *res->views);
+    if (!res->views)
+        return ESR_FAIL("out of memory evaluating %d views", n);
+    for (int i = 0; i < n; i++) {
+        if (idx[i] < 0 || idx[i] >= ph->n_frames)
+            return ESR_FAIL("frame index %d out of range for phase %s", idx[i], esr_phase_name(phase));
+        ESR_TRY(eval_view(ds, &ph->frames[idx[i]], render_dir, &res->views[i]));
+        res->n_views = i + 1;
+    }
+    res->all = mean_of(res, -1);
+    for (int mode = 0; mode < ESR_LIGHT_MODE_COUNT; mode++)
+        res->by_mode[mode] = mean_of(res, mode);
+    return ESR_OK;
+}
+
+void esr_eval_result_free(struct esr_eval_result *res)
+{
+    free(res->views);
+    memset(res, 0, sizeof *res);
+}

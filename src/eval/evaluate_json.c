@@ -1,0 +1,85 @@
+/* JSON form of an evaluation result (RUN/eval/<phase>.json). */
+#include <cJSON.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "core/error.h"
+#include "eval/evaluate.h"
+#include "io/file.h"
+
+/* JSON has no NaN: a missing value becomes null. */
+static void add_number_or_null(cJSON *obj, const char *name, double value)
+{
+    if (isfinite(value))
+        cJSON_AddNumberToObject(obj, name, value);
+    else
+        cJSON_AddNullToObject(obj, name);
+}
+
+static void add_metrics(cJSON *obj, double psnr, double ssim, double psnr_linear, double ssim_linear,
+                        double hdr_mse)
+{
+    add_number_or_null(obj, "psnr", psnr);
+    add_number_or_null(obj, "ssim", ssim);
+    add_number_or_null(obj, "psnr_linear", psnr_linear);
+    add_number_or_null(obj, "ssim_linear", ssim_linear);
+    add_number_or_null(obj, "hdr_mse", hdr_mse);
+}
+
+static cJSON *mean_json(const struct esr_eval_mean *m)
+{
+    cJSON *obj = cJSON_CreateObject();
+    if (obj) {
+        cJSON_AddNumberToObject(obj, "n", m->n);
+        add_metrics(obj, m->psnr, m->ssim, m->psnr_linear, m->ssim_linear, m->hdr_mse);
+    }
+    return obj;
+}
+
+static cJSON *result_json(const struct esr_dataset *ds, const struct esr_eval_result *res)
+{
+    cJSON *root = cJSON_CreateObject();
+    cJSON *views = cJSON_CreateArray(), *by_mode = cJSON_CreateObject();
+    if (!root || !views || !by_mode) {
+        cJSON_Delete(root);
+        cJSON_Delete(views);
+        cJSON_Delete(by_mode);
+        return NULL;
+    }
+    cJSON_AddStringToObject(root, "phase", esr_phase_name(res->phase));
+    cJSON_AddStringToObject(root, "dataset", ds->root);
+    cJSON_AddStringToObject(root, "render_dir", res->render_dir);
+    cJSON_AddNumberToObject(root, "psnr_cap", ESR_EVAL_PSNR_CAP);
+    cJSON_AddNumberToObject(root, "n_views", res->n_views);
+    cJSON_AddItemToObject(root, "views", views);
+    for (int i = 0; i < res->n_views; i++) {
+        const struct esr_eval_view *v = &res->views[i];
+        cJSON *o = cJSON_CreateObject();
+        if (!o)
+            break;
+        cJSON_AddStringToObject(o, "name", v->name);
+        cJSON_AddStringToObject(o, "mode", esr_light_mode_name(v->mode));
+        add_metrics(o, v->psnr, v->ssim, v->psnr_linear, v->ssim_linear, v->hdr_mse);
+        cJSON_AddItemToArray(views, o);
+    }
+    cJSON_AddItemToObject(root, "mean", mean_json(&res->all));
+    cJSON_AddItemToObject(root, "by_mode", by_mode);
+    for (int mode = 0; mode < ESR_LIGHT_MODE_COUNT; mode++)
+        if (res->by_mode[mode].n > 0)
+            cJSON_AddItemToObject(by_mode, esr_light_mode_name((enum esr_light_mode)mode),
+                                  mean_json(&res->by_mode[mode]));
+    return root;
+}
+
+int esr_eval_write_json(const char *path, const struct esr_dataset *ds, const struct esr_eval_result *res)
+{
+    cJSON *root = result_json(ds, res);
+    char *text = root ? cJSON_Print(root) : NULL;
+    cJSON_Delete(root);
+    if (!text)
+        return ESR_FAIL("out of memory writing '%s'", path);
+    int status = esr_file_write_atomic(path, text, strlen(text));
+    free(text);
+    return status;
+}

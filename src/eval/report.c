@@ -1,0 +1,188 @@
+/* HTML evaluation report. The page is built in memory (open_memstream) and written atomically. */
+#include "eval/report.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "core/error.h"
+#include "eval/curve.h"
+#include "io/dir.h"
+#include "io/file.h"
+#include "render/view.h"
+
+/* Writes text with the HTML special characters escaped. */
+static void put_escaped(FILE *out, const char *text)
+{
+    for (const char *p = text; *p; p++) {
+        switch (*p) {
+        case '&': fputs("&amp;", out); break;
+        case '<': fputs("&lt;", out); break;
+        case '>': fputs("&gt;", out); break;
+        case '"': fputs("&quot;", out); break;
+        default: fputc(*p, out);
+        }
+    }
+}
+
+/* A metric cell: "-" when the value is missing (NAN). */
+static void put_number(FILE *out, const char *fmt, double v)
+{
+    fputs("<td>", out);
+    if (isnan(v))
+        fputs("-", out);
+    else
+        fprintf(out, fmt, v);
+    fputs("</td>", out);
+}
+
+static void put_metric_cells(FILE *out, double psnr, double ssim, double psnr_lin, double ssim_lin, double hdr)
+{
+    put_number(out, "%.2f", psnr);
+    put_number(out, "%.4f", ssim);
+    put_number(out, "%.2f", psnr_lin);
+    put_number(out, "%.4f", ssim_lin);
+    put_number(out, "%.4g", hdr);
+}
+
+static const char *const metric_header =
+    "<th>PSNR</th><th>SSIM</th><th>PSNR linear</th><th>SSIM linear</th><th>HDR MSE</th>";
+
+static void put_summary(FILE *out, const struct esr_eval_result *res)
+{
+    fprintf(out, "<h2>Summary (%d views)</h2>\n<table><tr><th>views</th><th>n</th>%s</tr>\n", res->n_views,
+            metric_header);
+    const struct esr_eval_mean *m = &res->all;
+    fprintf(out, "<tr><td>all</td><td>%d</td>", m->n);
+    put_metric_cells(out, m->psnr, m->ssim, m->psnr_linear, m->ssim_linear, m->hdr_mse);
+    fputs("</tr>\n", out);
+    for (int mode = 0; mode < ESR_LIGHT_MODE_COUNT; mode++) {
+        m = &res->by_mode[mode];
+        if (m->n == 0)
+            continue;
+        fprintf(out, "<tr><td>%s</td><td>%d</td>", esr_light_mode_name((enum esr_light_mode)mode), m->n);
+        put_metric_cells(out, m->psnr, m->ssim, m->psnr_linear, m->ssim_linear, m->hdr_mse);
+        fputs("</tr>\n", out);
+    }
+    fprintf(out, "</table>\n<p>PSNR/SSIM against the ground-truth PNG composited on white; \"linear\" is the "
+                 "sRGB curve applied to the linear output; HDR MSE against the ground-truth EXR on white. "
+                 "PSNR is capped at %.0f dB.</p>\n",
+            ESR_EVAL_PSNR_CAP);
+}
+
+/* Training curves of the fields that the log has (none: the section is left out). */
+static int put_curves(FILE *out, const char *log_path)
+{
+    static const char *const keys[] = {"psnr", "loss"};
+    if (!log_path || !esr_file_exists(log_path))
+        return ESR_OK;
+    int header = 0;
+    for (size_t k = 0; k < sizeof keys / sizeof keys[0]; k++) {
+        struct esr_curve c;
+        ESR_TRY(esr_curve_load_jsonl(log_path, keys[k], &c));
+        if (c.n > 0) {
+            if (!header++)
+                fputs("<h2>Training</h2>\n", out);
+            esr_curve_write_svg(out, &c, keys[k], 640, 200);
+        }
+        esr_curve_free(&c);
+    }
+    return ESR_OK;
+}
+
+static void put_thumb(FILE *out, const char *href, const char *name, const char *suffix)
+{
+    fputs("<td><a href=\"", out);
+    put_escaped(out, href);
+    fputc('/', out);
+    put_escaped(out, name);
+    fputs(suffix, out);
+    fputs("\"><img src=\"", out);
+    put_escaped(out, href);
+    fputc('/', out);
+    put_escaped(out, name);
+    fputs(suffix, out);
+    fputs("\" width=\"128\" alt=\"\"></a></td>", out);
+}
+
+static void put_views(FILE *out, const struct esr_report_spec *spec)
+{
+    fprintf(out, "<h2>Views</h2>\n<table><tr><th>view</th><th>mode</th><th>ground truth</th><th>tone-mapped</th>"
+                 "<th>linear</th><th>normal</th>%s</tr>\n",
+            metric_header);
+    for (int i = 0; i < spec->res->n_views; i++) {
+        const struct esr_eval_view *v = &spec->res->views[i];
+        fputs("<tr><td>", out);
+        put_escaped(out, v->name);
+        fprintf(out, "</td><td>%s</td>", esr_light_mode_name(v->mode));
+        put_thumb(out, spec->gt_href, v->name, ".png");
+        put_thumb(out, spec->render_href, v->name, ".png");
+        put_thumb(out, spec->render_href, v->name, "_linear.png");
+        put_thumb(out, spec->render_href, v->name, "_normal.png");
+        put_metric_cells(out, v->psnr, v->ssim, v->psnr_linear, v->ssim_linear, v->hdr_mse);
+        fputs("</tr>\n", out);
+    }
+    fputs("</table>\n", out);
+}
+
+/* Copies of the evaluated ground-truth images, composited on white as the metrics saw them. */
+static int write_gt_copies(const struct esr_report_spec *spec)
+{
+    const struct esr_phase *ph = &spec->ds->phases[spec->res->phase];
+    ESR_TRY(esr_dir_create(spec->gt_dir));
+    for (int i = 0; i < spec->res->n_views; i++) {
+        const char *name = spec->res->views[i].name;
+        const struct esr_frame *f = NULL;
+        for (int k = 0; k < ph->n_frames && !f; k++)
+            if (!strcmp(ph->frames[k].name, name))
+                f = &ph->frames[k];
+        if (!f)
+            return ESR_FAIL("view '%s' is not in phase %s", name, esr_phase_name(spec->res->phase));
+        char path[ESR_PATH_MAX];
+        struct esr_image rgb = {0};
+        ESR_TRY(esr_view_path(path, sizeof path, spec->gt_dir, name, ".png"));
+        ESR_TRY(esr_frame_load_rgb(spec->ds, f, &rgb, NULL));
+        int status = esr_png_write(path, &rgb, 8);
+        esr_image_free(&rgb);
+        ESR_TRY(status);
+    }
+    return ESR_OK;
+}
+
+static int put_page(FILE *out, const struct esr_report_spec *spec)
+{
+    fputs("<!DOCTYPE html>\n<html><head><meta charset=\"utf-8\"><title>esr report: ", out);
+    put_escaped(out, spec->title);
+    fputs("</title>\n<style>body{font-family:sans-serif;margin:1em}table{border-collapse:collapse}"
+          "td,th{border:1px solid #ccc;padding:2px 6px;text-align:right}img{display:block}</style>\n"
+          "</head><body>\n<h1>",
+          out);
+    put_escaped(out, spec->title);
+    fprintf(out, "</h1>\n<p>phase %s of dataset ", esr_phase_name(spec->res->phase));
+    put_escaped(out, spec->ds->root);
+    fputs("</p>\n", out);
+    put_summary(out, spec->res);
+    ESR_TRY(put_curves(out, spec->train_log));
+    put_views(out, spec);
+    fputs("</body></html>\n", out);
+    return ESR_OK;
+}
+
+int esr_report_write(const struct esr_report_spec *spec)
+{
+    ESR_TRY(write_gt_copies(spec));
+    char *text = NULL;
+    size_t size = 0;
+    FILE *out = open_memstream(&text, &size);
+    if (!out)
+        return ESR_FAIL("out of memory building '%s'", spec->path);
+    int status = put_page(out, spec);
+    if (ferror(out) && status == ESR_OK)
+        status = ESR_FAIL("out of memory building '%s'", spec->path);
+    fclose(out);
+    if (status == ESR_OK)
+        status = esr_file_write_atomic(spec->path, text, size);
+    free(text);
+    return status;
+}

@@ -1,0 +1,65 @@
+/* Rendering a camera view in ray batches. */
+#include "render/view.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+#include "core/error.h"
+
+static int alloc_images(struct esr_view_images *v, int w, int h)
+{
+    ESR_TRY(esr_image_alloc(&v->rgb, w, h, 3));
+    ESR_TRY(esr_image_alloc(&v->linear, w, h, 3));
+    ESR_TRY(esr_image_alloc(&v->depth, w, h, 1));
+    ESR_TRY(esr_image_alloc(&v->normal, w, h, 3));
+    return esr_image_alloc(&v->opacity, w, h, 1);
+}
+
+/* The ray of every pixel centre, row by row (pixel index = row * width + column). */
+static void camera_rays(const struct esr_camera *cam, float *origins, float *dirs)
+{
+    long long n = (long long)cam->width * cam->height;
+#pragma omp parallel for schedule(static)
+    for (long long i = 0; i < n; i++) {
+        float px = (float)(i % cam->width) + 0.5f, py = (float)(i / cam->width) + 0.5f;
+        esr_camera_ray(cam, px, py, origins + 3 * i, dirs + 3 * i);
+    }
+}
+
+int esr_view_render(const struct esr_model *m, const struct esr_camera *cam, int lights_on, int batch,
+                    struct esr_view_images *out)
+{
+    memset(out, 0, sizeof *out);
+    if (batch < 1)
+        return ESR_FAIL("ray batch must be >= 1, got %d", batch);
+    if (cam->width < 1 || cam->height < 1)
+        return ESR_FAIL("camera has an empty image (%dx%d)", cam->width, cam->height);
+    ESR_TRY(alloc_images(out, cam->width, cam->height));
+    size_t n = (size_t)cam->width * (size_t)cam->height;
+    float *origins = malloc(n * 3 * sizeof *origins), *dirs = malloc(n * 3 * sizeof *dirs);
+    int status = origins && dirs ? ESR_OK : ESR_FAIL("out of memory for %zu camera rays", n);
+    if (status == ESR_OK)
+        camera_rays(cam, origins, dirs);
+    for (size_t start = 0; start < n && status == ESR_OK; start += (size_t)batch) {
+        size_t count = n - start < (size_t)batch ? n - start : (size_t)batch;
+        struct esr_render_out o;
+        o.rgb = out->rgb.data + 3 * start;
+        o.linear = out->linear.data + 3 * start;
+        o.depth = out->depth.data + start;
+        o.normal = out->normal.data + 3 * start;
+        o.opacity = out->opacity.data + start;
+        status = esr_model_render_rays(m, origins + 3 * start, dirs + 3 * start, count, lights_on, &o);
+    }
+    free(origins);
+    free(dirs);
+    return status;
+}
+
+void esr_view_images_free(struct esr_view_images *v)
+{
+    esr_image_free(&v->rgb);
+    esr_image_free(&v->linear);
+    esr_image_free(&v->depth);
+    esr_image_free(&v->normal);
+    esr_image_free(&v->opacity);
+}

@@ -1,0 +1,41 @@
+/* Whole camera views through the trained model: every pixel's ray (pixel centres) is rendered by
+ * esr_model_render_rays in batches, and the outputs are stored as the image files `esr render`
+ * writes and `esr eval` reads (eval/evaluate.h). */
+#ifndef ESR_RENDER_VIEW_H
+#define ESR_RENDER_VIEW_H
+
+#include "io/camera.h"
+#include "io/image.h"
+#include "train/model.h"
+
+struct esr_view_images {
+    struct esr_image rgb;     /* 3 ch: tone-mapped LDR on white */
+    struct esr_image linear;  /* 3 ch: linear HDR radiance on white */
+    struct esr_image depth;   /* 1 ch: expected ray distance */
+    struct esr_image normal;  /* 3 ch: composited world-space normal (sum of weights * normal) */
+    struct esr_image opacity; /* 1 ch: 1 - final transmittance */
+};
+
+/* Renders every pixel of cam with the lights on (1) or off (0), `batch` rays per model call
+ * (>= 1; the model parallelises inside a call). *out is overwritten; free it with
+ * esr_view_images_free (also after an error). */
+int esr_view_render(const struct esr_model *m, const struct esr_camera *cam, int lights_on, int batch,
+                    struct esr_view_images *out);
+void esr_view_images_free(struct esr_view_images *v);
+
+/* Writes the view's files into dir (which must exist), N = name:
+ *   N.png          tone-mapped RGB, 8-bit
+ *   N_linear.png   sRGB OETF of the linear RGB clipped to [0,1], 8-bit
+ *   N.exr          linear RGB (float)
+ *   N_normal.png   normal mapped to [0,1] as (n + 1) / 2, composited on white by opacity
+ *   N_depth.png    depth normalised to [0,1] between the nearest and farthest pixel of opacity
+ *                  > 0.5 (0 = nearest); pixels of lower opacity are white
+ *   N_depth.exr    raw depth (float, one channel)
+ * Fails naming the file on a write error. */
+int esr_view_write(const char *dir, const char *name, const struct esr_view_images *v);
+
+/* Path of one of those files: "<dir>/<name><suffix>" (suffix e.g. "_linear.png"). Fails when it
+ * does not fit in n bytes. */
+int esr_view_path(char *out, size_t n, const char *dir, const char *name, const char *suffix);
+
+#endif

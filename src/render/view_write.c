@@ -1,0 +1,100 @@
+/* The image files of a rendered view (render/view.h lists them). */
+#include <float.h>
+#include <math.h>
+#include <stdio.h>
+
+#include "core/colour.h"
+#include "core/error.h"
+#include "render/view.h"
+
+static float clamp01(float v)
+{
+    return v < 0.0f ? 0.0f : (v > 1.0f ? 1.0f : v);
+}
+
+/* Display images derived from the raw outputs, filled into pre-allocated same-size images. */
+static void gamma_image(const struct esr_image *linear, struct esr_image *out)
+{
+    long long n = (long long)esr_image_count(linear);
+#pragma omp parallel for schedule(static)
+    for (long long i = 0; i < n; i++)
+        out->data[i] = esr_srgb_from_linear(clamp01(linear->data[i]));
+}
+
+/* c = 0.5 (n_w + 1) on the surface, white where empty: with n_c = sum w n (the composited
+ * normal) and opacity a this is 0.5 (n_c + a) + (1 - a), no division by a needed. */
+static void normal_image(const struct esr_view_images *v, struct esr_image *out)
+{
+    long long n = (long long)v->opacity.width * v->opacity.height;
+#pragma omp parallel for schedule(static)
+    for (long long i = 0; i < n; i++) {
+        float a = clamp01(v->opacity.data[i]);
+        for (int c = 0; c < 3; c++)
+            out->data[3 * i + c] = clamp01(0.5f * (v->normal.data[3 * i + c] + a) + (1.0f - a));
+    }
+}
+
+static void depth_image(const struct esr_view_images *v, struct esr_image *out)
+{
+    long long n = (long long)v->depth.width * v->depth.height;
+    float lo = FLT_MAX, hi = -FLT_MAX;
+    for (long long i = 0; i < n; i++) {
+        if (v->opacity.data[i] > 0.5f && isfinite(v->depth.data[i])) {
+            lo = fminf(lo, v->depth.data[i]);
+            hi = fmaxf(hi, v->depth.data[i]);
+        }
+    }
+    float scale = hi > lo ? 1.0f / (hi - lo) : 0.0f;
+    for (long long i = 0; i < n; i++)
+        out->data[i] = v->opacity.data[i] > 0.5f ? clamp01((v->depth.data[i] - lo) * scale) : 1.0f;
+}
+
+int esr_view_path(char *out, size_t n, const char *dir, const char *name, const char *suffix)
+{
+    int len = snprintf(out, n, "%s/%s%s", dir, name, suffix);
+    return len < 0 || (size_t)len >= n ? ESR_FAIL("path '%s/%s%s' is too long", dir, name, suffix) : ESR_OK;
+}
+
+static int write_png(const char *dir, const char *name, const char *suffix, const struct esr_image *img)
+{
+    char path[4096];
+    ESR_TRY(esr_view_path(path, sizeof path, dir, name, suffix));
+    return esr_png_write(path, img, 8);
+}
+
+static int write_exr(const char *dir, const char *name, const char *suffix, const struct esr_image *img)
+{
+    char path[4096];
+    ESR_TRY(esr_view_path(path, sizeof path, dir, name, suffix));
+    return esr_exr_write(path, img, 0);
+}
+
+int esr_view_write(const char *dir, const char *name, const struct esr_view_images *v)
+{
+    struct esr_image rgb3 = {0}, grey = {0};
+    int w = v->rgb.width, h = v->rgb.height;
+    int status = esr_image_alloc(&rgb3, w, h, 3);
+    if (status == ESR_OK)
+        status = esr_image_alloc(&grey, w, h, 1);
+    if (status == ESR_OK)
+        status = write_png(dir, name, ".png", &v->rgb);
+    if (status == ESR_OK) {
+        gamma_image(&v->linear, &rgb3);
+        status = write_png(dir, name, "_linear.png", &rgb3);
+    }
+    if (status == ESR_OK)
+        status = write_exr(dir, name, ".exr", &v->linear);
+    if (status == ESR_OK) {
+        normal_image(v, &rgb3);
+        status = write_png(dir, name, "_normal.png", &rgb3);
+    }
+    if (status == ESR_OK) {
+        depth_image(v, &grey);
+        status = write_png(dir, name, "_depth.png", &grey);
+    }
+    if (status == ESR_OK)
+        status = write_exr(dir, name, "_depth.exr", &v->depth);
+    esr_image_free(&rgb3);
+    esr_image_free(&grey);
+    return status;
+}
