@@ -1,5 +1,6 @@
-/* Dense-kernel benchmark: own tiled MLP layer (bias and activation included) against plain
- * GEMM calls of oneDNN and OpenBLAS (which do less work: no bias, no activation). */
+/* Dense-kernel benchmark; see nn/bench.h. The library baselines run the network the way a
+ * framework would: one full-batch GEMM per layer and product, plus separate element-wise passes
+ * for bias, activation and their gradients. */
 #include "nn/bench.h"
 
 #include <cblas.h>
@@ -16,148 +17,218 @@
 /* OpenBLAS's pthread build exports this; its header does not always declare it. */
 void openblas_set_num_threads(int n);
 
-struct bench_shape {
-    int n, k, m;
+struct bench_case {
+    int n;
+    struct esr_mlp_desc d;
 };
 
-static const struct bench_shape bench_shapes[] = {
-    {16384, 64, 64}, {65536, 64, 64}, {65536, 39, 64}, {65536, 64, 3}, {65536, 192, 192},
+#define RELU ESR_NN_ACT_RELU
+#define LINEAR ESR_NN_ACT_NONE
+static const struct bench_case bench_cases[] = {
+    {16384, {64, 64, 0, 64, RELU, LINEAR}},  {65536, {64, 64, 0, 64, RELU, LINEAR}},
+    {65536, {39, 64, 0, 64, RELU, LINEAR}},  {65536, {64, 64, 0, 3, RELU, LINEAR}},
+    {65536, {192, 192, 0, 192, RELU, LINEAR}}, /* fine-stage hidden layer */
+    {65536, {39, 64, 2, 3, RELU, LINEAR}},   /* coarse-stage colour MLP */
+    {16384, {90, 192, 3, 3, RELU, LINEAR}},  /* fine-stage radiance MLP */
 };
 
-struct bench_bufs {
-    float *x, *y, *dy, *dx, *w, *dw;
-};
+enum bench_kernel { KERNEL_ESR, KERNEL_ONEDNN, KERNEL_OPENBLAS, KERNEL_COUNT };
+static const char *const kernel_names[KERNEL_COUNT] = {"esr", "onednn", "openblas"};
 
-static void fill(float *p, size_t n, uint64_t stream)
+/* Row-major C = A op B (+ beta C) through one library; ta/tb 'N' or 'T'. */
+static void lib_gemm(enum bench_kernel k, char ta, char tb, int m, int n, int kk, const float *a,
+                     int lda, const float *b, int ldb, float beta, float *c, int ldc)
 {
-    struct esr_rng rng = esr_rng_init(7, stream);
-    for (size_t i = 0; i < n; i++)
-        p[i] = esr_rng_float(&rng) - 0.5f;
+    if (k == KERNEL_ONEDNN) {
+        dnnl_sgemm(ta, tb, m, n, kk, 1.0f, a, lda, b, ldb, beta, c, ldc);
+        return;
+    }
+    cblas_sgemm(CblasRowMajor, ta == 'T' ? CblasTrans : CblasNoTrans,
+                tb == 'T' ? CblasTrans : CblasNoTrans, m, n, kk, 1.0f, a, lda, b, ldb, beta, c,
+                ldc);
 }
-
-static int bufs_alloc(struct bench_bufs *b, const struct bench_shape *s)
-{
-    size_t nk = (size_t)s->n * s->k, nm = (size_t)s->n * s->m, km = (size_t)s->k * s->m;
-    b->x = malloc(nk * sizeof(float));
-    b->dx = malloc(nk * sizeof(float));
-    b->y = malloc(nm * sizeof(float));
-    b->dy = malloc(nm * sizeof(float));
-    b->w = malloc(km * sizeof(float));
-    b->dw = malloc(km * sizeof(float));
-    if (!b->x || !b->dx || !b->y || !b->dy || !b->w || !b->dw)
-        return ESR_FAIL("out of memory for the nn benchmark (%d x %d x %d)", s->n, s->k, s->m);
-    fill(b->x, nk, 1);
-    fill(b->dy, nm, 2);
-    fill(b->w, km, 3);
-    return ESR_OK;
-}
-
-static void bufs_free(struct bench_bufs *b)
-{
-    free(b->x);
-    free(b->dx);
-    free(b->y);
-    free(b->dy);
-    free(b->w);
-    free(b->dw);
-}
-
-enum bench_op { OP_ESR_FWD, OP_ESR_BWD, OP_DNNL_FWD, OP_DNNL_BWD, OP_BLAS_FWD, OP_BLAS_BWD };
 
 struct bench_env {
-    const struct bench_shape *s;
-    struct bench_bufs *b;
-    struct esr_mlp *mlp;
-    struct esr_nn_params *p;
-    struct esr_mlp_ctx *ctx;
+    enum bench_kernel kernel;
+    const struct bench_case *bc;
+    struct esr_mlp mlp;
+    struct esr_nn_params p;
+    struct esr_mlp_ctx ctx;
+    float *x, *y, *dy, *dx;
+    float *h[ESR_MLP_MAX_LAYERS]; /* library path: outputs of every layer, full batch */
+    float *dh[2];                 /* library path: ping-pong gradient buffers */
 };
 
-static void run_op(enum bench_op op, const struct bench_env *e)
+/* y = act(y + b) over n rows of width w (the library path's separate epilogue pass). */
+static void bias_act_pass(float *y, const float *b, size_t n, int w, enum esr_nn_act act)
 {
-    const struct bench_shape *s = e->s;
-    struct bench_bufs *b = e->b;
-    switch (op) {
-    case OP_ESR_FWD:
-        esr_mlp_fwd(e->mlp, e->p->w, e->ctx, b->x, b->y, (size_t)s->n);
-        break;
-    case OP_ESR_BWD:
-        esr_mlp_bwd(e->mlp, e->p->w, e->p->g, e->ctx, b->dy, b->dx, ESR_NN_GRAD_OVERWRITE);
-        break;
-    case OP_DNNL_FWD:
-        dnnl_sgemm('N', 'N', s->n, s->m, s->k, 1.0f, b->x, s->k, b->w, s->m, 0.0f, b->y, s->m);
-        break;
-    case OP_DNNL_BWD:
-        dnnl_sgemm('T', 'N', s->k, s->m, s->n, 1.0f, b->x, s->k, b->dy, s->m, 1.0f, b->dw, s->m);
-        dnnl_sgemm('N', 'T', s->n, s->k, s->m, 1.0f, b->dy, s->m, b->w, s->m, 0.0f, b->dx, s->k);
-        break;
-    case OP_BLAS_FWD:
-        cblas_sgemm(CblasRowMajor, CblasNoTrans, CblasNoTrans, s->n, s->m, s->k, 1.0f, b->x, s->k,
-                    b->w, s->m, 0.0f, b->y, s->m);
-        break;
-    case OP_BLAS_BWD:
-        cblas_sgemm(CblasRowMajor, CblasTrans, CblasNoTrans, s->k, s->m, s->n, 1.0f, b->x, s->k,
-                    b->dy, s->m, 1.0f, b->dw, s->m);
-        cblas_sgemm(CblasRowMajor, CblasNoTrans, CblasTrans, s->n, s->k, s->m, 1.0f, b->dy, s->m,
-                    b->w, s->m, 0.0f, b->dx, s->k);
-        break;
+#pragma omp parallel for schedule(static)
+    for (size_t r = 0; r < n; r++)
+        for (int j = 0; j < w; j++)
+            y[r * w + j] = esr_nn_act_fwd(act, y[r * w + j] + b[j]);
+}
+
+/* db += column sums of g (n x w). */
+static void colsum_pass(const float *g, float *db, size_t n, int w)
+{
+#pragma omp parallel for schedule(static)
+    for (int j = 0; j < w; j++) {
+        float s = 0.0f;
+        for (size_t r = 0; r < n; r++)
+            s += g[r * w + j];
+        db[j] += s;
     }
 }
 
-static void time_op(enum bench_op op, const struct bench_env *e, int reps,
-                    struct esr_nn_bench_row *row)
+/* g = relu'(h) * g over count values. */
+static void relu_mask_pass(float *g, const float *h, size_t count)
 {
-    static const char *const kernels[] = {"esr", "esr", "onednn", "onednn", "openblas", "openblas"};
-    /* Warm-up for at least 50 ms: page faults, library dispatch, thread start-up and clock
-     * ramp-up otherwise land in the first kernel's figures. */
+#pragma omp parallel for schedule(static)
+    for (size_t i = 0; i < count; i++)
+        g[i] = esr_nn_relu_bwd(h[i], g[i]);
+}
+
+static void lib_fwd(const struct bench_env *e)
+{
+    const struct esr_mlp *m = &e->mlp;
+    const float *x = e->x;
+    for (int l = 0; l < m->n_layers; l++) {
+        int fi = m->fan_in[l], fo = m->fan_out[l];
+        lib_gemm(e->kernel, 'N', 'N', e->bc->n, fo, fi, x, fi, e->p.w + m->w_off[l], fo, 0.0f,
+                 e->h[l], fo);
+        bias_act_pass(e->h[l], e->p.w + m->b_off[l], (size_t)e->bc->n, fo,
+                      l == m->n_layers - 1 ? m->desc.out_act : m->desc.hidden_act);
+        x = e->h[l];
+    }
+}
+
+/* Backward of lib_fwd for a linear output: per layer db, dW = X^T G, G' = relu'(H) (G W^T). */
+static void lib_bwd(const struct bench_env *e)
+{
+    const struct esr_mlp *m = &e->mlp;
+    const int n = e->bc->n;
+    const float *g = e->dy;
+    for (int l = m->n_layers - 1; l >= 0; l--) {
+        int fi = m->fan_in[l], fo = m->fan_out[l];
+        const float *x = l == 0 ? e->x : e->h[l - 1];
+        colsum_pass(g, e->p.g + m->b_off[l], (size_t)n, fo);
+        lib_gemm(e->kernel, 'T', 'N', fi, fo, n, x, fi, g, fo, 1.0f, e->p.g + m->w_off[l], fo);
+        float *dst = l == 0 ? e->dx : e->dh[l & 1];
+        lib_gemm(e->kernel, 'N', 'T', n, fi, fo, g, fo, e->p.w + m->w_off[l], fo, 0.0f, dst, fi);
+        if (l > 0)
+            relu_mask_pass(dst, x, (size_t)n * fi);
+        g = dst;
+    }
+}
+
+static void run_pass(const struct bench_env *e, int bwd)
+{
+    if (e->kernel == KERNEL_ESR && !bwd)
+        esr_mlp_fwd(&e->mlp, e->p.w, (struct esr_mlp_ctx *)&e->ctx, e->x, e->y, (size_t)e->bc->n);
+    else if (e->kernel == KERNEL_ESR)
+        esr_mlp_bwd(&e->mlp, e->p.w, e->p.g, (struct esr_mlp_ctx *)&e->ctx, e->dy, e->dx,
+                    ESR_NN_GRAD_OVERWRITE);
+    else if (!bwd)
+        lib_fwd(e);
+    else
+        lib_bwd(e);
+}
+
+static float *alloc_filled(size_t count, uint64_t stream)
+{
+    float *p = malloc((count ? count : 1) * sizeof(float));
+    struct esr_rng rng = esr_rng_init(7, stream);
+    for (size_t i = 0; p && i < count; i++)
+        p[i] = esr_rng_float(&rng) - 0.5f;
+    return p;
+}
+
+static void env_free(struct bench_env *e)
+{
+    esr_mlp_ctx_free(&e->ctx);
+    esr_nn_params_free(&e->p);
+    free(e->x);
+    free(e->y);
+    free(e->dy);
+    free(e->dx);
+    for (int l = 0; l < ESR_MLP_MAX_LAYERS; l++)
+        free(e->h[l]);
+    free(e->dh[0]);
+    free(e->dh[1]);
+}
+
+/* Weights, inputs, output gradients and the kernel's workspace for one case. */
+static int env_init(struct bench_env *e, enum bench_kernel k, const struct bench_case *bc)
+{
+    memset(e, 0, sizeof(*e));
+    e->kernel = k;
+    e->bc = bc;
+    const size_t n = (size_t)bc->n;
+    ESR_TRY(esr_nn_params_init(&e->p, 0));
+    ESR_TRY(esr_mlp_init(&e->mlp, &bc->d, &e->p));
+    esr_mlp_init_weights(&e->mlp, e->p.w, 1, 0.0f);
+    e->x = alloc_filled(n * bc->d.n_in, 1);
+    e->dx = alloc_filled(n * bc->d.n_in, 2);
+    e->y = alloc_filled(n * bc->d.n_out, 3);
+    e->dy = alloc_filled(n * bc->d.n_out, 4);
+    int ok = e->x && e->dx && e->y && e->dy;
+    if (k == KERNEL_ESR) {
+        ESR_TRY(esr_mlp_ctx_init(&e->ctx, &e->mlp, n));
+    } else {
+        for (int l = 0; l < e->mlp.n_layers; l++)
+            ok = ok && (e->h[l] = alloc_filled(n * e->mlp.fan_out[l], 5)) != NULL;
+        for (int i = 0; i < 2; i++)
+            ok = ok && (e->dh[i] = alloc_filled(n * ESR_MLP_MAX_WIDTH, 6)) != NULL;
+    }
+    if (!ok)
+        return ESR_FAIL("out of memory for the nn benchmark (%d rows)", bc->n);
+    return ESR_OK;
+}
+
+static double pass_flops(const struct bench_env *e, int bwd)
+{
+    double f = 0.0;
+    for (int l = 0; l < e->mlp.n_layers; l++)
+        f += 2.0 * e->bc->n * e->mlp.fan_in[l] * e->mlp.fan_out[l];
+    return bwd ? 2.0 * f : f;
+}
+
+/* Best of reps after a warm-up of at least 50 ms (page faults, library dispatch, thread start-up
+ * and clock ramp-up otherwise land in the first kernel's figures). */
+static void time_pass(const struct bench_env *e, int bwd, int reps, struct esr_nn_bench_row *row)
+{
     double w0 = omp_get_wtime();
     do
-        run_op(op, e);
+        run_pass(e, bwd);
     while (omp_get_wtime() - w0 < 0.05);
     double best = 1e30;
     for (int r = 0; r < reps; r++) {
         double t0 = omp_get_wtime();
-        run_op(op, e);
+        run_pass(e, bwd);
         double t = omp_get_wtime() - t0;
         best = t < best ? t : best;
     }
-    int bwd = op == OP_ESR_BWD || op == OP_DNNL_BWD || op == OP_BLAS_BWD;
-    snprintf(row->kernel, sizeof(row->kernel), "%s", kernels[op]);
+    snprintf(row->kernel, sizeof(row->kernel), "%s", kernel_names[e->kernel]);
     snprintf(row->pass, sizeof(row->pass), "%s", bwd ? "bwd" : "fwd");
-    row->n = e->s->n;
-    row->k = e->s->k;
-    row->m = e->s->m;
+    row->n = e->bc->n;
+    row->n_in = e->bc->d.n_in;
+    row->width = e->bc->d.width;
+    row->n_hidden = e->bc->d.n_hidden;
+    row->n_out = e->bc->d.n_out;
     row->ms = best * 1e3;
-    row->gflops = (bwd ? 4.0 : 2.0) * e->s->n * e->s->k * e->s->m / best * 1e-9;
+    row->gflops = pass_flops(e, bwd) / best * 1e-9;
 }
 
-/* One kernel's fwd and bwd (ops fwd_op, fwd_op + 1) on one shape; a single-layer MLP (no
- * activation) holds the weights for the own kernel. */
-static int bench_shape_run(const struct bench_shape *s, enum bench_op fwd_op, int reps,
-                           struct esr_nn_bench_result *res)
+/* Forward then backward (which needs the forward's state) of one kernel on one case. */
+static int bench_case_run(enum bench_kernel k, const struct bench_case *bc, int reps,
+                          struct esr_nn_bench_result *res)
 {
-    struct bench_bufs b = {0};
-    struct esr_nn_params p = {0};
-    struct esr_mlp mlp;
-    struct esr_mlp_ctx ctx = {0};
-    struct esr_mlp_desc d = {s->k, s->m, 0, s->m, ESR_NN_ACT_RELU, ESR_NN_ACT_NONE};
-    int rc = bufs_alloc(&b, s);
-    if (rc == ESR_OK)
-        rc = esr_nn_params_init(&p, 0);
-    if (rc == ESR_OK)
-        rc = esr_mlp_init(&mlp, &d, &p);
-    if (rc == ESR_OK)
-        rc = esr_mlp_ctx_init(&ctx, &mlp, (size_t)s->n);
-    if (rc == ESR_OK) {
-        esr_mlp_init_weights(&mlp, p.w, 1, 0.0f);
-        memset(b.dw, 0, (size_t)s->k * s->m * sizeof(float));
-        struct bench_env e = {s, &b, &mlp, &p, &ctx};
-        for (int op = fwd_op; op <= (int)fwd_op + 1; op++)
-            if (res->n_rows < ESR_NN_BENCH_MAX_ROWS)
-                time_op((enum bench_op)op, &e, reps, &res->rows[res->n_rows++]);
-    }
-    esr_mlp_ctx_free(&ctx);
-    esr_nn_params_free(&p);
-    bufs_free(&b);
+    struct bench_env e;
+    int rc = env_init(&e, k, bc);
+    for (int bwd = 0; bwd < 2 && rc == ESR_OK; bwd++)
+        if (res->n_rows < ESR_NN_BENCH_MAX_ROWS)
+            time_pass(&e, bwd, reps, &res->rows[res->n_rows++]);
+    env_free(&e);
     return rc;
 }
 
@@ -168,13 +239,12 @@ int esr_nn_bench(int reps, struct esr_nn_bench_result *res)
     /* Kernel by kernel, OpenBLAS last: its pthread workers spin after each call and would steal
      * the cores from whatever ran next. Its thread count goes back to 1 afterwards, the setting
      * for calls made inside OpenMP regions. */
-    static const enum bench_op fwd_ops[] = {OP_ESR_FWD, OP_DNNL_FWD, OP_BLAS_FWD};
     int rc = ESR_OK;
-    for (size_t k = 0; k < 3 && rc == ESR_OK; k++) {
-        if (fwd_ops[k] == OP_BLAS_FWD)
+    for (int k = 0; k < KERNEL_COUNT && rc == ESR_OK; k++) {
+        if (k == KERNEL_OPENBLAS)
             openblas_set_num_threads(res->threads);
-        for (size_t i = 0; i < sizeof(bench_shapes) / sizeof(bench_shapes[0]) && rc == ESR_OK; i++)
-            rc = bench_shape_run(&bench_shapes[i], fwd_ops[k], reps < 1 ? 1 : reps, res);
+        for (size_t i = 0; i < sizeof(bench_cases) / sizeof(bench_cases[0]) && rc == ESR_OK; i++)
+            rc = bench_case_run((enum bench_kernel)k, &bench_cases[i], reps < 1 ? 1 : reps, res);
     }
     openblas_set_num_threads(1);
     return rc;

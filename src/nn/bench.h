@@ -1,5 +1,7 @@
-/* Throughput of the dense kernels behind the MLPs, own fused kernel against the GEMMs of oneDNN
- * and OpenBLAS, on the shapes the training stages use. `esr bench` prints and stores this. */
+/* Throughput of the dense kernels behind the MLPs on the shapes the training stages use: the
+ * own tiled, fused MLP (nn/mlp.h) against the same network run layer by layer on the GEMMs of
+ * oneDNN and OpenBLAS (full-batch GEMM, then a bias + activation pass). A case with n_hidden 0
+ * is a single layer. `esr bench` prints and stores this. */
 #ifndef ESR_NN_BENCH_H
 #define ESR_NN_BENCH_H
 
@@ -11,10 +13,11 @@ extern "C" {
 
 struct esr_nn_bench_row {
     char kernel[16]; /* "esr", "onednn", "openblas" */
-    char pass[8];    /* "fwd" (Y = X W + b, act) or "bwd" (dW = X^T dY and dX = dY W^T) */
-    int n, k, m;     /* rows, fan_in, fan_out */
+    char pass[8];    /* "fwd" (Y = act(X W + b) per layer) or "bwd" (dW, db and dX per layer) */
+    int n;           /* rows */
+    int n_in, width, n_hidden, n_out; /* network shape (ReLU hidden, linear output) */
     double ms;       /* best time of one call */
-    double gflops;   /* 2 n k m (fwd) or 4 n k m (bwd) over ms */
+    double gflops;   /* sum over layers of 2 n fan_in fan_out (fwd), twice that (bwd), over ms */
 };
 
 struct esr_nn_bench_result {
@@ -23,8 +26,8 @@ struct esr_nn_bench_result {
     int threads; /* OpenMP threads used */
 };
 
-/* Runs every kernel on every shape (16384x64x64 and the real layer shapes at n = 65536), best
- * of `reps` (>= 1) timed calls after one warm-up. ESR_ERR on allocation failure. */
+/* Runs every kernel on every case (16384x64x64, the real layer shapes at n = 65536, and two whole
+ * MLPs), best of `reps` (>= 1) timed calls after a 50 ms warm-up. ESR_ERR on allocation failure. */
 int esr_nn_bench(int reps, struct esr_nn_bench_result *res);
 
 #ifdef __cplusplus
