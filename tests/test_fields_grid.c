@@ -116,6 +116,12 @@ static void test_point_gradient_fd(void **state)
                 continue;
             assert_true(test_close(dp[a], ((double)vp - vm) / (2.0 * h), 2e-2, 1e-2));
         }
+        float v1, v2, dp2[3];
+        esr_grid_sample_fwd(&g, data, p, 1, &v1);
+        esr_grid_sample_value_dpoint(&g, data, p, 1, &v2, dp2);
+        assert_true(fabsf(v1 - v2) < 1e-5f);
+        for (int a = 0; a < 3; a++)
+            assert_true(test_close(dp2[a], dp[a], 1e-4, 1e-4));
     }
     free(data);
 }
@@ -174,6 +180,29 @@ static void test_dpoint_bwd_adjoint(void **state)
         assert_true(grad[e] == 0.0f); /* channel 0 untouched */
     assert_true(test_close(test_dot(dp, d_dp, N * 3), test_dot(grad, data, cnt), 1e-3, 1e-4));
     free(data);
+    free(grad);
+}
+
+/* The fused SDF backward equals the value backward plus the point-gradient backward. */
+static void test_value_dpoint_bwd(void **state)
+{
+    (void)state;
+    struct esr_grid g = make_grid(1, 6, 5, 7);
+    size_t cnt = esr_grid_count(&g);
+    enum { N = 300 };
+    float *ref = calloc(cnt, sizeof(float)), *grad = calloc(cnt, sizeof(float));
+    float pts[N * 3], d_v[N], d_dp[N * 3];
+    for (int i = 0; i < N; i++)
+        for (int a = 0; a < 3; a++)
+            test_fill_uniform(&pts[i * 3 + a], 1, BMIN[a] - 0.1f, BMAX[a] + 0.1f, (uint64_t)(7000 + i * 3 + a));
+    test_fill_uniform(d_v, N, -1.0f, 1.0f, 5);
+    test_fill_uniform(d_dp, N * 3, -1.0f, 1.0f, 6);
+    esr_grid_sample_bwd(&g, pts, N, d_v, ref);
+    esr_grid_sample_dpoint_bwd(&g, 0, pts, N, d_dp, ref);
+    esr_grid_sample_value_dpoint_bwd(&g, pts, N, d_v, d_dp, grad);
+    for (size_t e = 0; e < cnt; e++)
+        assert_true(test_close(grad[e], ref[e], 1e-5, 1e-5));
+    free(ref);
     free(grad);
 }
 
@@ -290,6 +319,7 @@ int main(void)
         cmocka_unit_test(test_point_gradient_fd),
         cmocka_unit_test(test_sample_bwd),
         cmocka_unit_test(test_dpoint_bwd_adjoint),
+        cmocka_unit_test(test_value_dpoint_bwd),
         cmocka_unit_test(test_bwd_deterministic_across_threads),
         cmocka_unit_test(test_geo_feature_linear),
         cmocka_unit_test(test_geo_feature_bwd_fd),

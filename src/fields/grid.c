@@ -76,11 +76,28 @@ void esr_grid_own_planes(const struct esr_grid *g, int *lo, int *hi)
     *hi = (int)((long)g->nz * (tid + 1) / nt);
 }
 
-/* Deterministic scatter shared by the two backward passes: every thread scans all points and
- * writes only its own z-planes. `dpoint` selects the adjoint of the point-gradient (3 floats of
- * d per point, channel ch) instead of the value's (C floats of d per point). */
-ESR_HOT static void scatter(const struct esr_grid *g, const float *pts, size_t n, const float *d, int dpoint,
-                    int ch, float *grad)
+ESR_HOT void esr_grid_sample_value_dpoint(const struct esr_grid *g, const float *data,
+                                          const float *pts, size_t n, float *out, float *dpts)
+{
+#pragma omp parallel for schedule(static)
+    for (size_t i = 0; i < n; i++) {
+        struct esr_trilerp t;
+        esr_trilerp_locate(g, pts + i * 3, &t);
+        out[i] = esr_trilerp_value_dpoint(data, &t, dpts + i * 3);
+    }
+}
+
+/* What a scatter pass propagates. */
+enum scatter_kind {
+    SCATTER_VALUE,        /* d: C floats per point */
+    SCATTER_DPOINT,       /* d2: 3 floats per point, channel ch */
+    SCATTER_VALUE_DPOINT, /* d: 1 float and d2: 3 floats per point, 1-channel grid */
+};
+
+/* Deterministic scatter shared by the backward passes: every thread scans all points and writes
+ * only its own z-planes. */
+ESR_HOT static void scatter(const struct esr_grid *g, const float *pts, size_t n, enum scatter_kind kind,
+                            const float *d, const float *d2, int ch, float *grad)
 {
     const int C = g->channels;
 #pragma omp parallel
@@ -93,22 +110,30 @@ ESR_HOT static void scatter(const struct esr_grid *g, const float *pts, size_t n
                 continue;
             struct esr_trilerp t;
             esr_trilerp_locate(g, pts + i * 3, &t);
-            if (dpoint)
-                esr_trilerp_dpoint_bwd(grad, C, ch, &t, d + i * 3, lo, hi);
-            else
+            if (kind == SCATTER_VALUE)
                 esr_trilerp_bwd(grad, C, &t, d + i * (size_t)C, lo, hi);
+            else if (kind == SCATTER_DPOINT)
+                esr_trilerp_dpoint_bwd(grad, C, ch, &t, d2 + i * 3, lo, hi);
+            else
+                esr_trilerp_value_dpoint_bwd(grad, &t, d[i], d2 + i * 3, lo, hi);
         }
     }
 }
 
-void esr_grid_sample_bwd(const struct esr_grid *g, const float *pts, size_t n,
-                                 const float *d_out, float *grad)
+void esr_grid_sample_bwd(const struct esr_grid *g, const float *pts, size_t n, const float *d_out,
+                         float *grad)
 {
-    scatter(g, pts, n, d_out, 0, 0, grad);
+    scatter(g, pts, n, SCATTER_VALUE, d_out, NULL, 0, grad);
 }
 
 void esr_grid_sample_dpoint_bwd(const struct esr_grid *g, int ch, const float *pts, size_t n,
                                 const float *d_dpts, float *grad)
 {
-    scatter(g, pts, n, d_dpts, 1, ch, grad);
+    scatter(g, pts, n, SCATTER_DPOINT, NULL, d_dpts, ch, grad);
+}
+
+void esr_grid_sample_value_dpoint_bwd(const struct esr_grid *g, const float *pts, size_t n,
+                                      const float *d_out, const float *d_dpts, float *grad)
+{
+    scatter(g, pts, n, SCATTER_VALUE_DPOINT, d_out, d_dpts, 0, grad);
 }

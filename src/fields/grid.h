@@ -51,6 +51,14 @@ void esr_grid_sample_bwd(const struct esr_grid *g, const float *pts, size_t n, c
  * dpts[i*3 + a] = d value_ch / d pts_a (0 along clamped axes). Used for analytic SDF normals. */
 void esr_grid_sample_dpoint(const struct esr_grid *g, const float *data, int ch, const float *pts,
                             size_t n, float *dpts);
+/* For a 1-channel grid (the SDF): value and spatial gradient in one pass, out[i] and
+ * dpts[i*3 + a]; same results as esr_grid_sample_fwd + esr_grid_sample_dpoint, cheaper. */
+void esr_grid_sample_value_dpoint(const struct esr_grid *g, const float *data, const float *pts,
+                                  size_t n, float *out, float *dpts);
+/* Adjoint of esr_grid_sample_value_dpoint: grad += (d value/d data)^T d_out
+ * + (d dpts/d data)^T d_dpts in one pass (1-channel grid). Accumulates, deterministic. */
+void esr_grid_sample_value_dpoint_bwd(const struct esr_grid *g, const float *pts, size_t n,
+                                      const float *d_out, const float *d_dpts, float *grad);
 /* Adjoint of esr_grid_sample_dpoint w.r.t. the grid values: for channel ch,
  * grad += sum_i sum_a d_dpts[i*3+a] * d(dvalue/dpts_a)/ddata  (the point-gradient is linear in
  * the grid values). Accumulates, deterministic. Lets a loss on normals train the SDF grid. */

@@ -86,17 +86,20 @@ ESR_INLINE void esr_trilerp_corner_dw(const struct esr_trilerp *t, int k, float 
     dw[2] = w[0] * w[1] * s[2];
 }
 
-/* out[c] = sum_k w_k data[corner_k * C + c] for c < C. */
+/* out[c] = sum_k w_k data[corner_k * C + c] for c < C. The eight corner rows are gathered first
+ * so their loads are issued together (the grid is usually far larger than the caches). */
 ESR_INLINE void esr_trilerp_fwd(const float *ESR_RESTRICT data, int C, const struct esr_trilerp *t,
                                 float *ESR_RESTRICT out)
 {
-    for (int c = 0; c < C; c++)
-        out[c] = 0.0f;
-    for (int k = 0; k < 8; k++) {
-        float w;
-        const float *v = data + esr_trilerp_corner(t, k, &w) * (size_t)C;
-        for (int c = 0; c < C; c++)
-            out[c] += w * v[c];
+    const float *row[8];
+    float w[8];
+    for (int k = 0; k < 8; k++)
+        row[k] = data + esr_trilerp_corner(t, k, &w[k]) * (size_t)C;
+    for (int c = 0; c < C; c++) {
+        float acc = 0.0f;
+        for (int k = 0; k < 8; k++)
+            acc += w[k] * row[k][c];
+        out[c] = acc;
     }
 }
 
@@ -131,6 +134,26 @@ ESR_INLINE void esr_trilerp_dpoint(const float *data, int C, int ch, const struc
     }
 }
 
+/* Value and spatial gradient of a 1-channel grid in one pass over the corners (SDF queries). */
+ESR_INLINE float esr_trilerp_value_dpoint(const float *data, const struct esr_trilerp *t, float dp[3])
+{
+    const float *v0 = data + t->base;
+    const size_t sx = t->stride[0], sy = t->stride[1], sz = t->stride[2];
+    const float c000 = v0[0], c100 = v0[sx], c010 = v0[sy], c110 = v0[sx + sy];
+    const float c001 = v0[sz], c101 = v0[sx + sz], c011 = v0[sy + sz], c111 = v0[sx + sy + sz];
+    const float fx = t->f[0], fy = t->f[1], fz = t->f[2];
+    /* interpolate along x, then y, then z, keeping the x/y/z differences for the gradient */
+    const float c00 = c000 + fx * (c100 - c000), c10 = c010 + fx * (c110 - c010);
+    const float c01 = c001 + fx * (c101 - c001), c11 = c011 + fx * (c111 - c011);
+    const float c0 = c00 + fy * (c10 - c00), c1 = c01 + fy * (c11 - c01);
+    const float dx0 = (c100 - c000) + fy * ((c110 - c010) - (c100 - c000));
+    const float dx1 = (c101 - c001) + fy * ((c111 - c011) - (c101 - c001));
+    dp[0] = (dx0 + fz * (dx1 - dx0)) * t->du[0];
+    dp[1] = ((c10 - c00) + fz * ((c11 - c01) - (c10 - c00))) * t->du[1];
+    dp[2] = (c1 - c0) * t->du[2];
+    return c0 + fz * (c1 - c0);
+}
+
 /* Adjoint of esr_trilerp_dpoint w.r.t. the grid values of channel ch, restricted to z-planes
  * [z_lo, z_hi): grad[corner_k*C + ch] += dw_k . d_dp. */
 ESR_INLINE void esr_trilerp_dpoint_bwd(float *grad, int C, int ch, const struct esr_trilerp *t,
@@ -144,6 +167,22 @@ ESR_INLINE void esr_trilerp_dpoint_bwd(float *grad, int C, int ch, const struct 
         size_t idx = esr_trilerp_corner(t, k, &w);
         esr_trilerp_corner_dw(t, k, dw);
         grad[idx * (size_t)C + (size_t)ch] += dw[0] * d_dp[0] + dw[1] * d_dp[1] + dw[2] * d_dp[2];
+    }
+}
+
+/* Adjoint of esr_trilerp_value_dpoint (1 channel) restricted to z-planes [z_lo, z_hi):
+ * grad[corner_k] += w_k d_value + dw_k . d_dp. */
+ESR_INLINE void esr_trilerp_value_dpoint_bwd(float *grad, const struct esr_trilerp *t, float d_value,
+                                             const float d_dp[3], int z_lo, int z_hi)
+{
+    for (int k = 0; k < 8; k++) {
+        int z = t->iz0 + ((k >> 2) & 1);
+        if (z < z_lo || z >= z_hi)
+            continue;
+        float w, dw[3];
+        size_t idx = esr_trilerp_corner(t, k, &w);
+        esr_trilerp_corner_dw(t, k, dw);
+        grad[idx] += w * d_value + dw[0] * d_dp[0] + dw[1] * d_dp[1] + dw[2] * d_dp[2];
     }
 }
 

@@ -159,8 +159,7 @@ static void stage_backward(struct bench *b, const struct esr_composite_args *a)
         for (int k = 0; k < 3; k++)
             b->d_grad[i * 3 + k] = dc * d[k];
     }
-    esr_grid_sample_bwd(&b->gs, b->smp.pos, n, b->d_f, b->g_sdf);
-    esr_grid_sample_dpoint_bwd(&b->gs, 0, b->smp.pos, n, b->d_grad, b->g_sdf);
+    esr_grid_sample_value_dpoint_bwd(&b->gs, b->smp.pos, n, b->d_f, b->d_grad, b->g_sdf);
     /* "colour" is the first 3 feature channels (a stand-in for the colour MLP) */
 #pragma omp parallel for schedule(static)
     for (size_t i = 0; i < n; i++)
@@ -176,8 +175,7 @@ static int run_once(struct bench *b, int n_rays, double *t)
     ESR_TRY(esr_sample_rays(&b->sp, b->orig, b->dir, n_rays, &b->smp));
     double t1 = omp_get_wtime();
     size_t n = b->smp.count;
-    esr_grid_sample_fwd(&b->gs, b->sdf, b->smp.pos, n, b->f);
-    esr_grid_sample_dpoint(&b->gs, b->sdf, 0, b->smp.pos, n, b->grad);
+    esr_grid_sample_value_dpoint(&b->gs, b->sdf, b->smp.pos, n, b->f, b->grad);
     double t2 = omp_get_wtime();
     esr_grid_sample_fwd(&b->gf, b->feat, b->smp.pos, n, b->fv);
     double t3 = omp_get_wtime();
