@@ -148,6 +148,20 @@ static float *act_row(const struct esr_mlp *m, struct esr_mlp_ctx *c, int l, siz
     return c->act + ((size_t)l * c->max_rows + r) * m->desc.width;
 }
 
+/* All layers on one tile of `rows` rows starting at input row x; layer l < L-1 writes its
+ * activations to hid[l] (rows `width` apart), the last layer writes out. */
+static void tile_fwd(const struct esr_mlp *m, const float *params, const float *x, int rows,
+                     float *const *hid, float *out)
+{
+    int ldx = m->desc.n_in;
+    for (int l = 0; l < m->n_layers - 1; l++) {
+        layer_fwd(m, params, l, x, ldx, hid[l], m->desc.width, rows);
+        x = hid[l];
+        ldx = m->desc.width;
+    }
+    layer_fwd(m, params, m->n_layers - 1, x, ldx, out, m->desc.n_out, rows);
+}
+
 int esr_mlp_fwd(const struct esr_mlp *m, const float *params, struct esr_mlp_ctx *c,
                 const float *in, float *out, size_t n)
 {
@@ -156,23 +170,18 @@ int esr_mlp_fwd(const struct esr_mlp *m, const float *params, struct esr_mlp_ctx
     c->in = in;
     c->out = out;
     c->rows = n;
-    const int w = m->desc.width, L = m->n_layers;
     size_t n_tiles = (n + ESR_MLP_TILE - 1) / ESR_MLP_TILE;
     /* Rows are independent, so dynamic scheduling (robust when a core is shared) cannot change
      * any result. */
 #pragma omp parallel for schedule(dynamic, 2) num_threads(c->n_threads) if (n_tiles > 1)
     for (size_t t = 0; t < n_tiles; t++) {
         size_t r0 = t * ESR_MLP_TILE;
-        int rows = (int)(n - r0 < ESR_MLP_TILE ? n - r0 : ESR_MLP_TILE);
-        const float *x = in + r0 * m->desc.n_in;
-        int ldx = m->desc.n_in;
-        for (int l = 0; l < L - 1; l++) {
-            float *y = act_row(m, c, l, r0);
-            layer_fwd(m, params, l, x, ldx, y, w, rows);
-            x = y;
-            ldx = w;
-        }
-        layer_fwd(m, params, L - 1, x, ldx, out + r0 * m->desc.n_out, m->desc.n_out, rows);
+        float *hid[ESR_MLP_MAX_LAYERS];
+        for (int l = 0; l < m->n_layers - 1; l++)
+            hid[l] = act_row(m, c, l, r0);
+        tile_fwd(m, params, in + r0 * m->desc.n_in,
+                 (int)(n - r0 < ESR_MLP_TILE ? n - r0 : ESR_MLP_TILE), hid,
+                 out + r0 * m->desc.n_out);
     }
     return ESR_OK;
 }
@@ -180,21 +189,16 @@ int esr_mlp_fwd(const struct esr_mlp *m, const float *params, struct esr_mlp_ctx
 void esr_mlp_infer(const struct esr_mlp *m, const float *params, const float *in, float *out,
                    size_t n)
 {
-    const int w = m->desc.width, L = m->n_layers;
     size_t n_tiles = (n + INFER_TILE - 1) / INFER_TILE;
 #pragma omp parallel for schedule(dynamic, 4) if (n_tiles > 1)
     for (size_t t = 0; t < n_tiles; t++) {
         float buf[2][INFER_TILE * ESR_MLP_MAX_WIDTH];
+        float *hid[ESR_MLP_MAX_LAYERS];
+        for (int l = 0; l < m->n_layers - 1; l++)
+            hid[l] = buf[l & 1]; /* ping-pong: layer l only reads layer l-1 */
         size_t r0 = t * INFER_TILE;
-        int rows = (int)(n - r0 < INFER_TILE ? n - r0 : INFER_TILE);
-        const float *x = in + r0 * m->desc.n_in;
-        int ldx = m->desc.n_in;
-        for (int l = 0; l < L - 1; l++) {
-            layer_fwd(m, params, l, x, ldx, buf[l & 1], w, rows);
-            x = buf[l & 1];
-            ldx = w;
-        }
-        layer_fwd(m, params, L - 1, x, ldx, out + r0 * m->desc.n_out, m->desc.n_out, rows);
+        tile_fwd(m, params, in + r0 * m->desc.n_in,
+                 (int)(n - r0 < INFER_TILE ? n - r0 : INFER_TILE), hid, out + r0 * m->desc.n_out);
     }
 }
 
