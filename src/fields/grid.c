@@ -112,10 +112,9 @@ ESR_HOT static void scatter(const struct esr_grid *g, const float *pts, size_t n
             esr_trilerp_locate(g, pts + i * 3, &t);
             if (kind == SCATTER_VALUE)
                 esr_trilerp_bwd(grad, C, &t, d + i * (size_t)C, lo, hi);
-            else if (kind == SCATTER_DPOINT)
-                esr_trilerp_dpoint_bwd(grad, C, ch, &t, d2 + i * 3, lo, hi);
             else
-                esr_trilerp_value_dpoint_bwd(grad, &t, d[i], d2 + i * 3, lo, hi);
+                esr_trilerp_value_dpoint_bwd(grad, C, ch, &t, kind == SCATTER_DPOINT ? 0.0f : d[i],
+                                             d2 + i * 3, lo, hi);
         }
     }
 }

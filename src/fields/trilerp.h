@@ -154,10 +154,11 @@ ESR_INLINE float esr_trilerp_value_dpoint(const float *data, const struct esr_tr
     return c0 + fz * (c1 - c0);
 }
 
-/* Adjoint of esr_trilerp_dpoint w.r.t. the grid values of channel ch, restricted to z-planes
- * [z_lo, z_hi): grad[corner_k*C + ch] += dw_k . d_dp. */
-ESR_INLINE void esr_trilerp_dpoint_bwd(float *grad, int C, int ch, const struct esr_trilerp *t,
-                                       const float d_dp[3], int z_lo, int z_hi)
+/* Adjoint of value and spatial gradient of channel ch, restricted to z-planes [z_lo, z_hi):
+ * grad[corner_k*C + ch] += w_k d_value + dw_k . d_dp (the point-gradient is linear in the grid
+ * values). d_value = 0 gives the adjoint of esr_trilerp_dpoint alone. */
+ESR_INLINE void esr_trilerp_value_dpoint_bwd(float *grad, int C, int ch, const struct esr_trilerp *t,
+                                             float d_value, const float d_dp[3], int z_lo, int z_hi)
 {
     for (int k = 0; k < 8; k++) {
         int z = t->iz0 + ((k >> 2) & 1);
@@ -166,23 +167,7 @@ ESR_INLINE void esr_trilerp_dpoint_bwd(float *grad, int C, int ch, const struct 
         float w, dw[3];
         size_t idx = esr_trilerp_corner(t, k, &w);
         esr_trilerp_corner_dw(t, k, dw);
-        grad[idx * (size_t)C + (size_t)ch] += dw[0] * d_dp[0] + dw[1] * d_dp[1] + dw[2] * d_dp[2];
-    }
-}
-
-/* Adjoint of esr_trilerp_value_dpoint (1 channel) restricted to z-planes [z_lo, z_hi):
- * grad[corner_k] += w_k d_value + dw_k . d_dp. */
-ESR_INLINE void esr_trilerp_value_dpoint_bwd(float *grad, const struct esr_trilerp *t, float d_value,
-                                             const float d_dp[3], int z_lo, int z_hi)
-{
-    for (int k = 0; k < 8; k++) {
-        int z = t->iz0 + ((k >> 2) & 1);
-        if (z < z_lo || z >= z_hi)
-            continue;
-        float w, dw[3];
-        size_t idx = esr_trilerp_corner(t, k, &w);
-        esr_trilerp_corner_dw(t, k, dw);
-        grad[idx] += w * d_value + dw[0] * d_dp[0] + dw[1] * d_dp[1] + dw[2] * d_dp[2];
+        grad[idx * (size_t)C + (size_t)ch] += w * d_value + dw[0] * d_dp[0] + dw[1] * d_dp[1] + dw[2] * d_dp[2];
     }
 }
 
