@@ -16,10 +16,15 @@ int cli_fail(const struct esr_command *cmd, const char *fmt, ...) __attribute__(
 int cli_fail_lib(const struct esr_command *cmd);
 /* 1 if argv contains -h or --help (then usage has been printed). */
 int cli_wants_help(const struct esr_command *cmd, int argc, char **argv);
+/* Parses a whole-string decimal integer in [lo, hi] (lo, hi within int); 0 on success, -1 else. */
+int cli_parse_int(const char *text, long lo, long hi, int *out);
 
 /* Add `extern const struct esr_command cmd_<name>;` here and a row in main.c's table. */
 extern const struct esr_command cmd_metrics;
 extern const struct esr_command cmd_info;
 extern const struct esr_command cmd_synth;
+extern const struct esr_command cmd_render;
+extern const struct esr_command cmd_eval;
+extern const struct esr_command cmd_export;
 
 #endif

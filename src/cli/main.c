@@ -12,6 +12,9 @@ static const struct esr_command *const commands[] = {
     &cmd_info,
     &cmd_metrics,
     &cmd_synth,
+    &cmd_render,
+    &cmd_eval,
+    &cmd_export,
 };
 #define N_COMMANDS (int)(sizeof commands / sizeof commands[0])
 

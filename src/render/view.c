@@ -1,4 +1,4 @@
-/* Rendering a camera view in ray batches. */
+/* Rendering a camera view. */
 #include "render/view.h"
 
 #include <stdlib.h>
@@ -26,12 +26,10 @@ static void camera_rays(const struct esr_camera *cam, float *origins, float *dir
     }
 }
 
-int esr_view_render(const struct esr_model *m, const struct esr_camera *cam, int lights_on, int batch,
+int esr_view_render(const struct esr_model *m, const struct esr_camera *cam, int lights_on,
                     struct esr_view_images *out)
 {
     memset(out, 0, sizeof *out);
-    if (batch < 1)
-        return ESR_FAIL("ray batch must be >= 1, got %d", batch);
     if (cam->width < 1 || cam->height < 1)
         return ESR_FAIL("camera has an empty image (%dx%d)", cam->width, cam->height);
     ESR_TRY(alloc_images(out, cam->width, cam->height));
@@ -40,15 +38,10 @@ int esr_view_render(const struct esr_model *m, const struct esr_camera *cam, int
     int status = origins && dirs ? ESR_OK : ESR_FAIL("out of memory for %zu camera rays", n);
     if (status == ESR_OK)
         camera_rays(cam, origins, dirs);
-    for (size_t start = 0; start < n && status == ESR_OK; start += (size_t)batch) {
-        size_t count = n - start < (size_t)batch ? n - start : (size_t)batch;
-        struct esr_render_out o;
-        o.rgb = out->rgb.data + 3 * start;
-        o.linear = out->linear.data + 3 * start;
-        o.depth = out->depth.data + start;
-        o.normal = out->normal.data + 3 * start;
-        o.opacity = out->opacity.data + start;
-        status = esr_model_render_rays(m, origins + 3 * start, dirs + 3 * start, count, lights_on, &o);
+    if (status == ESR_OK) {
+        struct esr_render_out o = {out->rgb.data, out->linear.data, out->depth.data, out->normal.data,
+                                   out->opacity.data};
+        status = esr_model_render_rays(m, origins, dirs, n, lights_on, &o);
     }
     free(origins);
     free(dirs);

@@ -1,10 +1,11 @@
 /* Whole camera views through the trained model: every pixel's ray (pixel centres) is rendered by
- * esr_model_render_rays in batches, and the outputs are stored as the image files `esr render`
+ * esr_model_render_rays, and the outputs are stored as the image files `esr render`
  * writes and `esr eval` reads (eval/evaluate.h). */
 #ifndef ESR_RENDER_VIEW_H
 #define ESR_RENDER_VIEW_H
 
 #include "io/camera.h"
+#include "io/dataset.h"
 #include "io/image.h"
 #include "train/model.h"
 
@@ -16,10 +17,10 @@ struct esr_view_images {
     struct esr_image opacity; /* 1 ch: 1 - final transmittance */
 };
 
-/* Renders every pixel of cam with the lights on (1) or off (0), `batch` rays per model call
- * (>= 1; the model parallelises inside a call). *out is overwritten; free it with
- * esr_view_images_free (also after an error). */
-int esr_view_render(const struct esr_model *m, const struct esr_camera *cam, int lights_on, int batch,
+/* Renders every pixel of cam with the lights on (1) or off (0) in one model call (the model
+ * batches and parallelises inside it, and prepares its SDF view once per call). *out is
+ * overwritten; free it with esr_view_images_free (also after an error). */
+int esr_view_render(const struct esr_model *m, const struct esr_camera *cam, int lights_on,
                     struct esr_view_images *out);
 void esr_view_images_free(struct esr_view_images *v);
 
@@ -37,5 +38,29 @@ int esr_view_write(const char *dir, const char *name, const struct esr_view_imag
 /* Path of one of those files: "<dir>/<name><suffix>" (suffix e.g. "_linear.png"). Fails when it
  * does not fit in n bytes. */
 int esr_view_path(char *out, size_t n, const char *dir, const char *name, const char *suffix);
+
+/* 1 when the three files esr eval reads (N.png, N_linear.png, N.exr) all exist in dir. */
+int esr_view_outputs_exist(const char *dir, const char *name);
+
+/* Progress of esr_view_render_frames, reported after each written frame. */
+struct esr_view_progress {
+    const char *name; /* frame just written */
+    int done, total;
+    double seconds;   /* rendering + writing time of that frame */
+};
+typedef void (*esr_view_progress_fn)(void *user, const struct esr_view_progress *p);
+
+/* Renders frames idx[0..n) of `phase` into dir (created if absent), each with its own camera and
+ * lighting (frame mode "off" or "on"), writing the files of esr_view_write, then records the
+ * model's stage and step and the frames rendered by that model in dir/render.json (frames of an
+ * earlier model are dropped from the record). Edit frames (i_change, c_change, ic_change) are
+ * refused before anything is rendered: relighting edits are not implemented by the model yet.
+ * `progress` may be NULL. */
+int esr_view_render_frames(const struct esr_model *m, const struct esr_dataset *ds, enum esr_phase_id phase,
+                           const int *idx, int n, const char *dir, esr_view_progress_fn progress, void *user);
+
+/* 1 when frame `name`'s outputs exist in dir and dir/render.json says this model (stage and step)
+ * rendered them, else 0 (render again). */
+int esr_view_is_current(const char *dir, const struct esr_model *m, const char *name);
 
 #endif

@@ -1,0 +1,198 @@
+/* esr eval RUN: render (or reuse) a phase's test views and score them against the dataset. */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "cli/commands.h"
+#include "core/error.h"
+#include "eval/evaluate.h"
+#include "eval/report.h"
+#include "eval/run_dir.h"
+#include "io/dir.h"
+#include "render/view.h"
+#include "train/model.h"
+
+static int run_eval(int argc, char **argv);
+
+const struct esr_command cmd_eval = {
+    "eval",
+    "score a run on a test phase (PSNR, SSIM, HDR MSE per view and lighting) + HTML report",
+    "usage: esr eval RUN [options]\n"
+    "\n"
+    "Renders the frames of a phase with the run's model into RUN/render/P (as `esr render`; frames\n"
+    "already rendered there by the same checkpoint are reused; without a loadable model, complete\n"
+    "existing renders are evaluated as they are), then compares them with the dataset:\n"
+    "PSNR and SSIM of the tone-mapped and of the gamma-corrected linear output against the\n"
+    "ground-truth PNG on white, and HDR MSE of the linear EXR against the ground-truth EXR on\n"
+    "white. Writes RUN/eval/P.json (per view, mean, mean per lighting mode), RUN/report.html\n"
+    "(thumbnails, metrics, training curves from RUN/train_log.jsonl) and prints a table.\n"
+    "PSNR of identical images is capped at 100 dB.\n"
+    "\n"
+    "options:\n"
+    "  --phase P        phase to evaluate (default: test_nv)\n"
+    "  --data DIR       dataset directory (default: the one recorded in RUN)\n"
+    "  --frames a,b,..  only these frames, by name\n"
+    "  --limit N        only the first N (selected) frames\n"
+    "  --rerender       render every selected frame again\n"
+    "  -h, --help       this text\n",
+    run_eval,
+};
+
+struct eval_args {
+    const char *run, *phase, *data, *frames;
+    int limit, rerender;
+};
+
+static void show_progress(void *user, const struct esr_view_progress *p)
+{
+    (void)user;
+    fprintf(stderr, "  rendered %-16s %4d / %-4d  %.2f s\n", p->name, p->done, p->total, p->seconds);
+}
+
+/* Renders the selected frames that are missing or stale in render_dir. Without a loadable model
+ * the existing renders are used when complete. */
+static int ensure_renders(const struct eval_args *a, const struct esr_run_selection *sel, const char *render_dir)
+{
+    const struct esr_phase *ph = &sel->ds.phases[sel->phase];
+    struct esr_model model;
+    if (esr_model_load(&model, a->run) != ESR_OK) {
+        for (int i = 0; i < sel->n; i++)
+            if (!esr_view_outputs_exist(render_dir, ph->frames[sel->idx[i]].name))
+                return ESR_ERR; /* the load error explains why they cannot be rendered */
+        fprintf(stderr, "note: no loadable model (%s); evaluating the existing renders in %s\n",
+                esr_error_message(), render_dir);
+        esr_error_clear();
+        return ESR_OK;
+    }
+    int *todo = malloc((size_t)sel->n * sizeof *todo), n_todo = 0;
+    if (!todo) {
+        esr_model_free(&model);
+        return ESR_FAIL("out of memory");
+    }
+    for (int i = 0; i < sel->n; i++)
+        if (a->rerender || !esr_view_is_current(render_dir, &model, ph->frames[sel->idx[i]].name))
+            todo[n_todo++] = sel->idx[i];
+    int status = ESR_OK;
+    if (n_todo > 0) {
+        fprintf(stderr, "rendering %d of %d frame(s) with the %s model (step %ld) into %s\n", n_todo, sel->n,
+                esr_stage_name((enum esr_stage)model.stage), model.step, render_dir);
+        status = esr_view_render_frames(&model, &sel->ds, sel->phase, todo, n_todo, render_dir, show_progress,
+                                        NULL);
+    }
+    free(todo);
+    esr_model_free(&model);
+    return status;
+}
+
+static void print_row(const char *name, const char *mode, int n, double psnr, double ssim, double psnr_lin,
+                      double ssim_lin, double hdr)
+{
+    printf("%-16s %-9s %4d %8.2f %7.4f %8.2f %7.4f ", name, mode, n, psnr, ssim, psnr_lin, ssim_lin);
+    if (isnan(hdr))
+        printf("%10s\n", "-");
+    else
+        printf("%10.4g\n", hdr);
+}
+
+static void print_table(const struct esr_eval_result *res)
+{
+    printf("%-16s %-9s %4s %8s %7s %8s %7s %10s\n", "view", "lighting", "n", "PSNR", "SSIM", "PSNR-lin", "SSIM-lin",
+           "HDR-MSE");
+    for (int i = 0; i < res->n_views; i++) {
+        const struct esr_eval_view *v = &res->views[i];
+        print_row(v->name, esr_light_mode_name(v->mode), 1, v->psnr, v->ssim, v->psnr_linear, v->ssim_linear,
+                  v->hdr_mse);
+    }
+    for (int mode = 0; mode < ESR_LIGHT_MODE_COUNT; mode++) {
+        const struct esr_eval_mean *m = &res->by_mode[mode];
+        if (m->n > 0)
+            print_row("mean", esr_light_mode_name((enum esr_light_mode)mode), m->n, m->psnr, m->ssim,
+                      m->psnr_linear, m->ssim_linear, m->hdr_mse);
+    }
+    const struct esr_eval_mean *m = &res->all;
+    print_row("mean", "all", m->n, m->psnr, m->ssim, m->psnr_linear, m->ssim_linear, m->hdr_mse);
+}
+
+/* Paths under RUN: render/P, eval/, eval/P.json, eval/P_gt, report.html, train_log.jsonl. */
+struct eval_paths {
+    char render[ESR_PATH_MAX], eval[ESR_PATH_MAX], json[ESR_PATH_MAX], gt[ESR_PATH_MAX];
+    char report[ESR_PATH_MAX], log[ESR_PATH_MAX], render_href[ESR_PATH_MAX], gt_href[ESR_PATH_MAX];
+};
+
+static int make_paths(const char *run, const char *phase, struct eval_paths *p)
+{
+    int too_long = 0;
+#define EVAL_PATH(field, ...) too_long |= snprintf(p->field, sizeof p->field, __VA_ARGS__) >= (int)sizeof p->field
+    EVAL_PATH(render, "%s/render/%s", run, phase);
+    EVAL_PATH(eval, "%s/eval", run);
+    EVAL_PATH(json, "%s/eval/%s.json", run, phase);
+    EVAL_PATH(gt, "%s/eval/%s_gt", run, phase);
+    EVAL_PATH(report, "%s/report.html", run);
+    EVAL_PATH(log, "%s/train_log.jsonl", run);
+    EVAL_PATH(render_href, "render/%s", phase);
+    EVAL_PATH(gt_href, "eval/%s_gt", phase);
+#undef EVAL_PATH
+    return too_long ? ESR_FAIL("run path '%s' is too long", run) : ESR_OK;
+}
+
+static int evaluate(const struct eval_args *a, const struct esr_run_selection *sel, const struct eval_paths *p)
+{
+    struct esr_eval_result res;
+    ESR_TRY(ensure_renders(a, sel, p->render));
+    int status = esr_eval_phase(&sel->ds, sel->phase, sel->idx, sel->n, p->render, &res);
+    if (status == ESR_OK)
+        status = esr_dir_create(p->eval);
+    if (status == ESR_OK)
+        status = esr_eval_write_json(p->json, &sel->ds, &res);
+    if (status == ESR_OK) {
+        struct esr_report_spec spec = {p->report, a->run, &sel->ds, &res, p->render_href, p->gt, p->gt_href, p->log};
+        status = esr_report_write(&spec);
+    }
+    if (status == ESR_OK) {
+        print_table(&res);
+        fprintf(stderr, "wrote %s and %s\n", p->json, p->report);
+    }
+    esr_eval_result_free(&res);
+    return status;
+}
+
+static int run_eval(int argc, char **argv)
+{
+    if (cli_wants_help(&cmd_eval, argc, argv))
+        return 0;
+    struct eval_args a = {NULL, "test_nv", NULL, NULL, 0, 0};
+    for (int i = 1; i < argc; i++) {
+        const char *s = argv[i];
+        int has_value = i + 1 < argc;
+        if (!strcmp(s, "--phase") && has_value)
+            a.phase = argv[++i];
+        else if (!strcmp(s, "--data") && has_value)
+            a.data = argv[++i];
+        else if (!strcmp(s, "--frames") && has_value)
+            a.frames = argv[++i];
+        else if (!strcmp(s, "--rerender"))
+            a.rerender = 1;
+        else if (!strcmp(s, "--limit") && has_value) {
+            if (cli_parse_int(argv[++i], 0, 1000000, &a.limit))
+                return cli_fail(&cmd_eval, "--limit must be a non-negative integer, got '%s'", argv[i]);
+        } else if (s[0] == '-' && s[1])
+            return cli_fail(&cmd_eval, "unknown option or missing value: '%s'", s);
+        else if (a.run)
+            return cli_fail(&cmd_eval, "more than one RUN given ('%s', '%s')", a.run, s);
+        else
+            a.run = s;
+    }
+    if (!a.run)
+        return cli_fail(&cmd_eval, "missing RUN directory");
+    struct eval_paths paths;
+    struct esr_run_selection sel;
+    memset(&sel, 0, sizeof sel);
+    int status = make_paths(a.run, a.phase, &paths);
+    if (status == ESR_OK)
+        status = esr_run_select(a.run, a.data, a.phase, a.frames, a.limit, &sel);
+    if (status == ESR_OK)
+        status = evaluate(&a, &sel, &paths);
+    esr_run_selection_free(&sel);
+    return status == ESR_OK ? 0 : cli_fail_lib(&cmd_eval);
+}

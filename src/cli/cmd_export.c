@@ -1,0 +1,76 @@
+/* esr export RUN --mesh out.ply: the model's surface as a coloured PLY mesh. */
+#include <stdio.h>
+#include <string.h>
+
+#include "cli/commands.h"
+#include "core/error.h"
+#include "io/ply.h"
+#include "render/model_mesh.h"
+#include "train/model.h"
+
+static int run_export(int argc, char **argv);
+
+const struct esr_command cmd_export = {
+    "export",
+    "extract the model's surface (marching cubes on the SDF) as a PLY mesh",
+    "usage: esr export RUN --mesh OUT.ply [options]\n"
+    "\n"
+    "Loads the most advanced checkpoint in run directory RUN (or RUN may be a checkpoint file),\n"
+    "extracts the zero level set of its SDF grid by marching cubes and writes a binary PLY with\n"
+    "vertex normals (pointing out of the surface) and vertex colours: the model's linear radiance\n"
+    "with the lights off, seen along the normal, clipped to [0,1].\n"
+    "\n"
+    "options:\n"
+    "  --mesh FILE   output PLY (required)\n"
+    "  --res N       resample the SDF to N^3 lattice points first (8..1024; default: the model's grid)\n"
+    "  --no-colour   leave out vertex colours (faster)\n"
+    "  -h, --help    this text\n",
+    run_export,
+};
+
+static int export_mesh(const char *run, const char *mesh_path, int res, int colours)
+{
+    struct esr_model model;
+    struct esr_mesh mesh;
+    ESR_TRY(esr_model_load(&model, run));
+    int status = esr_model_mesh(&model, res, colours, &mesh);
+    if (status == ESR_OK)
+        status = esr_ply_write(mesh_path, &mesh);
+    if (status == ESR_OK)
+        fprintf(stderr, "wrote %s: %zu vertices, %zu triangles (%s model, step %ld)\n", mesh_path, mesh.n_vertices,
+                mesh.n_triangles, esr_stage_name((enum esr_stage)model.stage), model.step);
+    esr_mesh_free(&mesh);
+    esr_model_free(&model);
+    return status;
+}
+
+static int run_export(int argc, char **argv)
+{
+    if (cli_wants_help(&cmd_export, argc, argv))
+        return 0;
+    const char *run = NULL, *mesh = NULL;
+    int res = 0, colours = 1;
+    for (int i = 1; i < argc; i++) {
+        const char *a = argv[i];
+        int has_value = i + 1 < argc;
+        if (!strcmp(a, "--mesh") && has_value)
+            mesh = argv[++i];
+        else if (!strcmp(a, "--no-colour"))
+            colours = 0;
+        else if (!strcmp(a, "--res") && has_value) {
+            if (cli_parse_int(argv[++i], ESR_MODEL_MESH_RES_MIN, ESR_MODEL_MESH_RES_MAX, &res))
+                return cli_fail(&cmd_export, "--res must be an integer in %d..%d, got '%s'", ESR_MODEL_MESH_RES_MIN,
+                                ESR_MODEL_MESH_RES_MAX, argv[i]);
+        } else if (a[0] == '-' && a[1])
+            return cli_fail(&cmd_export, "unknown option or missing value: '%s'", a);
+        else if (run)
+            return cli_fail(&cmd_export, "more than one RUN given ('%s', '%s')", run, a);
+        else
+            run = a;
+    }
+    if (!run)
+        return cli_fail(&cmd_export, "missing RUN directory");
+    if (!mesh)
+        return cli_fail(&cmd_export, "missing --mesh OUT.ply");
+    return export_mesh(run, mesh, res, colours) == ESR_OK ? 0 : cli_fail_lib(&cmd_export);
+}

@@ -1,0 +1,100 @@
+/* esr render RUN: render the test views of a phase with the trained model. */
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "cli/commands.h"
+#include "core/error.h"
+#include "eval/run_dir.h"
+#include "render/view.h"
+#include "train/model.h"
+
+static int run_render(int argc, char **argv);
+
+const struct esr_command cmd_render = {
+    "render",
+    "render a phase's test views with a trained model (PNG, linear, EXR, normal, depth)",
+    "usage: esr render RUN [options]\n"
+    "\n"
+    "Renders every frame of a dataset phase with the model in run directory RUN (its most advanced\n"
+    "checkpoint) from the frame's camera, with the frame's lighting (off or on), and writes per\n"
+    "frame N, at the dataset's image size:\n"
+    "  N.png         tone-mapped RGB composited on white\n"
+    "  N_linear.png  linear RGB on white through the sRGB curve (clipped to [0,1])\n"
+    "  N.exr         linear RGB on white (float)\n"
+    "  N_normal.png  world-space normal mapped to [0,1], white background\n"
+    "  N_depth.png   depth, 0 = nearest .. 1 = farthest surface pixel, white background\n"
+    "  N_depth.exr   depth in world units\n"
+    "Light-edit phases (test_nvi, test_nvc, test_nvic) are not supported yet.\n"
+    "\n"
+    "options:\n"
+    "  --phase P        phase to render (default: test_nv)\n"
+    "  --out DIR        output directory (default: RUN/render/P)\n"
+    "  --frames a,b,..  only these frames, by name (e.g. c000_off,c003_on)\n"
+    "  --limit N        only the first N (selected) frames\n"
+    "  --data DIR       dataset directory (default: the one recorded in RUN)\n"
+    "  -h, --help       this text\n",
+    run_render,
+};
+
+static void show_progress(void *user, const struct esr_view_progress *p)
+{
+    (void)user;
+    fprintf(stderr, "  %-16s %4d / %-4d  %.2f s\n", p->name, p->done, p->total, p->seconds);
+}
+
+static int render_selected(const char *run, const struct esr_run_selection *sel, const char *out_dir)
+{
+    struct esr_model model;
+    if (esr_model_load(&model, run) != ESR_OK)
+        return ESR_ERR;
+    fprintf(stderr, "rendering %d frame(s) of %s with the %s model (step %ld) into %s\n", sel->n,
+            esr_phase_name(sel->phase), esr_stage_name((enum esr_stage)model.stage), model.step, out_dir);
+    int status = esr_view_render_frames(&model, &sel->ds, sel->phase, sel->idx, sel->n, out_dir, show_progress,
+                                        NULL);
+    esr_model_free(&model);
+    return status;
+}
+
+static int run_render(int argc, char **argv)
+{
+    if (cli_wants_help(&cmd_render, argc, argv))
+        return 0;
+    const char *run = NULL, *phase = "test_nv", *out = NULL, *frames = NULL, *data = NULL;
+    int limit = 0;
+    for (int i = 1; i < argc; i++) {
+        const char *a = argv[i];
+        int has_value = i + 1 < argc;
+        if (!strcmp(a, "--phase") && has_value)
+            phase = argv[++i];
+        else if (!strcmp(a, "--out") && has_value)
+            out = argv[++i];
+        else if (!strcmp(a, "--frames") && has_value)
+            frames = argv[++i];
+        else if (!strcmp(a, "--data") && has_value)
+            data = argv[++i];
+        else if (!strcmp(a, "--limit") && has_value) {
+            if (cli_parse_int(argv[++i], 0, 1000000, &limit))
+                return cli_fail(&cmd_render, "--limit must be a non-negative integer, got '%s'", argv[i]);
+        } else if (a[0] == '-' && a[1])
+            return cli_fail(&cmd_render, "unknown option or missing value: '%s'", a);
+        else if (run)
+            return cli_fail(&cmd_render, "more than one RUN given ('%s', '%s')", run, a);
+        else
+            run = a;
+    }
+    if (!run)
+        return cli_fail(&cmd_render, "missing RUN directory");
+    char out_dir[ESR_PATH_MAX];
+    if (snprintf(out_dir, sizeof out_dir, "%s/render/%s", run, phase) >= (int)sizeof out_dir)
+        return cli_fail(&cmd_render, "run path '%s' is too long", run);
+    struct esr_run_selection sel;
+    int status = esr_run_select(run, data, phase, frames, limit, &sel);
+    if (status == ESR_OK)
+        status = render_selected(run, &sel, out ? out : out_dir);
+    esr_run_selection_free(&sel);
+    if (status != ESR_OK)
+        return cli_fail_lib(&cmd_render);
+    fprintf(stderr, "wrote %s\n", out ? out : out_dir);
+    return 0;
+}

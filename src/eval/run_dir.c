@@ -1,0 +1,96 @@
+/* Run directory look-ups shared by the render and eval commands. */
+#include "eval/run_dir.h"
+
+#include <cJSON.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+
+#include "core/error.h"
+#include "eval/select.h"
+#include "io/file.h"
+
+/* The first of the dataset keys that `file` (a JSON object) has as a string, copied to out. */
+static int data_key_of(const char *file, char *out, size_t n)
+{
+    static const char *const keys[] = {"data", "data_dir", "dataset"};
+    unsigned char *text;
+    size_t size;
+    if (!esr_file_exists(file))
+        return 0;
+    if (esr_file_read_all(file, &text, &size) != ESR_OK)
+        return 0;
+    cJSON *root = cJSON_Parse((char *)text);
+    free(text);
+    int found = 0;
+    for (size_t k = 0; k < sizeof keys / sizeof keys[0] && !found; k++) {
+        const cJSON *v = cJSON_GetObjectItemCaseSensitive(root, keys[k]);
+        if (cJSON_IsString(v) && v->valuestring[0] && strlen(v->valuestring) < n) {
+            snprintf(out, n, "%s", v->valuestring);
+            found = 1;
+        }
+    }
+    cJSON_Delete(root);
+    return found;
+}
+
+int esr_run_data_dir(const char *run, const char *override, char *out, size_t n)
+{
+    if (override) {
+        if (strlen(override) >= n)
+            return ESR_FAIL("dataset path '%s' is too long", override);
+        snprintf(out, n, "%s", override);
+        return ESR_OK;
+    }
+    static const char *const files[] = {"run.json", "config.json"};
+    char path[ESR_PATH_MAX];
+    for (size_t i = 0; i < sizeof files / sizeof files[0]; i++) {
+        snprintf(path, sizeof path, "%s/%s", run, files[i]);
+        if (data_key_of(path, out, n)) {
+            esr_error_clear(); /* a file without the key is not an error */
+            return ESR_OK;
+        }
+    }
+    esr_error_clear();
+    return ESR_FAIL("run '%s' does not record its dataset (no \"data\" in %s/run.json or %s/config.json); give "
+                    "--data DIR",
+                    run, run, run);
+}
+
+static int parse_phase(const char *name, enum esr_phase_id *out)
+{
+    if (esr_phase_from_name(name, out) == ESR_OK)
+        return ESR_OK;
+    esr_error_clear();
+    char names[256] = "";
+    for (int p = 0; p < ESR_PHASE_COUNT; p++) {
+        size_t used = strlen(names);
+        snprintf(names + used, sizeof names - used, "%s%s", p ? ", " : "", esr_phase_name((enum esr_phase_id)p));
+    }
+    return ESR_FAIL("unknown phase '%s' (phases: %s)", name, names);
+}
+
+int esr_run_select(const char *run, const char *data_override, const char *phase, const char *frames, int limit,
+                   struct esr_run_selection *sel)
+{
+    memset(sel, 0, sizeof *sel);
+    struct stat st;
+    if (stat(run, &st) != 0 || !S_ISDIR(st.st_mode))
+        return ESR_FAIL("run directory '%s' does not exist", run);
+    ESR_TRY(parse_phase(phase, &sel->phase));
+    char data[ESR_PATH_MAX];
+    ESR_TRY(esr_run_data_dir(run, data_override, data, sizeof data));
+    ESR_TRY(esr_dataset_load(data, &sel->ds));
+    if (!sel->ds.phases[sel->phase].present)
+        return ESR_FAIL("dataset '%s' has no phase %s (no %s)", data, phase,
+                        esr_phase_file_name(&sel->ds, sel->phase));
+    return esr_select_frames(&sel->ds.phases[sel->phase], phase, frames, limit, &sel->idx, &sel->n);
+}
+
+void esr_run_selection_free(struct esr_run_selection *sel)
+{
+    esr_dataset_free(&sel->ds);
+    free(sel->idx);
+    memset(sel, 0, sizeof *sel);
+}

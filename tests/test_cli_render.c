@@ -1,0 +1,278 @@
+/* `esr render`, `esr eval` and `esr export` end to end on a tiny synthetic dataset (esr synth,
+ * 16x16) and an initialised coarse model whose SDF is a sphere. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <cmocka.h>
+#include <cJSON.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+
+#include "core/error.h"
+#include "fields/sdf.h"
+#include "io/dataset.h"
+#include "io/file.h"
+#include "io/image.h"
+#include "io/ply.h"
+#include "synth/synth.h"
+#include "test_support.h"
+#include "train/model.h"
+
+#define RES 16
+#define SPHERE_RADIUS 0.5f /* in the box normalised to [-1,1]^3 */
+static char out[1 << 16];
+static char ds_dir[1100], run_dir[1100];
+static float box_half; /* half edge of the (cubic) scene box */
+
+/* A coarse model at initialisation with a sphere SDF of SPHERE_RADIUS, saved as run/ckpt_coarse.bin. */
+static void make_run(const struct esr_dataset *ds)
+{
+    struct esr_train_config cfg;
+    struct esr_model m;
+    char path[1300];
+    esr_config_defaults(&cfg, ESR_PRESET_FAST);
+    assert_int_equal(esr_config_set(&cfg, "coarse.res=24"), ESR_OK);
+    assert_int_equal(esr_model_init(&m, &cfg, ESR_STAGE_COARSE, NULL, ds->bbox_min, ds->bbox_max), ESR_OK);
+    assert_int_equal(esr_sdf_init_sphere(&m.sdf, m.params.w + m.sdf_off, SPHERE_RADIUS), ESR_OK);
+    snprintf(run_dir, sizeof run_dir, "%s/run", test_tmpdir);
+    assert_int_equal(mkdir(run_dir, 0755), 0);
+    snprintf(path, sizeof path, "%s/ckpt_coarse.bin", run_dir);
+    assert_int_equal(esr_model_save(&m, path), ESR_OK);
+    esr_model_free(&m);
+    snprintf(path, sizeof path, "%s/run.json", run_dir);
+    char text[1300];
+    snprintf(text, sizeof text, "{\"data\": \"%s\"}", ds_dir);
+    assert_int_equal(test_write_file(path, text), 0);
+}
+
+static int setup(void **state)
+{
+    if (test_setup_tmpdir(state))
+        return -1;
+    struct esr_synth_options opt;
+    memset(&opt, 0, sizeof opt);
+    opt.scene = "default";
+    opt.res = RES;
+    opt.spp = 1;
+    opt.n_train = 1;
+    opt.n_test = 1;
+    opt.seed = 1;
+    snprintf(ds_dir, sizeof ds_dir, "%s/ds", test_tmpdir);
+    if (esr_synth_write_dataset(ds_dir, &opt) != ESR_OK)
+        return -1;
+    struct esr_dataset ds;
+    if (esr_dataset_load(ds_dir, &ds) != ESR_OK)
+        return -1;
+    box_half = 0.5f * (ds.bbox_max[0] - ds.bbox_min[0]);
+    make_run(&ds);
+    esr_dataset_free(&ds);
+    return 0;
+}
+
+static void expect_image(const char *dir, const char *file, int channels)
+{
+    char path[1400];
+    struct esr_image img;
+    snprintf(path, sizeof path, "%s/%s", dir, file);
+    if (esr_image_read(path, &img) != ESR_OK)
+        fail_msg("%s: %s", path, esr_error_message());
+    assert_int_equal(img.width, RES);
+    assert_int_equal(img.height, RES);
+    assert_int_equal(img.channels, channels);
+    for (size_t i = 0; i < esr_image_count(&img); i++)
+        assert_true(isfinite(img.data[i]));
+    esr_image_free(&img);
+}
+
+static cJSON *read_json(const char *path)
+{
+    unsigned char *text;
+    size_t size;
+    assert_int_equal(esr_file_read_all(path, &text, &size), ESR_OK);
+    cJSON *root = cJSON_Parse((char *)text);
+    free(text);
+    assert_non_null(root);
+    return root;
+}
+
+static void run_ok(const char *args)
+{
+    int rc = test_run_esr(args, out, sizeof out);
+    if (rc != 0)
+        fail_msg("esr %s exited %d:\n%s", args, rc, out);
+}
+
+static void test_render(void **state)
+{
+    (void)state;
+    char args[3000], dir[1200];
+    snprintf(args, sizeof args, "render '%s' --out '%s/r' --frames c000_on", run_dir, test_tmpdir);
+    run_ok(args);
+    snprintf(dir, sizeof dir, "%s/r", test_tmpdir);
+    expect_image(dir, "c000_on.png", 3);
+    expect_image(dir, "c000_on_linear.png", 3);
+    expect_image(dir, "c000_on.exr", 4); /* RGB file, read back with A = 1 */
+    expect_image(dir, "c000_on_normal.png", 3);
+    expect_image(dir, "c000_on_depth.png", 1);
+    expect_image(dir, "c000_on_depth.exr", 4);
+    char path[1300];
+    snprintf(path, sizeof path, "%s/c000_off.png", dir);
+    assert_false(esr_file_exists(path)); /* not selected */
+    snprintf(path, sizeof path, "%s/render.json", dir);
+    unsigned char *text;
+    size_t size;
+    assert_int_equal(esr_file_read_all(path, &text, &size), ESR_OK);
+    assert_non_null(strstr((char *)text, "\"coarse\""));
+    assert_non_null(strstr((char *)text, "c000_on"));
+    free(text);
+}
+
+static void test_eval(void **state)
+{
+    (void)state;
+    char args[3000], path[1300];
+    snprintf(args, sizeof args, "eval '%s'", run_dir);
+    run_ok(args);
+    assert_non_null(strstr(out, "rendering 2 of 2"));
+    assert_non_null(strstr(out, "PSNR"));
+    assert_non_null(strstr(out, "c000_off"));
+    snprintf(path, sizeof path, "%s/eval/test_nv.json", run_dir);
+    cJSON *root = read_json(path);
+    assert_int_equal(cJSON_GetArraySize(cJSON_GetObjectItem(root, "views")), 2);
+    const cJSON *mean = cJSON_GetObjectItem(root, "mean");
+    double psnr = cJSON_GetObjectItem(mean, "psnr")->valuedouble;
+    assert_true(psnr > 0.0 && psnr < 100.0);
+    assert_non_null(cJSON_GetObjectItem(cJSON_GetObjectItem(root, "by_mode"), "on"));
+    cJSON_Delete(root);
+    snprintf(path, sizeof path, "%s/report.html", run_dir);
+    assert_true(esr_file_exists(path));
+    snprintf(path, sizeof path, "%s/eval/test_nv_gt/c000_on.png", run_dir);
+    assert_true(esr_file_exists(path));
+    /* same checkpoint: the renders are reused; --rerender renders again */
+    run_ok(args);
+    assert_null(strstr(out, "rendering"));
+    snprintf(args, sizeof args, "eval '%s' --rerender --limit 1", run_dir);
+    run_ok(args);
+    assert_non_null(strstr(out, "rendering 1 of 1"));
+}
+
+/* Without a model, complete renders are evaluated as they are: ground-truth copies give the
+ * PSNR cap on every view. */
+static void test_eval_existing(void **state)
+{
+    (void)state;
+    char run2[1200], dir[1300], args[3000], path[1500];
+    snprintf(run2, sizeof run2, "%s/run_gt", test_tmpdir);
+    snprintf(dir, sizeof dir, "%s/render/test_nv", run2);
+    snprintf(args, sizeof args, "mkdir -p '%s'", dir);
+    assert_int_equal(system(args), 0);
+    struct esr_dataset ds;
+    assert_int_equal(esr_dataset_load(ds_dir, &ds), ESR_OK);
+    const struct esr_phase *ph = &ds.phases[ESR_PHASE_TEST_NV];
+    static const float white[3] = {1, 1, 1};
+    for (int i = 0; i < ph->n_frames; i++) {
+        struct esr_image rgb, exr, exr_rgb;
+        assert_int_equal(esr_frame_load_rgb(&ds, &ph->frames[i], &rgb, NULL), ESR_OK);
+        snprintf(path, sizeof path, "%s/%s.png", dir, ph->frames[i].name);
+        assert_int_equal(esr_png_write(path, &rgb, 8), ESR_OK);
+        snprintf(path, sizeof path, "%s/%s_linear.png", dir, ph->frames[i].name);
+        assert_int_equal(esr_png_write(path, &rgb, 8), ESR_OK);
+        esr_frame_exr_path(&ds, &ph->frames[i], path, sizeof path);
+        assert_int_equal(esr_exr_read(path, &exr), ESR_OK);
+        assert_int_equal(esr_image_composite_premultiplied(&exr, white, &exr_rgb), ESR_OK);
+        snprintf(path, sizeof path, "%s/%s.exr", dir, ph->frames[i].name);
+        assert_int_equal(esr_exr_write(path, &exr_rgb, 0), ESR_OK);
+        esr_image_free(&rgb);
+        esr_image_free(&exr);
+        esr_image_free(&exr_rgb);
+    }
+    esr_dataset_free(&ds);
+    snprintf(args, sizeof args, "eval '%s' --data '%s'", run2, ds_dir);
+    run_ok(args);
+    assert_non_null(strstr(out, "no loadable model"));
+    snprintf(path, sizeof path, "%s/eval/test_nv.json", run2);
+    cJSON *root = read_json(path);
+    const cJSON *mean = cJSON_GetObjectItem(root, "mean");
+    assert_true(cJSON_GetObjectItem(mean, "psnr")->valuedouble == 100.0);
+    assert_true(cJSON_GetObjectItem(mean, "psnr_linear")->valuedouble == 100.0);
+    assert_true(fabs(cJSON_GetObjectItem(mean, "ssim")->valuedouble - 1.0) < 1e-6);
+    assert_true(cJSON_GetObjectItem(mean, "hdr_mse")->valuedouble < 1e-12);
+    cJSON_Delete(root);
+    /* one file missing and no model: clear error, exit 1 */
+    snprintf(path, sizeof path, "%s/c000_on.exr", dir);
+    assert_int_equal(remove(path), 0);
+    assert_int_equal(test_run_esr(args, out, sizeof out), 1);
+    assert_non_null(strstr(out, "no checkpoint"));
+}
+
+static void test_errors(void **state)
+{
+    (void)state;
+    char args[3000];
+    static const struct {
+        const char *fmt, *expect;
+    } cases[] = {
+        {"render", "missing RUN"},
+        {"render /nonexistent-run", "run directory '/nonexistent-run' does not exist"},
+        {"eval /nonexistent-run", "run directory '/nonexistent-run' does not exist"},
+        {"render '%s' --phase bogus", "unknown phase 'bogus'"},
+        {"eval '%s' --phase bogus", "unknown phase 'bogus'"},
+        {"render '%s' --phase test_nvi", "not supported yet"},
+        {"render '%s' --frames c999_on", "no frame called 'c999_on'"},
+        {"render '%s' --limit -3", "--limit must be"},
+        {"render '%s' --data /nonexistent-data", "/nonexistent-data"},
+        {"eval '%s' --wat", "unknown option"},
+        {"export '%s'", "missing --mesh"},
+        {"export '%s' --mesh x.ply --res 2", "--res must be"},
+        {"export /nonexistent-run --mesh x.ply", "/nonexistent-run"},
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        snprintf(args, sizeof args, cases[i].fmt, run_dir);
+        int rc = test_run_esr(args, out, sizeof out);
+        if (rc != 1 || !strstr(out, cases[i].expect))
+            fail_msg("esr %s: exit %d, expected 1 and '%s' in:\n%s", args, rc, cases[i].expect, out);
+    }
+    /* a run that does not record its dataset needs --data */
+    snprintf(args, sizeof args, "eval '%s'", test_tmpdir);
+    assert_int_equal(test_run_esr(args, out, sizeof out), 1);
+    assert_non_null(strstr(out, "--data"));
+}
+
+/* The sphere SDF exports as a closed sphere of the right radius with outward normals. */
+static void test_export(void **state)
+{
+    (void)state;
+    char args[3000], path[1300];
+    snprintf(path, sizeof path, "%s/sphere.ply", test_tmpdir);
+    snprintf(args, sizeof args, "export '%s' --mesh '%s' --res 32", run_dir, path);
+    run_ok(args);
+    unsigned char *data;
+    size_t size;
+    assert_int_equal(esr_file_read_all(path, &data, &size), ESR_OK);
+    assert_memory_equal(data, "ply\nformat binary_little_endian 1.0\n", 36);
+    assert_non_null(strstr((char *)data, "property uchar red"));
+    free(data);
+    struct esr_mesh m;
+    assert_int_equal(esr_ply_read(path, &m), ESR_OK);
+    assert_true(m.n_vertices > 100 && m.n_triangles > 100);
+    float r = SPHERE_RADIUS * box_half, voxel = 2.0f * box_half / 31.0f;
+    for (size_t i = 0; i < m.n_vertices; i++) {
+        const float *p = m.pos + 3 * i;
+        float d = sqrtf(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]);
+        assert_true(fabsf(d - r) < 0.1f * voxel + 0.02f * r);
+    }
+    esr_mesh_free(&m);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_render), cmocka_unit_test(test_eval),   cmocka_unit_test(test_eval_existing),
+        cmocka_unit_test(test_errors), cmocka_unit_test(test_export),
+    };
+    return cmocka_run_group_tests(tests, setup, test_teardown_tmpdir);
+}
