@@ -3,6 +3,7 @@
 
 #include <math.h>
 #include <omp.h>
+#include <stdlib.h>
 
 #include "core/error.h"
 #include "fields/trilerp.h"
@@ -94,16 +95,51 @@ enum scatter_kind {
     SCATTER_VALUE_DPOINT, /* d: 1 float and d2: 3 floats per point, 1-channel grid */
 };
 
+/* Splits the z-planes among nt threads so each owns about as many points' cells (points cluster
+ * near surfaces, so equal plane ranges leave threads idle). split[t]..split[t+1] belongs to thread
+ * t. Falls back to equal ranges if the histogram cannot be allocated. */
+static void balance_planes(const struct esr_grid *g, const float *pts, size_t n, int nt, int *split)
+{
+    size_t *hist = (size_t *)calloc((size_t)g->nz, sizeof(size_t));
+    for (int t = 0; t <= nt; t++)
+        split[t] = (int)((long)g->nz * t / nt);
+    if (!hist || n == 0) {
+        free(hist);
+        return;
+    }
+    for (size_t i = 0; i < n; i++)
+        hist[esr_trilerp_iz0(g, pts[i * 3 + 2])]++;
+    size_t acc = 0;
+    int t = 1;
+    for (int z = 0; z < g->nz && t < nt; z++) {
+        acc += hist[z];
+        while (t < nt && acc * (size_t)nt >= n * (size_t)t)
+            split[t++] = z + 1;
+    }
+    for (; t < nt; t++)
+        split[t] = g->nz;
+    free(hist);
+}
+
 /* Deterministic scatter shared by the backward passes: every thread scans all points and writes
- * only its own z-planes. */
+ * only its own z-planes, so each gradient entry sums its contributions in point order whatever
+ * the thread count. */
 ESR_HOT static void scatter(const struct esr_grid *g, const float *pts, size_t n, enum scatter_kind kind,
                             const float *d, const float *d2, int ch, float *grad)
 {
     const int C = g->channels;
-#pragma omp parallel
+    int split_local[65];
+    int nt = omp_get_max_threads();
+    if (nt > 64)
+        nt = 64;
+    balance_planes(g, pts, n, nt, split_local);
+    const int *split = split_local;
+#pragma omp parallel num_threads(nt)
     {
-        int lo, hi;
-        esr_grid_own_planes(g, &lo, &hi);
+        int tid = omp_get_thread_num(), team = omp_get_num_threads();
+        /* a smaller team than asked for: fall back to the equal split */
+        int lo = team == nt ? split[tid] : (int)((long)g->nz * tid / team);
+        int hi = team == nt ? split[tid + 1] : (int)((long)g->nz * (tid + 1) / team);
         for (size_t i = 0; i < n; i++) {
             int iz = esr_trilerp_iz0(g, pts[i * 3 + 2]);
             if (iz + 1 < lo || iz >= hi)
