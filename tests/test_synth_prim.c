@@ -140,6 +140,37 @@ static void test_area_sampling(void **state)
     assert_float_equal(esr_synth_prim_area(&prims[2]), 2 * M_PI * 0.3 * 0.6 + 2 * M_PI * 0.09, 1e-5);
 }
 
+/* Sampling towards a shading point: only front-facing points, and the integral of a test function
+ * over the sampled region (A * E[f]) matches the same integral by full-surface sampling restricted
+ * to the front-facing part; this checks both the region's area and the uniformity. */
+static void test_area_sampling_toward(void **state)
+{
+    (void)state;
+    const struct esr_vec3 xs[] = {esr_v3(1.5f, 0.3f, 0.9f), esr_v3(0.1f, -0.2f, 0.75f)};
+    for (int k = 0; k < 3; k++) {
+        for (int v = 0; v < 2; v++) {
+            const struct esr_synth_prim *p = &prims[k];
+            struct esr_vec3 x = xs[v];
+            struct esr_rng rng = esr_rng_init(4, (uint64_t)(k * 2 + v));
+            const int n = 200000;
+            double sum_toward = 0.0, sum_full = 0.0;
+            for (int i = 0; i < n; i++) {
+                struct esr_vec3 y, ny;
+                esr_synth_prim_sample_toward(p, x, esr_rng_float(&rng), esr_rng_float(&rng), esr_rng_float(&rng), &y, &ny);
+                int front = esr_v3_dot(ny, esr_v3_sub(x, y)) >= 0.0f;
+                if (p->kind == ESR_SYNTH_SPHERE)
+                    assert_true(esr_v3_dot(ny, esr_v3_sub(x, y)) >= -1e-5f);
+                sum_toward += front ? y.x * y.x + y.z : 0.0;
+                esr_synth_prim_sample(p, esr_rng_float(&rng), esr_rng_float(&rng), esr_rng_float(&rng), &y, &ny);
+                front = esr_v3_dot(ny, esr_v3_sub(x, y)) >= 0.0f;
+                sum_full += front ? y.x * y.x + y.z : 0.0;
+            }
+            double a = esr_synth_prim_area_toward(p, x) * sum_toward / n, b = esr_synth_prim_area(p) * sum_full / n;
+            assert_true(fabs(a - b) < 0.01 * fabs(b) + 1e-3);
+        }
+    }
+}
+
 static int cmp_u64(const void *x, const void *y)
 {
     uint64_t a = *(const uint64_t *)x, b = *(const uint64_t *)y;
@@ -218,6 +249,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_rays_against_march),
         cmocka_unit_test(test_area_sampling),
+        cmocka_unit_test(test_area_sampling_toward),
         cmocka_unit_test(test_mesh_closed_and_outward),
         cmocka_unit_test(test_scenes_fit_the_box),
     };

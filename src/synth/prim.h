@@ -181,6 +181,42 @@ ESR_INLINE void esr_synth_prim_sample(const struct esr_synth_prim *p, float u0, 
     *x = esr_v3(p->a.x + rr * cosf(phi), p->a.y + rr * sinf(phi), p->a.z + (top ? h : 0.0f));
 }
 
+/* Area of the part of p that sampling towards a shading point x covers: for a sphere only the cap
+ * facing x (the rest is back-facing from x), else the whole surface. */
+ESR_INLINE float esr_synth_prim_area_toward(const struct esr_synth_prim *p, struct esr_vec3 x)
+{
+    if (p->kind == ESR_SYNTH_SPHERE) {
+        float d = esr_v3_length(esr_v3_sub(x, p->a)), r = p->b.x;
+        if (d > r)
+            return 2.0f * ESR_PI * r * r * (1.0f - r / d);
+    }
+    return esr_synth_prim_area(p);
+}
+
+/* A point uniformly distributed by area over the region esr_synth_prim_area_toward(p, x)
+ * measures (pdf 1 / that area). The sphere's cap facing x is sampled by Archimedes' hat-box
+ * theorem: the cap's height is uniform in cos around the axis towards x. */
+ESR_INLINE void esr_synth_prim_sample_toward(const struct esr_synth_prim *p, struct esr_vec3 x, float u0, float u1,
+                                             float u2, struct esr_vec3 *y, struct esr_vec3 *n)
+{
+    if (p->kind == ESR_SYNTH_SPHERE) {
+        struct esr_vec3 axis = esr_v3_sub(x, p->a);
+        float d = esr_v3_length(axis), r = p->b.x;
+        if (d > r) {
+            axis = esr_v3_scale(axis, 1.0f / d);
+            float cos_max = r / d;
+            float z = 1.0f - u1 * (1.0f - cos_max);
+            float s = sqrtf(fmaxf(0.0f, 1.0f - z * z)), phi = 2.0f * ESR_PI * u2;
+            struct esr_vec3 t, b;
+            esr_v3_basis(axis, &t, &b);
+            *n = esr_v3_from_local(esr_v3(s * cosf(phi), s * sinf(phi), z), t, b, axis);
+            *y = esr_v3_add(p->a, esr_v3_scale(*n, r));
+            return;
+        }
+    }
+    esr_synth_prim_sample(p, u0, u1, u2, y, n);
+}
+
 /* Material at surface point x: the procedural texture picks base colour 0 or 1 (checker in x,y
  * for floors, stripes across x+z), so multi-view geometry has texture to lock onto. */
 ESR_INLINE struct esr_material esr_synth_prim_material(const struct esr_synth_prim *p, struct esr_vec3 x)

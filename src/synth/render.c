@@ -15,13 +15,23 @@ int esr_synth_render(const struct esr_synth_trace_params *p, const struct esr_ca
     const int w = cam->width;
     const long n_pix = (long)cam->width * cam->height;
     float *img = out->data;
+    /* The first k*k samples of a pixel are stratified on a k x k grid (jittered within each cell),
+     * which mostly removes the noise of coverage and of edges; any remainder is uniform. */
+    int k = 1;
+    while ((k + 1) * (k + 1) <= spp)
+        k++;
 #pragma omp parallel for schedule(dynamic, 16)
     for (long i = 0; i < n_pix; i++) {
         struct esr_rng rng = esr_rng_init(seed, image_id * (uint64_t)n_pix + (uint64_t)i);
         float sum[3] = {0.0f, 0.0f, 0.0f};
         int covered = 0;
         for (int sidx = 0; sidx < spp; sidx++) {
-            float px = (float)(i % w) + esr_rng_float(&rng), py = (float)(i / w) + esr_rng_float(&rng);
+            float jx = esr_rng_float(&rng), jy = esr_rng_float(&rng);
+            if (sidx < k * k) {
+                jx = ((float)(sidx % k) + jx) / (float)k;
+                jy = ((float)(sidx / k) + jy) / (float)k;
+            }
+            float px = (float)(i % w) + jx, py = (float)(i / w) + jy;
             float o[3], d[3], rgb[3];
             esr_camera_ray(cam, px, py, o, d);
             covered += esr_synth_trace_path(p, esr_v3(o[0], o[1], o[2]), esr_v3(d[0], d[1], d[2]), &rng, rgb);

@@ -72,7 +72,7 @@ static void sample_emitter(const struct esr_synth_trace_params *p, struct esr_ve
     const struct esr_synth_prim *lp = &s->prims[s->lights[k].prim];
     struct esr_vec3 y, ny;
     float u0 = esr_rng_float(rng), u1 = esr_rng_float(rng), u2 = esr_rng_float(rng);
-    esr_synth_prim_sample(lp, u0, u1, u2, &y, &ny);
+    esr_synth_prim_sample_toward(lp, x, u0, u1, u2, &y, &ny);
     struct esr_vec3 o = esr_v3_add(x, esr_v3_scale(n, RAY_EPS));
     struct esr_vec3 to = esr_v3_sub(y, o);
     float dist2 = esr_v3_dot(to, to), dist = sqrtf(dist2);
@@ -82,7 +82,7 @@ static void sample_emitter(const struct esr_synth_trace_params *p, struct esr_ve
         return;
     if (occluded(s, o, to, 1.0f - 1e-3f))
         return;
-    float pdf_l = p->select_prob[k] * dist2 / (cos_l * esr_synth_prim_area(lp));
+    float pdf_l = p->select_prob[k] * dist2 / (cos_l * esr_synth_prim_area_toward(lp, x));
     float f[3];
     esr_brdf_eval(m, n, wo, wi, f);
     float w = power_heuristic(pdf_l, esr_synth_bsdf_pdf(m, n, wo, wi)) / pdf_l;
@@ -120,7 +120,7 @@ int esr_synth_trace_path(const struct esr_synth_trace_params *p, struct esr_vec3
     float l[3] = {0.0f, 0.0f, 0.0f};
     int world_on = p->world[0] > 0.0f || p->world[1] > 0.0f || p->world[2] > 0.0f;
     float prev_pdf = 0.0f;          /* BRDF pdf of the direction that led here (0 at the camera) */
-    struct esr_vec3 prev_n = esr_v3(0, 0, 0);
+    struct esr_vec3 prev_n = esr_v3(0, 0, 0), prev_x = o;
     int primary_hit = 0;
     for (int depth = 0;; depth++) {
         float t = INFINITY;
@@ -144,7 +144,7 @@ int esr_synth_trace_path(const struct esr_synth_trace_params *p, struct esr_vec3
             float w = 1.0f;
             if (depth > 0) {
                 float cos_l = -esr_v3_dot(n, d);
-                float pdf_l = p->select_prob[k] * t * t / (cos_l * esr_synth_prim_area(prim));
+                float pdf_l = p->select_prob[k] * t * t / (cos_l * esr_synth_prim_area_toward(prim, prev_x));
                 w = power_heuristic(prev_pdf, pdf_l);
             }
             for (int c = 0; c < 3; c++)
@@ -177,6 +177,7 @@ int esr_synth_trace_path(const struct esr_synth_trace_params *p, struct esr_vec3
         }
         prev_pdf = pdf;
         prev_n = n;
+        prev_x = x;
         o = esr_v3_add(x, esr_v3_scale(n, RAY_EPS));
         d = wi;
     }
