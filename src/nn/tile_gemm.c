@@ -29,70 +29,71 @@ ESR_INLINE void act_block(enum esr_nn_act act, float *c, int ldc, int rows, int 
             c[r * ldc + j] = esr_nn_act_fwd(act, c[r * ldc + j]);
 }
 
-/* mr x 16 block of C over the full k; mr is a literal at every call so the accumulators live in
- * registers. A(r, p) = a[r * rs + p * ks]. b and bias point at 16 readable floats per row
- * (padded by the caller if needed). */
-ESR_INLINE void micro(int mr, const float *a, size_t rs, size_t ks, const float *b, int ldb,
-                      float *c, int ldc, int k, const float *bias, int accumulate,
+/* mr x (8 nv) block of C over the full k; mr and nv (1 or 2 vectors) are literals at every call
+ * so the accumulators live in registers. A(r, p) = a[r * rs + p * ks]. b and bias point at 8 nv
+ * readable floats per row (padded by the caller if needed). */
+ESR_INLINE void micro(int mr, int nv, const float *a, size_t rs, size_t ks, const float *b,
+                      int ldb, float *c, int ldc, int k, const float *bias, int accumulate,
                       enum esr_nn_act act)
 {
-    v8 acc0[MR_MAX], acc1[MR_MAX];
-    for (int r = 0; r < mr; r++) {
-        if (accumulate) {
-            load8(&acc0[r], c + r * ldc);
-            load8(&acc1[r], c + r * ldc + 8);
-        } else if (bias) {
-            load8(&acc0[r], bias);
-            load8(&acc1[r], bias + 8);
-        } else {
-            acc0[r] = (v8){0};
-            acc1[r] = (v8){0};
+    v8 acc[2][MR_MAX];
+    for (int v = 0; v < nv; v++)
+        for (int r = 0; r < mr; r++) {
+            if (accumulate)
+                load8(&acc[v][r], c + r * ldc + 8 * v);
+            else if (bias)
+                load8(&acc[v][r], bias + 8 * v);
+            else
+                acc[v][r] = (v8){0};
         }
-    }
     for (int p = 0; p < k; p++) {
-        v8 b0, b1;
-        load8(&b0, b + p * ldb);
-        load8(&b1, b + p * ldb + 8);
+        v8 bv[2];
+        for (int v = 0; v < nv; v++)
+            load8(&bv[v], b + p * ldb + 8 * v);
         for (int r = 0; r < mr; r++) {
             float s = a[r * rs + p * ks];
             v8 x = {s, s, s, s, s, s, s, s};
-            acc0[r] += x * b0;
-            acc1[r] += x * b1;
+            for (int v = 0; v < nv; v++)
+                acc[v][r] += x * bv[v];
         }
     }
-    for (int r = 0; r < mr; r++) {
-        if (act == ESR_NN_ACT_RELU) {
-            relu8(&acc0[r]);
-            relu8(&acc1[r]);
+    for (int v = 0; v < nv; v++)
+        for (int r = 0; r < mr; r++) {
+            if (act == ESR_NN_ACT_RELU)
+                relu8(&acc[v][r]);
+            store8(c + r * ldc + 8 * v, &acc[v][r]);
         }
-        store8(c + r * ldc, &acc0[r]);
-        store8(c + r * ldc + 8, &acc1[r]);
-    }
     if (act != ESR_NN_ACT_RELU && act != ESR_NN_ACT_NONE)
-        act_block(act, c, ldc, mr, NR);
+        act_block(act, c, ldc, mr, 8 * nv);
 }
 
-/* All rows of one 16-column panel: blocks of mr_main rows, then single rows. rs and ks are A's
- * row and k strides, literals at the call sites below so the common ks = 1 folds away. */
-ESR_INLINE void panel_strided(int mr_main, const struct esr_gemm_tile *t, size_t rs, size_t ks,
-                              const float *b, int ldb, float *c, int ldc, const float *bias)
+/* All rows of one panel of 8 nv columns: blocks of mr_main rows, then single rows. rs and ks are
+ * A's row and k strides, literals at the call sites below so the common ks = 1 folds away. */
+ESR_INLINE void panel_strided(int mr_main, int nv, const struct esr_gemm_tile *t, size_t rs,
+                              size_t ks, const float *b, int ldb, float *c, int ldc,
+                              const float *bias)
 {
     int r = 0;
     for (; r + mr_main <= t->m; r += mr_main)
-        micro(mr_main, t->a + r * rs, rs, ks, b, ldb, c + (size_t)r * ldc, ldc, t->k, bias,
+        micro(mr_main, nv, t->a + r * rs, rs, ks, b, ldb, c + (size_t)r * ldc, ldc, t->k, bias,
               t->accumulate, t->act);
     for (; r < t->m; r++)
-        micro(1, t->a + r * rs, rs, ks, b, ldb, c + (size_t)r * ldc, ldc, t->k, bias,
+        micro(1, nv, t->a + r * rs, rs, ks, b, ldb, c + (size_t)r * ldc, ldc, t->k, bias,
               t->accumulate, t->act);
 }
 
-ESR_INLINE void panel(int mr_main, const struct esr_gemm_tile *t, const float *b, int ldb,
+/* nv = 1 serves narrow outputs (RGB heads: 3 columns) at half the padded work. */
+ESR_INLINE void panel(int mr_main, int nv, const struct esr_gemm_tile *t, const float *b, int ldb,
                       float *c, int ldc, const float *bias)
 {
-    if (t->trans_a)
-        panel_strided(mr_main, t, 1, (size_t)t->lda, b, ldb, c, ldc, bias);
+    if (t->trans_a && nv == 1)
+        panel_strided(mr_main, 1, t, 1, (size_t)t->lda, b, ldb, c, ldc, bias);
+    else if (t->trans_a)
+        panel_strided(mr_main, 2, t, 1, (size_t)t->lda, b, ldb, c, ldc, bias);
+    else if (nv == 1)
+        panel_strided(mr_main, 1, t, (size_t)t->lda, 1, b, ldb, c, ldc, bias);
     else
-        panel_strided(mr_main, t, (size_t)t->lda, 1, b, ldb, c, ldc, bias);
+        panel_strided(mr_main, 2, t, (size_t)t->lda, 1, b, ldb, c, ldc, bias);
 }
 
 /* Full panels run in place; the last partial panel (n % 16 columns) runs on zero-padded copies
@@ -101,7 +102,7 @@ ESR_INLINE void gemm_impl(int mr_main, const struct esr_gemm_tile *t)
 {
     int j = 0;
     for (; j + NR <= t->n; j += NR)
-        panel(mr_main, t, t->b + j, t->ldb, t->c + j, t->ldc, t->bias ? t->bias + j : NULL);
+        panel(mr_main, 2, t, t->b + j, t->ldb, t->c + j, t->ldc, t->bias ? t->bias + j : NULL);
     if (j == t->n)
         return;
     int cols = t->n - j;
@@ -117,7 +118,7 @@ ESR_INLINE void gemm_impl(int mr_main, const struct esr_gemm_tile *t)
         if (t->accumulate)
             memcpy(cp + r * NR, t->c + (size_t)r * t->ldc + j, sizeof(float) * cols);
     }
-    panel(mr_main, t, bp, NR, cp, NR, t->bias ? biasp : NULL);
+    panel(mr_main, cols <= 8 ? 1 : 2, t, bp, NR, cp, NR, t->bias ? biasp : NULL);
     for (int r = 0; r < t->m; r++)
         memcpy(t->c + (size_t)r * t->ldc + j, cp + r * NR, sizeof(float) * cols);
 }
