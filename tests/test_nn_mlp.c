@@ -156,7 +156,8 @@ static void test_gradients_each_output_activation(void **state)
                                            ESR_NN_ACT_SOFTPLUS, ESR_NN_ACT_TRUNC_EXP,
                                            ESR_NN_ACT_RELU};
     for (size_t a = 0; a < sizeof(acts) / sizeof(acts[0]); a++) {
-        struct esr_mlp_desc d = {5, 7, 2, 3, ESR_NN_ACT_RELU, acts[a]};
+        /* width 11: a padded two-vector panel; 3 outputs: a one-vector panel */
+        struct esr_mlp_desc d = {5, 11, 2, 3, ESR_NN_ACT_RELU, acts[a]};
         check_gradients(&d, 11, 1);
     }
     /* Non-ReLU hidden activation and a single linear layer. */
@@ -177,7 +178,8 @@ static void test_gradients_real_shapes(void **state)
 static void test_forward_matches_reference_and_infer(void **state)
 {
     (void)state;
-    struct esr_mlp_desc d = {39, 64, 3, 17, ESR_NN_ACT_RELU, ESR_NN_ACT_SIGMOID};
+    /* 29 outputs: one full 16-column panel and a padded 13-column one. */
+    struct esr_mlp_desc d = {39, 64, 3, 29, ESR_NN_ACT_RELU, ESR_NN_ACT_SIGMOID};
     size_t n = ESR_MLP_TILE * 3 + 5;
     struct fixture f;
     fixture_init(&f, &d, n);
