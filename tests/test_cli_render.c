@@ -1,4 +1,4 @@
-/* `esr render`, `esr eval` and `esr export` end to end on a tiny synthetic dataset (esr synth,
+/* `esr render`, `esr eval` and `esr export` (and `esr bench` argument errors) end to end on a tiny synthetic dataset (esr synth,
  * 16x16) and an initialised coarse model whose SDF is a sphere. */
 #include <setjmp.h>
 #include <stdarg.h>
@@ -229,6 +229,7 @@ static void test_errors(void **state)
         {"export '%s'", "missing --mesh"},
         {"export '%s' --mesh x.ply --res 2", "--res must be"},
         {"export /nonexistent-run --mesh x.ply", "/nonexistent-run"},
+        {"bench --wat", "unknown option"},
     };
     for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
         snprintf(args, sizeof args, cases[i].fmt, run_dir);

@@ -26,5 +26,6 @@ extern const struct esr_command cmd_synth;
 extern const struct esr_command cmd_render;
 extern const struct esr_command cmd_eval;
 extern const struct esr_command cmd_export;
+extern const struct esr_command cmd_bench;
 
 #endif

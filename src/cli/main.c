@@ -15,6 +15,7 @@ static const struct esr_command *const commands[] = {
     &cmd_render,
     &cmd_eval,
     &cmd_export,
+    &cmd_bench,
 };
 #define N_COMMANDS (int)(sizeof commands / sizeof commands[0])
 

@@ -1,0 +1,277 @@
+/* esr bench: throughput of the kernels, the path tracer, the ray path and training, as JSON. */
+#define _GNU_SOURCE
+#include <cJSON.h>
+#include <ftw.h>
+#include <omp.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/resource.h>
+#include <time.h>
+#include <unistd.h>
+
+#include "cli/commands.h"
+#include "core/error.h"
+#include "eval/bench_train.h"
+#include "io/file.h"
+#include "nn/bench.h"
+#include "render/bench.h"
+#include "synth/synth.h"
+
+static int run_bench(int argc, char **argv);
+
+const struct esr_command cmd_bench = {
+    "bench",
+    "measure kernel, path-tracer, ray-path and training throughput (JSON + table)",
+    "usage: esr bench [options]\n"
+    "\n"
+    "Measures, with all OpenMP threads (set OMP_NUM_THREADS to change):\n"
+    "  nn      MLP layer kernels, own fused kernel vs oneDNN vs OpenBLAS, GFLOP/s\n"
+    "  synth   path tracer samples/s on a fixed workload\n"
+    "  render  primary-ray path (sampling, SDF, features, alpha, composite, backward) points/s\n"
+    "  train   a short training of each stage (alphamask, coarse, fine), rays/s, on --data, else\n"
+    "          ../shared/scenes/lamp when present, else a small `esr synth` scene in a temp dir\n"
+    "and the peak resident memory, with the machine (CPU model, cores, threads), git commit and\n"
+    "date. Prints a table and writes the JSON to --out.\n"
+    "\n"
+    "options:\n"
+    "  --out FILE    JSON output (default: bench.json)\n"
+    "  --quick       fewer repetitions and iterations (a rough figure in well under a minute)\n"
+    "  --data DIR    dataset for the training benchmark\n"
+    "  --no-train    skip the training benchmark\n"
+    "  -h, --help    this text\n",
+    run_bench,
+};
+
+struct bench_opts {
+    const char *out, *data;
+    int quick, train;
+};
+
+/* "model name" of the first processor in /proc/cpuinfo, or "unknown". */
+static void cpu_model(char *out, size_t n)
+{
+    snprintf(out, n, "unknown");
+    FILE *f = fopen("/proc/cpuinfo", "r");
+    if (!f)
+        return;
+    char line[512];
+    while (fgets(line, sizeof line, f)) {
+        char *colon = strchr(line, ':');
+        if (!strncmp(line, "model name", 10) && colon) {
+            colon += 1 + (colon[1] == ' ');
+            colon[strcspn(colon, "\n")] = '\0';
+            snprintf(out, n, "%s", colon);
+            break;
+        }
+    }
+    fclose(f);
+}
+
+/* Output of `git rev-parse HEAD` in the current directory, or "" outside a checkout. */
+static void git_commit(char *out, size_t n)
+{
+    out[0] = '\0';
+    FILE *p = popen("git rev-parse HEAD 2>/dev/null", "r");
+    if (!p)
+        return;
+    if (!fgets(out, (int)n, p))
+        out[0] = '\0';
+    out[strcspn(out, "\n")] = '\0';
+    pclose(p);
+}
+
+static cJSON *machine_json(void)
+{
+    char cpu[256], commit[64], date[32];
+    time_t now = time(NULL);
+    strftime(date, sizeof date, "%Y-%m-%dT%H:%M:%SZ", gmtime(&now));
+    cpu_model(cpu, sizeof cpu);
+    git_commit(commit, sizeof commit);
+    cJSON *o = cJSON_CreateObject();
+    cJSON_AddStringToObject(o, "cpu", cpu);
+    cJSON_AddNumberToObject(o, "cores", (double)sysconf(_SC_NPROCESSORS_ONLN));
+    cJSON_AddNumberToObject(o, "omp_threads", omp_get_max_threads());
+    cJSON_AddStringToObject(o, "git_commit", commit);
+    cJSON_AddStringToObject(o, "date", date);
+    printf("machine: %s, %ld cores, %d OpenMP threads, commit %.12s, %s\n", cpu, sysconf(_SC_NPROCESSORS_ONLN),
+           omp_get_max_threads(), commit[0] ? commit : "-", date);
+    return o;
+}
+
+static int nn_section(const struct bench_opts *o, cJSON *root)
+{
+    struct esr_nn_bench_result r;
+    ESR_TRY(esr_nn_bench(o->quick ? 1 : 3, &r));
+    cJSON *rows = cJSON_AddArrayToObject(root, "nn");
+    printf("\nMLP kernels (%d threads)\n%-9s %-4s %7s  %-16s %9s %9s\n", r.threads, "kernel", "pass", "n",
+           "in-width*hid-out", "ms", "GFLOP/s");
+    for (int i = 0; i < r.n_rows; i++) {
+        const struct esr_nn_bench_row *w = &r.rows[i];
+        cJSON *row = cJSON_CreateObject();
+        cJSON_AddStringToObject(row, "kernel", w->kernel);
+        cJSON_AddStringToObject(row, "pass", w->pass);
+        cJSON_AddNumberToObject(row, "n", w->n);
+        cJSON_AddNumberToObject(row, "n_in", w->n_in);
+        cJSON_AddNumberToObject(row, "width", w->width);
+        cJSON_AddNumberToObject(row, "n_hidden", w->n_hidden);
+        cJSON_AddNumberToObject(row, "n_out", w->n_out);
+        cJSON_AddNumberToObject(row, "ms", w->ms);
+        cJSON_AddNumberToObject(row, "gflops", w->gflops);
+        cJSON_AddItemToArray(rows, row);
+        char shape[64];
+        snprintf(shape, sizeof shape, "%d-%dx%d-%d", w->n_in, w->width, w->n_hidden, w->n_out);
+        printf("%-9s %-4s %7d  %-16s %9.3f %9.1f\n", w->kernel, w->pass, w->n, shape, w->ms, w->gflops);
+    }
+    return ESR_OK;
+}
+
+static int synth_section(cJSON *root)
+{
+    struct esr_synth_bench_result r;
+    ESR_TRY(esr_synth_bench(&r));
+    cJSON *o = cJSON_AddObjectToObject(root, "synth");
+    cJSON_AddNumberToObject(o, "samples_per_s", r.samples_per_s);
+    cJSON_AddNumberToObject(o, "pixels_per_s", r.pixels_per_s);
+    cJSON_AddNumberToObject(o, "seconds", r.seconds);
+    printf("\npath tracer: %.3f Msamples/s, %.0f pixels/s (%.2f s)\n", r.samples_per_s * 1e-6, r.pixels_per_s,
+           r.seconds);
+    return ESR_OK;
+}
+
+static int render_section(const struct bench_opts *o, cJSON *root)
+{
+    struct esr_render_bench_result r;
+    ESR_TRY(esr_render_bench(o->quick ? 4096 : 16384, o->quick ? 1 : 3, &r));
+    cJSON *j = cJSON_AddObjectToObject(root, "render");
+    cJSON_AddNumberToObject(j, "rays", r.n_rays);
+    cJSON_AddNumberToObject(j, "samples", r.samples);
+    cJSON_AddNumberToObject(j, "fwd_points_per_s", r.fwd_points_per_s);
+    cJSON_AddNumberToObject(j, "total_points_per_s", r.total_points_per_s);
+    cJSON *ms = cJSON_AddObjectToObject(j, "ms");
+    printf("\nray path (%d rays, %.0f samples, %d threads)\n", r.n_rays, r.samples, r.threads);
+    for (int s = 0; s < ESR_RENDER_BENCH_STAGE_COUNT; s++) {
+        cJSON_AddNumberToObject(ms, esr_render_bench_stage_name(s), r.ms[s]);
+        printf("  %-10s %9.3f ms  %8.2f Mpoints/s\n", esr_render_bench_stage_name(s), r.ms[s],
+               r.ms[s] > 0 ? r.samples / r.ms[s] * 1e-3 : 0.0);
+    }
+    printf("  forward %.2f Mpoints/s, forward+backward %.2f Mpoints/s\n", r.fwd_points_per_s * 1e-6,
+           r.total_points_per_s * 1e-6);
+    return ESR_OK;
+}
+
+static int remove_entry(const char *path, const struct stat *st, int flag, struct FTW *ftw)
+{
+    (void)st, (void)flag, (void)ftw;
+    return remove(path);
+}
+
+/* Dataset for the training benchmark: --data, the shared lamp scene, or a synthetic one. */
+static int train_dataset(const struct bench_opts *o, const char *tmp, char *out, size_t n, const char **what)
+{
+    if (o->data) {
+        snprintf(out, n, "%s", o->data);
+        *what = "--data";
+        return ESR_OK;
+    }
+    snprintf(out, n, "../shared/scenes/lamp");
+    *what = "shared lamp scene";
+    char probe[4200];
+    snprintf(probe, sizeof probe, "%s/transforms/transforms_train.json", out);
+    if (esr_file_exists(probe))
+        return ESR_OK;
+    snprintf(out, n, "%s/synth", tmp);
+    *what = "esr synth default scene, 64x64";
+    struct esr_synth_options so;
+    memset(&so, 0, sizeof so);
+    so.scene = "default";
+    so.res = 64;
+    so.spp = 4;
+    so.seed = 1;
+    return esr_synth_write_dataset(out, &so);
+}
+
+static int train_section(const struct bench_opts *o, cJSON *root)
+{
+    char tmp[] = "/tmp/esr-bench-XXXXXX", data[4096], run[sizeof tmp + 8];
+    if (!mkdtemp(tmp))
+        return ESR_FAIL("cannot create a temporary directory for the training benchmark");
+    const char *what;
+    struct esr_bench_train_result r;
+    int iters = o->quick ? 10 : 40;
+    snprintf(run, sizeof run, "%s/run", tmp);
+    int status = train_dataset(o, tmp, data, sizeof data, &what);
+    if (status == ESR_OK)
+        status = esr_bench_train(data, run, iters, &r);
+    nftw(tmp, remove_entry, 16, FTW_DEPTH | FTW_PHYS);
+    ESR_TRY(status);
+    cJSON *j = cJSON_AddObjectToObject(root, "train");
+    cJSON_AddStringToObject(j, "dataset", data);
+    printf("\ntraining (%s: %s, %d iterations per stage)\n", what, data, iters);
+    for (int s = 0; s < ESR_STAGE_COUNT; s++) {
+        const struct esr_bench_train_stage *t = &r.stages[s];
+        cJSON *st = cJSON_AddObjectToObject(j, esr_stage_name((enum esr_stage)s));
+        cJSON_AddNumberToObject(st, "iters", t->iters);
+        cJSON_AddNumberToObject(st, "batch_rays", t->batch_rays);
+        cJSON_AddNumberToObject(st, "rays_per_s", t->rays_per_s);
+        cJSON_AddNumberToObject(st, "samples_per_ray", t->samples_per_ray);
+        cJSON_AddNumberToObject(st, "kept_per_ray", t->kept_per_ray);
+        printf("  %-10s %10.0f rays/s  (%d rays/iter, %.1f samples/ray, %.1f kept)\n",
+               esr_stage_name((enum esr_stage)s), t->rays_per_s, t->batch_rays, t->samples_per_ray,
+               t->kept_per_ray);
+    }
+    return ESR_OK;
+}
+
+static int bench_all(const struct bench_opts *o, cJSON *root)
+{
+    cJSON_AddItemToObject(root, "machine", machine_json());
+    cJSON_AddBoolToObject(root, "quick", o->quick);
+    fflush(stdout);
+    ESR_TRY(nn_section(o, root));
+    fflush(stdout);
+    ESR_TRY(synth_section(root));
+    ESR_TRY(render_section(o, root));
+    fflush(stdout);
+    if (o->train)
+        ESR_TRY(train_section(o, root));
+    struct rusage ru;
+    getrusage(RUSAGE_SELF, &ru);
+    cJSON_AddNumberToObject(root, "peak_rss_mb", (double)ru.ru_maxrss / 1024.0); /* ru_maxrss is in KiB */
+    printf("\npeak memory %.1f MiB\n", (double)ru.ru_maxrss / 1024.0);
+    char *text = cJSON_Print(root);
+    if (!text)
+        return ESR_FAIL("out of memory writing %s", o->out);
+    int status = esr_file_write_atomic(o->out, text, strlen(text));
+    free(text);
+    if (status == ESR_OK)
+        printf("wrote %s\n", o->out);
+    return status;
+}
+
+static int run_bench(int argc, char **argv)
+{
+    if (cli_wants_help(&cmd_bench, argc, argv))
+        return 0;
+    struct bench_opts o = {"bench.json", NULL, 0, 1};
+    for (int i = 1; i < argc; i++) {
+        const char *a = argv[i];
+        int has_value = i + 1 < argc;
+        if (!strcmp(a, "--out") && has_value)
+            o.out = argv[++i];
+        else if (!strcmp(a, "--data") && has_value)
+            o.data = argv[++i];
+        else if (!strcmp(a, "--quick"))
+            o.quick = 1;
+        else if (!strcmp(a, "--no-train"))
+            o.train = 0;
+        else
+            return cli_fail(&cmd_bench, "unknown option or missing value: '%s'", a);
+    }
+    cJSON *root = cJSON_CreateObject();
+    if (!root)
+        return cli_fail(&cmd_bench, "out of memory");
+    int status = bench_all(&o, root);
+    cJSON_Delete(root);
+    return status == ESR_OK ? 0 : cli_fail_lib(&cmd_bench);
+}

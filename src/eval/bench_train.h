@@ -1,0 +1,25 @@
+/* Training throughput for `esr bench`: a short run of every stage (alphamask, coarse, fine)
+ * through the training driver, reporting each stage's rays per second. */
+#ifndef ESR_EVAL_BENCH_TRAIN_H
+#define ESR_EVAL_BENCH_TRAIN_H
+
+#include "train/model.h"
+
+struct esr_bench_train_stage {
+    int iters;              /* iterations run */
+    int batch_rays;         /* rays per iteration */
+    double rays_per_s;      /* over the stage's second half (after warm-up) */
+    double samples_per_ray; /* marched samples per ray in that window */
+    double kept_per_ray;    /* samples that reached the MLPs */
+};
+
+struct esr_bench_train_result {
+    struct esr_bench_train_stage stages[ESR_STAGE_COUNT];
+};
+
+/* Trains data_dir from scratch into run_dir (created; existing checkpoints there are ignored)
+ * with the "fast" preset, `iters` (>= 2) iterations per stage, and records each stage's rays/s
+ * from the progress reports. ESR_ERR with the trainer's message on failure. */
+int esr_bench_train(const char *data_dir, const char *run_dir, int iters, struct esr_bench_train_result *res);
+
+#endif
