@@ -28,8 +28,9 @@ static char out[1 << 16];
 static char ds_dir[1100], run_dir[1100];
 static float box_half; /* half edge of the (cubic) scene box */
 
-/* A coarse model at initialisation with a sphere SDF of SPHERE_RADIUS, saved as run/ckpt_coarse.bin. */
-static void make_run(const struct esr_dataset *ds)
+/* A coarse model at initialisation with a sphere SDF of SPHERE_RADIUS, saved as <dir>/ckpt_coarse.bin,
+ * and <dir>/run.json naming the dataset. */
+static void make_run(const struct esr_dataset *ds, const char *dir)
 {
     struct esr_train_config cfg;
     struct esr_model m;
@@ -38,14 +39,13 @@ static void make_run(const struct esr_dataset *ds)
     assert_int_equal(esr_config_set(&cfg, "coarse.res=24"), ESR_OK);
     assert_int_equal(esr_model_init(&m, &cfg, ESR_STAGE_COARSE, NULL, ds->bbox_min, ds->bbox_max), ESR_OK);
     assert_int_equal(esr_sdf_init_sphere(&m.sdf, m.params.w + m.sdf_off, SPHERE_RADIUS), ESR_OK);
-    snprintf(run_dir, sizeof run_dir, "%s/run", test_tmpdir);
-    assert_int_equal(mkdir(run_dir, 0755), 0);
-    snprintf(path, sizeof path, "%s/ckpt_coarse.bin", run_dir);
+    assert_int_equal(mkdir(dir, 0755), 0);
+    snprintf(path, sizeof path, "%s/ckpt_coarse.bin", dir);
     assert_int_equal(esr_model_save(&m, path), ESR_OK);
     esr_model_free(&m);
-    snprintf(path, sizeof path, "%s/run.json", run_dir);
+    snprintf(path, sizeof path, "%s/run.json", dir);
     char text[1300];
-    snprintf(text, sizeof text, "{\"data\": \"%s\"}", ds_dir);
+    snprintf(text, sizeof text, "{\"data\": \"%s\"}", ds->root);
     assert_int_equal(test_write_file(path, text), 0);
 }
 
@@ -68,7 +68,8 @@ static int setup(void **state)
     if (esr_dataset_load(ds_dir, &ds) != ESR_OK)
         return -1;
     box_half = 0.5f * (ds.bbox_max[0] - ds.bbox_min[0]);
-    make_run(&ds);
+    snprintf(run_dir, sizeof run_dir, "%s/run", test_tmpdir);
+    make_run(&ds, run_dir);
     esr_dataset_free(&ds);
     return 0;
 }
@@ -269,11 +270,42 @@ static void test_export(void **state)
     esr_mesh_free(&m);
 }
 
+/* The real scene: two views evaluated at full size, with HDR MSE against its EXRs. */
+static void test_lamp(void **state)
+{
+    (void)state;
+    const char *scene = test_shared_scene("lamp");
+    if (!scene)
+        skip();
+    struct esr_dataset ds;
+    char run[1200], args[3000], path[1300];
+    assert_int_equal(esr_dataset_load(scene, &ds), ESR_OK);
+    snprintf(run, sizeof run, "%s/run_lamp", test_tmpdir);
+    make_run(&ds, run);
+    esr_dataset_free(&ds);
+    snprintf(args, sizeof args, "eval '%s' --frames c003_off,c003_on", run);
+    run_ok(args);
+    snprintf(path, sizeof path, "%s/render/test_nv/c003_on_normal.png", run);
+    struct esr_image img;
+    assert_int_equal(esr_png_read(path, &img), ESR_OK);
+    assert_int_equal(img.width, 160);
+    esr_image_free(&img);
+    snprintf(path, sizeof path, "%s/eval/test_nv.json", run);
+    cJSON *root = read_json(path);
+    const cJSON *views = cJSON_GetObjectItem(root, "views");
+    assert_int_equal(cJSON_GetArraySize(views), 2);
+    for (int i = 0; i < 2; i++) {
+        const cJSON *hdr = cJSON_GetObjectItem(cJSON_GetArrayItem(views, i), "hdr_mse");
+        assert_true(cJSON_IsNumber(hdr) && hdr->valuedouble > 0.0);
+    }
+    cJSON_Delete(root);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_render), cmocka_unit_test(test_eval),   cmocka_unit_test(test_eval_existing),
-        cmocka_unit_test(test_errors), cmocka_unit_test(test_export),
+        cmocka_unit_test(test_errors), cmocka_unit_test(test_export),        cmocka_unit_test(test_lamp),
     };
     return cmocka_run_group_tests(tests, setup, test_teardown_tmpdir);
 }
