@@ -107,15 +107,14 @@ static void test_furnace_convex_object(void **state)
 
 /* Direct light from a sphere emitter at the floor point hitp seen from `from`, integrated over the
  * emitter's surface (no sampling): sum of Le R(wo, wi) cos_l / d^2 dA over the visible half. */
-static void direct_reference(const struct esr_synth_scene *s, const float le[3], struct esr_vec3 from,
+static void direct_reference(const struct esr_synth_scene *s, int emitter, const float le[3], struct esr_vec3 from,
                              struct esr_vec3 hitp, double out[3])
 {
-    const struct esr_synth_prim *e = &s->prims[1];
+    const struct esr_synth_prim *e = &s->prims[emitter];
     const struct esr_material *m = &s->prims[0].mat;
     struct esr_vec3 n = esr_v3(0, 0, 1), wo = esr_v3_normalize(esr_v3_sub(from, hitp));
     const int nt = 800, np = 1600;
     double r = e->b.x;
-    out[0] = out[1] = out[2] = 0.0;
     for (int i = 0; i < nt; i++) {
         double th = (i + 0.5) * M_PI / nt, da_th = r * r * sin(th) * (M_PI / nt) * (2 * M_PI / np);
         for (int j = 0; j < np; j++) {
@@ -139,8 +138,9 @@ static void direct_reference(const struct esr_synth_scene *s, const float le[3],
 static void test_direct_light_matches_integral(void **state)
 {
     (void)state;
-    const float base[] = {0.5f, 0.8f}, roughness[] = {1.0f, 0.3f}, metallic[] = {0.0f, 1.0f};
-    for (int v = 0; v < 2; v++) {
+    /* Variant 2 adds a second, smaller emitter: both lights are sampled at every vertex. */
+    const float base[] = {0.5f, 0.8f, 0.6f}, roughness[] = {1.0f, 0.3f, 0.7f}, metallic[] = {0.0f, 1.0f, 0.2f};
+    for (int v = 0; v < 3; v++) {
         struct esr_synth_scene s;
         memset(&s, 0, sizeof s);
         add(&s, ESR_SYNTH_BOX, esr_v3(-3, -3, -0.1f), esr_v3(3, 3, 0), base[v], roughness[v], metallic[v]);
@@ -148,8 +148,14 @@ static void test_direct_light_matches_integral(void **state)
         s.prims[1].light = 0;
         s.n_lights = 1;
         s.lights[0].prim = 1;
+        if (v == 2) {
+            add(&s, ESR_SYNTH_SPHERE, esr_v3(0.6f, 0.5f, 0.4f), esr_v3(0.1f, 0, 0), 0.0f, 1.0f, 0.0f);
+            s.prims[2].light = 1;
+            s.n_lights = 2;
+            s.lights[1].prim = 2;
+        }
         s.max_bounces = 8;
-        const float le[1][3] = {{10.0f, 6.0f, 3.0f}};
+        const float le[2][3] = {{10.0f, 6.0f, 3.0f}, {2.0f, 5.0f, 12.0f}};
         struct esr_synth_trace_params p;
         esr_synth_trace_setup(&s, le, &p);
         /* The glossy variant looks along the mirror direction of the emitter's centre. */
@@ -158,7 +164,9 @@ static void test_direct_light_matches_integral(void **state)
         float px[4];
         render_pixel(&p, &cam, 40000, px);
         double expect[3];
-        direct_reference(&s, le[0], from, hitp, expect);
+        expect[0] = expect[1] = expect[2] = 0.0;
+        for (int k = 0; k < s.n_lights; k++)
+            direct_reference(&s, s.lights[k].prim, le[k], from, hitp, expect);
         for (int c = 0; c < 3; c++) {
             if (fabs(px[c] - expect[c]) > 0.015 * expect[c]) {
                 fprintf(stderr, "variant %d channel %d: rendered %.5f, expected %.5f\n", v, c, px[c], expect[c]);

@@ -71,8 +71,11 @@ static void show_progress(void *user, const struct esr_synth_progress *p)
 
 static int run_synth(int argc, char **argv)
 {
-    if (cli_wants_help(&cmd_synth, argc, argv))
+    if (cli_wants_help(&cmd_synth, argc, argv)) {
+        printf("\n");
+        list_scenes(stdout);
         return 0;
+    }
     struct esr_synth_options opt;
     memset(&opt, 0, sizeof opt);
     opt.scene = "default";
@@ -99,7 +102,7 @@ static int run_synth(int argc, char **argv)
         } else if ((!strcmp(a, "--train") || !strcmp(a, "--test")) && has_value) {
             if (parse_int(argv[++i], 1, 500, &v))
                 return cli_fail(&cmd_synth, "%s must be an integer in 1..500, got '%s'", a, argv[i]);
-            *(a[3] == 'r' ? &opt.n_train : &opt.n_test) = (int)v;
+            *(!strcmp(a, "--train") ? &opt.n_train : &opt.n_test) = (int)v;
         } else if (!strcmp(a, "--seed") && has_value) {
             if (parse_int(argv[++i], 0, 9223372036854775807LL, &v))
                 return cli_fail(&cmd_synth, "--seed must be a non-negative integer, got '%s'", argv[i]);

@@ -58,7 +58,7 @@ static void init_scene(struct esr_synth_scene *s, const char *name, const char *
     s->world_strength = 0.25f;
     s->max_bounces = 8;
     s->res = 100;
-    s->spp = 64;
+    s->spp = 96;
     s->n_train = 50;
     s->n_test = 10;
 }

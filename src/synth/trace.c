@@ -7,7 +7,6 @@
 /* Offset of secondary ray origins along the normal, against self-intersection (scene scale ~1 m). */
 #define RAY_EPS 1e-4f
 
-static float luminance(const float c[3]) { return 0.2126f * c[0] + 0.7152f * c[1] + 0.0722f * c[2]; }
 
 void esr_synth_trace_setup(const struct esr_synth_scene *s, const float emission[][3],
                            struct esr_synth_trace_params *p)
@@ -17,14 +16,10 @@ void esr_synth_trace_setup(const struct esr_synth_scene *s, const float emission
     p->max_bounces = s->max_bounces;
     for (int c = 0; c < 3; c++)
         p->world[c] = s->world_rgb[c] * s->world_strength;
-    float total = 0.0f;
     for (int k = 0; k < s->n_lights; k++) {
         memcpy(p->emission[k], emission[k], sizeof p->emission[k]);
-        p->select_prob[k] = fmaxf(luminance(emission[k]), 0.0f) * esr_synth_prim_area(&s->prims[s->lights[k].prim]);
-        total += p->select_prob[k];
+        p->lit[k] = emission[k][0] > 0.0f || emission[k][1] > 0.0f || emission[k][2] > 0.0f;
     }
-    for (int k = 0; k < s->n_lights; k++)
-        p->select_prob[k] = total > 0.0f ? p->select_prob[k] / total : 0.0f;
 }
 
 int esr_synth_intersect(const struct esr_synth_scene *s, struct esr_vec3 o, struct esr_vec3 d, float tmin, float *t)
@@ -51,24 +46,13 @@ static int occluded(const struct esr_synth_scene *s, struct esr_vec3 o, struct e
 static float power_heuristic(float a, float b) { return a * a / (a * a + b * b); }
 
 /* Light k's contribution at x by one point sampled on its surface, MIS-weighted against BRDF
- * sampling. Adds beta * R * Le * w / pdf to l. */
-static void sample_emitter(const struct esr_synth_trace_params *p, struct esr_vec3 x, struct esr_vec3 n,
+ * sampling. Adds beta * R * Le * w / pdf to l. Every lit light gets its own sample (rather than
+ * one light picked at random), which removes the noise of the light choice for a second shadow ray. */
+static void sample_emitter(const struct esr_synth_trace_params *p, int k, struct esr_vec3 x, struct esr_vec3 n,
                            struct esr_vec3 wo, const struct esr_material *m, struct esr_rng *rng, const float beta[3],
                            float l[3])
 {
     const struct esr_synth_scene *s = p->scene;
-    float u = esr_rng_float(rng), cdf = 0.0f;
-    int k = -1;
-    for (int j = 0; j < s->n_lights; j++) {
-        if (p->select_prob[j] <= 0.0f)
-            continue;
-        k = j; /* the last selectable light absorbs rounding at u ~ 1 */
-        cdf += p->select_prob[j];
-        if (u < cdf)
-            break;
-    }
-    if (k < 0)
-        return;
     const struct esr_synth_prim *lp = &s->prims[s->lights[k].prim];
     struct esr_vec3 y, ny;
     float u0 = esr_rng_float(rng), u1 = esr_rng_float(rng), u2 = esr_rng_float(rng);
@@ -82,7 +66,7 @@ static void sample_emitter(const struct esr_synth_trace_params *p, struct esr_ve
         return;
     if (occluded(s, o, to, 1.0f - 1e-3f))
         return;
-    float pdf_l = p->select_prob[k] * dist2 / (cos_l * esr_synth_prim_area_toward(lp, x));
+    float pdf_l = dist2 / (cos_l * esr_synth_prim_area_toward(lp, x));
     float f[3];
     esr_brdf_eval(m, n, wo, wi, f);
     float w = power_heuristic(pdf_l, esr_synth_bsdf_pdf(m, n, wo, wi)) / pdf_l;
@@ -140,11 +124,11 @@ int esr_synth_trace_path(const struct esr_synth_trace_params *p, struct esr_vec3
         struct esr_vec3 x = esr_v3_add(o, esr_v3_scale(d, t));
         struct esr_vec3 n = esr_synth_prim_normal(prim, x);
         int k = prim->light;
-        if (k >= 0 && esr_v3_dot(n, d) < 0.0f && p->select_prob[k] > 0.0f) {
+        if (k >= 0 && esr_v3_dot(n, d) < 0.0f && p->lit[k]) {
             float w = 1.0f;
             if (depth > 0) {
                 float cos_l = -esr_v3_dot(n, d);
-                float pdf_l = p->select_prob[k] * t * t / (cos_l * esr_synth_prim_area_toward(prim, prev_x));
+                float pdf_l = t * t / (cos_l * esr_synth_prim_area_toward(prim, prev_x));
                 w = power_heuristic(prev_pdf, pdf_l);
             }
             for (int c = 0; c < 3; c++)
@@ -156,7 +140,9 @@ int esr_synth_trace_path(const struct esr_synth_trace_params *p, struct esr_vec3
         if (esr_v3_dot(n, wo) < 0.0f) /* reached from inside through rounding: shade the side seen */
             n = esr_v3_scale(n, -1.0f);
         struct esr_material m = esr_synth_prim_material(prim, x);
-        sample_emitter(p, x, n, wo, &m, rng, beta, l);
+        for (int j = 0; j < s->n_lights; j++)
+            if (p->lit[j])
+                sample_emitter(p, j, x, n, wo, &m, rng, beta, l);
         if (world_on)
             sample_world(p, x, n, wo, &m, rng, beta, l);
         struct esr_vec3 wi;

@@ -15,7 +15,7 @@
 struct esr_synth_trace_params {
     const struct esr_synth_scene *scene;
     float emission[ESR_SYNTH_MAX_LIGHTS][3]; /* emitted radiance of each light in this image (0 = off) */
-    float select_prob[ESR_SYNTH_MAX_LIGHTS]; /* chance that NEE picks light k (by emitted power) */
+    int lit[ESR_SYNTH_MAX_LIGHTS];           /* 1 when light k emits (NEE samples every lit light) */
     float world[3];                          /* world radiance (colour * strength) */
     int max_bounces;
 };
