@@ -23,6 +23,7 @@ int cli_parse_int(const char *text, long lo, long hi, int *out);
 extern const struct esr_command cmd_metrics;
 extern const struct esr_command cmd_info;
 extern const struct esr_command cmd_synth;
+extern const struct esr_command cmd_train;
 extern const struct esr_command cmd_render;
 extern const struct esr_command cmd_eval;
 extern const struct esr_command cmd_export;

@@ -12,6 +12,7 @@ static const struct esr_command *const commands[] = {
     &cmd_info,
     &cmd_metrics,
     &cmd_synth,
+    &cmd_train,
     &cmd_render,
     &cmd_eval,
     &cmd_export,

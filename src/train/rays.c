@@ -1,0 +1,92 @@
+/* Training ray precomputation and batch drawing (see rays.h). */
+#include "train/rays.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "core/error.h"
+#include "core/rng.h"
+
+void esr_ray_set_free(struct esr_ray_set *rs)
+{
+    free(rs->orig3);
+    free(rs->dir3);
+    free(rs->rgb3);
+    memset(rs, 0, sizeof(*rs));
+}
+
+/* Appends one frame's rays at ray index `at`. */
+static int add_frame(struct esr_ray_set *rs, const struct esr_dataset *ds, const struct esr_frame *f,
+                     size_t at)
+{
+    struct esr_image rgb;
+    ESR_TRY(esr_frame_load_rgb(ds, f, &rgb, NULL));
+    const int w = ds->width, h = ds->height;
+#pragma omp parallel for schedule(static)
+    for (int j = 0; j < h; j++)
+        for (int i = 0; i < w; i++) {
+            size_t r = at + (size_t)j * (size_t)w + (size_t)i, p = (size_t)j * (size_t)w + (size_t)i;
+            esr_camera_ray(&f->camera, (float)i + 0.5f, (float)j + 0.5f, rs->orig3 + r * 3,
+                           rs->dir3 + r * 3);
+            for (int c = 0; c < 3; c++)
+                rs->rgb3[r * 3 + c] = rgb.data[p * 3 + c];
+        }
+    esr_image_free(&rgb);
+    return ESR_OK;
+}
+
+int esr_ray_set_build(struct esr_ray_set *rs, const struct esr_dataset *ds, enum esr_phase_id phase)
+{
+    memset(rs, 0, sizeof(*rs));
+    const struct esr_phase *ph = &ds->phases[phase];
+    if (!ph->present || ph->n_frames < 1)
+        return ESR_FAIL("dataset %s: phase '%s' has no frames to train on", ds->root,
+                        esr_phase_name(phase));
+    size_t per = (size_t)ds->width * (size_t)ds->height, n = per * (size_t)ph->n_frames;
+    rs->orig3 = malloc(n * 3 * sizeof(float));
+    rs->dir3 = malloc(n * 3 * sizeof(float));
+    rs->rgb3 = malloc(n * 3 * sizeof(float));
+    if (!rs->orig3 || !rs->dir3 || !rs->rgb3) {
+        esr_ray_set_free(rs);
+        return ESR_FAIL("dataset %s: out of memory for %zu training rays", ds->root, n);
+    }
+    size_t at = 0;
+    for (int pass = 0; pass < 2; pass++)
+        for (int i = 0; i < ph->n_frames; i++) {
+            if (ph->frames[i].lights_on != pass)
+                continue;
+            if (add_frame(rs, ds, &ph->frames[i], at) != ESR_OK) {
+                esr_ray_set_free(rs);
+                return ESR_ERR;
+            }
+            at += per;
+            if (pass == 0)
+                rs->n_off = at;
+        }
+    rs->n = n;
+    return ESR_OK;
+}
+
+void esr_ray_set_draw(const struct esr_ray_set *rs, uint64_t seed, long step, int n, float *orig3,
+                      float *dir3, float *rgb3, int *n_off_out)
+{
+    int n_off = (int)llround((double)n * (double)rs->n_off / (double)rs->n);
+    if (rs->n_off > 0 && n_off == 0)
+        n_off = 1;
+    if (rs->n_off < rs->n && n_off == n)
+        n_off = n - 1;
+    *n_off_out = n_off;
+    const size_t n_on_rays = rs->n - rs->n_off;
+#pragma omp parallel for schedule(static)
+    for (int i = 0; i < n; i++) {
+        struct esr_rng rng = esr_rng_init(seed, (uint64_t)step * (uint64_t)n + (uint64_t)i);
+        uint64_t u = ((uint64_t)esr_rng_u32(&rng) << 32) | esr_rng_u32(&rng);
+        size_t r = i < n_off ? (size_t)(u % rs->n_off) : rs->n_off + (size_t)(u % n_on_rays);
+        for (int c = 0; c < 3; c++) {
+            orig3[i * 3 + c] = rs->orig3[r * 3 + c];
+            dir3[i * 3 + c] = rs->dir3[r * 3 + c];
+            rgb3[i * 3 + c] = rs->rgb3[r * 3 + c];
+        }
+    }
+}

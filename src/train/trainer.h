@@ -1,0 +1,56 @@
+/* The training driver: stages alphamask -> coarse -> fine (METHOD.md 1-3), each starting from the
+ * previous stage's checkpoint and writing its own (RUN/ckpt_<stage>.bin, atomic, also every
+ * save_every iterations), plus RUN/config.json (resolved) and RUN/train_log.jsonl (metrics).
+ * NaN/Inf in the loss or gradients: reload the stage's last checkpoint, halve the learning rate,
+ * continue; after 3 failures in a run, stop with an error (the checkpoint stays intact).
+ * Progress goes to a caller-supplied callback (the library never prints). */
+#ifndef ESR_TRAIN_TRAINER_H
+#define ESR_TRAIN_TRAINER_H
+
+#include "train/config.h"
+#include "train/model.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+enum esr_train_event {
+    ESR_TRAIN_PROGRESS,   /* periodic metrics (every log_every iterations and at stage end) */
+    ESR_TRAIN_MESSAGE,    /* a line for the log (stage start/end, checkpoint, NaN recovery) */
+};
+
+struct esr_train_progress {
+    enum esr_train_event event;
+    enum esr_stage stage;
+    long iter, iters;      /* iterations done in the stage / total */
+    double loss;           /* mean loss of the last window */
+    double psnr;           /* batch PSNR of the tone-mapped colour (last window) */
+    double rays_per_s;     /* training rays per second over the last window */
+    double eta_s;          /* remaining seconds of this stage */
+    double samples_per_ray, kept_per_ray; /* marched / MLP-evaluated samples per ray */
+    const char *message;   /* ESR_TRAIN_MESSAGE text */
+};
+
+typedef void (*esr_train_report_fn)(void *user, const struct esr_train_progress *p);
+
+struct esr_train_opts {
+    const char *data_dir;
+    const char *run_dir;           /* created if missing */
+    enum esr_stage until;          /* last stage to run */
+    int resume;                    /* continue from the checkpoints in run_dir */
+    struct esr_train_config cfg;   /* ignored on resume when run_dir has a config (it wins) */
+    esr_train_report_fn report;    /* may be NULL */
+    void *user;
+    long nan_test_iter;            /* test hook: poison the gradient at this iteration of every
+                                      stage (-1 = never) ... */
+    int nan_test_times;            /* ... at most this many times in the run */
+};
+
+/* Runs the stages up to opts->until. ESR_ERR with a message on bad data, I/O failure or after
+ * repeated NaN failures. */
+int esr_train_run(const struct esr_train_opts *opts);
+
+#ifdef __cplusplus
+}
+#endif
+#endif
