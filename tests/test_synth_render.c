@@ -12,6 +12,7 @@
 #include <stdio.h>
 #include <string.h>
 
+#include "synth/synth.h"
 #include "synth/trace.h"
 
 static void add(struct esr_synth_scene *s, enum esr_synth_prim_kind kind, struct esr_vec3 a, struct esr_vec3 b,
@@ -217,12 +218,26 @@ static void test_thread_count_independent(void **state)
     esr_image_free(&c);
 }
 
+/* The benchmark workload runs and reports consistent figures (its speed is for `esr bench`). */
+static void test_bench_reports(void **state)
+{
+    (void)state;
+    struct esr_synth_bench_result r;
+    assert_int_equal(esr_synth_bench(&r), 0);
+    assert_int_equal(r.samples, 4LL * 64 * 64 * 16);
+    assert_true(r.seconds > 0.0 && isfinite(r.samples_per_s));
+    assert_float_equal(r.samples_per_s, r.samples / r.seconds, 1e-6 * r.samples_per_s);
+    assert_float_equal(r.pixels_per_s * 16, r.samples_per_s, 1e-6 * r.samples_per_s);
+    fprintf(stderr, "synth bench: %.2f Msamples/s\n", r.samples_per_s * 1e-6);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_furnace_convex_object),
         cmocka_unit_test(test_direct_light_matches_integral),
         cmocka_unit_test(test_thread_count_independent),
+        cmocka_unit_test(test_bench_reports),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
