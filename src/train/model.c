@@ -8,6 +8,7 @@
 #include "core/rng.h"
 #include "fields/density.h"
 #include "fields/sdf.h"
+#include "train/sdf_init.h"
 
 static const char *stage_names[ESR_STAGE_COUNT] = {"alphamask", "coarse", "fine"};
 
@@ -112,11 +113,16 @@ static int init_values(struct esr_model *m, const struct esr_model *prev)
     switch (m->stage) {
     case ESR_STAGE_ALPHAMASK:
         return ESR_OK; /* density 0 (alpha_init via the shift), colour logits 0 */
-    case ESR_STAGE_COARSE:
-        ESR_TRY(esr_sdf_init_sphere(&m->sdf, w + m->sdf_off, 1.0f));
+    case ESR_STAGE_COARSE: {
+        int used = 0;
+        if (prev && prev->stage == ESR_STAGE_ALPHAMASK)
+            ESR_TRY(esr_sdf_init_from_density(m, prev, m->cfg.sdf_init_alpha, &used));
+        if (!used)
+            ESR_TRY(esr_sdf_init_sphere(&m->sdf, w + m->sdf_off, 1.0f));
         init_noise(w + m->feat_off, esr_grid_count(&m->feat), seed, 1e-2f);
         esr_mlp_init_weights(&m->colour, w, seed + 1, 0.0f);
         return ESR_OK;
+    }
     default:
         if (prev && prev->stage >= ESR_STAGE_COARSE)
             ESR_TRY(esr_grid_resample(&prev->sdf, prev->params.w + prev->sdf_off, &m->sdf,

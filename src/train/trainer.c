@@ -32,6 +32,7 @@ struct run {
     float scene_min[3], scene_max[3];
     int nan_failures;
     int nan_injected;
+    int stopped; /* the stop_test_iter hook fired */
     char log_path[4096];
 };
 
@@ -349,6 +350,12 @@ static int run_stage(struct run *r, struct esr_model *m, enum esr_stage s)
             report_window(r, m, s, &w, m->step, sc->iters, B);
         if (m->step % r->cfg.save_every == 0 && m->step < sc->iters)
             rc = save(r, m, s);
+        if (r->o->stop_test_iter > 0 && s == r->o->stop_test_stage &&
+            m->step == r->o->stop_test_iter) {
+            r->stopped = 1;
+            stage_buf_free(&b);
+            return ESR_OK;
+        }
     }
     if (rc == ESR_OK && s == ESR_STAGE_ALPHAMASK)
         rc = finish_alphamask(r, m);
@@ -439,7 +446,7 @@ int esr_train_run(const struct esr_train_opts *o)
             esr_model_free(&prev);
         prev = cur;
         have_prev = 1;
-        if (rc != ESR_OK)
+        if (rc != ESR_OK || r.stopped)
             break;
     }
     if (have_prev)

@@ -44,6 +44,10 @@ struct esr_train_opts {
     long nan_test_iter;            /* test hook: poison the gradient at this iteration of every
                                       stage (-1 = never) ... */
     int nan_test_times;            /* ... at most this many times in the run */
+    long stop_test_iter;           /* test hook: return ESR_OK right after this iteration of
+                                      stage stop_test_stage, without saving, as a kill -9 would
+                                      leave the run (0 = never) */
+    enum esr_stage stop_test_stage;
 };
 
 /* Runs the stages up to opts->until. ESR_ERR with a message on bad data, I/O failure or after
