@@ -49,6 +49,7 @@ struct esr_train_config {
     int tone_pe;            /* fine: PE frequencies of the tone-mapper input */
     float lambda_tau;       /* fine: weight of the gamma(linear) loss term */
     float sdf_init_alpha;   /* coarse: SDF starts as the signed distance to alpha > this */
+    float fine_mask_band;   /* fine: mask keeps |coarse SDF| <= this many coarse voxels (0 = off) */
     int tv_every;           /* total-variation terms every N iterations (weight x N) */
     struct esr_stage_config alphamask, coarse, fine;
 };

@@ -173,6 +173,9 @@ int esr_model_init(struct esr_model *m, const struct esr_train_config *cfg, enum
             m->has_mask = 1;
         }
     }
+    if (rc == ESR_OK && m->has_mask && stage == ESR_STAGE_FINE && prev &&
+        prev->stage == ESR_STAGE_COARSE && cfg->fine_mask_band > 0.0f)
+        rc = esr_mask_narrow_to_sdf(m, prev, cfg->fine_mask_band * esr_grid_voxel_size(&prev->sdf, 0));
     m->inv_s = cfg->coarse.s0;
     if (stage == ESR_STAGE_FINE)
         m->inv_s = cfg->fine.s0;

@@ -8,7 +8,10 @@
  *   fine:      SDF grid (upsampled) + off/emo feature grids + off/emo radiance MLPs (softplus,
  *              linear HDR, L_on = L_off + L_emo) + tone-mapper m_theta (sigmoid) applied per
  *              sample before compositing (METHOD.md "Rendering loss and colour").
- * Rendering always composites on a white background. */
+ * Rendering always composites on a white background. The coarse SDF starts as the signed
+ * distance to the alphamask's occupied voxels (train/sdf_init.h), the fine SDF is the coarse one
+ * resampled, and the fine stage narrows the mask cache to a band around the coarse surface.
+ * A run directory holds one checkpoint per stage: RUN/ckpt_{alphamask,coarse,fine}.bin. */
 #ifndef ESR_TRAIN_MODEL_H
 #define ESR_TRAIN_MODEL_H
 

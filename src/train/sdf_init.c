@@ -7,7 +7,9 @@
 
 #include "core/error.h"
 #include "fields/density.h"
+#include "fields/grid.h"
 #include "fields/sdf.h"
+#include "train/render_sdf.h"
 
 /* One forward (or backward) sweep of the 26-neighbour chamfer transform: every voxel takes the
  * minimum over its already-visited neighbours of their distance plus the step length. */
@@ -86,5 +88,34 @@ int esr_sdf_init_from_density(struct esr_model *m, const struct esr_model *prev,
     free(d_in);
     free(occ);
     free(free_);
+    return rc;
+}
+
+int esr_mask_narrow_to_sdf(struct esr_model *m, const struct esr_model *prev, float band)
+{
+    struct esr_mask *k = &m->mask;
+    size_t nv = (size_t)k->nx * k->ny * k->nz, ns = esr_grid_count(&prev->sdf);
+    float *view = malloc(ns * sizeof(float)), *scratch = malloc(ns * sizeof(float));
+    float *pos = malloc(nv * 3 * sizeof(float)), *val = malloc(nv * sizeof(float));
+    int rc = view && scratch && pos && val ? ESR_OK : ESR_FAIL("mask narrowing: out of memory");
+    if (rc == ESR_OK)
+        rc = esr_model_view_sdf(prev, prev->params.w + prev->sdf_off, view, scratch);
+    if (rc == ESR_OK) {
+        struct esr_grid lat;
+        rc = esr_grid_init(&lat, 1, k->nx, k->ny, k->nz, k->bmin, k->bmax);
+        for (int z = 0; rc == ESR_OK && z < k->nz; z++)
+            for (int y = 0; y < k->ny; y++)
+                for (int x = 0; x < k->nx; x++)
+                    esr_grid_voxel_pos(&lat, x, y, z, pos + (((size_t)z * k->ny + y) * k->nx + x) * 3);
+    }
+    if (rc == ESR_OK) {
+        esr_grid_sample_fwd(&prev->sdf, view, pos, nv, val);
+        for (size_t i = 0; i < nv; i++)
+            k->occ[i] = k->occ[i] && fabsf(val[i]) <= band;
+    }
+    free(view);
+    free(scratch);
+    free(pos);
+    free(val);
     return rc;
 }
