@@ -1,6 +1,7 @@
 /* End-to-end gradient of the training engine: two rays through a small fine-stage model (SDF
  * grid -> NeuS alpha, feature grids, geometry feature, PE, off/emo radiance MLPs, tone-mapper,
- * compositing on white, two-term rendering loss with a saturated target) against central
+ * compositing on white, two-term rendering loss with a saturated target) and through a coarse
+ * model (smoothed SDF, colour grid, colour MLP with the lighting flag) against central
  * differences of the loss, for the parameters with the largest analytic gradient in every
  * component. Also the loss formula by hand and the off-branch stop-gradient for on-rays. */
 #include <setjmp.h>
@@ -17,6 +18,7 @@
 #include "fields/sdf.h"
 #include "train/model.h"
 #include "train/render_loss.h"
+#include "train/render_sdf.h"
 #include "train/trace.h"
 
 #define N_RAYS 2
@@ -24,6 +26,7 @@
 
 struct fixture {
     struct esr_model m;
+    float *view, *g_view, *scratch; /* coarse: smoothed SDF the renderer sees, its gradient */
     struct esr_trace t;
     float orig[N_RAYS * 3], dir[N_RAYS * 3], tgt[N_RAYS * 3];
     float d_rgb[N_RAYS * 3], d_lin[N_RAYS * 3];
@@ -33,7 +36,7 @@ struct fixture {
 static void small_config(struct esr_train_config *c)
 {
     esr_config_defaults(c, ESR_PRESET_FAST);
-    c->coarse.res = 10; /* feature grids of the fine stage */
+    c->coarse.res = 16; /* coarse grids, and the fine stage's feature grids */
     c->fine.res = 16;
     c->fine.feat_channels = 2;
     c->fine.mlp_width = 16;
@@ -44,22 +47,34 @@ static void small_config(struct esr_train_config *c)
     c->geo_scales = 2;
 }
 
-static void setup(struct fixture *fx, int n_off)
+static void setup_stage(struct fixture *fx, int n_off, enum esr_stage stage)
 {
     struct esr_train_config cfg;
     small_config(&cfg);
     const float bmin[3] = {-1, -1, -1}, bmax[3] = {1, 1, 1};
-    assert_int_equal(esr_model_init(&fx->m, &cfg, ESR_STAGE_FINE, NULL, bmin, bmax), 0);
+    memset(fx, 0, sizeof(*fx));
+    assert_int_equal(esr_model_init(&fx->m, &cfg, stage, NULL, bmin, bmax), 0);
     float *w = fx->m.params.w;
     assert_int_equal(esr_sdf_init_sphere(&fx->m.sdf, w + fx->m.sdf_off, 0.5f), 0);
-    /* features large enough to matter, and a non-trivial emission */
-    size_t nf = esr_grid_count(&fx->m.feat_off_g);
-    for (size_t i = 0; i < nf; i++) {
-        struct esr_rng r = esr_rng_init(5, i);
-        w[fx->m.feat_off_off + i] = esr_rng_float(&r) - 0.5f;
-        w[fx->m.feat_emo_off + i] = esr_rng_float(&r) - 0.5f;
+    if (stage == ESR_STAGE_COARSE) {
+        size_t ns = esr_grid_count(&fx->m.sdf), nf = esr_grid_count(&fx->m.feat);
+        fx->view = malloc(ns * sizeof(float));
+        fx->g_view = malloc(ns * sizeof(float));
+        fx->scratch = malloc(ns * sizeof(float));
+        for (size_t i = 0; i < nf; i++) {
+            struct esr_rng r = esr_rng_init(6, i);
+            w[fx->m.feat_off + i] = esr_rng_float(&r) - 0.5f;
+        }
+    } else {
+        /* features large enough to matter, and a non-trivial emission */
+        size_t nf = esr_grid_count(&fx->m.feat_off_g);
+        for (size_t i = 0; i < nf; i++) {
+            struct esr_rng r = esr_rng_init(5, i);
+            w[fx->m.feat_off_off + i] = esr_rng_float(&r) - 0.5f;
+            w[fx->m.feat_emo_off + i] = esr_rng_float(&r) - 0.5f;
+        }
+        esr_mlp_init_weights(&fx->m.rad_emo, w, 9, 0.0f);
     }
-    esr_mlp_init_weights(&fx->m.rad_emo, w, 9, 0.0f);
     fx->m.inv_s = 10.0f;
     assert_int_equal(esr_trace_init(&fx->t, &fx->m, N_RAYS, 1), 0);
     const float o[N_RAYS][3] = {{0.1f, -3.0f, 0.15f}, {-3.0f, 0.2f, -0.1f}};
@@ -76,26 +91,46 @@ static void setup(struct fixture *fx, int n_off)
     fx->n_off = n_off;
 }
 
+static void setup(struct fixture *fx, int n_off) { setup_stage(fx, n_off, ESR_STAGE_FINE); }
+
 static void teardown(struct fixture *fx)
 {
     esr_trace_free(&fx->t);
     esr_model_free(&fx->m);
+    free(fx->view);
+    free(fx->g_view);
+    free(fx->scratch);
 }
 
+/* The trainer's iteration without the optimiser: coarse renders the smoothed SDF and brings the
+ * gradient back to the raw grid through the smoothing's adjoint. */
 static double loss_at(struct fixture *fx, int with_grad)
 {
-    assert_int_equal(esr_trace_fwd(&fx->t, &fx->m, fx->m.params.w + fx->m.sdf_off, fx->orig,
-                                   fx->dir, N_RAYS, fx->n_off, 77),
-                     0);
+    struct esr_model *m = &fx->m;
+    const float *sdf = m->params.w + m->sdf_off;
+    float *g_sdf = m->params.g + m->sdf_off;
+    int coarse = m->stage == ESR_STAGE_COARSE, smooth = coarse && m->cfg.smooth_ksize > 1;
+    if (smooth) {
+        assert_int_equal(esr_model_view_sdf(m, sdf, fx->view, fx->scratch), 0);
+        sdf = fx->view;
+        g_sdf = fx->g_view;
+        memset(g_sdf, 0, esr_grid_count(&m->sdf) * sizeof(float));
+    }
+    assert_int_equal(esr_trace_fwd(&fx->t, m, sdf, fx->orig, fx->dir, N_RAYS, fx->n_off, 77), 0);
     struct esr_render_loss_result res;
-    esr_render_loss_batch(fx->t.rgb3, fx->t.lin_rgb3, fx->tgt, N_RAYS, LAMBDA, fx->d_rgb,
+    float lambda = coarse ? 0.0f : LAMBDA;
+    esr_render_loss_batch(fx->t.rgb3, fx->t.lin_rgb3, fx->tgt, N_RAYS, lambda, fx->d_rgb,
                           fx->d_lin, &res);
     if (with_grad) {
-        esr_nn_params_zero_grad(&fx->m.params, 0, fx->m.params.count);
-        assert_int_equal(esr_trace_bwd(&fx->t, &fx->m, fx->m.params.w + fx->m.sdf_off,
-                                       fx->m.params.g + fx->m.sdf_off, fx->m.params.g, fx->d_rgb,
-                                       fx->d_lin),
+        esr_nn_params_zero_grad(&m->params, 0, m->params.count);
+        assert_int_equal(esr_trace_bwd(&fx->t, m, sdf, g_sdf, m->params.g, fx->d_rgb,
+                                       coarse ? NULL : fx->d_lin),
                          0);
+        if (smooth)
+            assert_int_equal(esr_grid_smooth_bwd(&m->sdf, fx->g_view, m->params.g + m->sdf_off,
+                                                 fx->scratch, m->cfg.smooth_ksize,
+                                                 m->cfg.smooth_sigma),
+                             0);
     }
     return res.loss;
 }
@@ -170,6 +205,19 @@ static void test_fine_gradients_lights_on(void **state)
     teardown(&fx);
 }
 
+static void test_coarse_gradients(void **state)
+{
+    (void)state;
+    struct fixture fx;
+    setup_stage(&fx, 1, ESR_STAGE_COARSE); /* one off-ray, one on-ray (lighting flag input) */
+    loss_at(&fx, 1);
+    struct esr_model *m = &fx.m;
+    check_range(&fx, "sdf (through smoothing)", m->sdf_off, esr_grid_count(&m->sdf), 1e-3f);
+    check_range(&fx, "feat", m->feat_off, esr_grid_count(&m->feat), 1e-2f);
+    check_range(&fx, "colour", m->colour.offset, m->colour.count, 1e-2f);
+    teardown(&fx);
+}
+
 static void test_render_loss_by_hand(void **state)
 {
     (void)state;
@@ -201,6 +249,7 @@ int main(void)
         cmocka_unit_test(test_render_loss_by_hand),
         cmocka_unit_test(test_fine_gradients_lights_off),
         cmocka_unit_test(test_fine_gradients_lights_on),
+        cmocka_unit_test(test_coarse_gradients),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

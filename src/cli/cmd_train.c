@@ -34,8 +34,8 @@ const struct esr_command cmd_train = {
     "  --config FILE.json   options as JSON ({\"fine.iters\": 200} or {\"fine\": {\"iters\": 200}},\n"
     "                       optional \"preset\"); unknown keys or out-of-range values are refused\n"
     "  --set key=value      override one option (after --preset and --config; repeatable)\n"
-    "  --eval               afterwards render the test_nv views and print PSNR (tone-mapped and\n"
-    "                       gamma-corrected linear, lights off and on)\n"
+    "  --eval               afterwards render the test_nv views with every stage's checkpoint and\n"
+    "                       print PSNR (tone-mapped and gamma-corrected linear, lights off/on)\n"
     "  -h, --help           show this text and the option table\n"
     "\n"
     "Exit status: 0 on success, 1 on bad arguments, data or a stopped run.\n",
@@ -86,18 +86,23 @@ static void on_progress(void *user, const struct esr_train_progress *p)
     fflush(stderr);
 }
 
+/* Held-out PSNR of every stage checkpoint in the run directory. */
 static int print_eval(const char *data, const char *run)
 {
-    struct esr_quick_eval ev;
-    if (esr_quick_eval_run(run, data, &ev) != ESR_OK)
-        return ESR_ERR;
-    printf("test_nv PSNR (dB)   tone-mapped   gamma(linear)   views\n");
-    printf("  lights off        %8.2f      %8.2f        %d\n", ev.psnr_tone[0], ev.psnr_lin[0],
-           ev.views[0]);
-    printf("  lights on         %8.2f      %8.2f        %d\n", ev.psnr_tone[1], ev.psnr_lin[1],
-           ev.views[1]);
-    printf("  mean              %8.2f      %8.2f\n", 0.5 * (ev.psnr_tone[0] + ev.psnr_tone[1]),
-           0.5 * (ev.psnr_lin[0] + ev.psnr_lin[1]));
+    printf("test_nv PSNR (dB)    tone-mapped off / on / mean    gamma(linear) off / on / mean\n");
+    for (int s = 0; s < ESR_STAGE_COUNT; s++) {
+        char path[4200];
+        snprintf(path, sizeof path, "%s/ckpt_%s.bin", run, esr_stage_name((enum esr_stage)s));
+        if (access(path, R_OK) != 0)
+            continue;
+        struct esr_quick_eval ev;
+        if (esr_quick_eval_run(path, data, &ev) != ESR_OK)
+            return ESR_ERR;
+        printf("  %-10s         %6.2f %6.2f %6.2f               %6.2f %6.2f %6.2f\n",
+               esr_stage_name((enum esr_stage)s), ev.psnr_tone[0], ev.psnr_tone[1],
+               0.5 * (ev.psnr_tone[0] + ev.psnr_tone[1]), ev.psnr_lin[0], ev.psnr_lin[1],
+               0.5 * (ev.psnr_lin[0] + ev.psnr_lin[1]));
+    }
     return ESR_OK;
 }
 
