@@ -143,6 +143,8 @@ static void test_resume_after_interruption_is_exact(void **state)
     assert_int_equal(mid.stage, ESR_STAGE_COARSE);
     assert_int_equal(mid.step, 40);
     assert_int_equal(mid.stage_done, 0);
+    /* inv-s is part of the restored state: 5 + 40 / 1 (a loaded model must render as trained) */
+    assert_float_equal(mid.inv_s, 45.0f, 1e-5f);
     esr_model_free(&mid);
     opts_for(&o, cut, ESR_STAGE_COARSE, NULL);
     o.resume = 1;

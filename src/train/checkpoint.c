@@ -146,6 +146,7 @@ static int deserialise(struct esr_model *m, struct rbuf *b)
     }
     m->step = step;
     m->stage_done = done;
+    m->inv_s = esr_model_inv_s_at(m, step);
     int rc = get(b, m->params.w, n * 4);
     if (rc == ESR_OK)
         rc = get(b, m->adam.m, n * 4);

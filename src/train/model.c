@@ -176,9 +176,7 @@ int esr_model_init(struct esr_model *m, const struct esr_train_config *cfg, enum
     if (rc == ESR_OK && m->has_mask && stage == ESR_STAGE_FINE && prev &&
         prev->stage == ESR_STAGE_COARSE && cfg->fine_mask_band > 0.0f)
         rc = esr_mask_narrow_to_sdf(m, prev, cfg->fine_mask_band * esr_grid_voxel_size(&prev->sdf, 0));
-    m->inv_s = cfg->coarse.s0;
-    if (stage == ESR_STAGE_FINE)
-        m->inv_s = cfg->fine.s0;
+    m->inv_s = esr_model_inv_s_at(m, 0);
     if (rc != ESR_OK)
         esr_model_free(m);
     return rc;
@@ -191,6 +189,12 @@ void esr_model_free(struct esr_model *m)
     if (m->has_mask)
         esr_mask_free(&m->mask);
     memset(m, 0, sizeof(*m));
+}
+
+float esr_model_inv_s_at(const struct esr_model *m, long step)
+{
+    const struct esr_stage_config *sc = m->stage == ESR_STAGE_FINE ? &m->cfg.fine : &m->cfg.coarse;
+    return sc->s0 + (float)step / sc->s_div;
 }
 
 int esr_model_sdf_grid(const struct esr_model *m, const struct esr_grid **grid, const float **data)

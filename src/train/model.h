@@ -55,7 +55,7 @@ struct esr_model {
 
     /* coarse + fine */
     struct esr_grid sdf;      size_t sdf_off;
-    float inv_s;              /* NeuS s at the current step */
+    float inv_s;              /* NeuS s at the current step (esr_model_inv_s_at(step)) */
     /* coarse */
     struct esr_grid feat;     size_t feat_off;
     struct esr_mlp colour;
@@ -72,6 +72,9 @@ struct esr_model {
 int esr_model_init(struct esr_model *m, const struct esr_train_config *cfg, enum esr_stage stage,
                    const struct esr_model *prev, const float scene_min[3], const float scene_max[3]);
 void esr_model_free(struct esr_model *m);
+
+/* NeuS inv-s of m's stage after `step` iterations: s0 + step / s_div (METHOD.md). */
+float esr_model_inv_s_at(const struct esr_model *m, long step);
 
 /* Loads a model: `path` is a checkpoint file, or a run directory (then the most advanced stage's
  * checkpoint in it is used: fine, else coarse, else alphamask). Fails naming the file on a

@@ -329,7 +329,7 @@ static int run_stage(struct run *r, struct esr_model *m, enum esr_stage s)
     while (rc == ESR_OK && m->step < sc->iters) {
         long it = m->step;
         float f = lr_factor(sc, s, it);
-        m->inv_s = sc->s0 + (float)it / sc->s_div;
+        m->inv_s = esr_model_inv_s_at(m, it);
         double loss = 0.0;
         rc = iterate(r, m, &b, s, it, &w, &loss);
         if (rc != ESR_OK)
