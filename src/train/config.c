@@ -24,7 +24,7 @@ struct opt {
 #define OFF(field) offsetof(struct esr_train_config, field)
 /* The three stages share option names below their prefix. */
 #define STAGE_OPTS(st, res_f, res_p, it_f, it_p, fc_f, fc_p, w_f, w_p, d_f, d_p, lg, lf, lm, fin,    \
-                   s_init, sd_f, sd_p, tvs, tvf)                                                        \
+                   s_f, s_p, sd_f, sd_p, tvs, tvf)                                                        \
     {#st ".res", OPT_INT, OFF(st.res), 8, 512, {res_f, res_p}, "grid lattice points per axis"},     \
     {#st ".iters", OPT_INT, OFF(st.iters), 0, 1000000, {it_f, it_p}, "iterations"},                \
     {#st ".feat_channels", OPT_INT, OFF(st.feat_channels), 1, 64, {fc_f, fc_p},                      \
@@ -36,7 +36,7 @@ struct opt {
     {#st ".lr_mlp", OPT_FLOAT, OFF(st.lr_mlp), 0, 1, {lm, lm}, "MLP learning rate"},                \
     {#st ".lr_final", OPT_FLOAT, OFF(st.lr_final), 0, 1, {fin, fin},                                \
      "learning-rate factor reached at the last iteration"},                                         \
-    {#st ".s0", OPT_FLOAT, OFF(st.s0), 0.1, 10000, {s_init, s_init}, "NeuS inv-s at step 0"},               \
+    {#st ".s0", OPT_FLOAT, OFF(st.s0), 0.1, 10000, {s_f, s_p}, "NeuS inv-s at step 0"},               \
     {#st ".s_div", OPT_FLOAT, OFF(st.s_div), 0.01, 1e6, {sd_f, sd_p},                               \
      "inv-s grows by step / s_div"},                                                                \
     {#st ".tv_sdf", OPT_FLOAT, OFF(st.tv_sdf), 0, 100, {tvs, tvs}, "grid total-variation weight"},  \
@@ -71,11 +71,11 @@ static const struct opt opts[] = {
      "fine: mask cache narrowed to |coarse SDF| <= this many coarse voxels (0 = off)"},
     {"tv_every", OPT_INT, OFF(tv_every), 1, 1000, {4, 1},
      "total-variation regularisers every N iterations (weight scaled by N)"},
-    STAGE_OPTS(alphamask, 80, 100, 500, 10000, 6, 6, 8, 8, 1, 1, 0.1, 0.1, 1e-3, 0.1, 1, 1, 1, 0,
+    STAGE_OPTS(alphamask, 80, 100, 500, 10000, 6, 6, 8, 8, 1, 1, 0.1, 0.1, 1e-3, 0.1, 1, 1, 1, 1, 0,
                0),
-    STAGE_OPTS(coarse, 80, 96, 1500, 10000, 12, 12, 64, 128, 2, 3, 1e-2, 0.1, 1e-3, 0.1, 5, 10, 50,
+    STAGE_OPTS(coarse, 80, 96, 1500, 10000, 12, 12, 64, 128, 2, 3, 1e-2, 0.1, 1e-3, 0.1, 5, 5, 10, 50,
                1e-3, 0),
-    STAGE_OPTS(fine, 128, 160, 2000, 20000, 6, 6, 64, 192, 3, 4, 2e-3, 0.1, 1e-3, 0.1, 20, 10,
+    STAGE_OPTS(fine, 128, 160, 2000, 20000, 6, 6, 64, 192, 3, 4, 2e-3, 0.1, 1e-3, 0.1, 100, 20, 20,
                100, 1e-3, 0),
 };
 #define N_OPTS (sizeof opts / sizeof opts[0])

@@ -193,6 +193,8 @@ void esr_model_free(struct esr_model *m)
 
 float esr_model_inv_s_at(const struct esr_model *m, long step)
 {
+    if (m->stage == ESR_STAGE_ALPHAMASK)
+        return 0.0f; /* density stage: no NeuS */
     const struct esr_stage_config *sc = m->stage == ESR_STAGE_FINE ? &m->cfg.fine : &m->cfg.coarse;
     return sc->s0 + (float)step / sc->s_div;
 }

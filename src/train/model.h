@@ -73,7 +73,8 @@ int esr_model_init(struct esr_model *m, const struct esr_train_config *cfg, enum
                    const struct esr_model *prev, const float scene_min[3], const float scene_max[3]);
 void esr_model_free(struct esr_model *m);
 
-/* NeuS inv-s of m's stage after `step` iterations: s0 + step / s_div (METHOD.md). */
+/* NeuS inv-s of m's stage after `step` iterations: s0 + step / s_div (METHOD.md); 0 for the
+ * alphamask stage. */
 float esr_model_inv_s_at(const struct esr_model *m, long step);
 
 /* Loads a model: `path` is a checkpoint file, or a run directory (then the most advanced stage's
