@@ -13,6 +13,7 @@
 #include "core/error.h"
 #include "core/rng.h"
 #include "eval/chamfer.h"
+#include "eval/kdtree.h"
 #include "io/ply.h"
 #include "test_support.h"
 
@@ -148,10 +149,46 @@ static void test_ply_round_trip_and_ascii(void **state)
     free(dir);
 }
 
+/* The k-d tree on a lattice (many equal coordinates: the median split must cope with ties) and
+ * with queries far outside the indexed set, against a brute-force scan per query. */
+static void test_kdtree_exact_on_ties_and_far_queries(void **state)
+{
+    (void)state;
+    enum { SIDE = 9, NB = SIDE * SIDE * 3, NQ = 400 };
+    float b[NB * 3];
+    int n = 0;
+    for (int z = 0; z < 3; z++) /* three identical layers in z: every xy point repeated */
+        for (int y = 0; y < SIDE; y++)
+            for (int x = 0; x < SIDE; x++) {
+                b[n * 3] = (float)(x / 3); /* groups of three equal x values */
+                b[n * 3 + 1] = (float)y * 0.5f;
+                b[n * 3 + 2] = z == 2 ? 0.0f : 0.25f;
+                n++;
+            }
+    struct esr_kdtree tree;
+    assert_int_equal(esr_kdtree_build(&tree, b, NB), ESR_OK);
+    struct esr_rng rng = esr_rng_init(11, 0);
+    for (int i = 0; i < NQ; i++) {
+        float q[3];
+        for (int k = 0; k < 3; k++) /* up to 20 units from a set that spans ~4 */
+            q[k] = (esr_rng_float(&rng) - 0.5f) * (i % 2 ? 40.0f : 6.0f);
+        float best = INFINITY;
+        for (int j = 0; j < NB; j++) {
+            float dx = b[j * 3] - q[0], dy = b[j * 3 + 1] - q[1], dz = b[j * 3 + 2] - q[2];
+            best = fminf(best, dx * dx + dy * dy + dz * dz);
+        }
+        assert_float_equal(esr_kdtree_nearest_sq(&tree, q), best, 1e-5f * (1.0f + best));
+    }
+    esr_kdtree_free(&tree);
+    assert_int_equal(esr_kdtree_build(&tree, b, 0), ESR_ERR); /* empty set: clear error */
+    esr_error_clear();
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_nearest_matches_brute_force),
+        cmocka_unit_test(test_kdtree_exact_on_ties_and_far_queries),
         cmocka_unit_test(test_surface_samples_are_area_uniform),
         cmocka_unit_test(test_chamfer_of_offset_squares),
         cmocka_unit_test(test_ply_round_trip_and_ascii),

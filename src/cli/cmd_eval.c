@@ -7,6 +7,7 @@
 #include "cli/commands.h"
 #include "core/error.h"
 #include "eval/evaluate.h"
+#include "eval/geometry.h"
 #include "eval/report.h"
 #include "eval/run_dir.h"
 #include "io/dir.h"
@@ -28,6 +29,9 @@ const struct esr_command cmd_eval = {
     "white. Writes RUN/eval/P.json (per view, mean, mean per lighting mode), RUN/report.html\n"
     "(thumbnails, metrics, training curves from RUN/train_log.jsonl) and prints a table.\n"
     "PSNR of identical images is capped at 100 dB.\n"
+    "When the dataset has a ground-truth surface (DATA/gt/mesh.ply, as `esr synth` writes), the\n"
+    "model's surface is also scored by Chamfer distance (accuracy, completeness, in scene units)\n"
+    "into RUN/eval/geometry.json.\n"
     "\n"
     "options:\n"
     "  --phase P        phase to evaluate (default: test_nv)\n"
@@ -157,6 +161,30 @@ static int evaluate(const struct eval_args *a, const struct esr_run_selection *s
     return status;
 }
 
+/* Chamfer distance of the model's surface to the dataset's ground-truth mesh, when both exist. */
+static int score_geometry(const char *run, const struct esr_dataset *ds, const struct eval_paths *p)
+{
+    char gt[ESR_PATH_MAX], json[ESR_PATH_MAX];
+    if (!esr_geometry_gt_path(ds->root, gt, sizeof gt))
+        return ESR_OK;
+    struct esr_model model;
+    if (esr_model_load(&model, run) != ESR_OK) {
+        esr_error_clear(); /* renders-only runs have no surface to score */
+        return ESR_OK;
+    }
+    struct esr_chamfer_result r;
+    int status = esr_geometry_score(&model, gt, &r);
+    esr_model_free(&model);
+    if (snprintf(json, sizeof json, "%s/geometry.json", p->eval) >= (int)sizeof json)
+        return ESR_FAIL("run path '%s' is too long", run);
+    if (status == ESR_OK)
+        status = esr_geometry_write_json(json, gt, &r);
+    if (status == ESR_OK)
+        printf("geometry vs %s: chamfer %.5f  (accuracy %.5f, completeness %.5f; %zu samples each)\n", gt,
+               r.chamfer, r.accuracy, r.completeness, r.n_samples);
+    return status;
+}
+
 static int run_eval(int argc, char **argv)
 {
     if (cli_wants_help(&cmd_eval, argc, argv))
@@ -193,6 +221,8 @@ static int run_eval(int argc, char **argv)
         status = esr_run_select(a.run, a.data, a.phase, a.frames, a.limit, &sel);
     if (status == ESR_OK)
         status = evaluate(&a, &sel, &paths);
+    if (status == ESR_OK)
+        status = score_geometry(a.run, &sel.ds, &paths);
     esr_run_selection_free(&sel);
     return status == ESR_OK ? 0 : cli_fail_lib(&cmd_eval);
 }

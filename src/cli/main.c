@@ -9,6 +9,7 @@
 /* One row per subcommand, in the order `esr --help` lists them. */
 static const struct esr_command *const commands[] = {
     NULL, /* keeps the table non-empty; skipped */
+    &cmd_demo,
     &cmd_info,
     &cmd_metrics,
     &cmd_synth,

@@ -1,13 +1,12 @@
 #include "eval/chamfer.h"
 
-#include <float.h>
 #include <math.h>
 #include <stdlib.h>
-#include <string.h>
 
 #include "core/error.h"
 #include "core/rng.h"
 #include "core/vec3.h"
+#include "eval/kdtree.h"
 
 static struct esr_vec3 mesh_vertex(const struct esr_mesh *m, uint32_t i)
 {
@@ -62,126 +61,25 @@ int esr_mesh_sample_surface(const struct esr_mesh *m, size_t n, uint64_t seed, f
     return ESR_OK;
 }
 
-/* Uniform grid over a point set, points sorted by cell (counting sort), for exact
- * nearest-neighbour queries by growing shells of cells. */
-struct point_grid {
-    float lo[3];
-    float cell;
-    int dim[3];
-    size_t *start; /* [cells + 1] */
-    float *pts;    /* sorted copy, [n*3] */
-};
-
-static int grid_cell_index(const struct point_grid *g, const float *p, int axis)
-{
-    int c = (int)((p[axis] - g->lo[axis]) / g->cell);
-    return c < 0 ? 0 : c >= g->dim[axis] ? g->dim[axis] - 1 : c;
-}
-
-static size_t grid_flat(const struct point_grid *g, int x, int y, int z)
-{
-    return ((size_t)z * (size_t)g->dim[1] + (size_t)y) * (size_t)g->dim[0] + (size_t)x;
-}
-
-static int point_grid_build(struct point_grid *g, const float *b, size_t nb)
-{
-    float hi[3] = {-FLT_MAX, -FLT_MAX, -FLT_MAX};
-    for (int k = 0; k < 3; k++)
-        g->lo[k] = FLT_MAX;
-    for (size_t i = 0; i < nb; i++)
-        for (int k = 0; k < 3; k++) {
-            g->lo[k] = fminf(g->lo[k], b[i * 3 + k]);
-            hi[k] = fmaxf(hi[k], b[i * 3 + k]);
-        }
-    float extent = fmaxf(hi[0] - g->lo[0], fmaxf(hi[1] - g->lo[1], hi[2] - g->lo[2]));
-    /* about 4 points per occupied cell for surface-like sets: cells ~ n^(2/3)/4 per face */
-    g->cell = fmaxf(extent / fmaxf(1.0f, sqrtf((float)nb) / 2.0f), 1e-6f);
-    size_t cells = 1;
-    for (int k = 0; k < 3; k++) {
-        g->dim[k] = (int)((hi[k] - g->lo[k]) / g->cell) + 1;
-        cells *= (size_t)g->dim[k];
-    }
-    g->start = (size_t *)calloc(cells + 1, sizeof(size_t));
-    g->pts = (float *)malloc(nb * 3 * sizeof(float));
-    size_t *cell_of = (size_t *)malloc(nb * sizeof(size_t));
-    if (!g->start || !g->pts || !cell_of) {
-        free(cell_of);
-        return ESR_FAIL("out of memory for a nearest-neighbour grid of %zu cells", cells);
-    }
-    for (size_t i = 0; i < nb; i++) {
-        const float *p = b + i * 3;
-        cell_of[i] = grid_flat(g, grid_cell_index(g, p, 0), grid_cell_index(g, p, 1), grid_cell_index(g, p, 2));
-        g->start[cell_of[i] + 1]++;
-    }
-    for (size_t c = 0; c < cells; c++)
-        g->start[c + 1] += g->start[c];
-    size_t *fill = (size_t *)malloc(cells * sizeof(size_t));
-    if (!fill) {
-        free(cell_of);
-        return ESR_FAIL("out of memory for a nearest-neighbour grid");
-    }
-    memcpy(fill, g->start, cells * sizeof(size_t));
-    for (size_t i = 0; i < nb; i++)
-        memcpy(g->pts + fill[cell_of[i]]++ * 3, b + i * 3, 3 * sizeof(float));
-    free(fill);
-    free(cell_of);
-    return ESR_OK;
-}
-
-static void point_grid_free(struct point_grid *g)
-{
-    free(g->start);
-    free(g->pts);
-}
-
-/* Exact nearest squared distance: scan shells of radius r cells until the best distance found
- * is within the distance r*cell that the unscanned cells are guaranteed to lie beyond. */
-static float point_grid_nearest_sq(const struct point_grid *g, const float *q)
-{
-    int c[3] = {grid_cell_index(g, q, 0), grid_cell_index(g, q, 1), grid_cell_index(g, q, 2)};
-    int max_r = g->dim[0] + g->dim[1] + g->dim[2];
-    float best = FLT_MAX;
-    for (int r = 0; r <= max_r; r++) {
-        for (int z = c[2] - r; z <= c[2] + r; z++) {
-            if (z < 0 || z >= g->dim[2])
-                continue;
-            for (int y = c[1] - r; y <= c[1] + r; y++) {
-                if (y < 0 || y >= g->dim[1])
-                    continue;
-                int on_shell_yz = abs(z - c[2]) == r || abs(y - c[1]) == r;
-                for (int x = c[0] - r; x <= c[0] + r; x += (on_shell_yz || r == 0) ? 1 : 2 * r) {
-                    if (x < 0 || x >= g->dim[0])
-                        continue;
-                    size_t cell = grid_flat(g, x, y, z);
-                    for (size_t i = g->start[cell]; i < g->start[cell + 1]; i++) {
-                        const float *p = g->pts + i * 3;
-                        float dx = p[0] - q[0], dy = p[1] - q[1], dz = p[2] - q[2];
-                        best = fminf(best, dx * dx + dy * dy + dz * dz);
-                    }
-                }
-            }
-        }
-        float reach = (float)r * g->cell; /* every unscanned point is farther than this */
-        if (best <= reach * reach)
-            break;
-    }
-    return best;
-}
-
 int esr_mean_nearest_distance(const float *a, size_t na, const float *b, size_t nb, double *out)
 {
     if (!na || !nb)
         return ESR_FAIL("nearest-distance query on an empty point set (%zu and %zu points)", na, nb);
-    struct point_grid g = {0};
-    if (point_grid_build(&g, b, nb) != ESR_OK) {
-        point_grid_free(&g);
-        return ESR_ERR;
+    struct esr_kdtree tree;
+    ESR_TRY(esr_kdtree_build(&tree, b, nb));
+    float *dist = malloc(na * sizeof(float));
+    if (!dist) {
+        esr_kdtree_free(&tree);
+        return ESR_FAIL("out of memory for %zu distances", na);
     }
-    double sum = 0.0;
-#pragma omp parallel for reduction(+ : sum) schedule(static)
+#pragma omp parallel for schedule(dynamic, 1024)
     for (size_t i = 0; i < na; i++)
-        sum += sqrt((double)point_grid_nearest_sq(&g, a + i * 3));
-    point_grid_free(&g);
+        dist[i] = sqrtf(esr_kdtree_nearest_sq(&tree, a + i * 3));
+    double sum = 0.0; /* summed in order: the same result for any thread count */
+    for (size_t i = 0; i < na; i++)
+        sum += dist[i];
+    free(dist);
+    esr_kdtree_free(&tree);
     *out = sum / (double)na;
     return ESR_OK;
 }

@@ -245,8 +245,21 @@ int esr_config_write_json(const struct esr_train_config *c, const char *path)
     if (!root)
         return ESR_FAIL("config %s: out of memory", path);
     cJSON_AddStringToObject(root, "preset", esr_preset_name((enum esr_preset)c->preset));
-    for (size_t i = 0; i < N_OPTS; i++)
-        cJSON_AddNumberToObject(root, opts[i].name, opt_load(c, &opts[i]));
+    /* Options are floats: print the shortest text that reads back to the same float (0.001, not
+     * 0.0010000000474974513). */
+    for (size_t i = 0; i < N_OPTS; i++) {
+        char num[32];
+        snprintf(num, sizeof num, "%.9g", opt_load(c, &opts[i]));
+        for (int digits = 1; digits <= 9; digits++) {
+            char shorter[32];
+            snprintf(shorter, sizeof shorter, "%.*g", digits, opt_load(c, &opts[i]));
+            if ((float)strtod(shorter, NULL) == (float)opt_load(c, &opts[i])) {
+                memcpy(num, shorter, sizeof num);
+                break;
+            }
+        }
+        cJSON_AddRawToObject(root, opts[i].name, num);
+    }
     char *text = cJSON_Print(root);
     cJSON_Delete(root);
     if (!text)

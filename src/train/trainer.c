@@ -1,7 +1,9 @@
 /* The stage loop (see trainer.h). */
 #include "train/trainer.h"
 
+#include <cjson/cJSON.h>
 #include <errno.h>
+#include <limits.h>
 #include <math.h>
 #include <omp.h>
 #include <stdarg.h>
@@ -398,6 +400,29 @@ static int make_dir(const char *path)
     return ESR_FAIL("run directory %s: cannot create it (%s)", path, strerror(errno));
 }
 
+/* RUN/run.json records the absolute dataset path so that `esr render/eval/export RUN` find the
+ * data without --data (eval/run_dir.h reads it). Rewritten on resume: the data may have moved. */
+static int write_run_record(const char *run_dir, const char *data_dir)
+{
+    char abs[PATH_MAX];
+    if (!realpath(data_dir, abs))
+        return ESR_FAIL("dataset %s: %s", data_dir, strerror(errno));
+    cJSON *root = cJSON_CreateObject();
+    if (!root || !cJSON_AddStringToObject(root, "data", abs)) {
+        cJSON_Delete(root);
+        return ESR_FAIL("run record: out of memory");
+    }
+    char *text = cJSON_Print(root);
+    cJSON_Delete(root);
+    if (!text)
+        return ESR_FAIL("run record: out of memory");
+    char path[4200];
+    snprintf(path, sizeof path, "%s/run.json", run_dir);
+    int rc = esr_file_write_atomic(path, text, strlen(text));
+    free(text);
+    return rc;
+}
+
 static int setup(struct run *r)
 {
     char path[4200];
@@ -410,6 +435,7 @@ static int setup(struct run *r)
         ESR_TRY(esr_config_validate(&r->cfg));
         ESR_TRY(esr_config_write_json(&r->cfg, path));
     }
+    ESR_TRY(write_run_record(r->o->run_dir, r->o->data_dir));
     snprintf(r->log_path, sizeof r->log_path, "%s/train_log.jsonl", r->o->run_dir);
     if (r->cfg.threads > 0)
         omp_set_num_threads(r->cfg.threads);
