@@ -14,6 +14,7 @@
 #include "core/error.h"
 #include "eval/bench_train.h"
 #include "io/file.h"
+#include "io/json_file.h"
 #include "nn/bench.h"
 #include "render/bench.h"
 #include "synth/synth.h"
@@ -223,27 +224,30 @@ static int train_section(const struct bench_opts *o, cJSON *root)
     return ESR_OK;
 }
 
+/* Runs the sections into root, then writes it to o->out (root is consumed in every case). */
 static int bench_all(const struct bench_opts *o, cJSON *root)
 {
     cJSON_AddItemToObject(root, "machine", machine_json());
     cJSON_AddBoolToObject(root, "quick", o->quick);
     fflush(stdout);
-    ESR_TRY(nn_section(o, root));
+    int sections = nn_section(o, root);
     fflush(stdout);
-    ESR_TRY(synth_section(root));
-    ESR_TRY(render_section(o, root));
+    if (sections == ESR_OK)
+        sections = synth_section(root);
+    if (sections == ESR_OK)
+        sections = render_section(o, root);
     fflush(stdout);
-    if (o->train)
-        ESR_TRY(train_section(o, root));
+    if (sections == ESR_OK && o->train)
+        sections = train_section(o, root);
+    if (sections != ESR_OK) {
+        cJSON_Delete(root);
+        return sections;
+    }
     struct rusage ru;
     getrusage(RUSAGE_SELF, &ru);
     cJSON_AddNumberToObject(root, "peak_rss_mb", (double)ru.ru_maxrss / 1024.0); /* ru_maxrss is in KiB */
     printf("\npeak memory %.1f MiB\n", (double)ru.ru_maxrss / 1024.0);
-    char *text = cJSON_Print(root);
-    if (!text)
-        return ESR_FAIL("out of memory writing %s", o->out);
-    int status = esr_file_write_atomic(o->out, text, strlen(text));
-    free(text);
+    int status = esr_json_write_atomic(o->out, root);
     if (status == ESR_OK)
         printf("wrote %s\n", o->out);
     return status;
@@ -272,6 +276,5 @@ static int run_bench(int argc, char **argv)
     if (!root)
         return cli_fail(&cmd_bench, "out of memory");
     int status = bench_all(&o, root);
-    cJSON_Delete(root);
     return status == ESR_OK ? 0 : cli_fail_lib(&cmd_bench);
 }

@@ -6,7 +6,7 @@
 
 #include "core/error.h"
 #include "eval/evaluate.h"
-#include "io/file.h"
+#include "io/json_file.h"
 
 /* JSON has no NaN: a missing value becomes null. */
 static void add_number_or_null(cJSON *obj, const char *name, double value)
@@ -74,12 +74,5 @@ static cJSON *result_json(const struct esr_dataset *ds, const struct esr_eval_re
 
 int esr_eval_write_json(const char *path, const struct esr_dataset *ds, const struct esr_eval_result *res)
 {
-    cJSON *root = result_json(ds, res);
-    char *text = root ? cJSON_Print(root) : NULL;
-    cJSON_Delete(root);
-    if (!text)
-        return ESR_FAIL("out of memory writing '%s'", path);
-    int status = esr_file_write_atomic(path, text, strlen(text));
-    free(text);
-    return status;
+    return esr_json_write_atomic(path, result_json(ds, res));
 }

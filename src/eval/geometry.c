@@ -9,6 +9,7 @@
 #include "io/file.h"
 #include "io/ply.h"
 #include "render/model_mesh.h"
+#include "io/json_file.h"
 
 int esr_geometry_gt_path(const char *data_dir, char *out, size_t n)
 {
@@ -44,11 +45,5 @@ int esr_geometry_write_json(const char *path, const char *gt_path, const struct 
     cJSON_AddNumberToObject(root, "accuracy", r->accuracy);
     cJSON_AddNumberToObject(root, "completeness", r->completeness);
     cJSON_AddNumberToObject(root, "chamfer", r->chamfer);
-    char *text = cJSON_Print(root);
-    cJSON_Delete(root);
-    if (!text)
-        return ESR_FAIL("%s: out of memory", path);
-    int rc = esr_file_write_atomic(path, text, strlen(text));
-    free(text);
-    return rc;
+    return esr_json_write_atomic(path, root);
 }

@@ -6,7 +6,7 @@
 #include <string.h>
 
 #include "core/error.h"
-#include "io/file.h"
+#include "io/json_file.h"
 
 static void summarise_phase(const struct esr_dataset *ds, const struct esr_phase *ph, struct esr_phase_summary *s)
 {
@@ -92,14 +92,5 @@ static cJSON *summary_json(const struct esr_dataset *ds, const struct esr_datase
 int esr_dataset_summary_write(const char *path, const struct esr_dataset *ds, const struct esr_dataset_summary *s,
                               const char *const *problems, int n_problems)
 {
-    cJSON *root = summary_json(ds, s, problems, n_problems);
-    char *text = root ? cJSON_Print(root) : NULL;
-    cJSON_Delete(root);
-    if (!text)
-        return ESR_FAIL("out of memory writing '%s'", path);
-    size_t len = strlen(text);
-    text[len] = '\n'; /* replace the terminator: the file ends with a newline */
-    int status = esr_file_write_atomic(path, text, len + 1);
-    free(text);
-    return status;
+    return esr_json_write_atomic(path, summary_json(ds, s, problems, n_problems));
 }

@@ -9,6 +9,7 @@
 #include "io/dir.h"
 #include "io/file.h"
 #include "render/view.h"
+#include "io/json_file.h"
 
 int esr_view_outputs_exist(const char *dir, const char *name)
 {
@@ -97,13 +98,11 @@ static int write_stamp(const char *dir, const struct esr_model *m, cJSON *frames
     cJSON_AddStringToObject(root, "stage", esr_stage_name((enum esr_stage)m->stage));
     cJSON_AddNumberToObject(root, "step", (double)m->step);
     cJSON_AddItemToObject(root, "frames", frames);
-    char *text = cJSON_Print(root);
-    cJSON_Delete(root);
-    int status = text ? stamp_path(path, sizeof path, dir) : ESR_FAIL("out of memory writing %s/render.json", dir);
-    if (status == ESR_OK)
-        status = esr_file_write_atomic(path, text, strlen(text));
-    free(text);
-    return status;
+    if (stamp_path(path, sizeof path, dir) != ESR_OK) {
+        cJSON_Delete(root);
+        return ESR_ERR;
+    }
+    return esr_json_write_atomic(path, root);
 }
 
 static int render_one(const struct esr_model *m, const struct esr_dataset *ds, const struct esr_frame *f,

@@ -7,7 +7,7 @@
 
 #include "core/colour.h"
 #include "core/error.h"
-#include "io/file.h"
+#include "io/json_file.h"
 
 /* A float as the shortest decimal that reads back to it (cJSON would print 0.8f as
  * 0.800000011920929). */
@@ -32,17 +32,6 @@ static cJSON *vec(const float *v, int n)
     for (int i = 0; i < n; i++)
         cJSON_AddItemToArray(a, num(v[i]));
     return a;
-}
-
-static int write_json(cJSON *root, const char *path)
-{
-    char *text = cJSON_Print(root);
-    cJSON_Delete(root);
-    if (!text)
-        return ESR_FAIL("out of memory formatting '%s'", path);
-    int rc = esr_file_write_atomic(path, text, strlen(text));
-    free(text);
-    return rc;
 }
 
 static cJSON *matrix(const struct esr_camera *cam)
@@ -87,7 +76,7 @@ int esr_synth_json_transforms(const char *dir, const struct esr_synth_scene *s, 
     }
     char file[4096];
     snprintf(file, sizeof file, "%s/transforms/transforms_%s.json", dir, pname);
-    return write_json(root, file);
+    return esr_json_write_atomic(file, root);
 }
 
 static cJSON *scene_lights(const struct esr_synth_scene *s)
@@ -221,5 +210,5 @@ int esr_synth_json_scene(const char *dir, const struct esr_synth_scene *s, const
                                         "emission = radiance with the light on");
     char file[4096];
     snprintf(file, sizeof file, "%s/scene.json", dir);
-    return write_json(root, file);
+    return esr_json_write_atomic(file, root);
 }

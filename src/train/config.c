@@ -9,6 +9,7 @@
 
 #include "core/error.h"
 #include "io/file.h"
+#include "io/json_file.h"
 
 enum opt_type { OPT_INT, OPT_FLOAT };
 
@@ -260,13 +261,7 @@ int esr_config_write_json(const struct esr_train_config *c, const char *path)
         }
         cJSON_AddRawToObject(root, opts[i].name, num);
     }
-    char *text = cJSON_Print(root);
-    cJSON_Delete(root);
-    if (!text)
-        return ESR_FAIL("config %s: out of memory", path);
-    int rc = esr_file_write_atomic(path, text, strlen(text));
-    free(text);
-    return rc;
+    return esr_json_write_atomic(path, root);
 }
 
 void esr_config_print_help(FILE *out)

@@ -24,6 +24,7 @@
 #include "train/render_loss.h"
 #include "train/render_sdf.h"
 #include "train/trace.h"
+#include "io/json_file.h"
 
 #define MAX_NAN_FAILURES 3
 
@@ -407,20 +408,11 @@ static int write_run_record(const char *run_dir, const char *data_dir)
     char abs[PATH_MAX];
     if (!realpath(data_dir, abs))
         return ESR_FAIL("dataset %s: %s", data_dir, strerror(errno));
-    cJSON *root = cJSON_CreateObject();
-    if (!root || !cJSON_AddStringToObject(root, "data", abs)) {
-        cJSON_Delete(root);
-        return ESR_FAIL("run record: out of memory");
-    }
-    char *text = cJSON_Print(root);
-    cJSON_Delete(root);
-    if (!text)
-        return ESR_FAIL("run record: out of memory");
     char path[4200];
     snprintf(path, sizeof path, "%s/run.json", run_dir);
-    int rc = esr_file_write_atomic(path, text, strlen(text));
-    free(text);
-    return rc;
+    cJSON *root = cJSON_CreateObject();
+    cJSON_AddStringToObject(root, "data", abs);
+    return esr_json_write_atomic(path, root);
 }
 
 static int setup(struct run *r)
