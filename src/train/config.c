@@ -250,15 +250,19 @@ int esr_config_write_json(const struct esr_train_config *c, const char *path)
      * 0.0010000000474974513). */
     for (size_t i = 0; i < N_OPTS; i++) {
         char num[32];
-        snprintf(num, sizeof num, "%.9g", opt_load(c, &opts[i]));
-        for (int digits = 1; digits <= 9; digits++) {
-            char shorter[32];
-            snprintf(shorter, sizeof shorter, "%.*g", digits, opt_load(c, &opts[i]));
-            if ((float)strtod(shorter, NULL) == (float)opt_load(c, &opts[i])) {
-                memcpy(num, shorter, sizeof num);
-                break;
+        double v = opt_load(c, &opts[i]);
+        snprintf(num, sizeof num, "%.9g", v);
+        if (v == floor(v) && fabs(v) < 1e9) /* integers as integers, never 5e+02 */
+            snprintf(num, sizeof num, "%.0f", v);
+        else
+            for (int digits = 1; digits <= 9; digits++) {
+                char shorter[32];
+                snprintf(shorter, sizeof shorter, "%.*g", digits, v);
+                if ((float)strtod(shorter, NULL) == (float)v) {
+                    memcpy(num, shorter, sizeof num);
+                    break;
+                }
             }
-        }
         cJSON_AddRawToObject(root, opts[i].name, num);
     }
     return esr_json_write_atomic(path, root);
