@@ -116,8 +116,8 @@ static void test_resample_linear(void **state)
     free(dst);
 }
 
-/* TV: value on a hand-checkable grid, and gradient against central differences (with a mask,
- * including the Huber region |d| > 1). */
+/* TV: value on a hand-checkable grid, and gradient against central differences on a multi-channel
+ * grid (including the Huber region |d| > 1). */
 static void test_tv(void **state)
 {
     (void)state;
@@ -125,44 +125,35 @@ static void test_tv(void **state)
     float d[8] = {0, 0, 0, 0, 0, 0, 0, 3.0f}; /* one corner at 3: three pairs with |d| = 3 */
     float grad[8] = {0};
     double loss;
-    struct esr_tv_params p = {2.0f, NULL};
-    assert_int_equal(esr_grid_tv_add_grad(&g, d, &p, grad, &loss), ESR_OK);
+    assert_int_equal(esr_grid_tv_add_grad(&g, d, 2.0f, grad, &loss), ESR_OK);
     assert_true(test_close(loss, 2.0 / 8.0 * 3.0 * 2.5, 1e-6, 1e-6));
     assert_true(test_close(grad[7], 2.0 / 8.0 * 3.0, 1e-6, 1e-6));
     assert_true(test_close(grad[6], -2.0 / 8.0, 1e-6, 1e-6));
 
     struct esr_grid h = make_grid(2, 5, 4, 6);
-    size_t cnt = esr_grid_count(&h), nv = esr_grid_voxels(&h);
+    size_t cnt = esr_grid_count(&h);
     float *v = malloc(cnt * sizeof(float)), *gr = calloc(cnt, sizeof(float));
-    uint8_t *mask = malloc(nv);
     test_fill_uniform(v, cnt, -1.5f, 1.5f, 8);
-    for (size_t i = 0; i < nv; i++)
-        mask[i] = (i % 3) != 0;
-    struct esr_tv_params pm = {0.7f, mask};
-    assert_int_equal(esr_grid_tv_add_grad(&h, v, &pm, gr, &loss), ESR_OK);
-    for (size_t e = 0; e < cnt; e += 3) {
+    assert_int_equal(esr_grid_tv_add_grad(&h, v, 0.7f, gr, &loss), ESR_OK);
+    for (size_t e = 0; e < cnt; e++) {
         float *scratch = calloc(cnt, sizeof(float));
         const float eps = 1e-3f;
         float keep = v[e];
         double lp, lm;
         v[e] = keep + eps;
-        esr_grid_tv_add_grad(&h, v, &pm, scratch, &lp);
+        esr_grid_tv_add_grad(&h, v, 0.7f, scratch, &lp);
         v[e] = keep - eps;
-        esr_grid_tv_add_grad(&h, v, &pm, scratch, &lm);
+        esr_grid_tv_add_grad(&h, v, 0.7f, scratch, &lm);
         v[e] = keep;
         free(scratch);
-        if (mask[e / 2])
-            assert_true(test_close(gr[e], (lp - lm) / (2.0 * eps), 1e-4, 2e-3));
-        else
-            assert_true(gr[e] == 0.0f);
+        assert_true(test_close(gr[e], (lp - lm) / (2.0 * eps), 1e-4, 2e-3));
     }
     free(v);
     free(gr);
-    free(mask);
 }
 
 /* Smoothed-gradient TV: zero for a linear SDF (constant gradient, kept by the smoothing), and
- * gradient against central differences of its own loss on a noisy field, with a mask. */
+ * gradient against central differences of its own loss on a noisy field. */
 static void test_grad_tv(void **state)
 {
     (void)state;
@@ -170,22 +161,19 @@ static void test_grad_tv(void **state)
     size_t nv = esr_grid_voxels(&g);
     float *f = malloc(nv * sizeof(float)), *gr = calloc(nv, sizeof(float));
     float *work = malloc(esr_sdf_grad_tv_work(&g) * sizeof(float));
-    uint8_t *mask = malloc(nv);
     for (int z = 0; z < g.nz; z++)
         for (int y = 0; y < g.ny; y++)
             for (int x = 0; x < g.nx; x++)
                 f[vidx(&g, x, y, z)] = 0.3f * x - 0.2f * y + 0.1f * z;
-    struct esr_tv_params p = {1.0f, NULL};
     double loss;
-    assert_int_equal(esr_sdf_grad_tv_add_grad(&g, f, &p, 5, 0.8f, work, gr, &loss), ESR_OK);
+    assert_int_equal(esr_sdf_grad_tv_add_grad(&g, f, 1.0f, 5, 0.8f, work, gr, &loss), ESR_OK);
     assert_true(loss < 1e-10);
     for (size_t v = 0; v < nv; v++)
         assert_true(fabsf(gr[v]) < 1e-5f);
     test_fill_uniform(f, nv, -0.5f, 0.5f, 61);
-    p.weight = 3.0f;
     for (int ks = 1; ks <= 5; ks += 4) {
         memset(gr, 0, nv * sizeof(float));
-        assert_int_equal(esr_sdf_grad_tv_add_grad(&g, f, &p, ks, 0.8f, work, gr, &loss), ESR_OK);
+        assert_int_equal(esr_sdf_grad_tv_add_grad(&g, f, 3.0f, ks, 0.8f, work, gr, &loss), ESR_OK);
         assert_true(loss > 0.0);
         float *scratch = calloc(nv, sizeof(float));
         for (size_t e = 0; e < nv; e += 5) {
@@ -193,25 +181,17 @@ static void test_grad_tv(void **state)
             float keep = f[e];
             double lp, lm;
             f[e] = keep + h;
-            esr_sdf_grad_tv_add_grad(&g, f, &p, ks, 0.8f, work, scratch, &lp);
+            esr_sdf_grad_tv_add_grad(&g, f, 3.0f, ks, 0.8f, work, scratch, &lp);
             f[e] = keep - h;
-            esr_sdf_grad_tv_add_grad(&g, f, &p, ks, 0.8f, work, scratch, &lm);
+            esr_sdf_grad_tv_add_grad(&g, f, 3.0f, ks, 0.8f, work, scratch, &lm);
             f[e] = keep;
             assert_true(test_close(gr[e], (lp - lm) / (2.0 * h), 1e-4, 5e-3));
         }
         free(scratch);
     }
-    /* a mask limits the TV to the masked gradient voxels: smaller loss, still finite gradient */
-    double full = loss;
-    for (size_t v = 0; v < nv; v++)
-        mask[v] = v < nv / 2;
-    p.mask = mask;
-    assert_int_equal(esr_sdf_grad_tv_add_grad(&g, f, &p, 5, 0.8f, work, gr, &loss), ESR_OK);
-    assert_true(loss > 0.0 && loss < full);
     free(f);
     free(gr);
     free(work);
-    free(mask);
 }
 
 /* alpha = 1 - exp(-softplus(d + shift) interval) against direct values and central differences;

@@ -178,46 +178,59 @@ int esr_grid_resample(const struct esr_grid *src_g, const float *src, const stru
     return ESR_OK;
 }
 
-/* DVGO's Huber penalty and its derivative (clamped difference). */
-static double huber(float d) { return fabsf(d) <= 1.0f ? 0.5 * (double)d * d : fabs((double)d) - 0.5; }
-static float huber_grad(float d) { return fminf(fmaxf(d, -1.0f), 1.0f); }
+/* One axis-neighbour pass of the TV over n contiguous floats: g[j] += scale * h'(x[j] - nb[j]),
+ * h' the Huber derivative (clamped difference); returns sum h(x[j] - nb[j]) when count_loss (each
+ * pair is counted from its lower end only). Branch-free so it vectorises. */
+static float tv_pass(const float *restrict x, const float *restrict nb, float *restrict g, size_t n,
+                     float scale, int count_loss)
+{
+    float acc = 0.0f;
+    if (count_loss) {
+#pragma omp simd reduction(+ : acc)
+        for (size_t j = 0; j < n; j++) {
+            float d = x[j] - nb[j], ad = d < 0.0f ? -d : d;
+            acc += ad <= 1.0f ? 0.5f * d * d : ad - 0.5f;
+            g[j] += scale * (d < -1.0f ? -1.0f : d > 1.0f ? 1.0f : d);
+        }
+    } else {
+#pragma omp simd
+        for (size_t j = 0; j < n; j++) {
+            float d = x[j] - nb[j];
+            g[j] += scale * (d < -1.0f ? -1.0f : d > 1.0f ? 1.0f : d);
+        }
+    }
+    return acc;
+}
 
-int esr_grid_tv_add_grad(const struct esr_grid *g, const float *data, const struct esr_tv_params *p,
-                         float *grad, double *loss)
+int esr_grid_tv_add_grad(const struct esr_grid *g, const float *data, float weight, float *grad,
+                         double *loss)
 {
     double *plane_loss = (double *)calloc((size_t)g->nz, sizeof(double));
     if (!plane_loss)
         return ESR_FAIL("total variation: out of memory for %d plane sums", g->nz);
-    const int C = g->channels;
-    const int n[3] = {g->nx, g->ny, g->nz};
-    const size_t vs[3] = {1, (size_t)g->nx, (size_t)g->nx * g->ny}; /* voxel strides */
-    const float scale = p->weight / (float)esr_grid_voxels(g);
-    const uint8_t *mask = p->mask;
+    const size_t C = (size_t)g->channels, row = (size_t)g->nx * C, plane = row * g->ny;
+    const float scale = weight / (float)esr_grid_voxels(g);
+    /* Rows along x are contiguous: the y and z neighbours of a row are whole rows, the x
+     * neighbours the same row shifted by one voxel. */
 #pragma omp parallel for schedule(static)
     for (int iz = 0; iz < g->nz; iz++) {
         double acc = 0.0;
-        for (int iy = 0; iy < g->ny; iy++)
-            for (int ix = 0; ix < g->nx; ix++) {
-                const int i[3] = {ix, iy, iz};
-                size_t v = ((size_t)iz * g->ny + iy) * g->nx + ix;
-                int on = !mask || mask[v];
-                for (int a = 0; a < 3; a++) {
-                    /* pair (v, v + e_a): its loss is counted here, once */
-                    if (i[a] + 1 < n[a] && (on || mask[v + vs[a]]))
-                        for (int c = 0; c < C; c++)
-                            acc += huber(data[v * C + c] - data[(v + vs[a]) * C + c]);
-                    if (!on)
-                        continue;
-                    for (int c = 0; c < C; c++) {
-                        float g_add = 0.0f;
-                        if (i[a] + 1 < n[a])
-                            g_add += huber_grad(data[v * C + c] - data[(v + vs[a]) * C + c]);
-                        if (i[a] > 0)
-                            g_add += huber_grad(data[v * C + c] - data[(v - vs[a]) * C + c]);
-                        grad[v * C + c] += scale * g_add;
-                    }
-                }
-            }
+        for (int iy = 0; iy < g->ny; iy++) {
+            size_t o = (size_t)iz * plane + (size_t)iy * row;
+            const float *x = data + o;
+            float *gr = grad + o, part = 0.0f;
+            part += tv_pass(x, x + C, gr, row - C, scale, 1);
+            tv_pass(x + C, x, gr + C, row - C, scale, 0);
+            if (iy + 1 < g->ny)
+                part += tv_pass(x, x + row, gr, row, scale, 1);
+            if (iy > 0)
+                tv_pass(x, x - row, gr, row, scale, 0);
+            if (iz + 1 < g->nz)
+                part += tv_pass(x, x + plane, gr, row, scale, 1);
+            if (iz > 0)
+                tv_pass(x, x - plane, gr, row, scale, 0);
+            acc += part;
+        }
         plane_loss[iz] = acc;
     }
     double total = 0.0;
@@ -289,8 +302,8 @@ static void grad_field(const struct esr_grid *g, int adjoint, const float *in, f
             }
 }
 
-int esr_sdf_grad_tv_add_grad(const struct esr_grid *g, const float *sdf, const struct esr_tv_params *p,
-                             int ksize, float sigma, float *work, float *grad, double *loss)
+int esr_sdf_grad_tv_add_grad(const struct esr_grid *g, const float *sdf, float weight, int ksize,
+                             float sigma, float *work, float *grad, double *loss)
 {
     if (g->channels != 1)
         return ESR_FAIL("smoothed-gradient TV: SDF grid must have 1 channel, has %d", g->channels);
@@ -301,7 +314,7 @@ int esr_sdf_grad_tv_add_grad(const struct esr_grid *g, const float *sdf, const s
     struct esr_grid g3 = *g;
     g3.channels = 3;
     memset(dG, 0, 3 * V * sizeof(float));
-    ESR_TRY(esr_grid_tv_add_grad(&g3, G, p, dG, loss));
+    ESR_TRY(esr_grid_tv_add_grad(&g3, G, weight, dG, loss));
     grad_field(g, 1, dG, S);
     return esr_grid_smooth_bwd(g, S, grad, scratch, ksize, sigma);
 }

@@ -37,27 +37,22 @@ int esr_grid_smooth_bwd(const struct esr_grid *g, float *d_dst, float *d_src, fl
 int esr_grid_resample(const struct esr_grid *src_g, const float *src, const struct esr_grid *dst_g,
                       float *dst);
 
-struct esr_tv_params {
-    float weight;        /* overall weight w */
-    const uint8_t *mask; /* per lattice point (esr_grid_voxels), or NULL = everywhere */
-};
 /* Total variation with DVGO's Huber form: loss = w / V * sum over axis-neighbour pairs (p, q)
  * and channels of h(v_p - v_q), h(d) = d^2/2 for |d| <= 1 else |d| - 1/2, V = voxel count.
- * Adds d loss / d v into grad, only at voxels where mask is set (others are treated as constant;
- * pairs with no masked end are skipped). *loss (may be NULL) receives the loss. Parallel and
- * deterministic (per-plane partial sums added in order). */
-int esr_grid_tv_add_grad(const struct esr_grid *g, const float *data, const struct esr_tv_params *p,
-                         float *grad, double *loss);
+ * Adds d loss / d v into grad; *loss (may be NULL) receives the loss. Parallel and deterministic
+ * (per-plane partial sums added in order). */
+int esr_grid_tv_add_grad(const struct esr_grid *g, const float *data, float weight, float *grad,
+                         double *loss);
 
 /* Floats of work space esr_sdf_grad_tv_add_grad needs: 8 * esr_grid_voxels(g). */
 size_t esr_sdf_grad_tv_work(const struct esr_grid *g);
 /* Voxurf-style smoothed-gradient TV: G = D(S(f)), with S the Gaussian smoothing above
  * (ksize, sigma; ksize 1 = none) and D the central-difference gradient (one-sided at the box
- * faces, in world units), regularised by esr_grid_tv_add_grad on the 3-channel field G (weight
- * and mask as there). Adds the exact gradient S^T D^T dG into grad; *loss (may be NULL) gets the
+ * faces, in world units), regularised by esr_grid_tv_add_grad on the 3-channel field G with
+ * weight. Adds the exact gradient S^T D^T dG into grad; *loss (may be NULL) gets the
  * loss. g must have 1 channel; work holds esr_sdf_grad_tv_work(g) floats. */
-int esr_sdf_grad_tv_add_grad(const struct esr_grid *g, const float *sdf, const struct esr_tv_params *p,
-                             int ksize, float sigma, float *work, float *grad, double *loss);
+int esr_sdf_grad_tv_add_grad(const struct esr_grid *g, const float *sdf, float weight, int ksize,
+                             float sigma, float *work, float *grad, double *loss);
 
 #ifdef __cplusplus
 }

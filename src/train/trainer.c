@@ -161,17 +161,15 @@ static double add_tv(struct esr_model *m, enum esr_stage s, long it)
     const struct esr_stage_config *sc = stage_cfg(&m->cfg, s);
     const int every = m->cfg.tv_every;
     double total = 0.0, l = 0.0;
-    struct esr_tv_params tv;
-    tv.mask = NULL;
     if (s == ESR_STAGE_ALPHAMASK || it % every != 0)
         return 0.0;
     if (sc->tv_sdf > 0.0f) {
-        tv.weight = sc->tv_sdf * (float)every;
-        esr_grid_tv_add_grad(&m->sdf, m->params.w + m->sdf_off, &tv, m->params.g + m->sdf_off, &l);
+        esr_grid_tv_add_grad(&m->sdf, m->params.w + m->sdf_off, sc->tv_sdf * (float)every,
+                             m->params.g + m->sdf_off, &l);
         total += l;
     }
     if (sc->tv_feat > 0.0f) {
-        tv.weight = sc->tv_feat * (float)every;
+        const float w = sc->tv_feat * (float)every;
         const struct esr_grid *g[2] = {&m->feat, &m->feat_off_g};
         size_t off[2] = {m->feat_off, m->feat_off_off};
         int ng = s == ESR_STAGE_COARSE ? 1 : 2;
@@ -182,7 +180,7 @@ static double add_tv(struct esr_model *m, enum esr_stage s, long it)
             off[1] = m->feat_emo_off;
         }
         for (int i = 0; i < ng; i++) {
-            esr_grid_tv_add_grad(g[i], m->params.w + off[i], &tv, m->params.g + off[i], &l);
+            esr_grid_tv_add_grad(g[i], m->params.w + off[i], w, m->params.g + off[i], &l);
             total += l;
         }
     }
