@@ -55,11 +55,14 @@ static void tiny_config(struct esr_train_config *c)
 struct log_capture {
     char text[16384];
     size_t len;
+    int stages_done; /* ESR_TRAIN_STAGE_DONE events with a positive time */
 };
 
 static void capture(void *user, const struct esr_train_progress *p)
 {
     struct log_capture *lc = user;
+    if (p->event == ESR_TRAIN_STAGE_DONE && p->seconds > 0.0 && p->iter == p->iters)
+        lc->stages_done++;
     if (p->event == ESR_TRAIN_MESSAGE && lc->len < sizeof lc->text - 1)
         lc->len += (size_t)snprintf(lc->text + lc->len, sizeof lc->text - lc->len, "%s\n",
                                     p->message);
@@ -76,6 +79,7 @@ static void opts_for(struct esr_train_opts *o, const char *run, enum esr_stage u
     tiny_config(&o->cfg);
     if (lc) {
         lc->len = 0;
+        lc->stages_done = 0;
         lc->text[0] = '\0';
         o->report = capture;
         o->user = lc;
@@ -88,9 +92,11 @@ static void test_tiny_reaches_psnr(void **state)
     char run[4200], path[4300];
     snprintf(run, sizeof run, "%s/full", test_tmpdir);
     struct esr_train_opts o;
-    opts_for(&o, run, ESR_STAGE_FINE, NULL);
+    struct log_capture lc;
+    opts_for(&o, run, ESR_STAGE_FINE, &lc);
     if (esr_train_run(&o) != ESR_OK)
         fail_msg("%s", esr_error_message());
+    assert_int_equal(lc.stages_done, ESR_STAGE_COUNT);
     const char *files[] = {"config.json", "train_log.jsonl", "ckpt_alphamask.bin",
                            "ckpt_coarse.bin", "ckpt_fine.bin"};
     for (size_t i = 0; i < sizeof files / sizeof files[0]; i++) {
@@ -212,6 +218,22 @@ static void test_corrupt_checkpoints_are_refused(void **state)
     esr_error_clear();
 }
 
+/* An alphamask stage too short to find anything stops training with a clear message instead of
+ * training later stages on an empty mask cache. */
+static void test_empty_mask_cache_is_refused(void **state)
+{
+    (void)state;
+    char run[4200];
+    snprintf(run, sizeof run, "%s/empty_mask", test_tmpdir);
+    struct esr_train_opts o;
+    opts_for(&o, run, ESR_STAGE_COARSE, NULL);
+    o.cfg.alphamask.iters = 2;
+    esr_error_clear();
+    assert_int_equal(esr_train_run(&o), ESR_ERR);
+    assert_non_null(strstr(esr_error_message(), "mask cache is empty"));
+    esr_error_clear();
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -219,6 +241,7 @@ int main(void)
         cmocka_unit_test(test_resume_after_interruption_is_exact),
         cmocka_unit_test(test_nan_is_recovered_then_stops),
         cmocka_unit_test(test_corrupt_checkpoints_are_refused),
+        cmocka_unit_test(test_empty_mask_cache_is_refused),
     };
     return cmocka_run_group_tests(tests, group_setup, test_teardown_tmpdir);
 }

@@ -30,14 +30,19 @@ const struct esr_command cmd_bench = {
     "  nn      MLP layer kernels, own fused kernel vs oneDNN vs OpenBLAS, GFLOP/s\n"
     "  synth   path tracer samples/s on a fixed workload\n"
     "  render  primary-ray path (sampling, SDF, features, alpha, composite, backward) points/s\n"
-    "  train   a short training of each stage (alphamask, coarse, fine), rays/s, on --data, else\n"
-    "          ../shared/scenes/lamp when present, else a small `esr synth` scene in a temp dir\n"
+    "  train   a training run of every stage (alphamask, coarse, fine) with the fast preset:\n"
+    "          seconds and rays/s over each whole stage and over its last log window; on --data,\n"
+    "          else ../shared/scenes/lamp when present, else a small `esr synth` scene in a temp\n"
+    "          dir (full stages on lamp: about 4 minutes on 2 cores)\n"
     "and the peak resident memory, with the machine (CPU model, cores, threads), git commit and\n"
     "date. Prints a table and writes the JSON to --out.\n"
     "\n"
     "options:\n"
     "  --out FILE    JSON output (default: bench.json)\n"
-    "  --quick       fewer repetitions and iterations (a rough figure in well under a minute)\n"
+    "  --quick       fewer repetitions, 40 training iterations per stage (a rough figure in\n"
+    "                well under a minute; its fine stage starts from a barely trained coarse\n"
+    "                model, so it marches far more samples per ray than a real run)\n"
+    "  --iters N     training iterations per stage instead of the preset's\n"
     "  --data DIR    dataset for the training benchmark\n"
     "  --no-train    skip the training benchmark\n"
     "  -h, --help    this text\n",
@@ -47,6 +52,7 @@ const struct esr_command cmd_bench = {
 struct bench_opts {
     const char *out, *data;
     int quick, train;
+    int iters; /* training iterations per stage; -1 = by --quick */
 };
 
 /* "model name" of the first processor in /proc/cpuinfo, or "unknown". */
@@ -199,7 +205,7 @@ static int train_section(const struct bench_opts *o, cJSON *root)
         return ESR_FAIL("cannot create a temporary directory for the training benchmark");
     const char *what;
     struct esr_bench_train_result r;
-    int iters = o->quick ? 10 : 40;
+    int iters = o->iters >= 0 ? o->iters : o->quick ? 40 : 0;
     snprintf(run, sizeof run, "%s/run", tmp);
     int status = train_dataset(o, tmp, data, sizeof data, &what);
     if (status == ESR_OK)
@@ -208,18 +214,24 @@ static int train_section(const struct bench_opts *o, cJSON *root)
     ESR_TRY(status);
     cJSON *j = cJSON_AddObjectToObject(root, "train");
     cJSON_AddStringToObject(j, "dataset", data);
-    printf("\ntraining (%s: %s, %d iterations per stage)\n", what, data, iters);
+    if (iters > 0)
+        printf("\ntraining (%s: %s, %d iterations per stage)\n", what, data, iters);
+    else
+        printf("\ntraining (%s: %s, full fast-preset stages)\n", what, data);
     for (int s = 0; s < ESR_STAGE_COUNT; s++) {
         const struct esr_bench_train_stage *t = &r.stages[s];
         cJSON *st = cJSON_AddObjectToObject(j, esr_stage_name((enum esr_stage)s));
         cJSON_AddNumberToObject(st, "iters", t->iters);
         cJSON_AddNumberToObject(st, "batch_rays", t->batch_rays);
+        cJSON_AddNumberToObject(st, "seconds", t->seconds);
         cJSON_AddNumberToObject(st, "rays_per_s", t->rays_per_s);
+        cJSON_AddNumberToObject(st, "last_window_rays_per_s", t->last_rays_per_s);
         cJSON_AddNumberToObject(st, "samples_per_ray", t->samples_per_ray);
         cJSON_AddNumberToObject(st, "kept_per_ray", t->kept_per_ray);
-        printf("  %-10s %10.0f rays/s  (%d rays/iter, %.1f samples/ray, %.1f kept)\n",
-               esr_stage_name((enum esr_stage)s), t->rays_per_s, t->batch_rays, t->samples_per_ray,
-               t->kept_per_ray);
+        printf("  %-10s %6d iters %7.1f s %8.0f rays/s (last window %.0f; %d rays/iter, %.1f "
+               "samples/ray, %.1f kept)\n",
+               esr_stage_name((enum esr_stage)s), t->iters, t->seconds, t->rays_per_s,
+               t->last_rays_per_s, t->batch_rays, t->samples_per_ray, t->kept_per_ray);
     }
     return ESR_OK;
 }
@@ -257,7 +269,7 @@ static int run_bench(int argc, char **argv)
 {
     if (cli_wants_help(&cmd_bench, argc, argv))
         return 0;
-    struct bench_opts o = {"bench.json", NULL, 0, 1};
+    struct bench_opts o = {"bench.json", NULL, 0, 1, -1};
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
         int has_value = i + 1 < argc;
@@ -265,7 +277,11 @@ static int run_bench(int argc, char **argv)
             o.out = argv[++i];
         else if (!strcmp(a, "--data") && has_value)
             o.data = argv[++i];
-        else if (!strcmp(a, "--quick"))
+        else if (!strcmp(a, "--iters") && has_value) {
+            if (cli_parse_int(argv[++i], 2, 1000000, &o.iters))
+                return cli_fail(&cmd_bench, "--iters: expected an integer in 2..1000000, got '%s'",
+                                argv[i]);
+        } else if (!strcmp(a, "--quick"))
             o.quick = 1;
         else if (!strcmp(a, "--no-train"))
             o.train = 0;

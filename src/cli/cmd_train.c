@@ -61,6 +61,8 @@ static void on_progress(void *user, const struct esr_train_progress *p)
 {
     struct progress_sink *s = user;
     char line[512];
+    if (p->event == ESR_TRAIN_STAGE_DONE)
+        return; /* the trainer's own message says it */
     if (p->event == ESR_TRAIN_MESSAGE) {
         snprintf(line, sizeof line, "[%s] %s", esr_stage_name(p->stage), p->message);
     } else {

@@ -1,5 +1,6 @@
-/* Training throughput for `esr bench`: a short run of every stage (alphamask, coarse, fine)
- * through the training driver, reporting each stage's rays per second. */
+/* Training throughput for `esr bench`: a run of every stage (alphamask, coarse, fine) through
+ * the training driver, reporting each stage's rays per second over the whole stage and over its
+ * last progress window. */
 #ifndef ESR_EVAL_BENCH_TRAIN_H
 #define ESR_EVAL_BENCH_TRAIN_H
 
@@ -8,7 +9,9 @@
 struct esr_bench_train_stage {
     int iters;              /* iterations run */
     int batch_rays;         /* rays per iteration */
-    double rays_per_s;      /* over the stage's second half (after warm-up) */
+    double seconds;         /* wall time of the stage (iterations and final checkpoint) */
+    double rays_per_s;      /* sustained: iters * batch_rays / seconds */
+    double last_rays_per_s; /* over the last progress window (after warm-up) */
     double samples_per_ray; /* marched samples per ray in that window */
     double kept_per_ray;    /* samples that reached the MLPs */
 };
@@ -18,8 +21,9 @@ struct esr_bench_train_result {
 };
 
 /* Trains data_dir from scratch into run_dir (created; existing checkpoints there are ignored)
- * with the "fast" preset, `iters` (>= 2) iterations per stage, and records each stage's rays/s
- * from the progress reports. ESR_ERR with the trainer's message on failure. */
+ * with the "fast" preset and `iters` iterations per stage (0 = the preset's own, i.e. a real
+ * training run; else >= 2), and records each stage's throughput. ESR_ERR with the trainer's
+ * message on failure. */
 int esr_bench_train(const char *data_dir, const char *run_dir, int iters, struct esr_bench_train_result *res);
 
 #endif

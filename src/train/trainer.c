@@ -196,6 +196,20 @@ static void append_jsonl(struct run *r, const char *line)
     fclose(f);
 }
 
+static void report_stage_done(struct run *r, enum esr_stage s, long run_now, long iters, double secs)
+{
+    if (!r->o->report)
+        return;
+    struct esr_train_progress p;
+    memset(&p, 0, sizeof p);
+    p.event = ESR_TRAIN_STAGE_DONE;
+    p.stage = s;
+    p.iter = run_now;
+    p.iters = iters;
+    p.seconds = secs;
+    r->o->report(r->o->user, &p);
+}
+
 static void report_window(struct run *r, const struct esr_model *m, enum esr_stage s,
                           struct window *w, long it, long iters, int B)
 {
@@ -308,6 +322,10 @@ static int finish_alphamask(struct run *r, struct esr_model *m)
     size_t occ = esr_mask_count(&m->mask), all = esr_grid_voxels(&m->density);
     say(r, ESR_STAGE_ALPHAMASK, "mask cache: %zu of %zu voxels occupied (%.1f%%)", occ, all,
         100.0 * (double)occ / (double)all);
+    if (occ == 0) /* later stages would march no samples and learn nothing */
+        return ESR_FAIL("alphamask: the mask cache is empty (no voxel reaches alpha_thres %g after "
+                        "%d iterations); train the alphamask stage longer or lower alpha_thres",
+                        (double)r->cfg.alpha_thres, m->cfg.alphamask.iters);
     return ESR_OK;
 }
 
@@ -324,6 +342,7 @@ static int run_stage(struct run *r, struct esr_model *m, enum esr_stage s)
     struct window w;
     memset(&w, 0, sizeof w);
     double t_start = omp_get_wtime();
+    const long first_step = m->step;
     w.t0 = t_start;
     say(r, s, "stage %s: iterations %ld..%d, %zu parameters, batch %d rays", esr_stage_name(s),
         m->step, sc->iters, m->params.count, B);
@@ -372,6 +391,7 @@ static int run_stage(struct run *r, struct esr_model *m, enum esr_stage s)
         append_jsonl(r, line);
         say(r, s, "stage %s done in %.1f s; checkpoint %s/ckpt_%s.bin", esr_stage_name(s), secs,
             r->o->run_dir, esr_stage_name(s));
+        report_stage_done(r, s, sc->iters - first_step, sc->iters, secs);
     }
     stage_buf_free(&b);
     return rc;

@@ -17,6 +17,8 @@ extern "C" {
 enum esr_train_event {
     ESR_TRAIN_PROGRESS,   /* periodic metrics (every log_every iterations and at stage end) */
     ESR_TRAIN_MESSAGE,    /* a line for the log (stage start/end, checkpoint, NaN recovery) */
+    ESR_TRAIN_STAGE_DONE, /* a stage finished and was saved: iter = iterations run in this call,
+                             seconds = their wall time (incl. the final save) */
 };
 
 struct esr_train_progress {
@@ -27,6 +29,7 @@ struct esr_train_progress {
     double psnr;           /* batch PSNR of the tone-mapped colour (last window) */
     double rays_per_s;     /* training rays per second over the last window */
     double eta_s;          /* remaining seconds of this stage */
+    double seconds;        /* ESR_TRAIN_STAGE_DONE only */
     double samples_per_ray, kept_per_ray; /* marched / MLP-evaluated samples per ray */
     const char *message;   /* ESR_TRAIN_MESSAGE text */
 };
