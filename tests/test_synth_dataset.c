@@ -285,6 +285,18 @@ static void test_bad_input(void **state)
     assert_true(no_partial_dirs());
 }
 
+/* Like `mkdir -p`: `make demo` writes below a runs/ folder that a fresh clone does not have. */
+static void test_missing_parents_are_created(void **state)
+{
+    (void)state;
+    char args[512], scene_json[600];
+    snprintf(args, sizeof args, "synth --res 8 --spp 1 --train 1 --test 1 %s/new/deeper/ds", tmp);
+    if (test_run_esr(args, out, sizeof out) != 0)
+        fail_msg("%s", out);
+    snprintf(scene_json, sizeof scene_json, "%s/new/deeper/ds/scene.json", tmp);
+    assert_true(esr_file_exists(scene_json));
+}
+
 static void test_listing(void **state)
 {
     (void)state;
@@ -301,7 +313,7 @@ int main(void)
         cmocka_unit_test(test_loads_with_right_counts), cmocka_unit_test(test_image_conventions),
         cmocka_unit_test(test_ground_truth_files),      cmocka_unit_test(test_json_keys_match_reference),
         cmocka_unit_test(test_reproducible),            cmocka_unit_test(test_listing),
-        cmocka_unit_test(test_bad_input),
+        cmocka_unit_test(test_bad_input),               cmocka_unit_test(test_missing_parents_are_created),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }

@@ -90,7 +90,7 @@ static void test_tiny_reaches_psnr(void **state)
 {
     (void)state;
     char run[4200], path[4300];
-    snprintf(run, sizeof run, "%s/full", test_tmpdir);
+    snprintf(run, sizeof run, "%s/runs/full", test_tmpdir); /* runs/ does not exist yet */
     struct esr_train_opts o;
     struct log_capture lc;
     opts_for(&o, run, ESR_STAGE_FINE, &lc);
@@ -195,7 +195,7 @@ static void test_corrupt_checkpoints_are_refused(void **state)
 {
     (void)state;
     char src[4300], bad[4300];
-    snprintf(src, sizeof src, "%s/full/ckpt_coarse.bin", test_tmpdir);
+    snprintf(src, sizeof src, "%s/runs/full/ckpt_coarse.bin", test_tmpdir);
     unsigned char *data;
     size_t size;
     assert_int_equal(esr_file_read_all(src, &data, &size), 0);

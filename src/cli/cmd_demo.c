@@ -1,12 +1,13 @@
 /* esr demo: the main job end to end on the built-in default scene (or a given dataset), by
  * running the other subcommands in order: synth -> info -> train -> eval -> export. */
-#include <errno.h>
 #include <stdio.h>
 #include <string.h>
 #include <sys/stat.h>
 #include <time.h>
 
 #include "cli/commands.h"
+#include "core/error.h"
+#include "io/dir.h"
 
 static int run_demo(int argc, char **argv);
 
@@ -104,8 +105,8 @@ static int run_demo(int argc, char **argv)
     snprintf(mesh, sizeof mesh, "%s/mesh.ply", a.out);
     if (strlen(a.out) > 3000)
         return cli_fail(&cmd_demo, "output path too long");
-    if (mkdir(a.out, 0755) != 0 && errno != EEXIST)
-        return cli_fail(&cmd_demo, "cannot create %s: %s", a.out, strerror(errno));
+    if (esr_dir_create(a.out) != ESR_OK)
+        return cli_fail(&cmd_demo, "%s", esr_error_message());
     double t0 = now_s();
 
     const char *data = a.data ? a.data : scene;

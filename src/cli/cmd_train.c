@@ -1,13 +1,12 @@
 /* esr train DATA --out RUN: the geometry and radiance stages (alphamask -> coarse -> fine). */
-#include <errno.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/stat.h>
 #include <unistd.h>
 
 #include "cli/commands.h"
 #include "core/error.h"
+#include "io/dir.h"
 #include "train/quick_eval.h"
 #include "train/trainer.h"
 
@@ -178,8 +177,8 @@ static int run_train(int argc, char **argv)
         return cli_fail(&cmd_train, "missing --out RUN");
     o.data_dir = data;
     struct progress_sink sink = {NULL, isatty(2), 0};
-    if (mkdir(o.run_dir, 0755) != 0 && errno != EEXIST)
-        return cli_fail(&cmd_train, "cannot create run directory %s: %s", o.run_dir, strerror(errno));
+    if (esr_dir_create(o.run_dir) != ESR_OK)
+        return cli_fail(&cmd_train, "%s", esr_error_message());
     char log_path[4200];
     snprintf(log_path, sizeof log_path, "%s/log", o.run_dir);
     sink.log = fopen(log_path, "a");

@@ -11,6 +11,7 @@
 #include <unistd.h>
 
 #include "core/error.h"
+#include "io/dir.h"
 
 static int dir_is_empty(const char *dir)
 {
@@ -41,6 +42,22 @@ static int sibling_template(const char *out_dir, const char *tag, char *buf, siz
     return ESR_OK;
 }
 
+/* The staging folder is a sibling of the output, so the output's parent must exist first. */
+static int make_parent(const char *path)
+{
+    char parent[4096];
+    size_t slash = strlen(path);
+    while (slash > 0 && path[slash - 1] != '/')
+        slash--;
+    if (slash <= 1) /* relative to the working directory, or directly under / */
+        return ESR_OK;
+    if (slash >= sizeof parent)
+        return ESR_FAIL("output path '%s' is too long", path);
+    memcpy(parent, path, slash - 1);
+    parent[slash - 1] = '\0';
+    return esr_dir_create(parent);
+}
+
 int esr_synth_staging_begin(const char *out_dir, int force, char *staging, size_t n)
 {
     struct stat st;
@@ -53,6 +70,7 @@ int esr_synth_staging_begin(const char *out_dir, int force, char *staging, size_
         return ESR_FAIL("cannot inspect output '%s': %s", out_dir, strerror(errno));
     }
     ESR_TRY(sibling_template(out_dir, "partial", staging, n));
+    ESR_TRY(make_parent(staging));
     if (!mkdtemp(staging))
         return ESR_FAIL("cannot create staging directory '%s': %s", staging, strerror(errno));
     return ESR_OK;

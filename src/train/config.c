@@ -25,7 +25,7 @@ struct opt {
 #define OFF(field) offsetof(struct esr_train_config, field)
 /* The three stages share option names below their prefix. */
 #define STAGE_OPTS(st, res_f, res_p, it_f, it_p, fc_f, fc_p, w_f, w_p, d_f, d_p, lg, lf, lm, fin,    \
-                   s_f, s_p, sd_f, sd_p, tvs, tvf)                                                        \
+                   s_f, s_p, sd_f, sd_p, tvs, tvg, tvf)                                                   \
     {#st ".res", OPT_INT, OFF(st.res), 8, 512, {res_f, res_p}, "grid lattice points per axis"},     \
     {#st ".iters", OPT_INT, OFF(st.iters), 0, 1000000, {it_f, it_p}, "iterations"},                \
     {#st ".feat_channels", OPT_INT, OFF(st.feat_channels), 1, 64, {fc_f, fc_p},                      \
@@ -41,6 +41,8 @@ struct opt {
     {#st ".s_div", OPT_FLOAT, OFF(st.s_div), 0.01, 1e6, {sd_f, sd_p},                               \
      "inv-s grows by step / s_div"},                                                                \
     {#st ".tv_sdf", OPT_FLOAT, OFF(st.tv_sdf), 0, 100, {tvs, tvs}, "grid total-variation weight"},  \
+    {#st ".tv_sdf_grad", OPT_FLOAT, OFF(st.tv_sdf_grad), 0, 100, {tvg, tvg},                        \
+     "smoothed-gradient total-variation weight on the SDF (Voxurf; 0 = off)"},                      \
     {#st ".tv_feat", OPT_FLOAT, OFF(st.tv_feat), 0, 100, {tvf, tvf},                                \
      "feature-grid total-variation weight"},                                                        \
     {#st ".step_vox", OPT_FLOAT, OFF(st.step_vox), 0.05, 4, {0.5, 0.5},                             \
@@ -73,11 +75,11 @@ static const struct opt opts[] = {
     {"tv_every", OPT_INT, OFF(tv_every), 1, 1000, {4, 1},
      "total-variation regularisers every N iterations (weight scaled by N)"},
     STAGE_OPTS(alphamask, 80, 100, 500, 10000, 6, 6, 8, 8, 1, 1, 0.1, 0.1, 1e-3, 0.1, 1, 1, 1, 1, 0,
-               0),
+               0, 0),
     STAGE_OPTS(coarse, 80, 96, 1500, 10000, 12, 12, 64, 128, 2, 3, 1e-2, 0.1, 1e-3, 0.1, 5, 5, 10, 50,
-               1e-3, 0),
+               1e-3, 0, 0),
     STAGE_OPTS(fine, 128, 160, 2000, 20000, 6, 6, 64, 192, 3, 4, 2e-3, 0.1, 1e-3, 0.1, 100, 20, 20,
-               100, 1e-3, 0),
+               100, 1e-3, 0, 0),
 };
 #define N_OPTS (sizeof opts / sizeof opts[0])
 

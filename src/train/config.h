@@ -28,6 +28,7 @@ struct esr_stage_config {
     float s0;           /* NeuS inv-s at step 0 */
     float s_div;        /* inv-s grows by step / s_div */
     float tv_sdf;       /* SDF total-variation weight */
+    float tv_sdf_grad;  /* smoothed-gradient total-variation weight on the SDF */
     float tv_feat;      /* feature-grid total-variation weight */
     float step_vox;     /* ray-marching step in voxels of this stage's grid */
 };

@@ -10,13 +10,14 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/stat.h>
 
 #include "core/error.h"
 #include "core/rng.h"
 #include "fields/sdf.h"
 #include "io/dataset.h"
+#include "io/dir.h"
 #include "io/file.h"
+#include "io/json_file.h"
 #include "nn/adam.h"
 #include "nn/guard.h"
 #include "nn/schedule.h"
@@ -24,7 +25,6 @@
 #include "train/render_loss.h"
 #include "train/render_sdf.h"
 #include "train/trace.h"
-#include "io/json_file.h"
 
 #define MAX_NAN_FAILURES 3
 
@@ -44,6 +44,7 @@ struct stage_buf {
     struct esr_trace tr;
     float *orig3, *dir3, *tgt3, *d_rgb3, *d_lin3;
     float *sdf_view, *g_sdf_view, *scratch; /* coarse: smoothed SDF and its gradient */
+    float *grad_tv_work;                    /* smoothed-gradient TV work space */
 };
 
 struct window {
@@ -84,7 +85,7 @@ static void stage_buf_free(struct stage_buf *b)
 {
     esr_trace_free(&b->tr);
     float *bufs[] = {b->orig3, b->dir3, b->tgt3, b->d_rgb3, b->d_lin3, b->sdf_view, b->g_sdf_view,
-                     b->scratch};
+                     b->scratch, b->grad_tv_work};
     for (size_t i = 0; i < sizeof bufs / sizeof bufs[0]; i++)
         free(bufs[i]);
     memset(b, 0, sizeof(*b));
@@ -104,6 +105,8 @@ static int stage_buf_init(struct stage_buf *b, const struct esr_model *m, int B)
         ok &= (b->g_sdf_view = malloc(ns * sizeof(float))) != NULL;
         ok &= (b->scratch = malloc(ns * sizeof(float))) != NULL;
     }
+    if (ok && m->stage != ESR_STAGE_ALPHAMASK && stage_cfg(&m->cfg, m->stage)->tv_sdf_grad > 0.0f)
+        ok &= (b->grad_tv_work = malloc(esr_sdf_grad_tv_work(&m->sdf) * sizeof(float))) != NULL;
     if (!ok) {
         stage_buf_free(b);
         return ESR_FAIL("train: out of memory for a batch of %d rays", B);
@@ -155,18 +158,26 @@ static float lr_factor(const struct esr_stage_config *sc, enum esr_stage s, long
     return esr_lr_exp_factor(it, sc->iters, sc->lr_final);
 }
 
-/* Total-variation regularisers of the stage's grids (gradients added, loss returned). */
-static double add_tv(struct esr_model *m, enum esr_stage s, long it)
+/* Total-variation regularisers of the stage's grids: gradients added, loss added to *total. */
+static int add_tv(struct esr_model *m, const struct stage_buf *b, enum esr_stage s, long it,
+                  double *total)
 {
     const struct esr_stage_config *sc = stage_cfg(&m->cfg, s);
     const int every = m->cfg.tv_every;
-    double total = 0.0, l = 0.0;
+    double l = 0.0;
     if (s == ESR_STAGE_ALPHAMASK || it % every != 0)
-        return 0.0;
+        return ESR_OK;
+    float *sdf = m->params.w + m->sdf_off, *g_sdf = m->params.g + m->sdf_off;
     if (sc->tv_sdf > 0.0f) {
-        esr_grid_tv_add_grad(&m->sdf, m->params.w + m->sdf_off, sc->tv_sdf * (float)every,
-                             m->params.g + m->sdf_off, &l);
-        total += l;
+        ESR_TRY(esr_grid_tv_add_grad(&m->sdf, sdf, sc->tv_sdf * (float)every, g_sdf, &l));
+        *total += l;
+    }
+    if (b->grad_tv_work) {
+        /* on the raw SDF, smoothed with the coarse stage's kernel (Voxurf's smooth_grad_tv) */
+        int ksize = m->cfg.smooth_ksize > 1 ? m->cfg.smooth_ksize : 1;
+        ESR_TRY(esr_sdf_grad_tv_add_grad(&m->sdf, sdf, sc->tv_sdf_grad * (float)every, ksize,
+                                         m->cfg.smooth_sigma, b->grad_tv_work, g_sdf, &l));
+        *total += l;
     }
     if (sc->tv_feat > 0.0f) {
         const float w = sc->tv_feat * (float)every;
@@ -180,11 +191,11 @@ static double add_tv(struct esr_model *m, enum esr_stage s, long it)
             off[1] = m->feat_emo_off;
         }
         for (int i = 0; i < ng; i++) {
-            esr_grid_tv_add_grad(g[i], m->params.w + off[i], w, m->params.g + off[i], &l);
-            total += l;
+            ESR_TRY(esr_grid_tv_add_grad(g[i], m->params.w + off[i], w, m->params.g + off[i], &l));
+            *total += l;
         }
     }
-    return total;
+    return ESR_OK;
 }
 
 static void append_jsonl(struct run *r, const char *line)
@@ -295,7 +306,8 @@ static int iterate(struct run *r, struct esr_model *m, struct stage_buf *b, enum
     if (b->sdf_view)
         ESR_TRY(esr_grid_smooth_bwd(&m->sdf, b->g_sdf_view, g_raw, b->scratch,
                                     m->cfg.smooth_ksize, m->cfg.smooth_sigma));
-    *loss = lr.loss + add_tv(m, s, it);
+    *loss = lr.loss;
+    ESR_TRY(add_tv(m, b, s, it, loss));
     w->loss += *loss;
     w->mse += lr.mse_tone;
     w->samples += (double)b->tr.smp.count;
@@ -412,13 +424,6 @@ static int stage_model(struct run *r, enum esr_stage s, const struct esr_model *
     return esr_model_init(m, &r->cfg, s, prev, r->scene_min, r->scene_max);
 }
 
-static int make_dir(const char *path)
-{
-    if (mkdir(path, 0755) == 0 || errno == EEXIST)
-        return ESR_OK;
-    return ESR_FAIL("run directory %s: cannot create it (%s)", path, strerror(errno));
-}
-
 /* RUN/run.json records the absolute dataset path so that `esr render/eval/export RUN` find the
  * data without --data (eval/run_dir.h reads it). Rewritten on resume: the data may have moved. */
 static int write_run_record(const char *run_dir, const char *data_dir)
@@ -436,7 +441,7 @@ static int write_run_record(const char *run_dir, const char *data_dir)
 static int setup(struct run *r)
 {
     char path[4200];
-    ESR_TRY(make_dir(r->o->run_dir));
+    ESR_TRY(esr_dir_create(r->o->run_dir));
     snprintf(path, sizeof path, "%s/config.json", r->o->run_dir);
     if (r->o->resume && esr_file_exists(path)) {
         esr_config_defaults(&r->cfg, ESR_PRESET_FAST);
