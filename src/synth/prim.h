@@ -136,85 +136,99 @@ ESR_INLINE float esr_synth_prim_area(const struct esr_synth_prim *p)
     return 2.0f * ESR_PI * p->b.x * (p->b.x + p->b.y);
 }
 
-/* A point uniformly distributed over the surface by area (pdf 1 / area) and its outward normal;
- * u0 picks the face / part, (u1, u2) the position on it. */
-ESR_INLINE void esr_synth_prim_sample(const struct esr_synth_prim *p, float u0, float u1, float u2,
-                                      struct esr_vec3 *x, struct esr_vec3 *n)
+/* Parts of p's surface that face a point x outside p: p is convex, so only they can exchange
+ * light with x. Sphere: part 0, the cap inside the tangent cone from x. Box: part 2k + s, the face
+ * with normal -/+ axis k (s = 0/1) when x lies beyond its plane. Cylinder: part 0, the arc of the
+ * side within acos(r / d) of x's azimuth (d its distance from the axis); parts 1 and 2, the top
+ * and bottom caps when x is above / below them. area[] (6 entries) gets each part's area, 0 for
+ * parts that face away; returns their sum (0 when x is inside or on p). */
+ESR_INLINE float esr_synth_prim_front_parts(const struct esr_synth_prim *p, struct esr_vec3 x, float area[6])
 {
-    if (p->kind == ESR_SYNTH_SPHERE) {
-        *n = esr_sample_sphere_uniform(u1, u2);
-        *x = esr_v3_add(p->a, esr_v3_scale(*n, p->b.x));
-        return;
-    }
-    if (p->kind == ESR_SYNTH_BOX) {
-        struct esr_vec3 e = esr_v3_sub(p->b, p->a);
-        float axy = e.x * e.y, ayz = e.y * e.z, azx = e.z * e.x;
-        float pick = u0 * (axy + ayz + azx); /* axis by face-pair area, then side by halves */
-        float lo[3] = {p->a.x, p->a.y, p->a.z}, ext[3] = {e.x, e.y, e.z};
-        int axis = pick < axy ? 2 : (pick < axy + ayz ? 0 : 1);
-        float area = axis == 2 ? axy : (axis == 0 ? ayz : azx);
-        float start = axis == 2 ? 0.0f : (axis == 0 ? axy : axy + ayz);
-        float v = (pick - start) / area; /* uniform in [0,1) again */
-        int side = v >= 0.5f;
-        float pos[3], nor[3] = {0.0f, 0.0f, 0.0f};
-        int k1 = (axis + 1) % 3, k2 = (axis + 2) % 3;
-        pos[axis] = lo[axis] + (side ? ext[axis] : 0.0f);
-        pos[k1] = lo[k1] + u1 * ext[k1];
-        pos[k2] = lo[k2] + u2 * ext[k2];
-        nor[axis] = side ? 1.0f : -1.0f;
-        *x = esr_v3(pos[0], pos[1], pos[2]);
-        *n = esr_v3(nor[0], nor[1], nor[2]);
-        return;
-    }
-    float r = p->b.x, h = p->b.y;
-    float side_area = 2.0f * ESR_PI * r * h, cap_area = ESR_PI * r * r;
-    float pick = u0 * (side_area + 2.0f * cap_area);
-    float phi = 2.0f * ESR_PI * u1;
-    if (pick < side_area) {
-        *n = esr_v3(cosf(phi), sinf(phi), 0.0f);
-        *x = esr_v3(p->a.x + r * n->x, p->a.y + r * n->y, p->a.z + u2 * h);
-        return;
-    }
-    int top = pick >= side_area + cap_area;
-    float rr = r * sqrtf(u2);
-    *n = esr_v3(0.0f, 0.0f, top ? 1.0f : -1.0f);
-    *x = esr_v3(p->a.x + rr * cosf(phi), p->a.y + rr * sinf(phi), p->a.z + (top ? h : 0.0f));
-}
-
-/* Area of the part of p that sampling towards a shading point x covers: for a sphere only the cap
- * facing x (the rest is back-facing from x), else the whole surface. */
-ESR_INLINE float esr_synth_prim_area_toward(const struct esr_synth_prim *p, struct esr_vec3 x)
-{
+    for (int i = 0; i < 6; i++)
+        area[i] = 0.0f;
     if (p->kind == ESR_SYNTH_SPHERE) {
         float d = esr_v3_length(esr_v3_sub(x, p->a)), r = p->b.x;
         if (d > r)
-            return 2.0f * ESR_PI * r * r * (1.0f - r / d);
+            area[0] = 2.0f * ESR_PI * r * r * (1.0f - r / d);
+    } else if (p->kind == ESR_SYNTH_BOX) {
+        float lo[3] = {p->a.x, p->a.y, p->a.z}, hi[3] = {p->b.x, p->b.y, p->b.z}, q[3] = {x.x, x.y, x.z};
+        for (int k = 0; k < 3; k++) {
+            int k1 = (k + 1) % 3, k2 = (k + 2) % 3;
+            float face = (hi[k1] - lo[k1]) * (hi[k2] - lo[k2]);
+            area[2 * k] = q[k] < lo[k] ? face : 0.0f;
+            area[2 * k + 1] = q[k] > hi[k] ? face : 0.0f;
+        }
+    } else {
+        float r = p->b.x, h = p->b.y;
+        float d = sqrtf((x.x - p->a.x) * (x.x - p->a.x) + (x.y - p->a.y) * (x.y - p->a.y));
+        if (d > r)
+            area[0] = 2.0f * acosf(r / d) * r * h;
+        area[1] = x.z > p->a.z + h ? ESR_PI * r * r : 0.0f;
+        area[2] = x.z < p->a.z ? ESR_PI * r * r : 0.0f;
     }
-    return esr_synth_prim_area(p);
+    float total = 0.0f;
+    for (int i = 0; i < 6; i++)
+        total += area[i];
+    return total;
 }
 
-/* A point uniformly distributed by area over the region esr_synth_prim_area_toward(p, x)
- * measures (pdf 1 / that area). The sphere's cap facing x is sampled by Archimedes' hat-box
- * theorem: the cap's height is uniform in cos around the axis towards x. */
+/* Area of the part of p that sampling towards x covers (esr_synth_prim_front_parts). */
+ESR_INLINE float esr_synth_prim_area_toward(const struct esr_synth_prim *p, struct esr_vec3 x)
+{
+    float area[6];
+    return esr_synth_prim_front_parts(p, x, area);
+}
+
+/* A point uniformly distributed by area over the parts of p facing x (pdf 1 / their total area,
+ * which must be > 0) and its outward normal: u0 picks the part by area, (u1, u2) the position.
+ * Skipping the parts that face away halves the wasted shadow rays of next-event estimation on a
+ * box or cylinder light. The sphere's cap facing x is sampled by Archimedes' hat-box theorem: the
+ * cap's height is uniform in cos around the axis towards x. */
 ESR_INLINE void esr_synth_prim_sample_toward(const struct esr_synth_prim *p, struct esr_vec3 x, float u0, float u1,
                                              float u2, struct esr_vec3 *y, struct esr_vec3 *n)
 {
+    float area[6];
+    float pick = u0 * esr_synth_prim_front_parts(p, x, area);
+    int part = 0;
+    while (part < 5 && (pick >= area[part] || area[part] == 0.0f)) {
+        pick -= area[part];
+        part++;
+    }
+    while (part > 0 && area[part] == 0.0f) /* rounding ran past the last non-empty part */
+        part--;
     if (p->kind == ESR_SYNTH_SPHERE) {
         struct esr_vec3 axis = esr_v3_sub(x, p->a);
         float d = esr_v3_length(axis), r = p->b.x;
-        if (d > r) {
-            axis = esr_v3_scale(axis, 1.0f / d);
-            float cos_max = r / d;
-            float z = 1.0f - u1 * (1.0f - cos_max);
-            float s = sqrtf(fmaxf(0.0f, 1.0f - z * z)), phi = 2.0f * ESR_PI * u2;
-            struct esr_vec3 t, b;
-            esr_v3_basis(axis, &t, &b);
-            *n = esr_v3_from_local(esr_v3(s * cosf(phi), s * sinf(phi), z), t, b, axis);
-            *y = esr_v3_add(p->a, esr_v3_scale(*n, r));
-            return;
+        axis = esr_v3_scale(axis, 1.0f / d);
+        float z = 1.0f - u1 * (1.0f - r / d);
+        float s = sqrtf(fmaxf(0.0f, 1.0f - z * z)), phi = 2.0f * ESR_PI * u2;
+        struct esr_vec3 t, b;
+        esr_v3_basis(axis, &t, &b);
+        *n = esr_v3_from_local(esr_v3(s * cosf(phi), s * sinf(phi), z), t, b, axis);
+        *y = esr_v3_add(p->a, esr_v3_scale(*n, r));
+    } else if (p->kind == ESR_SYNTH_BOX) {
+        float lo[3] = {p->a.x, p->a.y, p->a.z}, hi[3] = {p->b.x, p->b.y, p->b.z}, pos[3], nor[3] = {0, 0, 0};
+        int k = part / 2, side = part % 2, k1 = (k + 1) % 3, k2 = (k + 2) % 3;
+        pos[k] = side ? hi[k] : lo[k];
+        pos[k1] = lo[k1] + u1 * (hi[k1] - lo[k1]);
+        pos[k2] = lo[k2] + u2 * (hi[k2] - lo[k2]);
+        nor[k] = side ? 1.0f : -1.0f;
+        *y = esr_v3(pos[0], pos[1], pos[2]);
+        *n = esr_v3(nor[0], nor[1], nor[2]);
+    } else {
+        float r = p->b.x, h = p->b.y;
+        if (part == 0) {
+            float dx = x.x - p->a.x, dy = x.y - p->a.y, d = sqrtf(dx * dx + dy * dy);
+            float phi = atan2f(dy, dx) + acosf(r / d) * (2.0f * u1 - 1.0f);
+            *n = esr_v3(cosf(phi), sinf(phi), 0.0f);
+            *y = esr_v3(p->a.x + r * n->x, p->a.y + r * n->y, p->a.z + u2 * h);
+        } else {
+            int top = part == 1;
+            float rr = r * sqrtf(u1), phi = 2.0f * ESR_PI * u2;
+            *n = esr_v3(0.0f, 0.0f, top ? 1.0f : -1.0f);
+            *y = esr_v3(p->a.x + rr * cosf(phi), p->a.y + rr * sinf(phi), p->a.z + (top ? h : 0.0f));
         }
     }
-    esr_synth_prim_sample(p, u0, u1, u2, y, n);
 }
 
 /* Material at surface point x: the procedural texture picks base colour 0 or 1 (checker in x,y
