@@ -8,6 +8,7 @@
 
 #include "core/error.h"
 #include "core/rng.h"
+#include "nn/mlp_blas.h"
 #include "nn/tile_gemm.h"
 
 #define INFER_TILE 64 /* rows per inference tile: two ping-pong buffers stay on the stack */
@@ -84,17 +85,30 @@ static size_t scratch_per_thread(void)
     return 2 * (size_t)ESR_MLP_TILE * ESR_MLP_MAX_WIDTH;
 }
 
-int esr_mlp_ctx_init(struct esr_mlp_ctx *c, const struct esr_mlp *m, size_t max_rows)
+int esr_mlp_ctx_init(struct esr_mlp_ctx *c, const struct esr_mlp *m, size_t max_rows,
+                     enum esr_mlp_engine engine)
 {
     memset(c, 0, sizeof(*c));
+    if ((unsigned)engine >= ESR_MLP_ENGINE_COUNT)
+        return ESR_FAIL("unknown MLP engine %d", (int)engine);
+    c->engine = engine;
     c->max_rows = max_rows;
     c->n_threads = omp_get_max_threads();
-    size_t n_act = (size_t)m->desc.n_hidden * m->desc.width * (max_rows ? max_rows : 1);
+    const size_t rows = max_rows ? max_rows : 1;
+    size_t n_act = (size_t)m->desc.n_hidden * m->desc.width * rows;
     c->act = malloc(n_act ? n_act * sizeof(float) : sizeof(float));
-    c->slices = malloc((size_t)ESR_MLP_GRAD_SLICES * m->count * sizeof(float));
-    c->wt = malloc(m->count * sizeof(float));
-    c->scratch = malloc((size_t)c->n_threads * scratch_per_thread() * sizeof(float));
-    if (!c->act || !c->slices || !c->wt || !c->scratch) {
+    int ok = c->act != NULL;
+    if (engine == ESR_MLP_ENGINE_FUSED) {
+        ok &= (c->slices = malloc((size_t)ESR_MLP_GRAD_SLICES * m->count * sizeof(float))) != NULL;
+        ok &= (c->wt = malloc(m->count * sizeof(float))) != NULL;
+        ok &= (c->scratch = malloc((size_t)c->n_threads * scratch_per_thread() * sizeof(float))) != NULL;
+    } else {
+        ok &= (c->grad_rows = malloc(2 * rows * ESR_MLP_MAX_WIDTH * sizeof(float))) != NULL;
+        ok &= (c->ones = malloc(rows * sizeof(float))) != NULL;
+        for (size_t r = 0; ok && r < rows; r++)
+            c->ones[r] = 1.0f;
+    }
+    if (!ok) {
         esr_mlp_ctx_free(c);
         return ESR_FAIL("out of memory for an MLP workspace of %zu rows", max_rows);
     }
@@ -107,6 +121,8 @@ void esr_mlp_ctx_free(struct esr_mlp_ctx *c)
     free(c->slices);
     free(c->wt);
     free(c->scratch);
+    free(c->grad_rows);
+    free(c->ones);
     memset(c, 0, sizeof(*c));
 }
 
@@ -170,6 +186,10 @@ int esr_mlp_fwd(const struct esr_mlp *m, const float *params, struct esr_mlp_ctx
     c->in = in;
     c->out = out;
     c->rows = n;
+    if (c->engine != ESR_MLP_ENGINE_FUSED) {
+        esr_mlp_blas_fwd(m, params, c, in, out, n);
+        return ESR_OK;
+    }
     size_t n_tiles = (n + ESR_MLP_TILE - 1) / ESR_MLP_TILE;
     /* Rows are independent, so dynamic scheduling (robust when a core is shared) cannot change
      * any result. */
@@ -307,6 +327,10 @@ int esr_mlp_bwd(const struct esr_mlp *m, const float *params, float *grads, stru
         return ESR_FAIL("MLP backward without a preceding forward on this workspace");
     if (mode != ESR_NN_GRAD_IGNORE && !d_in)
         return ESR_FAIL("MLP backward asked for d_in but got no buffer");
+    if (c->engine != ESR_MLP_ENGINE_FUSED) {
+        esr_mlp_blas_bwd(m, params, grads, c, d_out, d_in, mode);
+        return ESR_OK;
+    }
     struct bwd_job job = {m, params, c, d_out, d_in, mode};
     transpose_weights(m, params, c->wt);
     const size_t n = c->rows, count = m->count;

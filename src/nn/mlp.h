@@ -8,7 +8,8 @@
  * Batched rows: inputs [n][n_in] and outputs [n][n_out], row-major, contiguous.
  * The forward pass is tiled (ESR_MLP_TILE rows through all layers while they are in cache),
  * OpenMP-parallel over tiles; backward accumulates weight gradients into a fixed number of
- * row-slices reduced in a fixed order, so results are bitwise identical for any thread count. */
+ * row-slices reduced in a fixed order, so results are bitwise identical for any thread count.
+ * Training can instead run through oneDNN or OpenBLAS (enum esr_mlp_engine, nn/mlp_blas.c). */
 #ifndef ESR_NN_MLP_H
 #define ESR_NN_MLP_H
 
@@ -54,6 +55,14 @@ enum esr_nn_grad_mode {
     ESR_NN_GRAD_ACCUMULATE  /* d_in += d loss / d in */
 };
 
+/* Which kernels a training workspace runs. FUSED: esr's tiled kernel, every layer of a 128-row
+ * tile while it is in cache, bitwise identical results for any thread count. ONEDNN / OPENBLAS:
+ * one full-batch library sgemm per layer and product with separate bias/activation passes
+ * (nn/mlp_blas.c); oneDNN is the fastest on every training shape `esr bench` measures on an
+ * AVX-512 machine, but library sums may be ordered differently for another thread count.
+ * Inference (esr_mlp_infer) always runs the fused kernel. */
+enum esr_mlp_engine { ESR_MLP_ENGINE_FUSED, ESR_MLP_ENGINE_ONEDNN, ESR_MLP_ENGINE_OPENBLAS, ESR_MLP_ENGINE_COUNT };
+
 /* Caller-owned workspace for training: the hidden activations of one forward call and the
  * backward scratch, sized once for max_rows so the training loop allocates nothing. */
 struct esr_mlp_ctx {
@@ -62,6 +71,9 @@ struct esr_mlp_ctx {
     float *slices;     /* ESR_MLP_GRAD_SLICES x count partial weight gradients */
     float *wt;         /* weights transposed to [fan_out][fan_in] for d_in, count floats */
     float *scratch;    /* per-thread tile scratch */
+    float *grad_rows;  /* library engines: two [max_rows][widest layer] gradient buffers */
+    float *ones;       /* library engines: max_rows ones (bias gradients as a GEMM) */
+    enum esr_mlp_engine engine;
     int n_threads;     /* threads the scratch was sized for */
     const float *in;   /* forward input kept for backward (caller keeps it alive) */
     const float *out;  /* forward output kept for backward (caller keeps it alive) */
@@ -77,8 +89,9 @@ int esr_mlp_init(struct esr_mlp *m, const struct esr_mlp_desc *d, struct esr_nn_
  * last_bias (e.g. 0) when finite. Deterministic in seed. `params` is the flat buffer base. */
 void esr_mlp_init_weights(const struct esr_mlp *m, float *params, uint64_t seed, float last_bias);
 
-/* Allocates a training workspace for up to max_rows rows per forward call. */
-int esr_mlp_ctx_init(struct esr_mlp_ctx *c, const struct esr_mlp *m, size_t max_rows);
+/* Allocates a training workspace for up to max_rows rows per forward call, run by engine. */
+int esr_mlp_ctx_init(struct esr_mlp_ctx *c, const struct esr_mlp *m, size_t max_rows,
+                     enum esr_mlp_engine engine);
 void esr_mlp_ctx_free(struct esr_mlp_ctx *c);
 
 /* Training forward: out[n][n_out] = mlp(in[n][n_in]), keeping what backward needs in c

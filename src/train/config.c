@@ -72,6 +72,9 @@ static const struct opt opts[] = {
      "coarse: initial SDF = signed distance to the alphamask voxels with alpha above this"},
     {"fine_mask_band", OPT_FLOAT, OFF(fine_mask_band), 0, 1000, {4, 0},
      "fine: mask cache narrowed to |coarse SDF| <= this many coarse voxels (0 = off)"},
+    {"mlp_engine", OPT_INT, OFF(mlp_engine), 0, 2, {1, 1},
+     "MLP training kernels: 0 esr's fused kernel (bitwise the same for any thread count), "
+     "1 oneDNN (fastest in `esr bench`), 2 OpenBLAS"},
     {"tv_every", OPT_INT, OFF(tv_every), 1, 1000, {4, 1},
      "total-variation regularisers every N iterations (weight scaled by N)"},
     STAGE_OPTS(alphamask, 80, 100, 500, 10000, 6, 6, 8, 8, 1, 1, 0.1, 0.1, 1e-3, 0.1, 1, 1, 1, 1, 0,

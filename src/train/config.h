@@ -52,6 +52,7 @@ struct esr_train_config {
     float sdf_init_alpha;   /* coarse: SDF starts as the signed distance to alpha > this */
     float fine_mask_band;   /* fine: mask keeps |coarse SDF| <= this many coarse voxels (0 = off) */
     int tv_every;           /* total-variation terms every N iterations (weight x N) */
+    int mlp_engine;         /* enum esr_mlp_engine of the training MLPs */
     struct esr_stage_config alphamask, coarse, fine;
 };
 

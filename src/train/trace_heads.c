@@ -75,14 +75,15 @@ int esr_trace_heads_grow(struct esr_trace *t, const struct esr_model *m, size_t 
         return ESR_FAIL("trace: out of memory for %zu kept samples", cap);
     }
     int rc = ESR_OK;
+    const enum esr_mlp_engine engine = (enum esr_mlp_engine)m->cfg.mlp_engine;
     if (t->train && m->stage == ESR_STAGE_COARSE)
-        rc = esr_mlp_ctx_init(&t->ctx_a, &m->colour, cap);
+        rc = esr_mlp_ctx_init(&t->ctx_a, &m->colour, cap, engine);
     if (t->train && m->stage == ESR_STAGE_FINE) {
-        rc = esr_mlp_ctx_init(&t->ctx_a, &m->rad_off, cap);
+        rc = esr_mlp_ctx_init(&t->ctx_a, &m->rad_off, cap, engine);
         if (rc == ESR_OK)
-            rc = esr_mlp_ctx_init(&t->ctx_b, &m->rad_emo, cap);
+            rc = esr_mlp_ctx_init(&t->ctx_b, &m->rad_emo, cap, engine);
         if (rc == ESR_OK)
-            rc = esr_mlp_ctx_init(&t->ctx_tone, &m->tone, cap);
+            rc = esr_mlp_ctx_init(&t->ctx_tone, &m->tone, cap, engine);
     }
     if (rc != ESR_OK) {
         esr_trace_heads_free(t);
