@@ -215,7 +215,9 @@ static void test_area_sampling_toward(void **state)
             long front_full = 0, off_normal = 0;
             for (int i = 0; i < n; i++) {
                 struct esr_vec3 y, ny;
-                esr_synth_prim_sample_toward(p, x, esr_rng_float(&rng), esr_rng_float(&rng), esr_rng_float(&rng), &y, &ny);
+                float sampled = esr_synth_prim_sample_toward(p, x, esr_rng_float(&rng), esr_rng_float(&rng),
+                                                             esr_rng_float(&rng), &y, &ny);
+                assert_true(sampled == esr_synth_prim_area_toward(p, x));
                 assert_true(esr_v3_dot(ny, esr_v3_sub(x, y)) >= -1e-5f);
                 assert_true(surface_distance(p, y) < 1e-5f);
                 /* a point exactly on an edge (u = 0 or 1) may be assigned the neighbouring face */

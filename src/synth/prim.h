@@ -179,16 +179,20 @@ ESR_INLINE float esr_synth_prim_area_toward(const struct esr_synth_prim *p, stru
     return esr_synth_prim_front_parts(p, x, area);
 }
 
-/* A point uniformly distributed by area over the parts of p facing x (pdf 1 / their total area,
- * which must be > 0) and its outward normal: u0 picks the part by area, (u1, u2) the position.
+/* A point uniformly distributed by area over the parts of p facing x and its outward normal:
+ * u0 picks the part by area, (u1, u2) the position. Returns their total area (the pdf is its
+ * inverse); 0, with y and n untouched, when no part faces x.
  * Skipping the parts that face away halves the wasted shadow rays of next-event estimation on a
  * box or cylinder light. The sphere's cap facing x is sampled by Archimedes' hat-box theorem: the
  * cap's height is uniform in cos around the axis towards x. */
-ESR_INLINE void esr_synth_prim_sample_toward(const struct esr_synth_prim *p, struct esr_vec3 x, float u0, float u1,
-                                             float u2, struct esr_vec3 *y, struct esr_vec3 *n)
+ESR_INLINE float esr_synth_prim_sample_toward(const struct esr_synth_prim *p, struct esr_vec3 x, float u0, float u1,
+                                              float u2, struct esr_vec3 *y, struct esr_vec3 *n)
 {
     float area[6];
-    float pick = u0 * esr_synth_prim_front_parts(p, x, area);
+    const float total = esr_synth_prim_front_parts(p, x, area);
+    if (total <= 0.0f)
+        return 0.0f;
+    float pick = u0 * total;
     int part = 0;
     while (part < 5 && (pick >= area[part] || area[part] == 0.0f)) {
         pick -= area[part];
@@ -229,6 +233,7 @@ ESR_INLINE void esr_synth_prim_sample_toward(const struct esr_synth_prim *p, str
             *y = esr_v3(p->a.x + rr * cosf(phi), p->a.y + rr * sinf(phi), p->a.z + (top ? h : 0.0f));
         }
     }
+    return total;
 }
 
 /* Material at surface point x: the procedural texture picks base colour 0 or 1 (checker in x,y

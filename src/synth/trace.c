@@ -56,10 +56,9 @@ static void sample_emitter(const struct esr_synth_trace_params *p, int k, struct
     const struct esr_synth_prim *lp = &s->prims[s->lights[k].prim];
     struct esr_vec3 y, ny;
     float u0 = esr_rng_float(rng), u1 = esr_rng_float(rng), u2 = esr_rng_float(rng);
-    float area = esr_synth_prim_area_toward(lp, x);
+    float area = esr_synth_prim_sample_toward(lp, x, u0, u1, u2, &y, &ny);
     if (area <= 0.0f) /* x on or inside the light: no part of it faces x */
         return;
-    esr_synth_prim_sample_toward(lp, x, u0, u1, u2, &y, &ny);
     struct esr_vec3 o = esr_v3_add(x, esr_v3_scale(n, RAY_EPS));
     struct esr_vec3 to = esr_v3_sub(y, o);
     float dist2 = esr_v3_dot(to, to), dist = sqrtf(dist2);

@@ -52,6 +52,13 @@ struct window {
     long iters;
 };
 
+/* Hands one event to the caller's progress callback, if any. */
+static void emit(const struct run *r, const struct esr_train_progress *p)
+{
+    if (r->o->report)
+        r->o->report(r->o->user, p);
+}
+
 static void say(struct run *r, enum esr_stage s, const char *fmt, ...)
     __attribute__((format(printf, 3, 4)));
 static void say(struct run *r, enum esr_stage s, const char *fmt, ...)
@@ -61,14 +68,8 @@ static void say(struct run *r, enum esr_stage s, const char *fmt, ...)
     va_start(ap, fmt);
     vsnprintf(msg, sizeof msg, fmt, ap);
     va_end(ap);
-    if (!r->o->report)
-        return;
-    struct esr_train_progress p;
-    memset(&p, 0, sizeof p);
-    p.event = ESR_TRAIN_MESSAGE;
-    p.stage = s;
-    p.message = msg;
-    r->o->report(r->o->user, &p);
+    struct esr_train_progress p = {.event = ESR_TRAIN_MESSAGE, .stage = s, .message = msg};
+    emit(r, &p);
 }
 
 static void ckpt_path(const struct run *r, enum esr_stage s, char *out, size_t n)
@@ -209,16 +210,9 @@ static void append_jsonl(struct run *r, const char *line)
 
 static void report_stage_done(struct run *r, enum esr_stage s, long run_now, long iters, double secs)
 {
-    if (!r->o->report)
-        return;
-    struct esr_train_progress p;
-    memset(&p, 0, sizeof p);
-    p.event = ESR_TRAIN_STAGE_DONE;
-    p.stage = s;
-    p.iter = run_now;
-    p.iters = iters;
-    p.seconds = secs;
-    r->o->report(r->o->user, &p);
+    struct esr_train_progress p = {
+        .event = ESR_TRAIN_STAGE_DONE, .stage = s, .iter = run_now, .iters = iters, .seconds = secs};
+    emit(r, &p);
 }
 
 static void report_window(struct run *r, const struct esr_model *m, enum esr_stage s,
@@ -227,12 +221,7 @@ static void report_window(struct run *r, const struct esr_model *m, enum esr_sta
     double now = omp_get_wtime(), dt = now - w->t0;
     if (w->iters == 0)
         return;
-    struct esr_train_progress p;
-    memset(&p, 0, sizeof p);
-    p.event = ESR_TRAIN_PROGRESS;
-    p.stage = s;
-    p.iter = it;
-    p.iters = iters;
+    struct esr_train_progress p = {.event = ESR_TRAIN_PROGRESS, .stage = s, .iter = it, .iters = iters};
     p.loss = w->loss / (double)w->iters;
     double mse = w->mse / (double)w->iters;
     p.psnr = -10.0 * log10(mse > 1e-12 ? mse : 1e-12);
@@ -247,8 +236,7 @@ static void report_window(struct run *r, const struct esr_model *m, enum esr_sta
              esr_stage_name(s), it, p.loss, p.psnr, p.rays_per_s, p.samples_per_ray,
              p.kept_per_ray, (double)m->inv_s);
     append_jsonl(r, line);
-    if (r->o->report)
-        r->o->report(r->o->user, &p);
+    emit(r, &p);
     memset(w, 0, sizeof(*w));
     w->t0 = now;
 }
