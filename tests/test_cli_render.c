@@ -20,7 +20,7 @@
 #include "io/ply.h"
 #include "synth/synth.h"
 #include "test_support.h"
-#include "train/model.h"
+#include "model/model.h"
 
 #define RES 16
 #define SPHERE_RADIUS 0.5f /* in the box normalised to [-1,1]^3 */

@@ -16,10 +16,10 @@
 #include "core/colour.h"
 #include "core/rng.h"
 #include "fields/sdf.h"
-#include "train/model.h"
+#include "model/model.h"
 #include "train/render_loss.h"
-#include "train/render_sdf.h"
-#include "train/trace.h"
+#include "model/render_sdf.h"
+#include "model/trace.h"
 
 #define N_RAYS 2
 #define LAMBDA 0.5f

@@ -14,8 +14,8 @@
 #include "core/error.h"
 #include "io/file.h"
 #include "test_support.h"
-#include "train/model.h"
-#include "train/quick_eval.h"
+#include "model/model.h"
+#include "eval/quick_eval.h"
 #include "train/trainer.h"
 
 static char data_dir[4096];

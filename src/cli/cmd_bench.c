@@ -16,7 +16,7 @@
 #include "io/file.h"
 #include "io/json_file.h"
 #include "nn/bench.h"
-#include "render/bench.h"
+#include "model/bench_ray_path.h"
 #include "synth/synth.h"
 
 static int run_bench(int argc, char **argv);

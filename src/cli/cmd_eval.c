@@ -12,7 +12,7 @@
 #include "eval/run_dir.h"
 #include "io/dir.h"
 #include "render/view.h"
-#include "train/model.h"
+#include "model/model.h"
 
 static int run_eval(int argc, char **argv);
 

@@ -6,7 +6,7 @@
 #include "core/error.h"
 #include "io/ply.h"
 #include "render/model_mesh.h"
-#include "train/model.h"
+#include "model/model.h"
 
 static int run_export(int argc, char **argv);
 

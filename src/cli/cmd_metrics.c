@@ -7,6 +7,7 @@
 #include <strings.h>
 
 #include "cli/commands.h"
+#include "core/colour.h"
 #include "core/error.h"
 #include "eval/metrics.h"
 #include "io/file.h"
@@ -79,7 +80,7 @@ static int compute(const char *path_a, const char *path_b, cJSON *obj)
     if (status == ESR_OK)
         status = esr_metric_ssim(&a, &b, &ssim);
     if (status == ESR_OK) {
-        add_finite_or_null(obj, "psnr", esr_metric_psnr_from_mse(mse));
+        add_finite_or_null(obj, "psnr", esr_psnr_from_mse(mse));
         cJSON_AddNumberToObject(obj, "ssim", ssim);
         cJSON_AddNumberToObject(obj, "mse", mse);
         cJSON_AddNumberToObject(obj, "width", a.width);

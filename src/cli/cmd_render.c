@@ -7,7 +7,7 @@
 #include "core/error.h"
 #include "eval/run_dir.h"
 #include "render/view.h"
-#include "train/model.h"
+#include "model/model.h"
 
 static int run_render(int argc, char **argv);
 

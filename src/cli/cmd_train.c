@@ -7,7 +7,7 @@
 #include "cli/commands.h"
 #include "core/error.h"
 #include "io/dir.h"
-#include "train/quick_eval.h"
+#include "eval/quick_eval.h"
 #include "train/trainer.h"
 
 static int run_train(int argc, char **argv);

@@ -76,3 +76,8 @@ void esr_recolour_keep_value(const float rgb[3], float target_h, float target_s,
     hsv[1] = target_s;
     esr_hsv_to_rgb(hsv, out);
 }
+
+double esr_psnr_from_mse(double mse)
+{
+    return mse > 0.0 ? -10.0 * log10(mse) : INFINITY;
+}

@@ -4,7 +4,7 @@
 #ifndef ESR_EVAL_BENCH_TRAIN_H
 #define ESR_EVAL_BENCH_TRAIN_H
 
-#include "train/model.h"
+#include "model/model.h"
 
 struct esr_bench_train_stage {
     int iters;              /* iterations run */

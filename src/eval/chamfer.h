@@ -8,7 +8,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#include "render/mesh.h"
+#include "core/mesh.h"
 
 struct esr_chamfer_result {
     double accuracy;     /* mean distance pred -> gt */

@@ -6,6 +6,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "core/colour.h"
 #include "core/error.h"
 #include "eval/metrics.h"
 #include "io/file.h"
@@ -54,7 +55,7 @@ static int compare_ldr(const struct esr_dataset *ds, const char *path, const str
     int status = esr_metric_mse(&img, gt, &mse);
     if (status == ESR_OK)
         status = esr_metric_ssim(&img, gt, ssim);
-    *psnr = fmin(esr_metric_psnr_from_mse(mse), ESR_EVAL_PSNR_CAP);
+    *psnr = fmin(esr_psnr_from_mse(mse), ESR_EVAL_PSNR_CAP);
     esr_image_free(&img);
     return status;
 }

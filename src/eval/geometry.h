@@ -7,7 +7,7 @@
 #include <stddef.h>
 
 #include "eval/chamfer.h"
-#include "train/model.h"
+#include "model/model.h"
 
 /* Samples drawn on each surface: enough for the mean distances to settle to ~1e-4 of a unit
  * scene while staying a second or two of work. */

@@ -3,6 +3,7 @@
 
 #include <math.h>
 
+#include "core/colour.h"
 #include "core/error.h"
 #include "eval/metrics_internal.h"
 
@@ -34,16 +35,11 @@ int esr_metric_mse(const struct esr_image *a, const struct esr_image *b, double 
     return ESR_OK;
 }
 
-double esr_metric_psnr_from_mse(double mse)
-{
-    return mse > 0.0 ? -10.0 * log10(mse) : INFINITY;
-}
-
 int esr_metric_psnr(const struct esr_image *a, const struct esr_image *b, double *out)
 {
     double mse;
     ESR_TRY(esr_metric_mse(a, b, &mse));
-    *out = esr_metric_psnr_from_mse(mse);
+    *out = esr_psnr_from_mse(mse);
     return ESR_OK;
 }
 

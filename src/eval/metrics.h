@@ -12,8 +12,6 @@
  * width, height and channel count (else ESR_ERR naming both shapes). */
 int esr_metric_mse(const struct esr_image *a, const struct esr_image *b, double *out);
 
-/* PSNR in dB for peak value 1: -10 log10(mse). +INFINITY when mse == 0. */
-double esr_metric_psnr_from_mse(double mse);
 /* PSNR of a against b (peak 1.0, meant for images in [0,1]); same shape rules as esr_metric_mse. */
 int esr_metric_psnr(const struct esr_image *a, const struct esr_image *b, double *out);
 

@@ -22,6 +22,16 @@ void esr_camera_ray(const struct esr_camera *cam, float px, float py, float orig
         dir[r] *= norm;
 }
 
+void esr_camera_pixel_rays(const struct esr_camera *cam, float *origins, float *dirs)
+{
+    long long n = (long long)cam->width * cam->height;
+#pragma omp parallel for schedule(static)
+    for (long long i = 0; i < n; i++) {
+        float px = (float)(i % cam->width) + 0.5f, py = (float)(i / cam->width) + 0.5f;
+        esr_camera_ray(cam, px, py, origins + 3 * i, dirs + 3 * i);
+    }
+}
+
 int esr_camera_project(const struct esr_camera *cam, const float world[3], float *px, float *py)
 {
     /* Camera coordinates: R^T (world - centre); R is a rotation so its transpose inverts it. */

@@ -17,6 +17,11 @@ float esr_focal_from_fov(int width, float camera_angle_x);
  * dir is unit length. */
 void esr_camera_ray(const struct esr_camera *cam, float px, float py, float origin[3], float dir[3]);
 
+/* The ray of every pixel centre, row by row (pixel index = row * width + column): origins and
+ * dirs hold width * height * 3 floats. The one place whole-view rays are made (training ray set,
+ * view rendering). Parallel over pixels. */
+void esr_camera_pixel_rays(const struct esr_camera *cam, float *origins, float *dirs);
+
 /* Projects a world point to continuous pixel coordinates (inverse of esr_camera_ray, assuming the
  * rotation part of c2w is orthonormal); returns 0 when it is not in front of the camera. */
 int esr_camera_project(const struct esr_camera *cam, const float world[3], float *px, float *py);

@@ -3,7 +3,7 @@
 #ifndef ESR_IO_PLY_H
 #define ESR_IO_PLY_H
 
-#include "render/mesh.h"
+#include "core/mesh.h"
 
 /* Writes m to path (atomic: a failed write leaves an existing file untouched). */
 int esr_ply_write(const char *path, const struct esr_mesh *m);

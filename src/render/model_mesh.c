@@ -6,7 +6,7 @@
 
 #include "core/error.h"
 #include "fields/sdf.h"
-#include "render/marching_cubes.h"
+#include "volume/marching_cubes.h"
 
 /* The SDF lattice resampled to res^3 over the same box (res = 0: a copy of the model's). */
 static int sdf_lattice(const struct esr_model *m, int res, struct esr_grid *g, float **data)

@@ -3,8 +3,8 @@
 #ifndef ESR_RENDER_MODEL_MESH_H
 #define ESR_RENDER_MODEL_MESH_H
 
-#include "render/mesh.h"
-#include "train/model.h"
+#include "core/mesh.h"
+#include "model/model.h"
 
 #define ESR_MODEL_MESH_RES_MIN 8
 #define ESR_MODEL_MESH_RES_MAX 1024

@@ -15,17 +15,6 @@ static int alloc_images(struct esr_view_images *v, int w, int h)
     return esr_image_alloc(&v->opacity, w, h, 1);
 }
 
-/* The ray of every pixel centre, row by row (pixel index = row * width + column). */
-static void camera_rays(const struct esr_camera *cam, float *origins, float *dirs)
-{
-    long long n = (long long)cam->width * cam->height;
-#pragma omp parallel for schedule(static)
-    for (long long i = 0; i < n; i++) {
-        float px = (float)(i % cam->width) + 0.5f, py = (float)(i / cam->width) + 0.5f;
-        esr_camera_ray(cam, px, py, origins + 3 * i, dirs + 3 * i);
-    }
-}
-
 int esr_view_render(const struct esr_model *m, const struct esr_camera *cam, int lights_on,
                     struct esr_view_images *out)
 {
@@ -37,7 +26,7 @@ int esr_view_render(const struct esr_model *m, const struct esr_camera *cam, int
     float *origins = malloc(n * 3 * sizeof *origins), *dirs = malloc(n * 3 * sizeof *dirs);
     int status = origins && dirs ? ESR_OK : ESR_FAIL("out of memory for %zu camera rays", n);
     if (status == ESR_OK)
-        camera_rays(cam, origins, dirs);
+        esr_camera_pixel_rays(cam, origins, dirs);
     if (status == ESR_OK) {
         struct esr_render_out o = {out->rgb.data, out->linear.data, out->depth.data, out->normal.data,
                                    out->opacity.data};

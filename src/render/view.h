@@ -7,7 +7,7 @@
 #include "io/camera.h"
 #include "io/dataset.h"
 #include "io/image.h"
-#include "train/model.h"
+#include "model/model.h"
 
 struct esr_view_images {
     struct esr_image rgb;     /* 3 ch: tone-mapped LDR on white */

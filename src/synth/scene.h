@@ -3,7 +3,7 @@
 #ifndef ESR_SYNTH_SCENE_H
 #define ESR_SYNTH_SCENE_H
 
-#include "render/mesh.h"
+#include "core/mesh.h"
 #include "synth/prim.h"
 
 #define ESR_SYNTH_MAX_PRIMS 16

@@ -22,16 +22,8 @@ static int add_frame(struct esr_ray_set *rs, const struct esr_dataset *ds, const
 {
     struct esr_image rgb;
     ESR_TRY(esr_frame_load_rgb(ds, f, &rgb, NULL));
-    const int w = ds->width, h = ds->height;
-#pragma omp parallel for schedule(static)
-    for (int j = 0; j < h; j++)
-        for (int i = 0; i < w; i++) {
-            size_t r = at + (size_t)j * (size_t)w + (size_t)i, p = (size_t)j * (size_t)w + (size_t)i;
-            esr_camera_ray(&f->camera, (float)i + 0.5f, (float)j + 0.5f, rs->orig3 + r * 3,
-                           rs->dir3 + r * 3);
-            for (int c = 0; c < 3; c++)
-                rs->rgb3[r * 3 + c] = rgb.data[p * 3 + c];
-        }
+    esr_camera_pixel_rays(&f->camera, rs->orig3 + at * 3, rs->dir3 + at * 3);
+    memcpy(rs->rgb3 + at * 3, rgb.data, (size_t)ds->width * (size_t)ds->height * 3 * sizeof(float));
     esr_image_free(&rgb);
     return ESR_OK;
 }

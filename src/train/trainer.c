@@ -11,6 +11,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "core/colour.h"
 #include "core/error.h"
 #include "core/rng.h"
 #include "fields/sdf.h"
@@ -23,8 +24,8 @@
 #include "nn/schedule.h"
 #include "train/rays.h"
 #include "train/render_loss.h"
-#include "train/render_sdf.h"
-#include "train/trace.h"
+#include "model/render_sdf.h"
+#include "model/trace.h"
 
 #define MAX_NAN_FAILURES 3
 
@@ -224,7 +225,7 @@ static void report_window(struct run *r, const struct esr_model *m, enum esr_sta
     struct esr_train_progress p = {.event = ESR_TRAIN_PROGRESS, .stage = s, .iter = it, .iters = iters};
     p.loss = w->loss / (double)w->iters;
     double mse = w->mse / (double)w->iters;
-    p.psnr = -10.0 * log10(mse > 1e-12 ? mse : 1e-12);
+    p.psnr = esr_psnr_from_mse(mse > 1e-12 ? mse : 1e-12);
     p.rays_per_s = dt > 0 ? (double)w->iters * B / dt : 0.0;
     p.eta_s = dt > 0 ? dt / (double)w->iters * (double)(iters - it) : 0.0;
     p.samples_per_ray = w->samples / ((double)w->iters * B);

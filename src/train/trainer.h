@@ -7,8 +7,8 @@
 #ifndef ESR_TRAIN_TRAINER_H
 #define ESR_TRAIN_TRAINER_H
 
-#include "train/config.h"
-#include "train/model.h"
+#include "model/config.h"
+#include "model/model.h"
 
 #ifdef __cplusplus
 extern "C" {

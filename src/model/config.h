@@ -1,0 +1,82 @@
+/* Training configuration: one table of options (name, type, bounds, default per preset, help),
+ * from which defaults, validation, `--set key=value` parsing, JSON reading/writing and the help
+ * text are all derived (redis-style table-driven config). Presets: "fast" (CPU default, sizes
+ * tuned to train the lamp scene in minutes) and "paper" (the authors' sizes from METHOD.md). */
+#ifndef ESR_MODEL_CONFIG_H
+#define ESR_MODEL_CONFIG_H
+
+#include <stddef.h>
+#include <stdio.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+enum esr_preset { ESR_PRESET_FAST, ESR_PRESET_PAPER, ESR_PRESET_COUNT };
+
+/* Per-stage options shared by the three stages (unused ones are ignored by a stage). */
+struct esr_stage_config {
+    int res;            /* grid lattice points per axis (density / SDF) */
+    int iters;          /* iterations of the stage */
+    int feat_channels;  /* feature grid channels (coarse: colour; fine: per radiance branch) */
+    int mlp_width;      /* hidden width of the colour / radiance MLPs */
+    int mlp_depth;      /* hidden layers of those MLPs */
+    float lr_grid;      /* density grid (alphamask) or SDF grid lr */
+    float lr_feat;      /* feature grid lr */
+    float lr_mlp;       /* MLP lr */
+    float lr_final;     /* lr factor reached at the end of the stage */
+    float s0;           /* NeuS inv-s at step 0 */
+    float s_div;        /* inv-s grows by step / s_div */
+    float tv_sdf;       /* SDF total-variation weight */
+    float tv_sdf_grad;  /* smoothed-gradient total-variation weight on the SDF */
+    float tv_feat;      /* feature-grid total-variation weight */
+    float step_vox;     /* ray-marching step in voxels of this stage's grid */
+};
+
+struct esr_train_config {
+    int preset;             /* enum esr_preset the defaults came from */
+    int seed;
+    int batch_rays;
+    int save_every;         /* checkpoint every N iterations within a stage */
+    int log_every;          /* progress/log line every N iterations */
+    int threads;            /* OpenMP threads (0 = runtime default) */
+    float alpha_thres;      /* mask cache: alpha threshold on the density grid */
+    int smooth_ksize;       /* SDF Gaussian smoothing kernel (0 = off) */
+    float smooth_sigma;
+    int geo_scales;         /* fine: geometry-feature scales (first K of 0.5,1,1.5,2 voxels) */
+    int pe_pos;             /* fine: PE frequencies of x */
+    int pe_dir;             /* fine: PE frequencies of the view direction */
+    int tone_width;         /* fine: tone-mapper hidden width */
+    int tone_pe;            /* fine: PE frequencies of the tone-mapper input */
+    float lambda_tau;       /* fine: weight of the gamma(linear) loss term */
+    float sdf_init_alpha;   /* coarse: SDF starts as the signed distance to alpha > this */
+    float fine_mask_band;   /* fine: mask keeps |coarse SDF| <= this many coarse voxels (0 = off) */
+    int tv_every;           /* total-variation terms every N iterations (weight x N) */
+    int mlp_engine;         /* enum esr_mlp_engine of the training MLPs */
+    struct esr_stage_config alphamask, coarse, fine;
+};
+
+/* Defaults of a preset. */
+void esr_config_defaults(struct esr_train_config *c, enum esr_preset preset);
+/* "fast" / "paper" -> preset; ESR_ERR naming the valid names otherwise. */
+int esr_preset_from_name(const char *name, enum esr_preset *out);
+const char *esr_preset_name(enum esr_preset p);
+
+/* Applies one "key=value" override (e.g. "fine.iters=200"); ESR_ERR on an unknown key, a value
+ * that does not parse or lies outside the option's bounds. */
+int esr_config_set(struct esr_train_config *c, const char *assignment);
+/* Applies a JSON config file: an object whose keys are option names (dotted, or nested objects
+ * "fine": {"iters": 200}), plus an optional "preset" key applied first. Unknown keys or values
+ * out of range are refused with a message naming the file and key. */
+int esr_config_load_json(struct esr_train_config *c, const char *path);
+/* Writes every option (resolved) as a flat JSON object, atomically. */
+int esr_config_write_json(const struct esr_train_config *c, const char *path);
+/* Checks every option against its bounds (after manual edits). */
+int esr_config_validate(const struct esr_train_config *c);
+/* Prints the option table (name, type, bounds, fast/paper defaults, help) for --help. */
+void esr_config_print_help(FILE *out);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

@@ -1,0 +1,86 @@
+/* Inference rendering of a model (esr_model_render_rays) and the SDF view the renderer sees. */
+#include <stdlib.h>
+#include <string.h>
+
+#include "core/colour.h"
+#include "core/error.h"
+#include "fields/sdf.h"
+#include "model/render_sdf.h"
+#include "model/trace.h"
+
+#define RENDER_CHUNK 4096
+
+int esr_model_view_sdf(const struct esr_model *m, const float *raw, float *out, float *scratch)
+{
+    size_t n = esr_grid_count(&m->sdf);
+    if (m->stage != ESR_STAGE_COARSE || m->cfg.smooth_ksize <= 1) {
+        memcpy(out, raw, n * sizeof(float));
+        return ESR_OK;
+    }
+    return esr_grid_smooth_fwd(&m->sdf, raw, out, scratch, m->cfg.smooth_ksize,
+                               m->cfg.smooth_sigma);
+}
+
+static void copy_out(float *dst, const float *src, size_t off, size_t n)
+{
+    if (dst)
+        memcpy(dst + off, src, n * sizeof(float));
+}
+
+int esr_model_render_rays(const struct esr_model *m, const float *origins, const float *dirs,
+                          size_t n, int lights_on, const struct esr_render_out *out)
+{
+    const float *sdf = NULL;
+    float *view = NULL, *scratch = NULL;
+    if (m->stage >= ESR_STAGE_COARSE) {
+        size_t ns = esr_grid_count(&m->sdf);
+        view = malloc(ns * sizeof(float));
+        scratch = malloc(ns * sizeof(float));
+        if (!view || !scratch) {
+            free(view);
+            free(scratch);
+            return ESR_FAIL("render: out of memory for the SDF view");
+        }
+        int rc = esr_model_view_sdf(m, m->params.w + m->sdf_off, view, scratch);
+        free(scratch);
+        if (rc != ESR_OK) {
+            free(view);
+            return rc;
+        }
+        sdf = view;
+    }
+    struct esr_trace t;
+    int chunk = n < RENDER_CHUNK ? (int)(n ? n : 1) : RENDER_CHUNK;
+    int rc = esr_trace_init(&t, m, chunk, 0);
+    float *depth = NULL, *normal = NULL, *opac = NULL;
+    if (rc == ESR_OK) {
+        depth = malloc((size_t)chunk * sizeof(float));
+        normal = malloc((size_t)chunk * 3 * sizeof(float));
+        opac = malloc((size_t)chunk * sizeof(float));
+        if (!depth || !normal || !opac)
+            rc = ESR_FAIL("render: out of memory");
+    }
+    for (size_t r0 = 0; rc == ESR_OK && r0 < n; r0 += (size_t)chunk) {
+        int c = (int)(n - r0 < (size_t)chunk ? n - r0 : (size_t)chunk);
+        rc = esr_trace_fwd(&t, m, sdf, origins + r0 * 3, dirs + r0 * 3, c, lights_on ? 0 : c, 0);
+        if (rc != ESR_OK)
+            break;
+        esr_trace_extras(&t, m, sdf, depth, normal, opac);
+        copy_out(out->rgb, t.rgb3, r0 * 3, (size_t)c * 3);
+        copy_out(out->depth, depth, r0, (size_t)c);
+        copy_out(out->normal, normal, r0 * 3, (size_t)c * 3);
+        copy_out(out->opacity, opac, r0, (size_t)c);
+        if (out->linear) {
+            for (size_t i = 0; i < (size_t)c * 3; i++)
+                out->linear[r0 * 3 + i] = m->stage == ESR_STAGE_FINE
+                                              ? t.lin_rgb3[i]
+                                              : esr_linear_from_srgb(t.rgb3[i]);
+        }
+    }
+    free(depth);
+    free(normal);
+    free(opac);
+    esr_trace_free(&t);
+    free(view);
+    return rc;
+}

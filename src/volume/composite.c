@@ -1,0 +1,74 @@
+/* Batch compositing over rays (see composite.h for the maths). */
+#include "volume/composite.h"
+
+void esr_composite_weights(int n_rays, const size_t *ray_start, const float *alpha, float thres,
+                           float *weight, float *t_last)
+{
+#pragma omp parallel for schedule(static)
+    for (int r = 0; r < n_rays; r++) {
+        size_t s0 = ray_start[r];
+        t_last[r] = esr_composite_ray_weights(alpha + s0, ray_start[r + 1] - s0, thres, weight + s0);
+    }
+}
+
+static const float *bg_of(const struct esr_composite_args *a, int r)
+{
+    if (!a->bg)
+        return 0;
+    return a->bg_per_ray ? a->bg + (size_t)r * (size_t)a->channels : a->bg;
+}
+
+void esr_composite_fwd(const struct esr_composite_args *a, float *out)
+{
+    const int C = a->channels;
+#pragma omp parallel for schedule(static)
+    for (int r = 0; r < a->n_rays; r++) {
+        float *o = out + (size_t)r * C;
+        const float *bg = bg_of(a, r);
+        for (int c = 0; c < C; c++)
+            o[c] = bg ? a->t_last[r] * bg[c] : 0.0f;
+        for (size_t i = a->ray_start[r]; i < a->ray_start[r + 1]; i++) {
+            float w = a->weight[i];
+            if (!esr_composite_keep(w, a->thres))
+                continue;
+            const float *v = a->values + i * (size_t)C;
+            for (int c = 0; c < C; c++)
+                o[c] += w * v[c];
+        }
+    }
+}
+
+void esr_composite_bwd(const struct esr_composite_args *a, const float *d_out, float *d_alpha,
+                       float *d_values)
+{
+    const int C = a->channels;
+#pragma omp parallel for schedule(static)
+    for (int r = 0; r < a->n_rays; r++) {
+        const float *d_o = d_out + (size_t)r * C;
+        const float *bg = bg_of(a, r);
+        /* dB = d_out . B_i, kept as a scalar: only its dot product with d_out is ever needed */
+        float dB = 0.0f;
+        if (bg)
+            for (int c = 0; c < C; c++)
+                dB += d_o[c] * bg[c];
+        for (size_t i = a->ray_start[r + 1]; i-- > a->ray_start[r];) {
+            float al = a->alpha[i];
+            if (al <= a->thres)
+                continue; /* dropped: no alpha, no value, B unchanged */
+            float w = a->weight[i];
+            int keep = esr_composite_keep(w, a->thres);
+            float dv = 0.0f; /* d_out . v_i for kept samples */
+            if (keep) {
+                const float *v = a->values + i * (size_t)C;
+                for (int c = 0; c < C; c++)
+                    dv += d_o[c] * v[c];
+                if (d_values)
+                    for (int c = 0; c < C; c++)
+                        d_values[i * (size_t)C + c] += w * d_o[c];
+            }
+            if (d_alpha)
+                d_alpha[i] += (w / al) * (dv - dB);
+            dB = al * dv + (1.0f - al) * dB;
+        }
+    }
+}

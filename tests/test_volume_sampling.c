@@ -1,0 +1,213 @@
+/* Ray/box clipping and the ray-marching sampler. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <cmocka.h>
+#include <math.h>
+#include <omp.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "core/error.h"
+#include "fields/mask.h"
+#include "io/camera.h"
+#include "io/dataset.h"
+#include "volume/ray.h"
+#include "volume/sampler.h"
+#include "test_support.h"
+
+static const float BMIN[3] = {-1.5f, -1.5f, -1.5f};
+static const float BMAX[3] = {1.5f, 1.5f, 1.5f};
+
+static void test_box_clip_cases(void **state)
+{
+    (void)state;
+    float t0 = 0.0f, t1 = 0.0f;
+    /* camera at distance 4 looking at the origin: enters at 2.5, leaves at 5.5 */
+    const float o[3] = {0.0f, 0.0f, 4.0f}, d[3] = {0.0f, 0.0f, -1.0f};
+    assert_int_equal(esr_ray_box_clip(o, d, BMIN, BMAX, 2.0f, 6.0f, &t0, &t1), 1);
+    assert_true(fabsf(t0 - 2.5f) < 1e-6f && fabsf(t1 - 5.5f) < 1e-6f);
+    /* near/far cut the interval */
+    assert_int_equal(esr_ray_box_clip(o, d, BMIN, BMAX, 3.0f, 5.0f, &t0, &t1), 1);
+    assert_true(t0 == 3.0f && t1 == 5.0f);
+    /* misses: parallel to a slab outside it, pointing away, beyond far */
+    const float o2[3] = {2.0f, 0.0f, 4.0f};
+    assert_int_equal(esr_ray_box_clip(o2, d, BMIN, BMAX, 0.0f, 100.0f, &t0, &t1), 0);
+    const float away[3] = {0.0f, 0.0f, 1.0f};
+    assert_int_equal(esr_ray_box_clip(o, away, BMIN, BMAX, 0.0f, 100.0f, &t0, &t1), 0);
+    assert_int_equal(esr_ray_box_clip(o, d, BMIN, BMAX, 0.0f, 2.0f, &t0, &t1), 0);
+    /* diagonal ray from inside the box (secondary ray) */
+    const float oi[3] = {0.5f, 0.5f, 0.5f};
+    const float dd[3] = {0.57735027f, 0.57735027f, 0.57735027f};
+    assert_int_equal(esr_ray_box_clip(oi, dd, BMIN, BMAX, 0.0f, 100.0f, &t0, &t1), 1);
+    assert_true(t0 == 0.0f && fabsf(t1 - 1.0f / 0.57735027f) < 1e-5f);
+    /* grazing an edge */
+    const float og[3] = {1.5f, 1.5f, 4.0f};
+    assert_int_equal(esr_ray_box_clip(og, d, BMIN, BMAX, 2.0f, 6.0f, &t0, &t1), 1);
+}
+
+static void test_sampler_positions_and_order(void **state)
+{
+    (void)state;
+    struct esr_samples s;
+    assert_int_equal(esr_samples_alloc(&s, 1000, 4), ESR_OK);
+    struct esr_sample_params p;
+    esr_sample_params_init(&p, BMIN, BMAX, 0.25f);
+    const float o[9] = {0, 0, 4, 5, 5, 5, 0, 4, 0};
+    const float d[9] = {0, 0, -1, 0, 0, 1, 0, -1, 0};
+    assert_int_equal(esr_sample_rays(&p, o, d, 3, &s), ESR_OK);
+    assert_int_equal(s.count, 24); /* 3 / 0.25 = 12 per hitting ray, ray 1 misses */
+    assert_int_equal(s.ray_start[1], 12);
+    assert_int_equal(s.ray_start[2], 12);
+    assert_int_equal(s.ray_start[3], 24);
+    for (size_t i = 0; i < 12; i++) {
+        assert_int_equal(s.ray[i], 0);
+        assert_true(fabsf(s.t[i] - (2.5f + (i + 0.5f) * 0.25f)) < 1e-5f);
+        assert_true(fabsf(s.pos[i * 3 + 2] - (4.0f - s.t[i])) < 1e-5f);
+        assert_int_equal(s.ray[12 + i], 2);
+    }
+    /* max per ray */
+    p.max_per_ray = 5;
+    assert_int_equal(esr_sample_rays(&p, o, d, 3, &s), ESR_OK);
+    assert_int_equal(s.count, 10);
+    p.max_per_ray = 0;
+    /* capacity and bad parameters */
+    struct esr_samples small;
+    assert_int_equal(esr_samples_alloc(&small, 10, 4), ESR_OK);
+    assert_int_equal(esr_sample_rays(&p, o, d, 3, &small), ESR_ERR);
+    assert_int_equal(small.count, 24);
+    assert_non_null(strstr(esr_error_message(), "24 samples needed"));
+    esr_error_clear();
+    assert_int_equal(esr_sample_rays(&p, o, d, 5, &s), ESR_ERR);
+    esr_error_clear();
+    p.step = 0.0f;
+    assert_int_equal(esr_sample_rays(&p, o, d, 3, &s), ESR_ERR);
+    esr_error_clear();
+    esr_samples_free(&small);
+    esr_samples_free(&s);
+}
+
+/* Jittered samples stay in their strata, are reproducible, independent of the thread count, and
+ * masked-out space is skipped. */
+static void test_sampler_jitter_and_mask(void **state)
+{
+    (void)state;
+    enum { R = 64 };
+    float o[R * 3], d[R * 3];
+    for (int r = 0; r < R; r++) {
+        float ang = 0.1f * r;
+        o[r * 3 + 0] = 4.0f * cosf(ang);
+        o[r * 3 + 1] = 4.0f * sinf(ang);
+        o[r * 3 + 2] = 0.3f;
+        d[r * 3 + 0] = -cosf(ang);
+        d[r * 3 + 1] = -sinf(ang);
+        d[r * 3 + 2] = 0.0f;
+    }
+    struct esr_sample_params p;
+    esr_sample_params_init(&p, BMIN, BMAX, 0.05f);
+    p.jitter = 1;
+    p.seed = 42;
+    struct esr_samples a, b;
+    assert_int_equal(esr_samples_alloc(&a, 20000, R), ESR_OK);
+    assert_int_equal(esr_samples_alloc(&b, 20000, R), ESR_OK);
+    int saved = omp_get_max_threads();
+    omp_set_num_threads(1);
+    assert_int_equal(esr_sample_rays(&p, o, d, R, &a), ESR_OK);
+    omp_set_num_threads(3);
+    assert_int_equal(esr_sample_rays(&p, o, d, R, &b), ESR_OK);
+    omp_set_num_threads(saved);
+    assert_int_equal(a.count, b.count);
+    assert_memory_equal(a.t, b.t, a.count * sizeof(float));
+    double mean_u = 0.0;
+    size_t n_u = 0;
+    for (int r = 0; r < R; r++) {
+        float t0 = 0.0f, t1 = 0.0f;
+        assert_int_equal(esr_ray_box_clip(o + r * 3, d + r * 3, BMIN, BMAX, 2.0f, 6.0f, &t0, &t1), 1);
+        for (size_t i = a.ray_start[r]; i < a.ray_start[r + 1]; i++) {
+            float u = (a.t[i] - t0) / p.step - (float)(i - a.ray_start[r]);
+            assert_true(u >= -1e-3f && u <= 1.0f + 1e-3f);
+            assert_true(a.t[i] <= t1 + 1e-6f);
+            mean_u += u;
+            n_u++;
+        }
+    }
+    mean_u /= (double)n_u;
+    assert_true(fabs(mean_u - 0.5) < 0.05);
+    /* mask: only a ball of radius ~0.6 occupied */
+    struct esr_grid g;
+    assert_int_equal(esr_grid_init(&g, 1, 31, 31, 31, BMIN, BMAX), ESR_OK);
+    struct esr_mask m;
+    assert_int_equal(esr_mask_alloc(&m, &g), ESR_OK);
+    for (int z = 0; z < 31; z++)
+        for (int y = 0; y < 31; y++)
+            for (int x = 0; x < 31; x++) {
+                float q[3];
+                esr_grid_voxel_pos(&g, x, y, z, q);
+                m.occ[(z * 31 + y) * 31 + x] = q[0] * q[0] + q[1] * q[1] + q[2] * q[2] < 0.36f;
+            }
+    p.mask = &m;
+    assert_int_equal(esr_sample_rays(&p, o, d, R, &b), ESR_OK);
+    assert_true(b.count > 0 && b.count < a.count / 3);
+    for (size_t i = 0; i < b.count; i++)
+        assert_int_equal(esr_mask_query(&m, b.pos + i * 3), 1);
+    esr_mask_free(&m);
+    esr_samples_free(&a);
+    esr_samples_free(&b);
+}
+
+/* Real scene: every pixel ray of a training camera, marched through the dataset's box at
+ * 0.5 voxel of a 96^3 grid: the centre ray hits, samples stay in the box and inside [2, 6], and
+ * each hitting ray gets its clipped length / step samples. */
+static void test_lamp_camera_rays(void **state)
+{
+    (void)state;
+    const char *dir = test_shared_scene("lamp");
+    if (!dir)
+        skip();
+    struct esr_dataset ds;
+    assert_int_equal(esr_dataset_load(dir, &ds), ESR_OK);
+    const struct esr_frame *f = &ds.phases[ESR_PHASE_TRAIN].frames[0];
+    const int W = f->camera.width, H = f->camera.height, R = W * H;
+    float *o = malloc((size_t)R * 3 * sizeof(float)), *d = malloc((size_t)R * 3 * sizeof(float));
+    for (int j = 0; j < H; j++)
+        for (int i = 0; i < W; i++)
+            esr_camera_ray(&f->camera, i + 0.5f, j + 0.5f, o + (j * W + i) * 3, d + (j * W + i) * 3);
+    float step = 0.5f * (ds.bbox_max[0] - ds.bbox_min[0]) / 95.0f;
+    struct esr_sample_params p;
+    esr_sample_params_init(&p, ds.bbox_min, ds.bbox_max, step);
+    struct esr_samples s;
+    assert_int_equal(esr_samples_alloc(&s, (size_t)R * 400, R), ESR_OK);
+    assert_int_equal(esr_sample_rays(&p, o, d, R, &s), ESR_OK);
+    int centre = (H / 2) * W + W / 2;
+    assert_true(s.ray_start[centre + 1] - s.ray_start[centre] > 100);
+    for (int r = 0; r < R; r++) {
+        float t0 = 0.0f, t1 = 0.0f;
+        size_t cnt = s.ray_start[r + 1] - s.ray_start[r];
+        if (!esr_ray_box_clip(o + r * 3, d + r * 3, ds.bbox_min, ds.bbox_max, 2.0f, 6.0f, &t0, &t1)) {
+            assert_int_equal(cnt, 0);
+            continue;
+        }
+        assert_true(fabs((double)cnt - (t1 - t0) / step) <= 1.0);
+    }
+    for (size_t i = 0; i < s.count; i++) {
+        assert_true(s.t[i] >= 2.0f && s.t[i] <= 6.0f);
+        for (int a = 0; a < 3; a++)
+            assert_true(s.pos[i * 3 + a] >= ds.bbox_min[a] - 1e-4f && s.pos[i * 3 + a] <= ds.bbox_max[a] + 1e-4f);
+    }
+    esr_samples_free(&s);
+    free(o);
+    free(d);
+    esr_dataset_free(&ds);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_box_clip_cases),
+        cmocka_unit_test(test_sampler_positions_and_order),
+        cmocka_unit_test(test_sampler_jitter_and_mask),
+        cmocka_unit_test(test_lamp_camera_rays),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
