@@ -1,6 +1,7 @@
-/* Table-driven training configuration: presets, --set parsing and bounds, JSON files (dotted and
- * nested keys, preset key, refusal of unknown keys and out-of-range values), round trip through
- * config.json, and the CLI's refusal of a bad config. */
+/* Table-driven training configuration: presets (each states its own values), --set parsing and
+ * bounds, JSON files (dotted and nested keys, preset key, refusal of unknown keys and out-of-range
+ * values), round trip through config.json, the JSON object API checkpoints use (round trip,
+ * missing keys take the preset default and are counted), and the CLI's refusal of a bad config. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -8,6 +9,8 @@
 #include <cmocka.h>
 #include <stdio.h>
 #include <string.h>
+
+#include <cjson/cJSON.h>
 
 #include "core/error.h"
 #include "test_support.h"
@@ -38,6 +41,9 @@ static void test_presets(void **state)
     assert_float_equal(p.coarse.s_div, 50.0f, 0);
     assert_float_equal(p.fine.s_div, 100.0f, 0);
     assert_true(f.fine.iters < p.fine.iters);
+    /* the smoothed-gradient SDF TV of METHOD.md, at the authors' weight, in both SDF stages */
+    assert_float_equal(p.coarse.tv_sdf_grad, 0.05f, 0);
+    assert_float_equal(p.fine.tv_sdf_grad, 0.05f, 0);
     enum esr_preset e;
     assert_int_equal(esr_preset_from_name("paper", &e), 0);
     assert_int_equal(e, ESR_PRESET_PAPER);
@@ -84,6 +90,13 @@ static void test_json_files(void **state)
     esr_config_defaults(&back, ESR_PRESET_FAST);
     assert_int_equal(esr_config_load_json(&back, out), 0);
     assert_memory_equal(&c, &back, sizeof c);
+    /* without a "preset" key a --config file edits the preset already chosen */
+    assert_int_equal(test_write_file(path, "{\"seed\": 9}"), 0);
+    esr_config_defaults(&c, ESR_PRESET_PAPER);
+    assert_int_equal(esr_config_load_json(&c, path), 0);
+    assert_int_equal(c.preset, ESR_PRESET_PAPER);
+    assert_int_equal(c.seed, 9);
+    assert_int_equal(c.fine.mlp_width, 192);
     /* refusals name the file and the key */
     assert_int_equal(test_write_file(path, "{\"fine\": {\"iterz\": 3}}"), 0);
     expect_fail(esr_config_load_json(&c, path), "unknown option 'fine.iterz'");
@@ -95,6 +108,135 @@ static void test_json_files(void **state)
     expect_fail(esr_config_load_json(&c, path), "not a JSON object");
     assert_int_equal(test_write_file(path, "{\"preset\": \"huge\"}"), 0);
     expect_fail(esr_config_load_json(&c, path), "unknown preset 'huge'");
+}
+
+/* Cells the two presets once shared: tuning fast changed paper (coarse.lr_grid went 5e-3 -> 1e-2
+ * for both). Each preset's value is pinned here, so retuning one column and not the other is the
+ * only way to keep this test passing. */
+static void test_presets_independent(void **state)
+{
+    (void)state;
+    struct esr_train_config f, p;
+    esr_config_defaults(&f, ESR_PRESET_FAST);
+    esr_config_defaults(&p, ESR_PRESET_PAPER);
+    assert_float_equal(f.coarse.lr_grid, 1e-2f, 0);
+    assert_float_equal(p.coarse.lr_grid, 5e-3f, 0);
+    assert_float_equal(f.coarse.tv_sdf_grad, 0.0f, 0); /* off: the fast fine stage's rays/s */
+    assert_float_equal(f.fine.tv_sdf_grad, 0.0f, 0);
+    assert_float_equal(p.alphamask.lr_grid, 0.1f, 0); /* METHOD.md: alphamask lr 0.1 */
+    assert_float_equal(p.alphamask.lr_feat, 0.1f, 0);
+    assert_float_equal(p.fine.step_vox, 0.5f, 0); /* METHOD.md: 0.5-voxel steps */
+    assert_float_equal(p.coarse.s0, 5.0f, 0);       /* METHOD.md: s = 5 + step/50 */
+    assert_float_equal(p.fine.s0, 20.0f, 0);        /* METHOD.md: s = 20 + step/100 */
+    assert_float_equal(f.fine.s0, 100.0f, 0);
+    assert_int_equal(p.coarse.feat_channels, 12);   /* METHOD.md: 12-channel feature grid */
+    assert_int_equal(p.coarse.mlp_width, 128);
+    assert_int_equal(p.fine.mlp_depth, 4);
+    assert_int_equal(p.geo_scales, 4);              /* METHOD.md: offsets {0.5,1,1.5,2} */
+    assert_int_equal(p.smooth_ksize, 5);
+    assert_float_equal(p.smooth_sigma, 0.8f, 0);
+    assert_float_equal(p.lambda_tau, 0.1f, 0);
+    assert_float_equal(f.lambda_tau, 1.0f, 0);
+}
+
+/* to_json -> from_json gives back the very same struct (no float drifts through the shortest
+ * decimal), with no key missing. */
+static void assert_round_trip(const struct esr_train_config *c)
+{
+    cJSON *obj = esr_config_to_json(c);
+    assert_non_null(obj);
+    struct esr_train_config back;
+    int missing = -1;
+    esr_config_defaults(&back, c->preset == ESR_PRESET_FAST ? ESR_PRESET_PAPER : ESR_PRESET_FAST);
+    assert_int_equal(esr_config_from_json(&back, obj, "test", &missing), 0);
+    assert_int_equal(missing, 0);
+    assert_memory_equal(c, &back, sizeof back);
+    /* and through the printed text, as a checkpoint stores it */
+    char *text = cJSON_PrintUnformatted(obj);
+    cJSON *parsed = cJSON_Parse(text);
+    assert_non_null(parsed);
+    memset(&back, 0, sizeof back);
+    assert_int_equal(esr_config_from_json(&back, parsed, "test", NULL), 0);
+    assert_memory_equal(c, &back, sizeof back);
+    cJSON_free(text);
+    cJSON_Delete(parsed);
+    cJSON_Delete(obj);
+}
+
+static void test_json_object_round_trip(void **state)
+{
+    (void)state;
+    struct esr_train_config c;
+    for (int p = 0; p < ESR_PRESET_COUNT; p++) {
+        esr_config_defaults(&c, (enum esr_preset)p);
+        assert_round_trip(&c);
+    }
+    esr_config_defaults(&c, ESR_PRESET_PAPER);
+    const char *sets[] = {"fine.iters=321", "coarse.lr_grid=0.0037", "lambda_tau=0.3",
+                          "seed=2147483647", "fine.s_div=123.456", "alpha_thres=1e-7",
+                          "fine_mask_band=2.75", "coarse.tv_sdf_grad=0.01"};
+    for (size_t i = 0; i < sizeof sets / sizeof sets[0]; i++)
+        assert_int_equal(esr_config_set(&c, sets[i]), 0);
+    assert_round_trip(&c);
+}
+
+/* A checkpoint written before an option existed: the option keeps its preset default. */
+static void test_json_object_missing_and_refused(void **state)
+{
+    (void)state;
+    struct esr_train_config c, want;
+    esr_config_defaults(&want, ESR_PRESET_PAPER);
+    cJSON *obj = esr_config_to_json(&want);
+    assert_non_null(obj);
+    cJSON_DeleteItemFromObjectCaseSensitive(obj, "fine.tv_sdf_grad");
+    cJSON_DeleteItemFromObjectCaseSensitive(obj, "mlp_engine");
+    cJSON_ReplaceItemInObjectCaseSensitive(obj, "fine.iters", cJSON_CreateNumber(77));
+    want.fine.iters = 77;
+    int missing = -1;
+    esr_config_defaults(&c, ESR_PRESET_FAST);
+    c.mlp_engine = 2; /* overwritten: the preset's default, not the struct's previous value */
+    assert_int_equal(esr_config_from_json(&c, obj, "checkpoint a.ckpt", &missing), 0);
+    assert_int_equal(missing, 2);
+    assert_memory_equal(&c, &want, sizeof c);
+    cJSON_Delete(obj);
+
+    /* no preset: fast; nested keys count as present */
+    obj = cJSON_Parse("{\"fine\": {\"iters\": 5}, \"seed\": 3}");
+    assert_non_null(obj);
+    esr_config_defaults(&want, ESR_PRESET_FAST);
+    want.fine.iters = 5;
+    want.seed = 3;
+    esr_config_defaults(&c, ESR_PRESET_PAPER);
+    assert_int_equal(esr_config_from_json(&c, obj, "checkpoint b.ckpt", &missing), 0);
+    assert_memory_equal(&c, &want, sizeof c);
+    struct esr_train_config all;
+    esr_config_defaults(&all, ESR_PRESET_FAST);
+    cJSON *full = esr_config_to_json(&all);
+    assert_int_equal(missing, cJSON_GetArraySize(full) - 1 /* "preset" */ - 2 /* given */);
+    cJSON_Delete(full);
+    cJSON_Delete(obj);
+
+    /* refusals name the source and the key, and leave the struct as it was */
+    const struct {
+        const char *json, *needle;
+    } bad[] = {
+        {"{\"fine.iterz\": 3}", "checkpoint c.ckpt: unknown option 'fine.iterz'"},
+        {"{\"coarse\": {\"lr_grid\": -1}}",
+         "checkpoint c.ckpt: option 'coarse.lr_grid' = -1 is out of range"},
+        {"{\"seed\": 1, \"batch_rays\": 8}",
+         "checkpoint c.ckpt: option 'batch_rays' = 8 is out of range"},
+        {"{\"preset\": \"huge\"}", "unknown preset 'huge'"},
+        {"[1]", "checkpoint c.ckpt: not a JSON object"},
+    };
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
+        obj = cJSON_Parse(bad[i].json);
+        assert_non_null(obj);
+        esr_config_defaults(&c, ESR_PRESET_PAPER);
+        want = c;
+        expect_fail(esr_config_from_json(&c, obj, "checkpoint c.ckpt", &missing), bad[i].needle);
+        assert_memory_equal(&c, &want, sizeof c);
+        cJSON_Delete(obj);
+    }
 }
 
 static void test_cli_refuses_bad_config(void **state)
@@ -118,6 +260,9 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_presets),
+        cmocka_unit_test(test_presets_independent),
+        cmocka_unit_test(test_json_object_round_trip),
+        cmocka_unit_test(test_json_object_missing_and_refused),
         cmocka_unit_test(test_set),
         cmocka_unit_test(test_json_files),
         cmocka_unit_test(test_cli_refuses_bad_config),

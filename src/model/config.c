@@ -23,66 +23,81 @@ struct opt {
 };
 
 #define OFF(field) offsetof(struct esr_train_config, field)
-/* The three stages share option names below their prefix. */
-#define STAGE_OPTS(st, res_f, res_p, it_f, it_p, fc_f, fc_p, w_f, w_p, d_f, d_p, lg, lf, lm, fin,    \
-                   s_f, s_p, sd_f, sd_p, tvs, tvg, tvf)                                                   \
-    {#st ".res", OPT_INT, OFF(st.res), 8, 512, {res_f, res_p}, "grid lattice points per axis"},     \
-    {#st ".iters", OPT_INT, OFF(st.iters), 0, 1000000, {it_f, it_p}, "iterations"},                \
-    {#st ".feat_channels", OPT_INT, OFF(st.feat_channels), 1, 64, {fc_f, fc_p},                      \
-     "feature grid channels"},                                                                      \
-    {#st ".mlp_width", OPT_INT, OFF(st.mlp_width), 8, 256, {w_f, w_p}, "MLP hidden width"},         \
-    {#st ".mlp_depth", OPT_INT, OFF(st.mlp_depth), 1, 8, {d_f, d_p}, "MLP hidden layers"},          \
-    {#st ".lr_grid", OPT_FLOAT, OFF(st.lr_grid), 0, 10, {lg, lg}, "density/SDF grid learning rate"}, \
-    {#st ".lr_feat", OPT_FLOAT, OFF(st.lr_feat), 0, 10, {lf, lf}, "feature grid learning rate"},    \
-    {#st ".lr_mlp", OPT_FLOAT, OFF(st.lr_mlp), 0, 1, {lm, lm}, "MLP learning rate"},                \
-    {#st ".lr_final", OPT_FLOAT, OFF(st.lr_final), 0, 1, {fin, fin},                                \
-     "learning-rate factor reached at the last iteration"},                                         \
-    {#st ".s0", OPT_FLOAT, OFF(st.s0), 0.1, 10000, {s_f, s_p}, "NeuS inv-s at step 0"},               \
-    {#st ".s_div", OPT_FLOAT, OFF(st.s_div), 0.01, 1e6, {sd_f, sd_p},                               \
-     "inv-s grows by step / s_div"},                                                                \
-    {#st ".tv_sdf", OPT_FLOAT, OFF(st.tv_sdf), 0, 100, {tvs, tvs}, "grid total-variation weight"},  \
-    {#st ".tv_sdf_grad", OPT_FLOAT, OFF(st.tv_sdf_grad), 0, 100, {tvg, tvg},                        \
-     "smoothed-gradient total-variation weight on the SDF (Voxurf; 0 = off)"},                      \
-    {#st ".tv_feat", OPT_FLOAT, OFF(st.tv_feat), 0, 100, {tvf, tvf},                                \
-     "feature-grid total-variation weight"},                                                        \
-    {#st ".step_vox", OPT_FLOAT, OFF(st.step_vox), 0.05, 4, {0.5, 0.5},                             \
-     "ray-marching step in voxels"}
+/* A default as two named columns, so every option states its fast and its paper value itself: a
+ * shared cell made tuning `fast` silently retune `paper` (coarse.lr_grid, tv_sdf_grad). */
+#define DEF(fast, paper) {[ESR_PRESET_FAST] = (fast), [ESR_PRESET_PAPER] = (paper)}
+/* One stage option in the three stages: the same bounds and help, one DEF per stage. Written as a
+ * stage x preset grid so the macro's arity refuses a missing cell. */
+#define STAGE_OPT(field, type, lo, hi, help, am, co, fi)                                      \
+    {"alphamask." #field, type, OFF(alphamask.field), lo, hi, am, help},                       \
+    {"coarse." #field, type, OFF(coarse.field), lo, hi, co, help},                             \
+    {"fine." #field, type, OFF(fine.field), lo, hi, fi, help}
 
 static const struct opt opts[] = {
-    {"seed", OPT_INT, OFF(seed), 0, 2147483647, {1, 1}, "random seed (rays, jitter, init)"},
-    {"batch_rays", OPT_INT, OFF(batch_rays), 16, 65536, {4096, 8192}, "rays per iteration"},
-    {"save_every", OPT_INT, OFF(save_every), 1, 1000000, {500, 2000},
+    {"seed", OPT_INT, OFF(seed), 0, 2147483647, DEF(1, 1), "random seed (rays, jitter, init)"},
+    {"batch_rays", OPT_INT, OFF(batch_rays), 16, 65536, DEF(4096, 8192), "rays per iteration"},
+    {"save_every", OPT_INT, OFF(save_every), 1, 1000000, DEF(500, 2000),
      "checkpoint every N iterations within a stage"},
-    {"log_every", OPT_INT, OFF(log_every), 1, 1000000, {50, 100}, "log line every N iterations"},
-    {"threads", OPT_INT, OFF(threads), 0, 1024, {0, 0}, "OpenMP threads (0 = default)"},
-    {"alpha_thres", OPT_FLOAT, OFF(alpha_thres), 1e-7, 0.5, {1e-3, 1e-3},
+    {"log_every", OPT_INT, OFF(log_every), 1, 1000000, DEF(50, 100), "log line every N iterations"},
+    {"threads", OPT_INT, OFF(threads), 0, 1024, DEF(0, 0), "OpenMP threads (0 = default)"},
+    {"alpha_thres", OPT_FLOAT, OFF(alpha_thres), 1e-7, 0.5, DEF(1e-3, 1e-3),
      "mask cache: density alpha threshold"},
-    {"smooth_ksize", OPT_INT, OFF(smooth_ksize), 0, 9, {5, 5},
+    {"smooth_ksize", OPT_INT, OFF(smooth_ksize), 0, 9, DEF(5, 5),
      "SDF Gaussian smoothing kernel (0 = off, odd)"},
-    {"smooth_sigma", OPT_FLOAT, OFF(smooth_sigma), 0.1, 5, {0.8, 0.8}, "SDF smoothing sigma"},
-    {"geo_scales", OPT_INT, OFF(geo_scales), 1, 4, {2, 4},
+    {"smooth_sigma", OPT_FLOAT, OFF(smooth_sigma), 0.1, 5, DEF(0.8, 0.8), "SDF smoothing sigma"},
+    {"geo_scales", OPT_INT, OFF(geo_scales), 1, 4, DEF(2, 4),
      "fine: geometry-feature scales (first K of 0.5,1,1.5,2 voxels)"},
-    {"pe_pos", OPT_INT, OFF(pe_pos), 0, 10, {5, 5}, "fine: PE frequencies of the position"},
-    {"pe_dir", OPT_INT, OFF(pe_dir), 0, 6, {1, 1}, "fine: PE frequencies of the view direction"},
-    {"tone_width", OPT_INT, OFF(tone_width), 4, 256, {32, 192}, "fine: tone-mapper width"},
-    {"tone_pe", OPT_INT, OFF(tone_pe), 0, 8, {3, 5}, "fine: tone-mapper PE frequencies"},
-    {"lambda_tau", OPT_FLOAT, OFF(lambda_tau), 0, 100, {1.0, 0.1},
+    {"pe_pos", OPT_INT, OFF(pe_pos), 0, 10, DEF(5, 5), "fine: PE frequencies of the position"},
+    {"pe_dir", OPT_INT, OFF(pe_dir), 0, 6, DEF(1, 1), "fine: PE frequencies of the view direction"},
+    {"tone_width", OPT_INT, OFF(tone_width), 4, 256, DEF(32, 192), "fine: tone-mapper width"},
+    {"tone_pe", OPT_INT, OFF(tone_pe), 0, 8, DEF(3, 5), "fine: tone-mapper PE frequencies"},
+    {"lambda_tau", OPT_FLOAT, OFF(lambda_tau), 0, 100, DEF(1.0, 0.1),
      "fine: weight of the gamma(linear) loss"},
-    {"sdf_init_alpha", OPT_FLOAT, OFF(sdf_init_alpha), 1e-6, 1, {0.05, 0.05},
+    {"sdf_init_alpha", OPT_FLOAT, OFF(sdf_init_alpha), 1e-6, 1, DEF(0.05, 0.05),
      "coarse: initial SDF = signed distance to the alphamask voxels with alpha above this"},
-    {"fine_mask_band", OPT_FLOAT, OFF(fine_mask_band), 0, 1000, {4, 0},
+    {"fine_mask_band", OPT_FLOAT, OFF(fine_mask_band), 0, 1000, DEF(4, 0),
      "fine: mask cache narrowed to |coarse SDF| <= this many coarse voxels (0 = off)"},
-    {"mlp_engine", OPT_INT, OFF(mlp_engine), 0, 2, {1, 1},
+    {"mlp_engine", OPT_INT, OFF(mlp_engine), 0, 2, DEF(1, 1),
      "MLP training kernels: 0 esr's fused kernel (bitwise the same for any thread count), "
      "1 oneDNN (fastest in `esr bench`), 2 OpenBLAS"},
-    {"tv_every", OPT_INT, OFF(tv_every), 1, 1000, {4, 1},
+    {"tv_every", OPT_INT, OFF(tv_every), 1, 1000, DEF(4, 1),
      "total-variation regularisers every N iterations (weight scaled by N)"},
-    STAGE_OPTS(alphamask, 80, 100, 500, 10000, 6, 6, 8, 8, 1, 1, 0.1, 0.1, 1e-3, 0.1, 1, 1, 1, 1, 0,
-               0, 0),
-    STAGE_OPTS(coarse, 80, 96, 1500, 10000, 12, 12, 64, 128, 2, 3, 1e-2, 0.1, 1e-3, 0.1, 5, 5, 10, 50,
-               1e-3, 0, 0),
-    STAGE_OPTS(fine, 128, 160, 2000, 20000, 6, 6, 64, 192, 3, 4, 2e-3, 0.1, 1e-3, 0.1, 100, 20, 20,
-               100, 1e-3, 0, 0),
+    /* Stage options: one DEF(fast, paper) per stage, in the order alphamask, coarse, fine. */
+    STAGE_OPT(res, OPT_INT, 8, 512, "grid lattice points per axis",
+              DEF(80, 100), DEF(80, 96), DEF(128, 160)),
+    STAGE_OPT(iters, OPT_INT, 0, 1000000, "iterations",
+              DEF(500, 10000), DEF(1500, 10000), DEF(2000, 20000)),
+    STAGE_OPT(feat_channels, OPT_INT, 1, 64, "feature grid channels",
+              DEF(6, 6), DEF(12, 12), DEF(6, 6)),
+    STAGE_OPT(mlp_width, OPT_INT, 8, 256, "MLP hidden width",
+              DEF(8, 8), DEF(64, 128), DEF(64, 192)),
+    STAGE_OPT(mlp_depth, OPT_INT, 1, 8, "MLP hidden layers",
+              DEF(1, 1), DEF(2, 3), DEF(3, 4)),
+    /* paper coarse 5e-3: the value before the fast preset was tuned to 1e-2 (the authors' SDF lr
+     * once their step decays have run) */
+    STAGE_OPT(lr_grid, OPT_FLOAT, 0, 10, "density/SDF grid learning rate",
+              DEF(0.1, 0.1), DEF(1e-2, 5e-3), DEF(2e-3, 2e-3)),
+    STAGE_OPT(lr_feat, OPT_FLOAT, 0, 10, "feature grid learning rate",
+              DEF(0.1, 0.1), DEF(0.1, 0.1), DEF(0.1, 0.1)),
+    STAGE_OPT(lr_mlp, OPT_FLOAT, 0, 1, "MLP learning rate",
+              DEF(1e-3, 1e-3), DEF(1e-3, 1e-3), DEF(1e-3, 1e-3)),
+    STAGE_OPT(lr_final, OPT_FLOAT, 0, 1, "learning-rate factor reached at the last iteration",
+              DEF(0.1, 0.1), DEF(0.1, 0.1), DEF(0.1, 0.1)),
+    STAGE_OPT(s0, OPT_FLOAT, 0.1, 10000, "NeuS inv-s at step 0",
+              DEF(1, 1), DEF(5, 5), DEF(100, 20)),
+    STAGE_OPT(s_div, OPT_FLOAT, 0.01, 1e6, "inv-s grows by step / s_div",
+              DEF(1, 1), DEF(10, 50), DEF(20, 100)),
+    STAGE_OPT(tv_sdf, OPT_FLOAT, 0, 100, "grid total-variation weight",
+              DEF(0, 0), DEF(1e-3, 1e-3), DEF(1e-3, 1e-3)),
+    /* fast: off, it widens the fine band and costs the fine stage its rays/s target (README);
+     * paper: on in coarse and fine as METHOD.md says, at the authors' weight */
+    STAGE_OPT(tv_sdf_grad, OPT_FLOAT, 0, 100,
+              "smoothed-gradient total-variation weight on the SDF (Voxurf; 0 = off)",
+              DEF(0, 0), DEF(0, 0.05), DEF(0, 0.05)),
+    STAGE_OPT(tv_feat, OPT_FLOAT, 0, 100, "feature-grid total-variation weight",
+              DEF(0, 0), DEF(0, 0), DEF(0, 0)),
+    STAGE_OPT(step_vox, OPT_FLOAT, 0.05, 4, "ray-marching step in voxels",
+              DEF(0.5, 0.5), DEF(0.5, 0.5), DEF(0.5, 0.5)),
 };
 #define N_OPTS (sizeof opts / sizeof opts[0])
 
@@ -194,27 +209,76 @@ int esr_config_validate(const struct esr_train_config *c)
 
 /* Applies the members of obj, prefixing nested object keys with "prefix." (one level). */
 static int json_apply(struct esr_train_config *c, const cJSON *obj, const char *prefix,
-                      const char *path)
+                      const char *source)
 {
-    char where[1200];
     for (const cJSON *it = obj->child; it; it = it->next) {
         char key[160];
         snprintf(key, sizeof key, "%s%s%s", prefix, prefix[0] ? "." : "", it->string);
-        snprintf(where, sizeof where, "config file %s", path);
         if (!prefix[0] && !strcmp(it->string, "preset"))
-            continue; /* applied first by the caller */
+            continue; /* applied first by json_apply_object */
         if (cJSON_IsObject(it) && !prefix[0]) {
-            ESR_TRY(json_apply(c, it, it->string, path));
+            ESR_TRY(json_apply(c, it, it->string, source));
             continue;
         }
         if (!cJSON_IsNumber(it)) {
             if (!opt_find(key))
-                return ESR_FAIL("%s: unknown option '%s'", where, key);
-            return ESR_FAIL("%s: option '%s' must be a number", where, key);
+                return ESR_FAIL("%s: unknown option '%s'", source, key);
+            return ESR_FAIL("%s: option '%s' must be a number", source, key);
         }
-        ESR_TRY(opt_apply(c, key, it->valuedouble, where));
+        ESR_TRY(opt_apply(c, key, it->valuedouble, source));
     }
     return ESR_OK;
+}
+
+/* Whether obj sets option o, dotted ("fine.iters") or nested ("fine": {"iters"}). */
+static int json_has_option(const cJSON *obj, const struct opt *o)
+{
+    if (cJSON_GetObjectItemCaseSensitive(obj, o->name))
+        return 1;
+    const char *dot = strchr(o->name, '.');
+    char stage[32];
+    if (!dot || (size_t)(dot - o->name) >= sizeof stage)
+        return 0;
+    memcpy(stage, o->name, (size_t)(dot - o->name));
+    stage[dot - o->name] = '\0';
+    const cJSON *sub = cJSON_GetObjectItemCaseSensitive(obj, stage);
+    return cJSON_IsObject(sub) && cJSON_GetObjectItemCaseSensitive(sub, dot + 1);
+}
+
+/* The one reader behind esr_config_load_json and esr_config_from_json. A "preset" key resets c to
+ * that preset's defaults; without one, c is reset to `fast` when reset_without_preset is set (a
+ * checkpoint describes a whole config) and kept otherwise (a --config file edits the preset chosen
+ * on the command line). c is left unchanged on failure. */
+static int json_apply_object(struct esr_train_config *c, const cJSON *obj, const char *source,
+                             int reset_without_preset, int *n_missing)
+{
+    if (!cJSON_IsObject(obj))
+        return ESR_FAIL("%s: not a JSON object", source);
+    struct esr_train_config next = *c;
+    const cJSON *preset = cJSON_GetObjectItemCaseSensitive(obj, "preset");
+    if (preset) {
+        enum esr_preset p = ESR_PRESET_FAST; /* set by esr_preset_from_name on success */
+        if (!cJSON_IsString(preset))
+            return ESR_FAIL("%s: 'preset' must be a string (fast or paper)", source);
+        ESR_TRY(esr_preset_from_name(preset->valuestring, &p));
+        esr_config_defaults(&next, p);
+    } else if (reset_without_preset) {
+        esr_config_defaults(&next, ESR_PRESET_FAST);
+    }
+    ESR_TRY(json_apply(&next, obj, "", source));
+    if (n_missing) {
+        *n_missing = 0;
+        for (size_t i = 0; i < N_OPTS; i++)
+            *n_missing += !json_has_option(obj, &opts[i]);
+    }
+    *c = next;
+    return ESR_OK;
+}
+
+int esr_config_from_json(struct esr_train_config *c, const cJSON *obj, const char *source,
+                         int *n_missing)
+{
+    return json_apply_object(c, obj, source, 1, n_missing);
 }
 
 int esr_config_load_json(struct esr_train_config *c, const char *path)
@@ -224,53 +288,51 @@ int esr_config_load_json(struct esr_train_config *c, const char *path)
     ESR_TRY(esr_file_read_all(path, &text, &size));
     cJSON *root = cJSON_Parse((const char *)text);
     free(text);
-    if (!root || !cJSON_IsObject(root)) {
-        cJSON_Delete(root);
-        return ESR_FAIL("config file %s: not a JSON object", path);
-    }
-    int rc = ESR_OK;
-    const cJSON *preset = cJSON_GetObjectItemCaseSensitive(root, "preset");
-    if (preset) {
-        enum esr_preset p = ESR_PRESET_FAST;
-        if (!cJSON_IsString(preset))
-            rc = ESR_FAIL("config file %s: 'preset' must be a string (fast or paper)", path);
-        else if (esr_preset_from_name(preset->valuestring, &p) == ESR_OK)
-            esr_config_defaults(c, p);
-        else
-            rc = ESR_ERR;
-    }
-    if (rc == ESR_OK)
-        rc = json_apply(c, root, "", path);
+    char source[1200];
+    snprintf(source, sizeof source, "config file %s", path);
+    int rc = json_apply_object(c, root, source, 0, NULL);
     cJSON_Delete(root);
     return rc;
 }
 
-int esr_config_write_json(const struct esr_train_config *c, const char *path)
+/* The shortest decimal that reads back to the same float, as a double: cJSON then prints 0.001,
+ * not 0.0010000000474974513. Nine significant digits always read back to the same float. */
+static double shortest_decimal(double v)
+{
+    for (int digits = 1; digits <= 9; digits++) {
+        char text[32];
+        snprintf(text, sizeof text, "%.*g", digits, v);
+        double d = strtod(text, NULL);
+        if ((float)d == (float)v)
+            return d;
+    }
+    return v;
+}
+
+cJSON *esr_config_to_json(const struct esr_train_config *c)
 {
     cJSON *root = cJSON_CreateObject();
-    if (!root)
-        return ESR_FAIL("config %s: out of memory", path);
-    cJSON_AddStringToObject(root, "preset", esr_preset_name((enum esr_preset)c->preset));
-    /* Options are floats: print the shortest text that reads back to the same float (0.001, not
-     * 0.0010000000474974513). */
+    /* every value is written below, so a hand-built struct with no valid preset loses nothing */
+    const char *preset = esr_preset_name((enum esr_preset)c->preset);
+    if (!root || !cJSON_AddStringToObject(root, "preset", preset ? preset : "fast"))
+        goto oom;
     for (size_t i = 0; i < N_OPTS; i++) {
-        char num[32];
+        /* integers stay exact (9 float digits would round a large seed); cJSON prints them as
+         * integers, never 5e+02 */
         double v = opt_load(c, &opts[i]);
-        snprintf(num, sizeof num, "%.9g", v);
-        if (v == floor(v) && fabs(v) < 1e9) /* integers as integers, never 5e+02 */
-            snprintf(num, sizeof num, "%.0f", v);
-        else
-            for (int digits = 1; digits <= 9; digits++) {
-                char shorter[32];
-                snprintf(shorter, sizeof shorter, "%.*g", digits, v);
-                if ((float)strtod(shorter, NULL) == (float)v) {
-                    memcpy(num, shorter, sizeof num);
-                    break;
-                }
-            }
-        cJSON_AddRawToObject(root, opts[i].name, num);
+        if (!cJSON_AddNumberToObject(root, opts[i].name,
+                                     opts[i].type == OPT_INT ? v : shortest_decimal(v)))
+            goto oom;
     }
-    return esr_json_write_atomic(path, root);
+    return root;
+oom:
+    cJSON_Delete(root);
+    return NULL;
+}
+
+int esr_config_write_json(const struct esr_train_config *c, const char *path)
+{
+    return esr_json_write_atomic(path, esr_config_to_json(c));
 }
 
 void esr_config_print_help(FILE *out)

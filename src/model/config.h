@@ -5,6 +5,7 @@
 #ifndef ESR_MODEL_CONFIG_H
 #define ESR_MODEL_CONFIG_H
 
+#include <cjson/cJSON.h>
 #include <stddef.h>
 #include <stdio.h>
 
@@ -69,8 +70,20 @@ int esr_config_set(struct esr_train_config *c, const char *assignment);
  * "fine": {"iters": 200}), plus an optional "preset" key applied first. Unknown keys or values
  * out of range are refused with a message naming the file and key. */
 int esr_config_load_json(struct esr_train_config *c, const char *path);
-/* Writes every option (resolved) as a flat JSON object, atomically. */
+/* Writes esr_config_to_json(c) to path, atomically. */
 int esr_config_write_json(const struct esr_train_config *c, const char *path);
+/* Every option as a flat JSON object ("fine.iters": 200, ...) plus "preset": the form checkpoints
+ * store. Floats are written as the shortest decimal that reads back to the same float. NULL when
+ * out of memory; the caller owns the object. */
+cJSON *esr_config_to_json(const struct esr_train_config *c);
+/* Reads a config object written by any version of esr: starts from the defaults of obj's "preset"
+ * ("fast" if absent) and applies every key, so an option added since the object was written keeps
+ * its preset default; *n_missing (n_missing may be NULL) counts the options obj lacks. Keys are
+ * dotted or nested as in esr_config_load_json, and an unknown key or an out-of-range value fails
+ * with a message naming `source` (e.g. "checkpoint run/fine.ckpt") and the key. c is unchanged on
+ * failure. */
+int esr_config_from_json(struct esr_train_config *c, const cJSON *obj, const char *source,
+                         int *n_missing);
 /* Checks every option against its bounds (after manual edits). */
 int esr_config_validate(const struct esr_train_config *c);
 /* Prints the option table (name, type, bounds, fast/paper defaults, help) for --help. */
