@@ -38,7 +38,8 @@ static void make_run(const struct esr_dataset *ds, const char *dir)
     esr_config_defaults(&cfg, ESR_PRESET_FAST);
     assert_int_equal(esr_config_set(&cfg, "coarse.res=24"), ESR_OK);
     assert_int_equal(esr_model_init(&m, &cfg, ESR_STAGE_COARSE, NULL, ds->bbox_min, ds->bbox_max), ESR_OK);
-    assert_int_equal(esr_sdf_init_sphere(&m.sdf, m.params.w + m.sdf_off, SPHERE_RADIUS), ESR_OK);
+    assert_int_equal(esr_sdf_init_sphere(esr_model_grid(&m, ESR_COMP_SDF), esr_model_values(&m, ESR_COMP_SDF),
+                                         SPHERE_RADIUS), ESR_OK);
     assert_int_equal(mkdir(dir, 0755), 0);
     snprintf(path, sizeof path, "%s/ckpt_coarse.bin", dir);
     assert_int_equal(esr_model_save(&m, path), ESR_OK);

@@ -1,9 +1,10 @@
-/* End-to-end gradient of the training engine: two rays through a small fine-stage model (SDF
- * grid -> NeuS alpha, feature grids, geometry feature, PE, off/emo radiance MLPs, tone-mapper,
- * compositing on white, two-term rendering loss with a saturated target) and through a coarse
- * model (smoothed SDF, colour grid, colour MLP with the lighting flag) against central
- * differences of the loss, for the parameters with the largest analytic gradient in every
- * component. Also the loss formula by hand and the off-branch stop-gradient for on-rays. */
+/* End-to-end gradient of the training step (train/step.h, the very function the trainer runs
+ * every iteration): two rays through a small fine-stage model (SDF grid -> NeuS alpha, feature
+ * grids, geometry feature, PE, off/emo radiance MLPs, tone-mapper, compositing on white, two-term
+ * rendering loss with a saturated target) and through a coarse model (smoothed SDF, colour grid,
+ * colour MLP with the lighting flag), against central differences of the loss for EVERY entry of
+ * every component the stage trains (zero where the rays do not reach). Also the loss formula by
+ * hand and the off-branch stop-gradient for lights-on rays. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -18,25 +19,23 @@
 #include "fields/sdf.h"
 #include "model/model.h"
 #include "train/render_loss.h"
-#include "model/render_sdf.h"
-#include "model/trace.h"
+#include "train/step.h"
 
 #define N_RAYS 2
 #define LAMBDA 0.5f
 
 struct fixture {
     struct esr_model m;
-    float *view, *g_view, *scratch; /* coarse: smoothed SDF the renderer sees, its gradient */
-    struct esr_trace t;
-    float orig[N_RAYS * 3], dir[N_RAYS * 3], tgt[N_RAYS * 3];
-    float d_rgb[N_RAYS * 3], d_lin[N_RAYS * 3];
-    int n_off;
+    struct esr_train_step st;
+    float *analytic; /* the step's gradient, kept while central differences run */
 };
 
 static void small_config(struct esr_train_config *c)
 {
     esr_config_defaults(c, ESR_PRESET_FAST);
     c->coarse.res = 16; /* coarse grids, and the fine stage's feature grids */
+    c->coarse.feat_channels = 2;
+    c->coarse.mlp_width = 16;
     c->fine.res = 16;
     c->fine.feat_channels = 2;
     c->fine.mlp_width = 16;
@@ -45,163 +44,169 @@ static void small_config(struct esr_train_config *c)
     c->tone_pe = 2;
     c->pe_pos = 2;
     c->geo_scales = 2;
+    c->lambda_tau = LAMBDA;
 }
 
-static void setup_stage(struct fixture *fx, int n_off, enum esr_stage stage)
+/* Random values in [-0.5, 0.5) for a component, so features matter. */
+static void randomise(struct esr_model *m, enum esr_component c, uint64_t seed)
+{
+    float *v = esr_model_values(m, c);
+    for (size_t i = 0; i < m->part[c].count; i++) {
+        struct esr_rng r = esr_rng_init(seed, i);
+        v[i] = esr_rng_float(&r) - 0.5f;
+    }
+}
+
+/* lights[r] = lighting flag of ray r. */
+static void setup_stage(struct fixture *fx, enum esr_stage stage, const uint8_t lights[N_RAYS])
 {
     struct esr_train_config cfg;
     small_config(&cfg);
     const float bmin[3] = {-1, -1, -1}, bmax[3] = {1, 1, 1};
     memset(fx, 0, sizeof(*fx));
-    assert_int_equal(esr_model_init(&fx->m, &cfg, stage, NULL, bmin, bmax), 0);
-    float *w = fx->m.params.w;
-    assert_int_equal(esr_sdf_init_sphere(&fx->m.sdf, w + fx->m.sdf_off, 0.5f), 0);
+    struct esr_model *m = &fx->m;
+    assert_int_equal(esr_model_init(m, &cfg, stage, NULL, bmin, bmax), 0);
+    assert_int_equal(esr_sdf_init_sphere(esr_model_grid(m, ESR_COMP_SDF),
+                                         esr_model_values(m, ESR_COMP_SDF), 0.5f),
+                     0);
     if (stage == ESR_STAGE_COARSE) {
-        size_t ns = esr_grid_count(&fx->m.sdf), nf = esr_grid_count(&fx->m.feat);
-        fx->view = malloc(ns * sizeof(float));
-        fx->g_view = malloc(ns * sizeof(float));
-        fx->scratch = malloc(ns * sizeof(float));
-        for (size_t i = 0; i < nf; i++) {
-            struct esr_rng r = esr_rng_init(6, i);
-            w[fx->m.feat_off + i] = esr_rng_float(&r) - 0.5f;
-        }
+        randomise(m, ESR_COMP_COLOUR_FEAT, 6);
     } else {
         /* features large enough to matter, and a non-trivial emission */
-        size_t nf = esr_grid_count(&fx->m.feat_off_g);
-        for (size_t i = 0; i < nf; i++) {
-            struct esr_rng r = esr_rng_init(5, i);
-            w[fx->m.feat_off_off + i] = esr_rng_float(&r) - 0.5f;
-            w[fx->m.feat_emo_off + i] = esr_rng_float(&r) - 0.5f;
-        }
-        esr_mlp_init_weights(&fx->m.rad_emo, w, 9, 0.0f);
+        randomise(m, ESR_COMP_OFF_FEAT, 5);
+        randomise(m, ESR_COMP_EMO_FEAT, 15);
+        esr_mlp_init_weights(esr_model_mlp(m, ESR_COMP_EMO_MLP), m->params.w, 9, 0.0f);
     }
-    fx->m.inv_s = 10.0f;
-    assert_int_equal(esr_trace_init(&fx->t, &fx->m, N_RAYS, 1), 0);
+    m->inv_s = 10.0f;
+    assert_int_equal(esr_train_step_init(&fx->st, m, N_RAYS), 0);
+    fx->analytic = malloc(m->params.count * sizeof(float));
+    assert_non_null(fx->analytic);
     const float o[N_RAYS][3] = {{0.1f, -3.0f, 0.15f}, {-3.0f, 0.2f, -0.1f}};
     const float d[N_RAYS][3] = {{0.02f, 1.0f, -0.03f}, {1.0f, -0.04f, 0.05f}};
     for (int r = 0; r < N_RAYS; r++) {
         float len = sqrtf(d[r][0] * d[r][0] + d[r][1] * d[r][1] + d[r][2] * d[r][2]);
         for (int a = 0; a < 3; a++) {
-            fx->orig[r * 3 + a] = o[r][a];
-            fx->dir[r * 3 + a] = d[r][a] / len;
-            fx->tgt[r * 3 + a] = 0.2f + 0.25f * (float)(r + a);
+            fx->st.orig3[r * 3 + a] = o[r][a];
+            fx->st.dir3[r * 3 + a] = d[r][a] / len;
+            fx->st.tgt3[r * 3 + a] = 0.2f + 0.25f * (float)(r + a);
         }
+        fx->st.lights_on[r] = lights[r];
     }
-    fx->tgt[2] = 1.0f; /* a saturated channel */
-    fx->n_off = n_off;
+    fx->st.tgt3[2] = 1.0f; /* a saturated channel */
 }
-
-static void setup(struct fixture *fx, int n_off) { setup_stage(fx, n_off, ESR_STAGE_FINE); }
 
 static void teardown(struct fixture *fx)
 {
-    esr_trace_free(&fx->t);
+    esr_train_step_free(&fx->st);
     esr_model_free(&fx->m);
-    free(fx->view);
-    free(fx->g_view);
-    free(fx->scratch);
+    free(fx->analytic);
 }
 
-/* The trainer's iteration without the optimiser: coarse renders the smoothed SDF and brings the
- * gradient back to the raw grid through the smoothing's adjoint. */
-static double loss_at(struct fixture *fx, int with_grad)
+static double loss_at(struct fixture *fx)
 {
-    struct esr_model *m = &fx->m;
-    const float *sdf = m->params.w + m->sdf_off;
-    float *g_sdf = m->params.g + m->sdf_off;
-    int coarse = m->stage == ESR_STAGE_COARSE, smooth = coarse && m->cfg.smooth_ksize > 1;
-    if (smooth) {
-        assert_int_equal(esr_model_view_sdf(m, sdf, fx->view, fx->scratch), 0);
-        sdf = fx->view;
-        g_sdf = fx->g_view;
-        memset(g_sdf, 0, esr_grid_count(&m->sdf) * sizeof(float));
-    }
-    assert_int_equal(esr_trace_fwd(&fx->t, m, sdf, fx->orig, fx->dir, N_RAYS, fx->n_off, 77), 0);
     struct esr_render_loss_result res;
-    float lambda = coarse ? 0.0f : LAMBDA;
-    esr_render_loss_batch(fx->t.rgb3, fx->t.lin_rgb3, fx->tgt, N_RAYS, lambda, fx->d_rgb,
-                          fx->d_lin, &res);
-    if (with_grad) {
-        esr_nn_params_zero_grad(&m->params, 0, m->params.count);
-        assert_int_equal(esr_trace_bwd(&fx->t, m, sdf, g_sdf, m->params.g, fx->d_rgb,
-                                       coarse ? NULL : fx->d_lin),
-                         0);
-        if (smooth)
-            assert_int_equal(esr_grid_smooth_bwd(&m->sdf, fx->g_view, m->params.g + m->sdf_off,
-                                                 fx->scratch, m->cfg.smooth_ksize,
-                                                 m->cfg.smooth_sigma),
-                             0);
-    }
+    assert_int_equal(esr_train_step_run(&fx->st, &fx->m, N_RAYS, 77, &res), 0);
     return res.loss;
 }
 
-/* Checks the k entries of [off, off+n) with the largest |analytic gradient|. */
-static void check_range(struct fixture *fx, const char *what, size_t off, size_t n, float eps)
+/* Runs the step once and keeps its gradient as the analytic one. */
+static void analytic_gradient(struct fixture *fx)
 {
-    float *w = fx->m.params.w;
-    const float *g = fx->m.params.g;
-    int picked[3] = {-1, -1, -1};
-    for (int k = 0; k < 3; k++) {
-        float best = 0.0f;
-        for (size_t i = 0; i < n; i++) {
-            int used = 0;
-            for (int j = 0; j < k; j++)
-                used |= picked[j] == (int)i;
-            if (!used && fabsf(g[off + i]) > best) {
-                best = fabsf(g[off + i]);
-                picked[k] = (int)i;
-            }
-        }
-    }
-    assert_true(picked[0] >= 0); /* the component receives gradient at all */
-    for (int k = 0; k < 3 && picked[k] >= 0; k++) {
-        size_t i = off + (size_t)picked[k];
-        float an = g[i], keep = w[i];
+    loss_at(fx);
+    memcpy(fx->analytic, fx->m.params.g, fx->m.params.count * sizeof(float));
+}
+
+/* Every entry of component c against a central difference; returns how many entries carry a
+ * non-zero gradient (so a caller can insist the rays reach the component). */
+static size_t check_component(struct fixture *fx, enum esr_component c, float eps)
+{
+    struct esr_model *m = &fx->m;
+    float *w = m->params.w;
+    const size_t off = m->part[c].off, n = m->part[c].count;
+    size_t bad = 0, live = 0;
+    for (size_t i = off; i < off + n; i++) {
+        float an = fx->analytic[i], keep = w[i];
         w[i] = keep + eps;
-        double lp = loss_at(fx, 0);
+        double lp = loss_at(fx);
         w[i] = keep - eps;
-        double lm = loss_at(fx, 0);
+        double lm = loss_at(fx);
         w[i] = keep;
         double fd = (lp - lm) / (2.0 * eps);
+        live += an != 0.0f;
         double tol = 0.05 * fmax(fabs(fd), fabs(an)) + 2e-4;
-        if (fabs(fd - an) > tol)
-            fail_msg("%s entry %zu: analytic %.6g vs central difference %.6g", what, i - off,
-                     (double)an, fd);
+        if (fabs(fd - an) > tol && bad++ < 5)
+            print_error("%s entry %zu: analytic %.6g vs central difference %.6g\n",
+                        esr_component_info(c)->name, i - off, (double)an, fd);
     }
+    if (bad)
+        fail_msg("%s: %zu of %zu entries disagree with central differences",
+                 esr_component_info(c)->name, bad, n);
+    return live;
+}
+
+static float eps_of(enum esr_component c)
+{
+    return c == ESR_COMP_SDF ? 2e-3f : 1e-2f;
+}
+
+/* Every trained component of the stage, entry by entry. */
+static void check_stage(struct fixture *fx)
+{
+    const uint32_t trained = esr_stage_info((enum esr_stage)fx->m.stage)->trained;
+    for (int c = 0; c < ESR_COMP_COUNT; c++)
+        if (trained & ESR_BIT(c))
+            check_component(fx, (enum esr_component)c, eps_of((enum esr_component)c));
+}
+
+static int all_zero(const struct fixture *fx, enum esr_component c)
+{
+    for (size_t i = 0; i < fx->m.part[c].count; i++)
+        if (fx->analytic[fx->m.part[c].off + i] != 0.0f)
+            return 0;
+    return 1;
 }
 
 static void test_fine_gradients_lights_off(void **state)
 {
     (void)state;
     struct fixture fx;
-    setup(&fx, N_RAYS);
-    loss_at(&fx, 1);
-    struct esr_model *m = &fx.m;
-    check_range(&fx, "sdf", m->sdf_off, esr_grid_count(&m->sdf), 2e-3f);
-    check_range(&fx, "feat_off", m->feat_off_off, esr_grid_count(&m->feat_off_g), 1e-2f);
-    check_range(&fx, "rad_off", m->rad_off.offset, m->rad_off.count, 1e-2f);
-    check_range(&fx, "tone", m->tone.offset, m->tone.count, 1e-2f);
+    const uint8_t lights[N_RAYS] = {0, 0};
+    setup_stage(&fx, ESR_STAGE_FINE, lights);
+    analytic_gradient(&fx);
     /* lights-off rays never reach the emo branch */
-    for (size_t i = 0; i < m->rad_emo.count; i++)
-        assert_true(m->params.g[m->rad_emo.offset + i] == 0.0f);
+    assert_true(all_zero(&fx, ESR_COMP_EMO_MLP));
+    assert_true(all_zero(&fx, ESR_COMP_EMO_FEAT));
+    assert_true(!all_zero(&fx, ESR_COMP_OFF_MLP) && !all_zero(&fx, ESR_COMP_SDF));
+    check_stage(&fx);
     teardown(&fx);
 }
 
-static void test_fine_gradients_lights_on(void **state)
+static void test_fine_gradients_mixed_lighting(void **state)
 {
     (void)state;
     struct fixture fx;
-    setup(&fx, 0);
-    loss_at(&fx, 1);
-    struct esr_model *m = &fx.m;
-    check_range(&fx, "feat_emo", m->feat_emo_off, esr_grid_count(&m->feat_emo_g), 1e-2f);
-    check_range(&fx, "rad_emo", m->rad_emo.offset, m->rad_emo.count, 1e-2f);
-    check_range(&fx, "tone", m->tone.offset, m->tone.count, 1e-2f);
-    /* stop-gradient: on-rays do not train the off branch */
-    for (size_t i = 0; i < m->rad_off.count; i++)
-        assert_true(m->params.g[m->rad_off.offset + i] == 0.0f);
-    for (size_t i = 0; i < esr_grid_count(&m->feat_off_g); i++)
-        assert_true(m->params.g[m->feat_off_off + i] == 0.0f);
+    /* the lights-on ray first: the point fields reorder rows internally */
+    const uint8_t lights[N_RAYS] = {1, 0};
+    setup_stage(&fx, ESR_STAGE_FINE, lights);
+    analytic_gradient(&fx);
+    assert_true(!all_zero(&fx, ESR_COMP_EMO_MLP) && !all_zero(&fx, ESR_COMP_OFF_MLP));
+    check_stage(&fx);
+    teardown(&fx);
+}
+
+static void test_fine_lights_on_stop_gradient(void **state)
+{
+    (void)state;
+    struct fixture fx;
+    const uint8_t lights[N_RAYS] = {1, 1};
+    setup_stage(&fx, ESR_STAGE_FINE, lights);
+    analytic_gradient(&fx);
+    /* stop-gradient: lights-on rays do not train the off branch */
+    assert_true(all_zero(&fx, ESR_COMP_OFF_MLP));
+    assert_true(all_zero(&fx, ESR_COMP_OFF_FEAT));
+    assert_true(!all_zero(&fx, ESR_COMP_EMO_MLP) && !all_zero(&fx, ESR_COMP_TONE_MLP));
+    check_component(&fx, ESR_COMP_EMO_MLP, 1e-2f);
+    check_component(&fx, ESR_COMP_EMO_FEAT, 1e-2f);
     teardown(&fx);
 }
 
@@ -209,12 +214,11 @@ static void test_coarse_gradients(void **state)
 {
     (void)state;
     struct fixture fx;
-    setup_stage(&fx, 1, ESR_STAGE_COARSE); /* one off-ray, one on-ray (lighting flag input) */
-    loss_at(&fx, 1);
-    struct esr_model *m = &fx.m;
-    check_range(&fx, "sdf (through smoothing)", m->sdf_off, esr_grid_count(&m->sdf), 1e-3f);
-    check_range(&fx, "feat", m->feat_off, esr_grid_count(&m->feat), 1e-2f);
-    check_range(&fx, "colour", m->colour.offset, m->colour.count, 1e-2f);
+    const uint8_t lights[N_RAYS] = {0, 1}; /* lighting flag input */
+    setup_stage(&fx, ESR_STAGE_COARSE, lights);
+    analytic_gradient(&fx);
+    assert_true(fx.st.sdf_view != NULL); /* the SDF gradient goes through the smoothing */
+    check_stage(&fx);
     teardown(&fx);
 }
 
@@ -248,7 +252,8 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_render_loss_by_hand),
         cmocka_unit_test(test_fine_gradients_lights_off),
-        cmocka_unit_test(test_fine_gradients_lights_on),
+        cmocka_unit_test(test_fine_gradients_mixed_lighting),
+        cmocka_unit_test(test_fine_lights_on_stop_gradient),
         cmocka_unit_test(test_coarse_gradients),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

@@ -45,7 +45,7 @@ static void test_forward_and_pruning(void **state)
     assert_true(fabsf(w[2] - 0.125f) < 1e-7f && fabsf(w[3] - 0.375f) < 1e-7f);
     assert_true(tl[0] == 0.0f);
     assert_true(fabsf(tl[1] - 0.56f) < 1e-6f);
-    struct esr_composite_args a = {2, start, alpha, w, tl, ESR_COMPOSITE_THRES, 2, v, bg, 0};
+    struct esr_composite_args a = {2, start, alpha, w, tl, ESR_COMPOSITE_THRES, 2, v, bg, 0, NULL};
     esr_composite_fwd(&a, out);
     assert_true(fabsf(out[0] - (0.5f + 0.125f * 3 + 0.375f * 5)) < 1e-5f);
     assert_true(fabsf(out[1] - (1.0f + 0.125f * 4 + 0.375f * 6)) < 1e-5f);
@@ -57,7 +57,7 @@ static void test_forward_and_pruning(void **state)
     float w1[3], t1, o1;
     esr_composite_weights(1, s1, a1, ESR_COMPOSITE_THRES, w1, &t1);
     assert_false(esr_composite_keep(w1[1], ESR_COMPOSITE_THRES));
-    struct esr_composite_args b = {1, s1, a1, w1, &t1, ESR_COMPOSITE_THRES, 1, v1, bg, 0};
+    struct esr_composite_args b = {1, s1, a1, w1, &t1, ESR_COMPOSITE_THRES, 1, v1, bg, 0, NULL};
     esr_composite_fwd(&b, &o1);
     assert_true(fabsf(o1 - (0.9999f + 0.0001f * 0.25f)) < 1e-6f);
 }
@@ -81,7 +81,7 @@ static void test_backward_fd(void **state)
     test_fill_uniform(d_out, R * C, -1.0f, 1.0f, 34);
     alpha[2] = 0.99999f; /* nearly opaque: the division-free backward must stay accurate */
     esr_composite_weights(R, start, alpha, 0.0f, w, tl);
-    struct esr_composite_args a = {R, start, alpha, w, tl, 0.0f, C, v, bg, 1};
+    struct esr_composite_args a = {R, start, alpha, w, tl, 0.0f, C, v, bg, 1, NULL};
     esr_composite_bwd(&a, d_out, da, dv);
     for (int r = 0; r < R; r++) {
         size_t s0 = start[r], m = start[r + 1] - s0;
@@ -139,7 +139,7 @@ static double forward(struct scene *sc, struct fwd_state *st)
     }
     esr_composite_weights(1, sc->smp.ray_start, st->alpha, ESR_COMPOSITE_THRES, st->w, &st->tl);
     const float white[3] = {1, 1, 1};
-    struct esr_composite_args a = {1, sc->smp.ray_start, st->alpha, st->w, &st->tl, ESR_COMPOSITE_THRES, 3, st->c, white, 0};
+    struct esr_composite_args a = {1, sc->smp.ray_start, st->alpha, st->w, &st->tl, ESR_COMPOSITE_THRES, 3, st->c, white, 0, NULL};
     esr_composite_fwd(&a, st->out);
     double loss = 0.0;
     for (int c = 0; c < 3; c++)
@@ -154,7 +154,7 @@ static void backward(struct scene *sc, struct fwd_state *st, float *g_sdf, float
     for (int c = 0; c < 3; c++)
         d_out[c] = 2.0f * (st->out[c] - sc->target[c]);
     const float white[3] = {1, 1, 1};
-    struct esr_composite_args a = {1, sc->smp.ray_start, st->alpha, st->w, &st->tl, ESR_COMPOSITE_THRES, 3, st->c, white, 0};
+    struct esr_composite_args a = {1, sc->smp.ray_start, st->alpha, st->w, &st->tl, ESR_COMPOSITE_THRES, 3, st->c, white, 0, NULL};
     esr_composite_bwd(&a, d_out, da, dc);
     for (size_t i = 0; i < n; i++) {
         float d_prev, d_next, d_cos;

@@ -1,9 +1,17 @@
-/* Checkpoint files (model.h): a versioned binary snapshot written atomically.
- *   "ESRCKPT\0" | u32 version | u32 sizeof(config) | config | i32 stage | i64 step | i32 done |
- *   f32 scene_min[3], scene_max[3] | u64 n | f32 w[n] | f32 adam_m[n] | f32 adam_v[n] |
- *   i32 has_mask | (i32 nx, ny, nz | f32 bmin[3], bmax[3] | u8 occ[nx*ny*nz])
- * The parameter layout is a pure function of (config, stage), so loading rebuilds the model from
- * those and then checks that the stored count matches before copying the values. */
+/* Checkpoint files (model.h): a versioned snapshot written atomically, matched by name on load.
+ *   "ESRCKPT\0" | u32 version | u64 header bytes | header (JSON text) |
+ *   f32 w[n] | f32 adam_m[n] | f32 adam_v[n] | u8 mask occupancy [nx*ny*nz] (when it has one)
+ * with the header
+ *   {"stage": "fine", "step": 2000, "done": 1, "scene_min": [..], "scene_max": [..],
+ *    "config": {every option, flat}, "params": n,
+ *    "components": [{"name": "sdf", "offset": 0, "count": 2097152}, ...],
+ *    "mask": {"dims": [nx, ny, nz], "bmin": [..], "bmax": [..]}}
+ * Loading rebuilds the model from the stored options (missing options take their preset default,
+ * so adding an option never breaks old files) and then copies every stored component into the
+ * component of the same name (a component the file lacks keeps its initial values: a new
+ * component added to a stage starts fresh). A size mismatch, an unknown component or a header
+ * that does not parse is refused, naming the file and the mismatch; nothing is written. */
+#include <cjson/cJSON.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -15,67 +23,79 @@
 #include "model/model.h"
 
 #define CKPT_MAGIC "ESRCKPT"
-#define CKPT_VERSION 1u
+#define CKPT_VERSION 2u
+#define CKPT_MAX_HEADER (16u << 20)
 
-struct wbuf {
-    unsigned char *p;
-    size_t n, cap;
-};
-
-static int put(struct wbuf *b, const void *src, size_t n)
+static cJSON *float_array(const float *v, int n)
 {
-    if (b->n + n > b->cap) {
-        size_t cap = (b->n + n) * 2;
-        unsigned char *p = realloc(b->p, cap);
-        if (!p)
-            return ESR_FAIL("checkpoint: out of memory (%zu bytes)", cap);
-        b->p = p;
-        b->cap = cap;
-    }
-    memcpy(b->p + b->n, src, n);
-    b->n += n;
-    return ESR_OK;
+    cJSON *a = cJSON_CreateArray();
+    for (int i = 0; a && i < n; i++)
+        cJSON_AddItemToArray(a, cJSON_CreateNumber((double)v[i]));
+    return a;
 }
 
-static int serialise(const struct esr_model *m, struct wbuf *b)
+static cJSON *header_json(const struct esr_model *m)
 {
-    uint32_t ver = CKPT_VERSION, cs = sizeof(m->cfg);
-    int32_t stage = m->stage, done = m->stage_done, has = m->has_mask;
-    int64_t step = m->step;
-    uint64_t n = m->params.count;
-    ESR_TRY(put(b, CKPT_MAGIC, 8));
-    ESR_TRY(put(b, &ver, 4));
-    ESR_TRY(put(b, &cs, 4));
-    ESR_TRY(put(b, &m->cfg, sizeof(m->cfg)));
-    ESR_TRY(put(b, &stage, 4));
-    ESR_TRY(put(b, &step, 8));
-    ESR_TRY(put(b, &done, 4));
-    ESR_TRY(put(b, m->scene_min, 12));
-    ESR_TRY(put(b, m->scene_max, 12));
-    ESR_TRY(put(b, &n, 8));
-    ESR_TRY(put(b, m->params.w, n * 4));
-    ESR_TRY(put(b, m->adam.m, n * 4));
-    ESR_TRY(put(b, m->adam.v, n * 4));
-    ESR_TRY(put(b, &has, 4));
-    if (has) {
-        int32_t dims[3] = {m->mask.nx, m->mask.ny, m->mask.nz};
-        ESR_TRY(put(b, dims, 12));
-        ESR_TRY(put(b, m->mask.bmin, 12));
-        ESR_TRY(put(b, m->mask.bmax, 12));
-        ESR_TRY(put(b, m->mask.occ, (size_t)dims[0] * dims[1] * dims[2]));
+    cJSON *h = cJSON_CreateObject();
+    cJSON_AddStringToObject(h, "stage", esr_stage_name((enum esr_stage)m->stage));
+    cJSON_AddNumberToObject(h, "step", (double)m->step);
+    cJSON_AddNumberToObject(h, "done", m->stage_done);
+    cJSON_AddItemToObject(h, "scene_min", float_array(m->scene_min, 3));
+    cJSON_AddItemToObject(h, "scene_max", float_array(m->scene_max, 3));
+    cJSON_AddItemToObject(h, "config", esr_config_to_json(&m->cfg));
+    cJSON_AddNumberToObject(h, "params", (double)m->params.count);
+    cJSON *comps = cJSON_AddArrayToObject(h, "components");
+    for (int c = 0; comps && c < ESR_COMP_COUNT; c++) {
+        if (!esr_model_has(m, (enum esr_component)c))
+            continue;
+        cJSON *e = cJSON_CreateObject();
+        cJSON_AddStringToObject(e, "name", esr_component_info((enum esr_component)c)->name);
+        cJSON_AddNumberToObject(e, "offset", (double)m->part[c].off);
+        cJSON_AddNumberToObject(e, "count", (double)m->part[c].count);
+        cJSON_AddItemToArray(comps, e);
     }
-    return ESR_OK;
+    if (m->has_mask) {
+        cJSON *k = cJSON_AddObjectToObject(h, "mask");
+        int dims[3] = {m->mask.nx, m->mask.ny, m->mask.nz};
+        cJSON_AddItemToObject(k, "dims", cJSON_CreateIntArray(dims, 3));
+        cJSON_AddItemToObject(k, "bmin", float_array(m->mask.bmin, 3));
+        cJSON_AddItemToObject(k, "bmax", float_array(m->mask.bmax, 3));
+    }
+    return h;
 }
 
 int esr_model_save(const struct esr_model *m, const char *path)
 {
-    struct wbuf b = {NULL, 0, 0};
-    int rc = serialise(m, &b);
-    if (rc == ESR_OK)
-        rc = esr_file_write_atomic(path, b.p, b.n);
-    free(b.p);
+    cJSON *h = header_json(m);
+    char *text = h ? cJSON_PrintUnformatted(h) : NULL;
+    cJSON_Delete(h);
+    if (!text)
+        return ESR_FAIL("checkpoint %s: out of memory for the header", path);
+    const uint64_t hn = strlen(text), n = m->params.count;
+    const size_t mask_n = m->has_mask ? (size_t)m->mask.nx * m->mask.ny * m->mask.nz : 0;
+    const size_t total = 8 + 4 + 8 + hn + 3 * n * sizeof(float) + mask_n;
+    unsigned char *buf = malloc(total), *p = buf;
+    if (!buf) {
+        free(text);
+        return ESR_FAIL("checkpoint %s: out of memory (%zu bytes)", path, total);
+    }
+    const uint32_t ver = CKPT_VERSION;
+    memcpy(p, CKPT_MAGIC, 8), p += 8;
+    memcpy(p, &ver, 4), p += 4;
+    memcpy(p, &hn, 8), p += 8;
+    memcpy(p, text, hn), p += hn;
+    memcpy(p, m->params.w, n * sizeof(float)), p += n * sizeof(float);
+    memcpy(p, m->adam.m, n * sizeof(float)), p += n * sizeof(float);
+    memcpy(p, m->adam.v, n * sizeof(float)), p += n * sizeof(float);
+    if (mask_n)
+        memcpy(p, m->mask.occ, mask_n);
+    free(text);
+    int rc = esr_file_write_atomic(path, buf, total);
+    free(buf);
     return rc;
 }
+
+/* ---- reading ---- */
 
 struct rbuf {
     const unsigned char *p;
@@ -85,23 +105,118 @@ struct rbuf {
 
 static int get(struct rbuf *b, void *dst, size_t n)
 {
-    if (b->at + n > b->n)
-        return ESR_FAIL("checkpoint %s: truncated (needs more than %zu bytes)", b->path, b->n);
+    if (n > b->n - b->at)
+        return ESR_FAIL("checkpoint %s: truncated (%zu bytes; needs more)", b->path, b->n);
     memcpy(dst, b->p + b->at, n);
     b->at += n;
     return ESR_OK;
 }
 
-static int read_mask(struct esr_model *m, struct rbuf *b)
+static int json_floats(const cJSON *h, const char *key, float *out, int n, const char *path)
 {
-    int32_t dims[3];
-    float bmin[3], bmax[3];
-    ESR_TRY(get(b, dims, 12));
-    ESR_TRY(get(b, bmin, 12));
-    ESR_TRY(get(b, bmax, 12));
+    const cJSON *a = cJSON_GetObjectItemCaseSensitive(h, key);
+    if (!cJSON_IsArray(a) || cJSON_GetArraySize(a) != n)
+        return ESR_FAIL("checkpoint %s: header field '%s' missing or not %d numbers", path, key, n);
+    for (int i = 0; i < n; i++) {
+        const cJSON *v = cJSON_GetArrayItem(a, i);
+        if (!cJSON_IsNumber(v))
+            return ESR_FAIL("checkpoint %s: header field '%s' holds a non-number", path, key);
+        out[i] = (float)v->valuedouble;
+    }
+    return ESR_OK;
+}
+
+static int json_count(const cJSON *o, const char *key, double max, double *out, const char *path)
+{
+    const cJSON *v = cJSON_GetObjectItemCaseSensitive(o, key);
+    if (!cJSON_IsNumber(v) || v->valuedouble < 0 || v->valuedouble > max ||
+        v->valuedouble != (double)(uint64_t)v->valuedouble)
+        return ESR_FAIL("checkpoint %s: header field '%s' missing or not a count", path, key);
+    *out = v->valuedouble;
+    return ESR_OK;
+}
+
+/* The model described by the header: stage, options, box; a fresh model of that layout. */
+static int model_from_header(struct esr_model *m, const cJSON *h, const char *path)
+{
+    const cJSON *st = cJSON_GetObjectItemCaseSensitive(h, "stage");
+    enum esr_stage stage;
+    if (!cJSON_IsString(st) || esr_stage_from_name(st->valuestring, &stage) != ESR_OK)
+        return ESR_FAIL("checkpoint %s: header has no valid stage", path);
+    double step = 0, done = 0;
+    ESR_TRY(json_count(h, "step", 1e15, &step, path));
+    ESR_TRY(json_count(h, "done", 1, &done, path));
+    float smin[3], smax[3];
+    ESR_TRY(json_floats(h, "scene_min", smin, 3, path));
+    ESR_TRY(json_floats(h, "scene_max", smax, 3, path));
+    struct esr_train_config cfg;
+    const cJSON *cj = cJSON_GetObjectItemCaseSensitive(h, "config");
+    if (!cJSON_IsObject(cj))
+        return ESR_FAIL("checkpoint %s: header has no config object", path);
+    ESR_TRY(esr_config_from_json(&cfg, cj, path, NULL));
+    if (esr_model_init(m, &cfg, stage, NULL, smin, smax) != ESR_OK)
+        return ESR_FAIL("checkpoint %s: invalid stored configuration: %s", path, esr_error_message());
+    m->step = (long)step;
+    m->stage_done = (int)done;
+    m->inv_s = esr_stage_inv_s(&m->cfg, stage, m->step);
+    return ESR_OK;
+}
+
+/* Copies every stored component (w and both Adam moments) into the model's component of the
+ * same name, after checking names and sizes. */
+static int read_components(struct esr_model *m, const cJSON *h, const unsigned char *data,
+                           double n, const char *path)
+{
+    const cJSON *comps = cJSON_GetObjectItemCaseSensitive(h, "components");
+    if (!cJSON_IsArray(comps))
+        return ESR_FAIL("checkpoint %s: header has no component table", path);
+    /* the stored arrays start at an arbitrary byte offset: copy bytes, never load floats */
+    const size_t N = (size_t)n * sizeof(float);
+    const cJSON *e;
+    cJSON_ArrayForEach(e, comps)
+    {
+        const cJSON *nm = cJSON_GetObjectItemCaseSensitive(e, "name");
+        double off = 0, cnt = 0;
+        if (!cJSON_IsString(nm))
+            return ESR_FAIL("checkpoint %s: a component without a name", path);
+        ESR_TRY(json_count(e, "offset", n, &off, path));
+        ESR_TRY(json_count(e, "count", n, &cnt, path));
+        if (off + cnt > n)
+            return ESR_FAIL("checkpoint %s: component '%s' lies outside the stored parameters",
+                            path, nm->valuestring);
+        enum esr_component c = esr_component_from_name(nm->valuestring);
+        if (c == ESR_COMP_COUNT)
+            return ESR_FAIL("checkpoint %s: component '%s' is unknown to this build", path,
+                            nm->valuestring);
+        if (!esr_model_has(m, c))
+            return ESR_FAIL("checkpoint %s: component '%s' does not belong to the %s stage", path,
+                            nm->valuestring, esr_stage_name((enum esr_stage)m->stage));
+        if ((size_t)cnt != m->part[c].count)
+            return ESR_FAIL("checkpoint %s: component '%s' has %.0f values, the stored "
+                            "configuration needs %zu",
+                            path, nm->valuestring, cnt, m->part[c].count);
+        const size_t o = (size_t)off * sizeof(float), k = m->part[c].count * sizeof(float);
+        memcpy(m->params.w + m->part[c].off, data + o, k);
+        memcpy(m->adam.m + m->part[c].off, data + N + o, k);
+        memcpy(m->adam.v + m->part[c].off, data + 2 * N + o, k);
+    }
+    return ESR_OK;
+}
+
+static int read_mask(struct esr_model *m, const cJSON *h, struct rbuf *b)
+{
+    const cJSON *k = cJSON_GetObjectItemCaseSensitive(h, "mask");
+    if (!k)
+        return ESR_OK;
+    float dimf[3], bmin[3], bmax[3];
+    ESR_TRY(json_floats(k, "dims", dimf, 3, b->path));
+    ESR_TRY(json_floats(k, "bmin", bmin, 3, b->path));
+    ESR_TRY(json_floats(k, "bmax", bmax, 3, b->path));
     struct esr_grid lat;
-    if (dims[0] < 2 || dims[1] < 2 || dims[2] < 2 || dims[0] > 4096 || dims[1] > 4096 ||
-        dims[2] > 4096 || esr_grid_init(&lat, 1, dims[0], dims[1], dims[2], bmin, bmax) != ESR_OK)
+    for (int a = 0; a < 3; a++)
+        if (!(dimf[a] >= 2 && dimf[a] <= 4096))
+            return ESR_FAIL("checkpoint %s: corrupt mask cache header", b->path);
+    if (esr_grid_init(&lat, 1, (int)dimf[0], (int)dimf[1], (int)dimf[2], bmin, bmax) != ESR_OK)
         return ESR_FAIL("checkpoint %s: corrupt mask cache header", b->path);
     ESR_TRY(esr_mask_alloc(&m->mask, &lat));
     m->has_mask = 1;
@@ -111,53 +226,40 @@ static int read_mask(struct esr_model *m, struct rbuf *b)
 static int deserialise(struct esr_model *m, struct rbuf *b)
 {
     char magic[8];
-    uint32_t ver = 0, cs = 0;
+    uint32_t ver = 0;
+    uint64_t hn = 0;
     ESR_TRY(get(b, magic, 8));
     if (memcmp(magic, CKPT_MAGIC, 8))
         return ESR_FAIL("checkpoint %s: not an esr checkpoint (bad magic)", b->path);
     ESR_TRY(get(b, &ver, 4));
-    ESR_TRY(get(b, &cs, 4));
-    if (ver != CKPT_VERSION || cs != sizeof(struct esr_train_config))
-        return ESR_FAIL("checkpoint %s: version %u (config size %u) but this build reads version "
-                        "%u (config size %zu)",
-                        b->path, ver, cs, CKPT_VERSION, sizeof(struct esr_train_config));
-    struct esr_train_config cfg;
-    int32_t stage = 0, done = 0, has = 0;
-    int64_t step = 0;
-    uint64_t n = 0;
-    float smin[3], smax[3];
-    ESR_TRY(get(b, &cfg, sizeof cfg));
-    ESR_TRY(get(b, &stage, 4));
-    ESR_TRY(get(b, &step, 8));
-    ESR_TRY(get(b, &done, 4));
-    ESR_TRY(get(b, smin, 12));
-    ESR_TRY(get(b, smax, 12));
-    ESR_TRY(get(b, &n, 8));
-    if (stage < 0 || stage >= ESR_STAGE_COUNT || step < 0)
-        return ESR_FAIL("checkpoint %s: corrupt header (stage %d, step %lld)", b->path, (int)stage,
-                        (long long)step);
-    if (esr_model_init(m, &cfg, (enum esr_stage)stage, NULL, smin, smax) != ESR_OK)
-        return ESR_FAIL("checkpoint %s: invalid stored configuration: %s", b->path,
-                        esr_error_message());
-    if (n != m->params.count) {
-        esr_model_free(m);
-        return ESR_FAIL("checkpoint %s: %llu parameters stored, the configuration needs %zu",
-                        b->path, (unsigned long long)n, m->params.count);
+    if (ver != CKPT_VERSION)
+        return ESR_FAIL("checkpoint %s: format version %u, this build reads version %u%s", b->path,
+                        ver, CKPT_VERSION,
+                        ver < CKPT_VERSION ? " (written by an older esr: train again)" : "");
+    ESR_TRY(get(b, &hn, 8));
+    if (hn == 0 || hn > CKPT_MAX_HEADER || hn > b->n - b->at)
+        return ESR_FAIL("checkpoint %s: truncated or corrupt header (%llu bytes)", b->path,
+                        (unsigned long long)hn);
+    cJSON *h = cJSON_ParseWithLength((const char *)b->p + b->at, (size_t)hn);
+    b->at += (size_t)hn;
+    if (!h)
+        return ESR_FAIL("checkpoint %s: header is not valid JSON", b->path);
+    double n = 0;
+    int rc = json_count(h, "params", 1e12, &n, b->path);
+    if (rc == ESR_OK && 3.0 * n * sizeof(float) > (double)(b->n - b->at))
+        rc = ESR_FAIL("checkpoint %s: truncated (%zu bytes; %.0f parameters need more)", b->path,
+                      b->n, n);
+    if (rc == ESR_OK)
+        rc = model_from_header(m, h, b->path);
+    if (rc == ESR_OK) {
+        rc = read_components(m, h, b->p + b->at, n, b->path);
+        b->at += 3 * (size_t)n * sizeof(float);
+        if (rc == ESR_OK)
+            rc = read_mask(m, h, b);
+        if (rc != ESR_OK)
+            esr_model_free(m);
     }
-    m->step = step;
-    m->stage_done = done;
-    m->inv_s = esr_model_inv_s_at(m, step);
-    int rc = get(b, m->params.w, n * 4);
-    if (rc == ESR_OK)
-        rc = get(b, m->adam.m, n * 4);
-    if (rc == ESR_OK)
-        rc = get(b, m->adam.v, n * 4);
-    if (rc == ESR_OK)
-        rc = get(b, &has, 4);
-    if (rc == ESR_OK && has)
-        rc = read_mask(m, b);
-    if (rc != ESR_OK)
-        esr_model_free(m);
+    cJSON_Delete(h);
     return rc;
 }
 
@@ -169,8 +271,7 @@ static int pick_in_dir(const char *dir, char *out, size_t n)
         if (esr_file_exists(out))
             return ESR_OK;
     }
-    return ESR_FAIL("run directory %s: no checkpoint (ckpt_{alphamask,coarse,fine}.bin) in it",
-                    dir);
+    return ESR_FAIL("run directory %s: no checkpoint (ckpt_<stage>.bin) in it", dir);
 }
 
 int esr_model_load(struct esr_model *m, const char *path)

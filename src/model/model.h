@@ -1,17 +1,18 @@
-/* The trained scene model: configuration + fields + MLPs with every parameter in one flat buffer
- * (nn/params.h), so a checkpoint is config + weights (+ optimiser moments) + step.
+/* The trained scene model: configuration + components (model/components.h) with every parameter
+ * in one flat buffer (nn/params.h), so a checkpoint is config + named parameter ranges (+ the
+ * optimiser moments) + step.
  *
- * Which parts exist depends on the stage the model has reached:
- *   alphamask: density grid (DVGO) -> mask cache
+ * Which components exist depends on the stage the model has reached (the stage table):
+ *   alphamask: density grid (DVGO) + direct colour grid -> mask cache
  *   coarse:    SDF grid + colour feature grid + colour MLP (sigmoid, LDR sRGB directly; the
  *              lighting flag is one MLP input so off/on images share geometry)
  *   fine:      SDF grid (upsampled) + off/emo feature grids + off/emo radiance MLPs (softplus,
  *              linear HDR, L_on = L_off + L_emo) + tone-mapper m_theta (sigmoid) applied per
  *              sample before compositing (METHOD.md "Rendering loss and colour").
  * Rendering always composites on a white background. The coarse SDF starts as the signed
- * distance to the alphamask's occupied voxels (train/sdf_init.h), the fine SDF is the coarse one
+ * distance to the alphamask's occupied voxels (model/sdf_init.h), the fine SDF is the coarse one
  * resampled, and the fine stage narrows the mask cache to a band around the coarse surface.
- * A run directory holds one checkpoint per stage: RUN/ckpt_{alphamask,coarse,fine}.bin. */
+ * A run directory holds one checkpoint per stage: RUN/ckpt_<stage>.bin. */
 #ifndef ESR_MODEL_MODEL_H
 #define ESR_MODEL_MODEL_H
 
@@ -21,20 +22,23 @@
 #include "fields/geo_feature.h"
 #include "fields/grid.h"
 #include "fields/mask.h"
+#include "model/components.h"
+#include "model/config.h"
 #include "nn/adam.h"
 #include "nn/encoding.h"
 #include "nn/mlp.h"
 #include "nn/params.h"
-#include "model/config.h"
 
 #ifdef __cplusplus
 extern "C" {
 #endif
 
-enum esr_stage { ESR_STAGE_ALPHAMASK, ESR_STAGE_COARSE, ESR_STAGE_FINE, ESR_STAGE_COUNT };
-/* "alphamask", "coarse", "fine"; NULL for an invalid stage. */
-const char *esr_stage_name(enum esr_stage s);
-int esr_stage_from_name(const char *name, enum esr_stage *out);
+/* One component's place in a model: its parameter range and its shape. */
+struct esr_part {
+    size_t off, count;    /* range of m->params (count 0: the stage does not have it) */
+    struct esr_grid grid; /* ESR_KIND_GRID: the lattice */
+    struct esr_mlp mlp;   /* ESR_KIND_MLP: the network (mlp.offset == off) */
+};
 
 struct esr_model {
     struct esr_train_config cfg;
@@ -45,26 +49,35 @@ struct esr_model {
 
     struct esr_nn_params params; /* every parameter (and its gradient) */
     struct esr_adam adam;        /* optimiser moments, same layout */
+    struct esr_part part[ESR_COMP_COUNT];
 
-    /* alphamask */
-    struct esr_grid density;  size_t density_off;
-    float density_shift;      /* DVGO act_shift */
-    /* mask cache (from the alphamask stage; all-occupied until then) */
-    struct esr_mask mask;
+    float density_shift;  /* DVGO act_shift of the density grid */
+    struct esr_mask mask; /* mask cache (from the alphamask stage; all-occupied until then) */
     int has_mask;
-
-    /* coarse + fine */
-    struct esr_grid sdf;      size_t sdf_off;
-    float inv_s;              /* NeuS s at the current step (esr_model_inv_s_at(step)) */
-    /* coarse */
-    struct esr_grid feat;     size_t feat_off;
-    struct esr_mlp colour;
-    /* fine */
-    struct esr_grid feat_off_g, feat_emo_g; size_t feat_off_off, feat_emo_off;
-    struct esr_mlp rad_off, rad_emo, tone;
+    float inv_s;          /* NeuS s at the current step (esr_stage_inv_s) */
+    /* encodings and the geometry feature the MLP components read */
     struct esr_geo_feature_params geo;
     struct esr_pe pe_pos, pe_dir, pe_tone;
 };
+
+/* 1 when m's stage has component c. */
+static inline int esr_model_has(const struct esr_model *m, enum esr_component c)
+{
+    return m->part[c].count > 0;
+}
+static inline const struct esr_grid *esr_model_grid(const struct esr_model *m, enum esr_component c)
+{
+    return &m->part[c].grid;
+}
+static inline const struct esr_mlp *esr_model_mlp(const struct esr_model *m, enum esr_component c)
+{
+    return &m->part[c].mlp;
+}
+/* The component's values (grid data) inside the flat parameter buffer. */
+static inline float *esr_model_values(const struct esr_model *m, enum esr_component c)
+{
+    return m->params.w + m->part[c].off;
+}
 
 /* A fresh model at the start of `stage` for the given config (fields initialised: sphere SDF,
  * small random features, Kaiming MLPs; deterministic in cfg->seed). When `prev` is non-NULL
@@ -73,16 +86,15 @@ int esr_model_init(struct esr_model *m, const struct esr_train_config *cfg, enum
                    const struct esr_model *prev, const float scene_min[3], const float scene_max[3]);
 void esr_model_free(struct esr_model *m);
 
-/* NeuS inv-s of m's stage after `step` iterations: s0 + step / s_div (METHOD.md); 0 for the
- * alphamask stage. */
-float esr_model_inv_s_at(const struct esr_model *m, long step);
-
 /* Loads a model: `path` is a checkpoint file, or a run directory (then the most advanced stage's
- * checkpoint in it is used: fine, else coarse, else alphamask). Fails naming the file on a
- * missing/truncated/corrupt checkpoint or a version mismatch. */
+ * checkpoint in it is used). The checkpoint stores its options as JSON and its parameters as
+ * named components: options the file lacks take their preset default, components the stage has
+ * but the file lacks keep their fresh initial values; a component of a different size, one this
+ * build does not know, a truncated file or a wrong version is refused naming the file and the
+ * mismatch. */
 int esr_model_load(struct esr_model *m, const char *path);
-/* Writes the model (config, stage, step, weights, Adam moments, mask cache) atomically
- * (temp + rename) with a version number. */
+/* Writes the model (options as JSON, stage, step, the component table, weights, Adam moments,
+ * mask cache) atomically (temp + rename) with a format version. */
 int esr_model_save(const struct esr_model *m, const char *path);
 
 /* What esr_model_render_rays writes; any pointer may be NULL (not computed). */

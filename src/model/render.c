@@ -12,12 +12,13 @@
 
 int esr_model_view_sdf(const struct esr_model *m, const float *raw, float *out, float *scratch)
 {
-    size_t n = esr_grid_count(&m->sdf);
-    if (m->stage != ESR_STAGE_COARSE || m->cfg.smooth_ksize <= 1) {
+    const struct esr_grid *g = esr_model_grid(m, ESR_COMP_SDF);
+    size_t n = esr_grid_count(g);
+    if (!esr_stage_info((enum esr_stage)m->stage)->smoothed_sdf || m->cfg.smooth_ksize <= 1) {
         memcpy(out, raw, n * sizeof(float));
         return ESR_OK;
     }
-    return esr_grid_smooth_fwd(&m->sdf, raw, out, scratch, m->cfg.smooth_ksize,
+    return esr_grid_smooth_fwd(g, raw, out, scratch, m->cfg.smooth_ksize,
                                m->cfg.smooth_sigma);
 }
 
@@ -32,8 +33,8 @@ int esr_model_render_rays(const struct esr_model *m, const float *origins, const
 {
     const float *sdf = NULL;
     float *view = NULL, *scratch = NULL;
-    if (m->stage >= ESR_STAGE_COARSE) {
-        size_t ns = esr_grid_count(&m->sdf);
+    if (esr_model_has(m, ESR_COMP_SDF)) {
+        size_t ns = esr_grid_count(esr_model_grid(m, ESR_COMP_SDF));
         view = malloc(ns * sizeof(float));
         scratch = malloc(ns * sizeof(float));
         if (!view || !scratch) {
@@ -41,7 +42,7 @@ int esr_model_render_rays(const struct esr_model *m, const float *origins, const
             free(scratch);
             return ESR_FAIL("render: out of memory for the SDF view");
         }
-        int rc = esr_model_view_sdf(m, m->params.w + m->sdf_off, view, scratch);
+        int rc = esr_model_view_sdf(m, esr_model_values(m, ESR_COMP_SDF), view, scratch);
         free(scratch);
         if (rc != ESR_OK) {
             free(view);
@@ -53,33 +54,37 @@ int esr_model_render_rays(const struct esr_model *m, const float *origins, const
     int chunk = n < RENDER_CHUNK ? (int)(n ? n : 1) : RENDER_CHUNK;
     int rc = esr_trace_init(&t, m, chunk, 0);
     float *depth = NULL, *normal = NULL, *opac = NULL;
+    uint8_t *flags = NULL;
     if (rc == ESR_OK) {
+        flags = malloc((size_t)chunk);
         depth = malloc((size_t)chunk * sizeof(float));
         normal = malloc((size_t)chunk * 3 * sizeof(float));
         opac = malloc((size_t)chunk * sizeof(float));
-        if (!depth || !normal || !opac)
+        if (!depth || !normal || !opac || !flags)
             rc = ESR_FAIL("render: out of memory");
+        else
+            memset(flags, lights_on ? 1 : 0, (size_t)chunk);
     }
     for (size_t r0 = 0; rc == ESR_OK && r0 < n; r0 += (size_t)chunk) {
         int c = (int)(n - r0 < (size_t)chunk ? n - r0 : (size_t)chunk);
-        rc = esr_trace_fwd(&t, m, sdf, origins + r0 * 3, dirs + r0 * 3, c, lights_on ? 0 : c, 0);
+        rc = esr_trace_fwd(&t, m, sdf, origins + r0 * 3, dirs + r0 * 3, flags, c, 0);
         if (rc != ESR_OK)
             break;
-        esr_trace_extras(&t, m, sdf, depth, normal, opac);
+        esr_trace_extras(&t, depth, normal, opac);
         copy_out(out->rgb, t.rgb3, r0 * 3, (size_t)c * 3);
         copy_out(out->depth, depth, r0, (size_t)c);
         copy_out(out->normal, normal, r0 * 3, (size_t)c * 3);
         copy_out(out->opacity, opac, r0, (size_t)c);
         if (out->linear) {
             for (size_t i = 0; i < (size_t)c * 3; i++)
-                out->linear[r0 * 3 + i] = m->stage == ESR_STAGE_FINE
-                                              ? t.lin_rgb3[i]
-                                              : esr_linear_from_srgb(t.rgb3[i]);
+                out->linear[r0 * 3 + i] = t.fields.lin3 ? t.lin_rgb3[i]
+                                                        : esr_linear_from_srgb(t.rgb3[i]);
         }
     }
     free(depth);
     free(normal);
     free(opac);
+    free(flags);
     esr_trace_free(&t);
     free(view);
     return rc;

@@ -55,7 +55,7 @@ int esr_sdf_init_from_density(struct esr_model *m, const struct esr_model *prev,
                               int *used)
 {
     *used = 0;
-    const struct esr_grid *g = &m->sdf;
+    const struct esr_grid *g = esr_model_grid(m, ESR_COMP_SDF);
     size_t n = esr_grid_voxels(g);
     float *dens = malloc(n * sizeof(float)), *d_out = malloc(n * sizeof(float)),
           *d_in = malloc(n * sizeof(float));
@@ -63,7 +63,8 @@ int esr_sdf_init_from_density(struct esr_model *m, const struct esr_model *prev,
     int rc = dens && d_out && d_in && occ && free_ ? ESR_OK
                                                    : ESR_FAIL("SDF init: out of memory");
     if (rc == ESR_OK)
-        rc = esr_grid_resample(&prev->density, prev->params.w + prev->density_off, g, dens);
+        rc = esr_grid_resample(esr_model_grid(prev, ESR_COMP_DENSITY), esr_model_values(prev, ESR_COMP_DENSITY), g,
+                               dens);
     size_t inside = 0;
     if (rc == ESR_OK) {
         for (size_t i = 0; i < n; i++) {
@@ -78,7 +79,7 @@ int esr_sdf_init_from_density(struct esr_model *m, const struct esr_model *prev,
         chamfer(occ, d_out, g->nx, g->ny, g->nz);
         chamfer(free_, d_in, g->nx, g->ny, g->nz);
         float vs = esr_grid_voxel_size(g, 0);
-        float *sdf = m->params.w + m->sdf_off;
+        float *sdf = esr_model_values(m, ESR_COMP_SDF);
         for (size_t i = 0; i < n; i++)
             sdf[i] = (occ[i] ? -(d_in[i] - 0.5f) : d_out[i] - 0.5f) * vs;
         *used = 1;
@@ -94,12 +95,12 @@ int esr_sdf_init_from_density(struct esr_model *m, const struct esr_model *prev,
 int esr_mask_narrow_to_sdf(struct esr_model *m, const struct esr_model *prev, float band)
 {
     struct esr_mask *k = &m->mask;
-    size_t nv = (size_t)k->nx * k->ny * k->nz, ns = esr_grid_count(&prev->sdf);
+    size_t nv = (size_t)k->nx * k->ny * k->nz, ns = esr_grid_count(esr_model_grid(prev, ESR_COMP_SDF));
     float *view = malloc(ns * sizeof(float)), *scratch = malloc(ns * sizeof(float));
     float *pos = malloc(nv * 3 * sizeof(float)), *val = malloc(nv * sizeof(float));
     int rc = view && scratch && pos && val ? ESR_OK : ESR_FAIL("mask narrowing: out of memory");
     if (rc == ESR_OK)
-        rc = esr_model_view_sdf(prev, prev->params.w + prev->sdf_off, view, scratch);
+        rc = esr_model_view_sdf(prev, esr_model_values(prev, ESR_COMP_SDF), view, scratch);
     if (rc == ESR_OK) {
         struct esr_grid lat;
         rc = esr_grid_init(&lat, 1, k->nx, k->ny, k->nz, k->bmin, k->bmax);
@@ -109,7 +110,7 @@ int esr_mask_narrow_to_sdf(struct esr_model *m, const struct esr_model *prev, fl
                     esr_grid_voxel_pos(&lat, x, y, z, pos + (((size_t)z * k->ny + y) * k->nx + x) * 3);
     }
     if (rc == ESR_OK) {
-        esr_grid_sample_fwd(&prev->sdf, view, pos, nv, val);
+        esr_grid_sample_fwd(esr_model_grid(prev, ESR_COMP_SDF), view, pos, nv, val);
         for (size_t i = 0; i < nv; i++)
             k->occ[i] = k->occ[i] && fabsf(val[i]) <= band;
     }

@@ -61,20 +61,20 @@ int esr_ray_set_build(struct esr_ray_set *rs, const struct esr_dataset *ds, enum
 }
 
 void esr_ray_set_draw(const struct esr_ray_set *rs, uint64_t seed, long step, int n, float *orig3,
-                      float *dir3, float *rgb3, int *n_off_out)
+                      float *dir3, float *rgb3, uint8_t *lights_on)
 {
     int n_off = (int)llround((double)n * (double)rs->n_off / (double)rs->n);
     if (rs->n_off > 0 && n_off == 0)
         n_off = 1;
     if (rs->n_off < rs->n && n_off == n)
         n_off = n - 1;
-    *n_off_out = n_off;
     const size_t n_on_rays = rs->n - rs->n_off;
 #pragma omp parallel for schedule(static)
     for (int i = 0; i < n; i++) {
         struct esr_rng rng = esr_rng_init(seed, (uint64_t)step * (uint64_t)n + (uint64_t)i);
         uint64_t u = ((uint64_t)esr_rng_u32(&rng) << 32) | esr_rng_u32(&rng);
         size_t r = i < n_off ? (size_t)(u % rs->n_off) : rs->n_off + (size_t)(u % n_on_rays);
+        lights_on[i] = i >= n_off;
         for (int c = 0; c < 3; c++) {
             orig3[i * 3 + c] = rs->orig3[r * 3 + c];
             dir3[i * 3 + c] = rs->dir3[r * 3 + c];

@@ -18,10 +18,11 @@ struct esr_ray_set {
 int esr_ray_set_build(struct esr_ray_set *rs, const struct esr_dataset *ds, enum esr_phase_id phase);
 void esr_ray_set_free(struct esr_ray_set *rs);
 
-/* Draws a batch of n rays for iteration `step`: the off/on split follows the set's proportion
- * (*n_off_out of them off, first), ray i of the batch is a pure function of (seed, step, i).
- * Writes origins/dirs/targets [n*3]. */
+/* Draws a batch of n rays for iteration `step`, stratified by lighting: the off/on split follows
+ * the set's proportion (at least one of each when the set has both), ray i of the batch is a pure
+ * function of (seed, step, i). Writes origins/dirs/targets [n*3] and lights_on[n] (1 = a
+ * lights-on ray). */
 void esr_ray_set_draw(const struct esr_ray_set *rs, uint64_t seed, long step, int n, float *orig3,
-                      float *dir3, float *rgb3, int *n_off_out);
+                      float *dir3, float *rgb3, uint8_t *lights_on);
 
 #endif

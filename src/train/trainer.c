@@ -24,8 +24,7 @@
 #include "nn/schedule.h"
 #include "train/rays.h"
 #include "train/render_loss.h"
-#include "model/render_sdf.h"
-#include "model/trace.h"
+#include "train/step.h"
 
 #define MAX_NAN_FAILURES 3
 
@@ -38,14 +37,6 @@ struct run {
     int nan_injected;
     int stopped; /* the stop_test_iter hook fired */
     char log_path[4096];
-};
-
-/* A stage's working buffers, allocated once at stage start. */
-struct stage_buf {
-    struct esr_trace tr;
-    float *orig3, *dir3, *tgt3, *d_rgb3, *d_lin3;
-    float *sdf_view, *g_sdf_view, *scratch; /* coarse: smoothed SDF and its gradient */
-    float *grad_tv_work;                    /* smoothed-gradient TV work space */
 };
 
 struct window {
@@ -78,124 +69,77 @@ static void ckpt_path(const struct run *r, enum esr_stage s, char *out, size_t n
     snprintf(out, n, "%s/ckpt_%s.bin", r->o->run_dir, esr_stage_name(s));
 }
 
-static const struct esr_stage_config *stage_cfg(const struct esr_train_config *c, enum esr_stage s)
+/* The stage option a component's learning rate comes from (component table: lr class). */
+static float component_lr(const struct esr_stage_config *sc, enum esr_component c)
 {
-    return s == ESR_STAGE_ALPHAMASK ? &c->alphamask : s == ESR_STAGE_COARSE ? &c->coarse : &c->fine;
-}
-
-static void stage_buf_free(struct stage_buf *b)
-{
-    esr_trace_free(&b->tr);
-    float *bufs[] = {b->orig3, b->dir3, b->tgt3, b->d_rgb3, b->d_lin3, b->sdf_view, b->g_sdf_view,
-                     b->scratch, b->grad_tv_work};
-    for (size_t i = 0; i < sizeof bufs / sizeof bufs[0]; i++)
-        free(bufs[i]);
-    memset(b, 0, sizeof(*b));
-}
-
-static int stage_buf_init(struct stage_buf *b, const struct esr_model *m, int B)
-{
-    memset(b, 0, sizeof(*b));
-    ESR_TRY(esr_trace_init(&b->tr, m, B, 1));
-    float **per_ray[] = {&b->orig3, &b->dir3, &b->tgt3, &b->d_rgb3, &b->d_lin3};
-    int ok = 1;
-    for (size_t i = 0; i < sizeof per_ray / sizeof per_ray[0]; i++)
-        ok &= (*per_ray[i] = malloc((size_t)B * 3 * sizeof(float))) != NULL;
-    if (ok && m->stage == ESR_STAGE_COARSE && m->cfg.smooth_ksize > 1) {
-        size_t ns = esr_grid_count(&m->sdf);
-        ok &= (b->sdf_view = malloc(ns * sizeof(float))) != NULL;
-        ok &= (b->g_sdf_view = malloc(ns * sizeof(float))) != NULL;
-        ok &= (b->scratch = malloc(ns * sizeof(float))) != NULL;
+    switch (esr_component_info(c)->lr) {
+    case ESR_LR_GRID:
+        return sc->lr_grid;
+    case ESR_LR_FEAT:
+        return sc->lr_feat;
+    case ESR_LR_MLP:
+        break;
     }
-    if (ok && m->stage != ESR_STAGE_ALPHAMASK && stage_cfg(&m->cfg, m->stage)->tv_sdf_grad > 0.0f)
-        ok &= (b->grad_tv_work = malloc(esr_sdf_grad_tv_work(&m->sdf) * sizeof(float))) != NULL;
-    if (!ok) {
-        stage_buf_free(b);
-        return ESR_FAIL("train: out of memory for a batch of %d rays", B);
-    }
-    return ESR_OK;
+    return sc->lr_mlp;
 }
 
-/* One Adam step over every parameter range of the stage with its learning rate. */
+/* One Adam step over every component the stage trains, each with its learning rate; grids
+ * take sparse Adam with beta2 0.99 (DVGO/Voxurf), MLPs dense Adam with 0.999. */
 static void adam_all(struct esr_model *m, enum esr_stage s, float lr_scale, long t)
 {
-    const struct esr_stage_config *sc = stage_cfg(&m->cfg, s);
-    struct range {
-        size_t off, n;
-        float lr;
-        int grid;
-    } rg[8];
-    int n = 0;
-    if (s == ESR_STAGE_ALPHAMASK) {
-        rg[n++] = (struct range){m->density_off, esr_grid_count(&m->density), sc->lr_grid, 1};
-        rg[n++] = (struct range){m->feat_off, esr_grid_count(&m->feat), sc->lr_feat, 1};
-    } else if (s == ESR_STAGE_COARSE) {
-        rg[n++] = (struct range){m->sdf_off, esr_grid_count(&m->sdf), sc->lr_grid, 1};
-        rg[n++] = (struct range){m->feat_off, esr_grid_count(&m->feat), sc->lr_feat, 1};
-        rg[n++] = (struct range){m->colour.offset, m->colour.count, sc->lr_mlp, 0};
-    } else {
-        rg[n++] = (struct range){m->sdf_off, esr_grid_count(&m->sdf), sc->lr_grid, 1};
-        rg[n++] = (struct range){m->feat_off_off, esr_grid_count(&m->feat_off_g), sc->lr_feat, 1};
-        rg[n++] = (struct range){m->feat_emo_off, esr_grid_count(&m->feat_emo_g), sc->lr_feat, 1};
-        rg[n++] = (struct range){m->rad_off.offset, m->rad_off.count, sc->lr_mlp, 0};
-        rg[n++] = (struct range){m->rad_emo.offset, m->rad_emo.count, sc->lr_mlp, 0};
-        rg[n++] = (struct range){m->tone.offset, m->tone.count, sc->lr_mlp, 0};
-    }
-    for (int i = 0; i < n; i++) {
+    const struct esr_stage_config *sc = esr_stage_options(&m->cfg, s);
+    const uint32_t trained = esr_stage_info(s)->trained;
+    for (int c = 0; c < ESR_COMP_COUNT; c++) {
+        if (!(trained & ESR_BIT(c)) || !esr_model_has(m, (enum esr_component)c))
+            continue;
+        const int grid = esr_component_info((enum esr_component)c)->kind == ESR_KIND_GRID;
         struct esr_adam_hp hp;
-        hp.lr = rg[i].lr * lr_scale;
+        hp.lr = component_lr(sc, (enum esr_component)c) * lr_scale;
         hp.beta1 = 0.9f;
-        hp.beta2 = rg[i].grid ? 0.99f : 0.999f; /* DVGO/Voxurf grids */
+        hp.beta2 = grid ? 0.99f : 0.999f;
         hp.eps = 1e-8f;
-        hp.sparse = rg[i].grid;
-        esr_adam_step(&hp, t, &m->adam, m->params.w, m->params.g, rg[i].off, rg[i].n);
+        hp.sparse = grid;
+        esr_adam_step(&hp, t, &m->adam, m->params.w, m->params.g, m->part[c].off, m->part[c].count);
     }
 }
 
-/* Learning-rate factor at step it: exponential decay (alphamask, coarse) or cosine (fine). */
+/* Learning-rate factor at step it, by the stage's decay: exponential or cosine. */
 static float lr_factor(const struct esr_stage_config *sc, enum esr_stage s, long it)
 {
-    if (s == ESR_STAGE_FINE)
+    if (esr_stage_info(s)->decay == ESR_DECAY_COSINE)
         return esr_lr_cosine_factor(it, sc->iters, 0, sc->lr_final);
     return esr_lr_exp_factor(it, sc->iters, sc->lr_final);
 }
 
-/* Total-variation regularisers of the stage's grids: gradients added, loss added to *total. */
-static int add_tv(struct esr_model *m, const struct stage_buf *b, enum esr_stage s, long it,
+/* Total-variation regularisers of the stage's grids (component table: TV class), every
+ * tv_every iterations with the weight scaled by it: gradients added, loss added to *total. */
+static int add_tv(struct esr_model *m, const struct esr_train_step *b, enum esr_stage s, long it,
                   double *total)
 {
-    const struct esr_stage_config *sc = stage_cfg(&m->cfg, s);
+    const struct esr_stage_config *sc = esr_stage_options(&m->cfg, s);
     const int every = m->cfg.tv_every;
-    double l = 0.0;
-    if (s == ESR_STAGE_ALPHAMASK || it % every != 0)
+    if (it % every != 0)
         return ESR_OK;
-    float *sdf = m->params.w + m->sdf_off, *g_sdf = m->params.g + m->sdf_off;
-    if (sc->tv_sdf > 0.0f) {
-        ESR_TRY(esr_grid_tv_add_grad(&m->sdf, sdf, sc->tv_sdf * (float)every, g_sdf, &l));
+    for (int c = 0; c < ESR_COMP_COUNT; c++) {
+        const enum esr_tv_class tv = esr_component_info((enum esr_component)c)->tv;
+        const float weight = tv == ESR_TV_SDF ? sc->tv_sdf : tv == ESR_TV_FEAT ? sc->tv_feat : 0.0f;
+        if (weight <= 0.0f || !esr_model_has(m, (enum esr_component)c))
+            continue;
+        double l = 0.0;
+        ESR_TRY(esr_grid_tv_add_grad(esr_model_grid(m, (enum esr_component)c),
+                                     esr_model_values(m, (enum esr_component)c), weight * (float)every,
+                                     m->params.g + m->part[c].off, &l));
         *total += l;
     }
     if (b->grad_tv_work) {
         /* on the raw SDF, smoothed with the coarse stage's kernel (Voxurf's smooth_grad_tv) */
+        double l = 0.0;
         int ksize = m->cfg.smooth_ksize > 1 ? m->cfg.smooth_ksize : 1;
-        ESR_TRY(esr_sdf_grad_tv_add_grad(&m->sdf, sdf, sc->tv_sdf_grad * (float)every, ksize,
-                                         m->cfg.smooth_sigma, b->grad_tv_work, g_sdf, &l));
+        ESR_TRY(esr_sdf_grad_tv_add_grad(esr_model_grid(m, ESR_COMP_SDF),
+                                         esr_model_values(m, ESR_COMP_SDF),
+                                         sc->tv_sdf_grad * (float)every, ksize, m->cfg.smooth_sigma,
+                                         b->grad_tv_work, m->params.g + m->part[ESR_COMP_SDF].off, &l));
         *total += l;
-    }
-    if (sc->tv_feat > 0.0f) {
-        const float w = sc->tv_feat * (float)every;
-        const struct esr_grid *g[2] = {&m->feat, &m->feat_off_g};
-        size_t off[2] = {m->feat_off, m->feat_off_off};
-        int ng = s == ESR_STAGE_COARSE ? 1 : 2;
-        if (s == ESR_STAGE_FINE) {
-            g[0] = &m->feat_off_g;
-            off[0] = m->feat_off_off;
-            g[1] = &m->feat_emo_g;
-            off[1] = m->feat_emo_off;
-        }
-        for (int i = 0; i < ng; i++) {
-            ESR_TRY(esr_grid_tv_add_grad(g[i], m->params.w + off[i], w, m->params.g + off[i], &l));
-            *total += l;
-        }
     }
     return ESR_OK;
 }
@@ -267,40 +211,20 @@ static int recover(struct run *r, struct esr_model *m, enum esr_stage s, long it
 }
 
 /* Forward + loss + backward + regularisers for iteration it; returns the loss in *loss. */
-static int iterate(struct run *r, struct esr_model *m, struct stage_buf *b, enum esr_stage s,
+static int iterate(struct run *r, struct esr_model *m, struct esr_train_step *b, enum esr_stage s,
                    long it, struct window *w, double *loss)
 {
     const int B = r->cfg.batch_rays;
-    int n_off;
     uint64_t seed = esr_mix64((uint64_t)r->cfg.seed * 0x100000001b3ULL + (uint64_t)s);
-    esr_ray_set_draw(&r->rays, seed, it, B, b->orig3, b->dir3, b->tgt3, &n_off);
-    float *raw = m->params.w + m->sdf_off, *g_raw = m->params.g + m->sdf_off;
-    const float *sdf = raw;
-    float *g_sdf = g_raw;
-    if (b->sdf_view) {
-        ESR_TRY(esr_model_view_sdf(m, raw, b->sdf_view, b->scratch));
-        sdf = b->sdf_view;
-        g_sdf = b->g_sdf_view;
-        memset(g_sdf, 0, esr_grid_count(&m->sdf) * sizeof(float));
-    }
-    esr_nn_params_zero_grad(&m->params, 0, m->params.count);
-    ESR_TRY(esr_trace_fwd(&b->tr, m, s == ESR_STAGE_ALPHAMASK ? NULL : sdf, b->orig3, b->dir3, B,
-                          n_off, esr_mix64(seed + (uint64_t)it)));
-    float lambda = s == ESR_STAGE_FINE ? r->cfg.lambda_tau : 0.0f;
+    esr_ray_set_draw(&r->rays, seed, it, B, b->orig3, b->dir3, b->tgt3, b->lights_on);
     struct esr_render_loss_result lr;
-    esr_render_loss_batch(b->tr.rgb3, b->tr.lin_rgb3, b->tgt3, (size_t)B, lambda, b->d_rgb3,
-                          s == ESR_STAGE_FINE ? b->d_lin3 : NULL, &lr);
-    ESR_TRY(esr_trace_bwd(&b->tr, m, sdf, g_sdf, m->params.g, b->d_rgb3,
-                          s == ESR_STAGE_FINE ? b->d_lin3 : NULL));
-    if (b->sdf_view)
-        ESR_TRY(esr_grid_smooth_bwd(&m->sdf, b->g_sdf_view, g_raw, b->scratch,
-                                    m->cfg.smooth_ksize, m->cfg.smooth_sigma));
+    ESR_TRY(esr_train_step_run(b, m, B, esr_mix64(seed + (uint64_t)it), &lr));
     *loss = lr.loss;
     ESR_TRY(add_tv(m, b, s, it, loss));
     w->loss += *loss;
     w->mse += lr.mse_tone;
-    w->samples += (double)b->tr.smp.count;
-    w->kept += (double)b->tr.n_kept;
+    w->samples += (double)b->tr.march.smp.count;
+    w->kept += (double)b->tr.march.n_kept;
     w->iters++;
     return ESR_OK;
 }
@@ -313,14 +237,15 @@ static int save(struct run *r, const struct esr_model *m, enum esr_stage s)
 }
 
 /* Builds the mask cache from the trained density grid. */
-static int finish_alphamask(struct run *r, struct esr_model *m)
+static int build_mask(struct run *r, struct esr_model *m)
 {
-    ESR_TRY(esr_mask_alloc(&m->mask, &m->density));
+    const struct esr_grid *density = esr_model_grid(m, ESR_COMP_DENSITY);
+    ESR_TRY(esr_mask_alloc(&m->mask, density));
     m->has_mask = 1;
-    ESR_TRY(esr_mask_from_density(&m->mask, &m->density, m->params.w + m->density_off,
+    ESR_TRY(esr_mask_from_density(&m->mask, density, esr_model_values(m, ESR_COMP_DENSITY),
                                   m->density_shift, m->cfg.alphamask.step_vox, r->cfg.alpha_thres,
                                   1));
-    size_t occ = esr_mask_count(&m->mask), all = esr_grid_voxels(&m->density);
+    size_t occ = esr_mask_count(&m->mask), all = esr_grid_voxels(density);
     say(r, ESR_STAGE_ALPHAMASK, "mask cache: %zu of %zu voxels occupied (%.1f%%)", occ, all,
         100.0 * (double)occ / (double)all);
     if (occ == 0) /* later stages would march no samples and learn nothing */
@@ -332,10 +257,10 @@ static int finish_alphamask(struct run *r, struct esr_model *m)
 
 static int run_stage(struct run *r, struct esr_model *m, enum esr_stage s)
 {
-    const struct esr_stage_config *sc = stage_cfg(&r->cfg, s);
+    const struct esr_stage_config *sc = esr_stage_options(&r->cfg, s);
     const int B = r->cfg.batch_rays;
-    struct stage_buf b;
-    ESR_TRY(stage_buf_init(&b, m, B));
+    struct esr_train_step b;
+    ESR_TRY(esr_train_step_init(&b, m, B));
     int rc = ESR_OK;
     if (m->step == 0)
         rc = save(r, m, s);
@@ -350,7 +275,7 @@ static int run_stage(struct run *r, struct esr_model *m, enum esr_stage s)
     while (rc == ESR_OK && m->step < sc->iters) {
         long it = m->step;
         float f = lr_factor(sc, s, it);
-        m->inv_s = esr_model_inv_s_at(m, it);
+        m->inv_s = esr_stage_inv_s(&m->cfg, s, it);
         double loss = 0.0;
         rc = iterate(r, m, &b, s, it, &w, &loss);
         if (rc != ESR_OK)
@@ -374,12 +299,12 @@ static int run_stage(struct run *r, struct esr_model *m, enum esr_stage s)
         if (r->o->stop_test_iter > 0 && s == r->o->stop_test_stage &&
             m->step == r->o->stop_test_iter) {
             r->stopped = 1;
-            stage_buf_free(&b);
+            esr_train_step_free(&b);
             return ESR_OK;
         }
     }
-    if (rc == ESR_OK && s == ESR_STAGE_ALPHAMASK)
-        rc = finish_alphamask(r, m);
+    if (rc == ESR_OK && esr_stage_info(s)->builds_mask)
+        rc = build_mask(r, m);
     if (rc == ESR_OK) {
         m->stage_done = 1;
         rc = save(r, m, s);
@@ -394,7 +319,7 @@ static int run_stage(struct run *r, struct esr_model *m, enum esr_stage s)
             r->o->run_dir, esr_stage_name(s));
         report_stage_done(r, s, sc->iters - first_step, sc->iters, secs);
     }
-    stage_buf_free(&b);
+    esr_train_step_free(&b);
     return rc;
 }
 

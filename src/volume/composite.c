@@ -11,6 +11,12 @@ void esr_composite_weights(int n_rays, const size_t *ray_start, const float *alp
     }
 }
 
+/* Where sample i's values live. */
+static size_t row_of(const struct esr_composite_args *a, size_t i)
+{
+    return a->value_row ? (size_t)a->value_row[i] : i;
+}
+
 static const float *bg_of(const struct esr_composite_args *a, int r)
 {
     if (!a->bg)
@@ -31,7 +37,7 @@ void esr_composite_fwd(const struct esr_composite_args *a, float *out)
             float w = a->weight[i];
             if (!esr_composite_keep(w, a->thres))
                 continue;
-            const float *v = a->values + i * (size_t)C;
+            const float *v = a->values + row_of(a, i) * (size_t)C;
             for (int c = 0; c < C; c++)
                 o[c] += w * v[c];
         }
@@ -59,12 +65,12 @@ void esr_composite_bwd(const struct esr_composite_args *a, const float *d_out, f
             int keep = esr_composite_keep(w, a->thres);
             float dv = 0.0f; /* d_out . v_i for kept samples */
             if (keep) {
-                const float *v = a->values + i * (size_t)C;
+                const size_t row = row_of(a, i) * (size_t)C;
                 for (int c = 0; c < C; c++)
-                    dv += d_o[c] * v[c];
+                    dv += d_o[c] * a->values[row + c];
                 if (d_values)
                     for (int c = 0; c < C; c++)
-                        d_values[i * (size_t)C + c] += w * d_o[c];
+                        d_values[row + c] += w * d_o[c];
             }
             if (d_alpha)
                 d_alpha[i] += (w / al) * (dv - dB);

@@ -16,6 +16,7 @@
 #define ESR_VOLUME_COMPOSITE_H
 
 #include <stddef.h>
+#include <stdint.h>
 
 #include "core/simd.h"
 
@@ -52,9 +53,12 @@ struct esr_composite_args {
     const float *t_last;     /* per ray T_N, from esr_composite_weights */
     float thres;             /* ESR_COMPOSITE_THRES in the method */
     int channels;            /* C */
-    const float *values;     /* per sample * C; read only where esr_composite_keep */
+    const float *values;     /* per sample * C, read only where esr_composite_keep; or per kept
+                                row when value_row is set */
     const float *bg;         /* NULL: no background term; else C floats, or n_rays * C */
     int bg_per_ray;          /* 1: bg[r * C + c]; 0: bg[c] for every ray */
+    const uint32_t *value_row; /* NULL: sample i's values at values[i * C]; else at row
+                                  value_row[i] (kept samples only; d_values likewise) */
 };
 
 /* weight[] and t_last[] for every ray of the batch. Parallel over rays. */

@@ -54,10 +54,15 @@ void esr_samples_free(struct esr_samples *s)
 static size_t march(const struct esr_sample_params *p, const float o[3], const float d[3], int r,
                     int32_t *out_ray, float *out_t, float *out_pos)
 {
-    float t0, t1;
-    if (!esr_ray_box_clip(o, d, p->bmin, p->bmax, p->near, p->far, &t0, &t1))
+    float t0, t1, near = p->near, far = p->far;
+    if (p->t_min && p->t_min[r] > near)
+        near = p->t_min[r];
+    if (p->t_max && p->t_max[r] < far)
+        far = p->t_max[r];
+    if (!(near <= far) || !esr_ray_box_clip(o, d, p->bmin, p->bmax, near, far, &t0, &t1))
         return 0;
-    struct esr_rng rng = esr_rng_init(p->seed, p->stream_base + (uint64_t)r);
+    struct esr_rng rng =
+        esr_rng_init(p->seed, p->streams ? p->streams[r] : p->stream_base + (uint64_t)r);
     size_t kept = 0;
     long steps = (long)ceilf((t1 - t0) / p->step);
     for (long k = 0; k < steps; k++) {

@@ -23,6 +23,9 @@ struct esr_sample_params {
     uint64_t stream_base;
     int max_per_ray;             /* cap on samples of one ray (0 = no cap) */
     const struct esr_mask *mask; /* NULL: keep every in-box sample */
+    const float *t_min, *t_max;  /* per ray [n_rays], or NULL: near / far for every ray (each
+                                    narrows [near, far]; secondary and shadow rays) */
+    const uint64_t *streams;     /* per-ray jitter stream [n_rays], or NULL: stream_base + ray */
 };
 
 struct esr_samples {
