@@ -121,7 +121,20 @@ static void test_render(void **state)
     expect_image(dir, "c000_on_normal.png", 3);
     expect_image(dir, "c000_on_depth.png", 1);
     expect_image(dir, "c000_on_depth.exr", 4);
+    expect_image(dir, "c000_on_normal.exr", 4);
     char path[1300];
+    /* N_normal.exr: composited normal (length at most the opacity) and opacity in [0,1]; the
+     * sphere covers the image centre */
+    struct esr_image nrm;
+    snprintf(path, sizeof path, "%s/c000_on_normal.exr", dir);
+    assert_int_equal(esr_exr_read(path, &nrm), ESR_OK);
+    for (int i = 0; i < RES * RES; i++) {
+        const float *p = nrm.data + 4 * i;
+        assert_true(p[3] >= 0.0f && p[3] <= 1.0f + 1e-5f);
+        assert_true(sqrtf(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]) <= p[3] + 1e-4f);
+    }
+    assert_true(nrm.data[4 * (RES / 2 * RES + RES / 2) + 3] > 0.5f);
+    esr_image_free(&nrm);
     snprintf(path, sizeof path, "%s/c000_off.png", dir);
     assert_false(esr_file_exists(path)); /* not selected */
     snprintf(path, sizeof path, "%s/render.json", dir);
@@ -149,6 +162,19 @@ static void test_eval(void **state)
     double psnr = cJSON_GetObjectItem(mean, "psnr")->valuedouble;
     assert_true(psnr > 0.0 && psnr < 100.0);
     assert_non_null(cJSON_GetObjectItem(cJSON_GetObjectItem(root, "by_mode"), "on"));
+    /* esr synth wrote gt/c000_normal.exr: the normal error of the sphere model is there */
+    const cJSON *nrm = cJSON_GetObjectItem(root, "normals");
+    assert_non_null(nrm);
+    assert_int_equal(cJSON_GetObjectItem(nrm, "n_views")->valueint, 2);
+    double deg = cJSON_GetObjectItem(nrm, "mean_deg")->valuedouble;
+    double cover = cJSON_GetObjectItem(nrm, "coverage")->valuedouble;
+    print_message("sphere model vs the default scene's normals: mean %.2f deg, coverage %.3f\n", deg, cover);
+    assert_true(deg > 1.0 && deg < 90.0); /* a sphere is not the scene, nor its opposite */
+    assert_true(cover > 0.1 && cover <= 1.0);
+    const cJSON *v0 = cJSON_GetArrayItem(cJSON_GetObjectItem(root, "views"), 0);
+    assert_true(cJSON_IsNumber(cJSON_GetObjectItem(v0, "normal_deg")));
+    assert_non_null(strstr(out, "normal-deg"));
+    assert_non_null(strstr(out, "normals vs gt"));
     cJSON_Delete(root);
     snprintf(path, sizeof path, "%s/report.html", run_dir);
     assert_true(esr_file_exists(path));
@@ -160,10 +186,18 @@ static void test_eval(void **state)
     snprintf(args, sizeof args, "eval '%s' --rerender --limit 1", run_dir);
     run_ok(args);
     assert_non_null(strstr(out, "rendering 1 of 1"));
+    /* a render directory from before N_normal.exr existed is rendered again */
+    snprintf(path, sizeof path, "%s/render/test_nv/c000_on_normal.exr", run_dir);
+    assert_int_equal(remove(path), 0);
+    snprintf(args, sizeof args, "eval '%s'", run_dir);
+    run_ok(args);
+    assert_non_null(strstr(out, "rendering 1 of 2"));
+    assert_true(esr_file_exists(path));
 }
 
 /* Without a model, complete renders are evaluated as they are: ground-truth copies give the
- * PSNR cap on every view. */
+ * PSNR cap on every view and 0 degrees normal error over every surface pixel. Without the gt/
+ * folder the normal error is left out. */
 static void test_eval_existing(void **state)
 {
     (void)state;
@@ -188,6 +222,18 @@ static void test_eval_existing(void **state)
         assert_int_equal(esr_image_composite_premultiplied(&exr, white, &exr_rgb), ESR_OK);
         snprintf(path, sizeof path, "%s/%s.exr", dir, ph->frames[i].name);
         assert_int_equal(esr_exr_write(path, &exr_rgb, 0), ESR_OK);
+        /* N_normal.exr from the ground-truth normals, opacity 1 on the surface: the frame's
+         * camera is its name's c<CCC> */
+        struct esr_image nrm;
+        snprintf(path, sizeof path, "%s/gt/%.4s_normal.exr", ds_dir, ph->frames[i].name);
+        assert_int_equal(esr_exr_read(path, &nrm), ESR_OK);
+        for (int k = 0; k < RES * RES; k++) {
+            float *p = nrm.data + 4 * k;
+            p[3] = (p[0] != 0.0f || p[1] != 0.0f || p[2] != 0.0f) ? 1.0f : 0.0f;
+        }
+        snprintf(path, sizeof path, "%s/%s_normal.exr", dir, ph->frames[i].name);
+        assert_int_equal(esr_exr_write(path, &nrm, 0), ESR_OK);
+        esr_image_free(&nrm);
         esr_image_free(&rgb);
         esr_image_free(&exr);
         esr_image_free(&exr_rgb);
@@ -203,6 +249,28 @@ static void test_eval_existing(void **state)
     assert_true(cJSON_GetObjectItem(mean, "psnr_linear")->valuedouble == 100.0);
     assert_true(fabs(cJSON_GetObjectItem(mean, "ssim")->valuedouble - 1.0) < 1e-6);
     assert_true(cJSON_GetObjectItem(mean, "hdr_mse")->valuedouble < 1e-12);
+    const cJSON *nrm = cJSON_GetObjectItem(root, "normals");
+    assert_non_null(nrm);
+    assert_true(cJSON_GetObjectItem(nrm, "mean_deg")->valuedouble < 1e-3);
+    assert_true(cJSON_GetObjectItem(nrm, "coverage")->valuedouble == 1.0);
+    assert_true(cJSON_GetObjectItem(nrm, "frac_good")->valuedouble == 1.0);
+    assert_true(cJSON_GetObjectItem(nrm, "n_gt_pixels")->valueint > 0);
+    cJSON_Delete(root);
+    /* a dataset without ground-truth normal maps: no "normals", a note */
+    char gt[1300], gt_aside[1300];
+    snprintf(gt, sizeof gt, "%s/gt", ds_dir);
+    snprintf(gt_aside, sizeof gt_aside, "%s/gt_aside", ds_dir);
+    assert_int_equal(rename(gt, gt_aside), 0);
+    int rc = test_run_esr(args, out, sizeof out);
+    assert_int_equal(rename(gt_aside, gt), 0);
+    if (rc != 0)
+        fail_msg("esr %s exited %d:\n%s", args, rc, out);
+    assert_non_null(strstr(out, "no ground-truth normal maps"));
+    assert_null(strstr(out, "normal-deg"));
+    root = read_json(path);
+    assert_null(cJSON_GetObjectItem(root, "normals"));
+    assert_null(cJSON_GetObjectItem(cJSON_GetArrayItem(cJSON_GetObjectItem(root, "views"), 0), "normal_deg"));
+    assert_non_null(cJSON_GetObjectItem(root, "mean"));
     cJSON_Delete(root);
     /* one file missing and no model: clear error, exit 1 */
     snprintf(path, sizeof path, "%s/c000_on.exr", dir);
@@ -299,6 +367,7 @@ static void test_lamp(void **state)
         const cJSON *hdr = cJSON_GetObjectItem(cJSON_GetArrayItem(views, i), "hdr_mse");
         assert_true(cJSON_IsNumber(hdr) && hdr->valuedouble > 0.0);
     }
+    assert_null(cJSON_GetObjectItem(root, "normals")); /* the lamp scene has no gt/ maps */
     cJSON_Delete(root);
 }
 

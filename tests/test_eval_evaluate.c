@@ -1,6 +1,7 @@
 /* Evaluation of a rendered directory against a dataset phase (eval/evaluate.h), its JSON, frame
  * selection, the HTML report and training curves, on a hand-made 16x16 fixture dataset whose
- * PSNR / HDR MSE values are known in closed form. */
+ * PSNR / HDR MSE values (and, with ground-truth normal maps added, normal errors) are known in
+ * closed form. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -216,6 +217,10 @@ static void test_json(void **state)
     assert_int_equal(cJSON_GetArraySize(by_mode), 2);
     assert_true(cJSON_GetObjectItem(cJSON_GetObjectItem(by_mode, "off"), "psnr")->valuedouble ==
                 ESR_EVAL_PSNR_CAP);
+    /* no gt/ folder: no normal error anywhere */
+    assert_int_equal(res.n_normal_views, 0);
+    assert_null(cJSON_GetObjectItem(root, "normals"));
+    assert_null(cJSON_GetObjectItem(v1, "normal_deg"));
     cJSON_Delete(root);
     esr_eval_result_free(&res);
     free(idx);
@@ -271,6 +276,147 @@ static void test_errors(void **state)
     assert_non_null(strstr(esr_error_message(), "no phase test_nvi"));
     esr_eval_result_free(&res);
     esr_error_clear();
+    free(idx);
+    esr_dataset_free(&ds);
+}
+
+/* Ground-truth normals gt/c000_normal.exr: background (0,0,0) in rows y < 4, (0,0,1) below. */
+static void write_gt_normals(void)
+{
+    char path[1300];
+    struct esr_image img;
+    path_in(path, sizeof path, ds_dir, "gt");
+    assert_int_equal(mkdir(path, 0755), 0);
+    assert_int_equal(esr_image_alloc(&img, RES, RES, 3), ESR_OK);
+    for (int i = 0; i < RES * RES; i++) {
+        img.data[3 * i] = img.data[3 * i + 1] = 0.0f;
+        img.data[3 * i + 2] = i / RES < 4 ? 0.0f : 1.0f;
+    }
+    path_in(path, sizeof path, ds_dir, "gt/c000_normal.exr");
+    assert_int_equal(esr_exr_write(path, &img, 0), ESR_OK);
+    esr_image_free(&img);
+}
+
+/* Rendered N_normal.exr (composited normal, opacity): c000_off exactly the ground truth's
+ * direction at opacity 1 everywhere (background pixels of the ground truth are ignored);
+ * c000_on at 45 degrees, (0, 0.9, 0.9) at opacity 0.9, in columns x < 8 and transparent (0.3)
+ * in the others. */
+static void write_rendered_normals(void)
+{
+    char path[1300];
+    struct esr_image img;
+    assert_int_equal(esr_image_alloc(&img, RES, RES, 4), ESR_OK);
+    for (int i = 0; i < RES * RES; i++) {
+        float *p = img.data + 4 * i;
+        p[0] = p[1] = 0.0f;
+        p[2] = p[3] = 1.0f;
+    }
+    path_in(path, sizeof path, render_dir, "c000_off_normal.exr");
+    assert_int_equal(esr_exr_write(path, &img, 0), ESR_OK);
+    for (int i = 0; i < RES * RES; i++) {
+        float *p = img.data + 4 * i, a = i % RES < 8 ? 0.9f : 0.3f;
+        p[0] = 0.0f;
+        p[1] = p[2] = a;
+        p[3] = a;
+    }
+    path_in(path, sizeof path, render_dir, "c000_on_normal.exr");
+    assert_int_equal(esr_exr_write(path, &img, 0), ESR_OK);
+    esr_image_free(&img);
+}
+
+static void remove_normals(void)
+{
+    char path[1300];
+    static const char *const files[] = {"gt/c000_normal.exr", "gt"};
+    for (int i = 0; i < 2; i++) {
+        path_in(path, sizeof path, ds_dir, files[i]);
+        assert_int_equal(remove(path), 0);
+    }
+    path_in(path, sizeof path, render_dir, "c000_off_normal.exr");
+    assert_int_equal(remove(path), 0);
+    path_in(path, sizeof path, render_dir, "c000_on_normal.exr");
+    assert_int_equal(remove(path), 0);
+}
+
+/* With ground-truth normals: per view and pooled angular errors with values known by
+ * construction, in the result, the JSON and the report; a missing rendered normal map is an
+ * error naming it. */
+static void test_normals(void **state)
+{
+    (void)state;
+    struct esr_dataset ds;
+    struct esr_eval_result res;
+    int *idx, n;
+    char path[1300], moved[1300];
+    write_gt_normals();
+    write_rendered_normals();
+    load_all(&ds, &idx, &n);
+    assert_int_equal(esr_eval_phase(&ds, ESR_PHASE_TEST_NV, idx, n, render_dir, &res), ESR_OK);
+    assert_int_equal(res.n_normal_views, 2);
+    const struct esr_eval_view *off = &res.views[0], *on = &res.views[1];
+    assert_true(off->has_normal_gt && on->has_normal_gt);
+    assert_int_equal(off->normal.n_gt, 192);
+    assert_int_equal(off->normal.n, 192);
+    assert_true(off->normal.mean_deg == 0.0 && off->normal.coverage == 1.0 && off->normal.frac_good == 1.0);
+    assert_int_equal(on->normal.n, 96);
+    assert_true(fabs(on->normal.mean_deg - 45.0) < 1e-4 && fabs(on->normal.median_deg - 45.0) < 1e-4);
+    assert_true(on->normal.frac_good == 0.0 && on->normal.coverage == 0.5);
+    /* pooled over pixels: 192 at 0 degrees and 96 at 45 */
+    assert_int_equal(res.normals.n, 288);
+    assert_int_equal(res.normals.n_gt, 384);
+    assert_true(fabs(res.normals.mean_deg - 15.0) < 1e-4);
+    assert_true(res.normals.median_deg == 0.0);
+    assert_true(fabs(res.normals.frac_good - 2.0 / 3.0) < 1e-12);
+    assert_true(fabs(res.normals.coverage - 0.75) < 1e-12);
+
+    path_in(path, sizeof path, test_tmpdir, "eval_normals.json");
+    assert_int_equal(esr_eval_write_json(path, &ds, &res), ESR_OK);
+    unsigned char *text;
+    size_t size;
+    assert_int_equal(esr_file_read_all(path, &text, &size), ESR_OK);
+    cJSON *root = cJSON_Parse((char *)text);
+    free(text);
+    assert_non_null(root);
+    const cJSON *nrm = cJSON_GetObjectItem(root, "normals");
+    assert_non_null(nrm);
+    assert_int_equal(cJSON_GetObjectItem(nrm, "n_views")->valueint, 2);
+    assert_int_equal(cJSON_GetObjectItem(nrm, "n_pixels")->valueint, 288);
+    assert_int_equal(cJSON_GetObjectItem(nrm, "n_gt_pixels")->valueint, 384);
+    assert_true(fabs(cJSON_GetObjectItem(nrm, "mean_deg")->valuedouble - 15.0) < 1e-4);
+    assert_true(cJSON_GetObjectItem(nrm, "median_deg")->valuedouble == 0.0);
+    assert_true(fabs(cJSON_GetObjectItem(nrm, "frac_good")->valuedouble - 2.0 / 3.0) < 1e-9);
+    assert_true(cJSON_GetObjectItem(nrm, "good_deg")->valuedouble == 10.0);
+    assert_true(fabs(cJSON_GetObjectItem(nrm, "coverage")->valuedouble - 0.75) < 1e-9);
+    const cJSON *v1 = cJSON_GetArrayItem(cJSON_GetObjectItem(root, "views"), 1);
+    assert_true(fabs(cJSON_GetObjectItem(v1, "normal_deg")->valuedouble - 45.0) < 1e-4);
+    assert_true(cJSON_GetObjectItem(v1, "normal_coverage")->valuedouble == 0.5);
+    assert_true(cJSON_IsNumber(cJSON_GetObjectItem(v1, "normal_median_deg")));
+    assert_true(cJSON_IsNumber(cJSON_GetObjectItem(v1, "normal_frac_good")));
+    cJSON_Delete(root);
+
+    char gt_dir[1300], html_path[1300];
+    path_in(html_path, sizeof html_path, test_tmpdir, "report_normals.html");
+    path_in(gt_dir, sizeof gt_dir, test_tmpdir, "eval/test_nv_gt");
+    struct esr_report_spec spec = {html_path, "run", &ds, &res, "render", gt_dir, "eval/test_nv_gt", NULL};
+    assert_int_equal(esr_report_write(&spec), ESR_OK);
+    unsigned char *html;
+    assert_int_equal(esr_file_read_all(html_path, &html, &size), ESR_OK);
+    assert_non_null(strstr((char *)html, "Surface normals"));
+    assert_non_null(strstr((char *)html, "<td>15.00</td>"));
+    assert_non_null(strstr((char *)html, "<td>45.00</td>"));
+    free(html);
+    esr_eval_result_free(&res);
+
+    /* the ground truth has normals but the render directory lacks a normal map */
+    move_aside(render_dir, "c000_on_normal.exr", path, moved, sizeof path);
+    esr_error_clear();
+    assert_int_equal(esr_eval_phase(&ds, ESR_PHASE_TEST_NV, idx, n, render_dir, &res), ESR_ERR);
+    assert_non_null(strstr(esr_error_message(), "c000_on_normal.exr"));
+    assert_non_null(strstr(esr_error_message(), "missing"));
+    esr_error_clear();
+    esr_eval_result_free(&res);
+    assert_int_equal(rename(moved, path), 0);
+    remove_normals();
     free(idx);
     esr_dataset_free(&ds);
 }
@@ -373,7 +519,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_known_values), cmocka_unit_test(test_json),   cmocka_unit_test(test_no_gt_exr),
         cmocka_unit_test(test_errors),       cmocka_unit_test(test_select), cmocka_unit_test(test_curve),
-        cmocka_unit_test(test_report),
+        cmocka_unit_test(test_report),       cmocka_unit_test(test_normals),
     };
     return cmocka_run_group_tests(tests, setup, test_teardown_tmpdir);
 }

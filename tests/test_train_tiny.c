@@ -7,6 +7,7 @@
 #include <stddef.h>
 #include <stdint.h>
 #include <cmocka.h>
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -15,7 +16,10 @@
 #include "io/file.h"
 #include "test_support.h"
 #include "model/model.h"
+#include "eval/evaluate.h"
 #include "eval/quick_eval.h"
+#include "eval/select.h"
+#include "render/view.h"
 #include "train/trainer.h"
 
 static char data_dir[4096];
@@ -113,6 +117,29 @@ static void test_tiny_reaches_psnr(void **state)
     assert_true(ev.views[0] > 0 && ev.views[1] > 0);
     assert_true(tone >= 18.0); /* measured 19.7 */
     assert_true(lin >= 17.5); /* measured 19.6 */
+
+    /* the trained surface's normals against the dataset's gt/c<CCC>_normal.exr */
+    struct esr_dataset ds;
+    struct esr_model m;
+    struct esr_eval_result res;
+    int *idx, n;
+    assert_int_equal(esr_dataset_load(data_dir, &ds), ESR_OK);
+    assert_int_equal(esr_model_load(&m, run), ESR_OK);
+    assert_int_equal(esr_select_frames(&ds.phases[ESR_PHASE_TEST_NV], "test_nv", NULL, 0, &idx, &n), ESR_OK);
+    snprintf(path, sizeof path, "%s/render", run);
+    if (esr_view_render_frames(&m, &ds, ESR_PHASE_TEST_NV, idx, n, path, NULL, NULL) != ESR_OK ||
+        esr_eval_phase(&ds, ESR_PHASE_TEST_NV, idx, n, path, &res) != ESR_OK)
+        fail_msg("%s", esr_error_message());
+    print_message("tiny scene test_nv normals: mean %.2f deg, median %.2f, %.3f under 10 deg, coverage %.3f\n",
+                  res.normals.mean_deg, res.normals.median_deg, res.normals.frac_good, res.normals.coverage);
+    assert_int_equal(res.n_normal_views, n);
+    assert_true(isfinite(res.normals.mean_deg));
+    assert_true(res.normals.mean_deg < 45.0); /* measured 33.6 */
+    assert_true(res.normals.coverage > 0.8);
+    esr_eval_result_free(&res);
+    free(idx);
+    esr_model_free(&m);
+    esr_dataset_free(&ds);
 }
 
 /* Parameters of two checkpoints are bitwise equal. */

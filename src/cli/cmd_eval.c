@@ -18,7 +18,7 @@ static int run_eval(int argc, char **argv);
 
 const struct esr_command cmd_eval = {
     "eval",
-    "score a run on a test phase (PSNR, SSIM, HDR MSE per view and lighting) + HTML report",
+    "score a run on a test phase (PSNR, SSIM, HDR MSE per view and lighting, normal error) + HTML report",
     "usage: esr eval RUN [options]\n"
     "\n"
     "Renders the frames of a phase with the run's model into RUN/render/P (as `esr render`; frames\n"
@@ -26,7 +26,11 @@ const struct esr_command cmd_eval = {
     "existing renders are evaluated as they are), then compares them with the dataset:\n"
     "PSNR and SSIM of the tone-mapped and of the gamma-corrected linear output against the\n"
     "ground-truth PNG on white, and HDR MSE of the linear EXR against the ground-truth EXR on\n"
-    "white. Writes RUN/eval/P.json (per view, mean, mean per lighting mode), RUN/report.html\n"
+    "white. When the dataset has ground-truth normal maps (DATA/gt/c<CCC>_normal.exr, as `esr synth`\n"
+    "writes), also the angular error in degrees of the rendered surface normals (N_normal.exr) over\n"
+    "the pixels where the ground truth has a surface and the render's opacity is over 0.5: mean,\n"
+    "median, fraction under 10 degrees, covered fraction (JSON \"normals\", per view \"normal_deg\").\n"
+    "Writes RUN/eval/P.json (per view, mean, mean per lighting mode), RUN/report.html\n"
     "(thumbnails, metrics, training curves from RUN/train_log.jsonl) and prints a table.\n"
     "PSNR of identical images is capped at 100 dB.\n"
     "When the dataset has a ground-truth surface (DATA/gt/mesh.ply, as `esr synth` writes), the\n"
@@ -89,33 +93,65 @@ static int ensure_renders(const struct eval_args *a, const struct esr_run_select
     return status;
 }
 
-static void print_row(const char *name, const char *mode, int n, double psnr, double ssim, double psnr_lin,
-                      double ssim_lin, double hdr)
+/* A 10-wide table cell: "-" for a missing (NAN) value; `general` picks %g over %.2f. */
+static void print_cell(double v, int general)
 {
-    printf("%-16s %-9s %4d %8.2f %7.4f %8.2f %7.4f ", name, mode, n, psnr, ssim, psnr_lin, ssim_lin);
-    if (isnan(hdr))
-        printf("%10s\n", "-");
+    if (isnan(v))
+        printf(" %10s", "-");
+    else if (general)
+        printf(" %10.4g", v);
     else
-        printf("%10.4g\n", hdr);
+        printf(" %10.2f", v);
+}
+
+/* One table row; `normal` (mean normal error, degrees) is a column only when with_normals. */
+static void print_row(const char *name, const char *mode, int n, double psnr, double ssim, double psnr_lin,
+                      double ssim_lin, double hdr, int with_normals, double normal)
+{
+    printf("%-16s %-9s %4d %8.2f %7.4f %8.2f %7.4f", name, mode, n, psnr, ssim, psnr_lin, ssim_lin);
+    print_cell(hdr, 1);
+    if (with_normals)
+        print_cell(normal, 0);
+    printf("\n");
 }
 
 static void print_table(const struct esr_eval_result *res)
 {
-    printf("%-16s %-9s %4s %8s %7s %8s %7s %10s\n", "view", "lighting", "n", "PSNR", "SSIM", "PSNR-lin", "SSIM-lin",
+    int nrm = res->n_normal_views > 0;
+    printf("%-16s %-9s %4s %8s %7s %8s %7s %10s", "view", "lighting", "n", "PSNR", "SSIM", "PSNR-lin", "SSIM-lin",
            "HDR-MSE");
+    if (nrm)
+        printf(" %10s", "normal-deg");
+    printf("\n");
     for (int i = 0; i < res->n_views; i++) {
         const struct esr_eval_view *v = &res->views[i];
         print_row(v->name, esr_light_mode_name(v->mode), 1, v->psnr, v->ssim, v->psnr_linear, v->ssim_linear,
-                  v->hdr_mse);
+                  v->hdr_mse, nrm, v->has_normal_gt ? v->normal.mean_deg : NAN);
     }
     for (int mode = 0; mode < ESR_LIGHT_MODE_COUNT; mode++) {
         const struct esr_eval_mean *m = &res->by_mode[mode];
         if (m->n > 0)
             print_row("mean", esr_light_mode_name((enum esr_light_mode)mode), m->n, m->psnr, m->ssim,
-                      m->psnr_linear, m->ssim_linear, m->hdr_mse);
+                      m->psnr_linear, m->ssim_linear, m->hdr_mse, nrm, NAN);
     }
     const struct esr_eval_mean *m = &res->all;
-    print_row("mean", "all", m->n, m->psnr, m->ssim, m->psnr_linear, m->ssim_linear, m->hdr_mse);
+    print_row("mean", "all", m->n, m->psnr, m->ssim, m->psnr_linear, m->ssim_linear, m->hdr_mse, nrm,
+              res->normals.mean_deg);
+}
+
+/* The pooled normal error, or a note that the dataset has no ground-truth normal maps. */
+static void print_normals(const struct esr_eval_result *res)
+{
+    const struct esr_normal_stats *s = &res->normals;
+    if (res->n_normal_views == 0) {
+        fprintf(stderr, "note: no ground-truth normal maps (DATA/gt/c<CCC>_normal.exr) for these views; normal "
+                        "error not scored\n");
+        return;
+    }
+    printf("normals vs gt (%d views, pixels pooled): mean %.2f deg, median %.2f deg, %.1f%% under %.0f deg, "
+           "coverage %.1f%% (%ld of %ld surface pixels at opacity > %.1f)\n",
+           res->n_normal_views, s->mean_deg, s->median_deg, 100.0 * s->frac_good, ESR_NORMAL_GOOD_DEG,
+           100.0 * s->coverage, s->n, s->n_gt, (double)ESR_NORMAL_MIN_OPACITY);
 }
 
 /* Paths under RUN: render/P, eval/, eval/P.json, eval/P_gt, report.html, train_log.jsonl. */
@@ -155,6 +191,7 @@ static int evaluate(const struct eval_args *a, const struct esr_run_selection *s
     }
     if (status == ESR_OK) {
         print_table(&res);
+        print_normals(&res);
         fprintf(stderr, "wrote %s and %s\n", p->json, p->report);
     }
     esr_eval_result_free(&res);

@@ -78,8 +78,44 @@ static int compare_hdr(const struct esr_dataset *ds, const struct esr_frame *f, 
     return status;
 }
 
+/* Angular error of the rendered N_normal.exr against the frame's ground-truth normal map, when
+ * the dataset has one: the view's errors are appended to *all and summarised in v->normal. */
+static int compare_normals(const struct esr_dataset *ds, const struct esr_frame *f, const char *dir,
+                           struct esr_eval_view *v, struct esr_normal_errors *all)
+{
+    char gt_path[ESR_PATH_MAX], path[ESR_PATH_MAX];
+    if (!esr_normal_gt_path(ds, f, gt_path, sizeof gt_path))
+        return ESR_OK;
+    ESR_TRY(esr_view_path(path, sizeof path, dir, f->name, "_normal.exr"));
+    if (!esr_file_exists(path))
+        return ESR_FAIL("rendered normal map '%s' is missing (render this phase again: `esr eval --rerender` or "
+                        "`esr render`)",
+                        path);
+    struct esr_image pred = {0}, gt = {0};
+    size_t first = all->n;
+    long gt_before = all->n_gt;
+    int status = esr_exr_read(path, &pred);
+    if (status == ESR_OK)
+        status = esr_exr_read(gt_path, &gt);
+    if (status == ESR_OK && (pred.width != ds->width || pred.height != ds->height))
+        status = ESR_FAIL("rendered normal map '%s' is %dx%d but the dataset's images are %dx%d", path, pred.width,
+                          pred.height, ds->width, ds->height);
+    if (status == ESR_OK && (gt.width != ds->width || gt.height != ds->height))
+        status = ESR_FAIL("ground-truth normal map '%s' is %dx%d but the dataset's images are %dx%d", gt_path,
+                          gt.width, gt.height, ds->width, ds->height);
+    if (status == ESR_OK)
+        status = esr_normal_errors_add(all, &pred, &gt);
+    if (status == ESR_OK) {
+        v->has_normal_gt = 1;
+        v->normal = esr_normal_stats_of(all->deg + first, all->n - first, all->n_gt - gt_before);
+    }
+    esr_image_free(&pred);
+    esr_image_free(&gt);
+    return status;
+}
+
 static int eval_view(const struct esr_dataset *ds, const struct esr_frame *f, const char *dir,
-                     struct esr_eval_view *v)
+                     struct esr_eval_view *v, struct esr_normal_errors *normals)
 {
     char path[ESR_PATH_MAX];
     struct esr_image gt = {0};
@@ -97,6 +133,8 @@ static int eval_view(const struct esr_dataset *ds, const struct esr_frame *f, co
         status = esr_view_path(path, sizeof path, dir, f->name, ".exr");
     if (status == ESR_OK)
         status = compare_hdr(ds, f, path, &v->hdr_mse);
+    if (status == ESR_OK)
+        status = compare_normals(ds, f, dir, v, normals);
     esr_image_free(&gt);
     return status;
 }
@@ -146,12 +184,23 @@ int esr_eval_phase(const struct esr_dataset *ds, enum esr_phase_id phase, const 
     res->views = calloc((size_t)n, sizeof *res->views);
     if (!res->views)
         return ESR_FAIL("out of memory evaluating %d views", n);
-    for (int i = 0; i < n; i++) {
+    struct esr_normal_errors normals;
+    memset(&normals, 0, sizeof normals);
+    int status = ESR_OK;
+    for (int i = 0; i < n && status == ESR_OK; i++) {
         if (idx[i] < 0 || idx[i] >= ph->n_frames)
-            return ESR_FAIL("frame index %d out of range for phase %s", idx[i], esr_phase_name(phase));
-        ESR_TRY(eval_view(ds, &ph->frames[idx[i]], render_dir, &res->views[i]));
-        res->n_views = i + 1;
+            status = ESR_FAIL("frame index %d out of range for phase %s", idx[i], esr_phase_name(phase));
+        else
+            status = eval_view(ds, &ph->frames[idx[i]], render_dir, &res->views[i], &normals);
+        if (status == ESR_OK) {
+            res->n_views = i + 1;
+            res->n_normal_views += res->views[i].has_normal_gt;
+        }
     }
+    if (status == ESR_OK && res->n_normal_views > 0)
+        res->normals = esr_normal_stats_of(normals.deg, normals.n, normals.n_gt);
+    esr_normal_errors_free(&normals);
+    ESR_TRY(status);
     res->all = mean_of(res, -1);
     for (int mode = 0; mode < ESR_LIGHT_MODE_COUNT; mode++)
         res->by_mode[mode] = mean_of(res, mode);

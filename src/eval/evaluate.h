@@ -1,14 +1,17 @@
 /* Evaluation of rendered test views against a dataset phase (METHOD.md, "Emitter identification
  * and metrics"): PSNR / SSIM of the tone-mapped and of the gamma-corrected linear output against
  * the ground-truth PNG (composited on white), and HDR MSE of the linear EXR against the
- * ground-truth EXR (composited on white), per view, overall and per lighting mode.
+ * ground-truth EXR (composited on white), per view, overall and per lighting mode; and, on
+ * datasets with ground-truth normal maps (eval/normals.h), the angular error of the rendered
+ * surface normals.
  *
  * The rendered directory holds, per frame name N, the files of render/view.h (esr_view_write):
  * N.png (tone-mapped RGB on white), N_linear.png (sRGB OETF of the linear RGB on white, clipped
- * to [0,1]) and N.exr (linear RGB on white). */
+ * to [0,1]), N.exr (linear RGB on white) and N_normal.exr (composited normal, opacity). */
 #ifndef ESR_EVAL_EVALUATE_H
 #define ESR_EVAL_EVALUATE_H
 
+#include "eval/normals.h"
 #include "io/dataset.h"
 
 /* PSNR of identical images is infinite; per-view values and means are capped here so that every
@@ -21,6 +24,8 @@ struct esr_eval_view {
     double psnr, ssim;         /* tone-mapped output vs ground-truth PNG */
     double psnr_linear, ssim_linear; /* gamma-corrected linear output vs ground-truth PNG */
     double hdr_mse;            /* linear EXR vs ground-truth EXR; NAN when the dataset has none */
+    int has_normal_gt;         /* 1 when the frame has a ground-truth normal map */
+    struct esr_normal_stats normal; /* angular error of N_normal.exr vs it (when has_normal_gt) */
 };
 
 /* Means over a set of views (hdr_mse over the views that have it; NAN when none). */
@@ -36,11 +41,14 @@ struct esr_eval_result {
     struct esr_eval_view *views;               /* in evaluation order */
     struct esr_eval_mean all;
     struct esr_eval_mean by_mode[ESR_LIGHT_MODE_COUNT]; /* n = 0 for modes without views */
+    int n_normal_views;                        /* views with a ground-truth normal map */
+    struct esr_normal_stats normals;           /* pixels of those views pooled (n_normal_views > 0) */
 };
 
 /* Evaluates the frames idx[0..n) of `phase` (esr_select_frames) against the images in
- * render_dir. Fails with a message naming the file on a missing or unreadable rendered image or a
- * size that differs from the dataset's. *res is zeroed first; free it with
+ * render_dir; N_normal.exr is read only for frames with a ground-truth normal map. Fails with a
+ * message naming the file on a missing or unreadable rendered image or a size that differs from
+ * the dataset's. *res is zeroed first; free it with
  * esr_eval_result_free (also after an error). */
 int esr_eval_phase(const struct esr_dataset *ds, enum esr_phase_id phase, const int *idx, int n,
                    const char *render_dir, struct esr_eval_result *res);
@@ -48,10 +56,15 @@ void esr_eval_result_free(struct esr_eval_result *res);
 
 /* Writes the result as JSON (atomically):
  *   {"phase": "test_nv", "dataset": ds->root, "render_dir": ..., "psnr_cap": 100, "n_views": V,
- *    "views": [{"name", "mode", "psnr", "ssim", "psnr_linear", "ssim_linear", "hdr_mse"}...],
+ *    "views": [{"name", "mode", "psnr", "ssim", "psnr_linear", "ssim_linear", "hdr_mse",
+ *               "normal_deg", "normal_median_deg", "normal_frac_good", "normal_coverage"}...],
  *    "mean": {"n", "psnr", "ssim", "psnr_linear", "ssim_linear", "hdr_mse"},
- *    "by_mode": {"off": {...mean...}, "on": {...}}}   (only modes that have views)
- * A NAN hdr_mse is written as null. */
+ *    "by_mode": {"off": {...mean...}, "on": {...}},   (only modes that have views)
+ *    "normals": {"n_views", "n_gt_pixels", "n_pixels", "mean_deg", "median_deg", "frac_good",
+ *                "good_deg": 10, "coverage", "min_opacity": 0.5, "ground_truth"}}
+ * The normal_* keys of a view and "normals" are present only when there is a ground-truth normal
+ * map (of that view / of any view); pixels are pooled over the views in "normals". A NAN value is
+ * written as null. */
 int esr_eval_write_json(const char *path, const struct esr_dataset *ds, const struct esr_eval_result *res);
 
 #endif

@@ -37,6 +37,26 @@ static cJSON *mean_json(const struct esr_eval_mean *m)
     return obj;
 }
 
+/* The pooled normal errors; NULL on out of memory. */
+static cJSON *normals_json(const struct esr_eval_result *res)
+{
+    const struct esr_normal_stats *s = &res->normals;
+    cJSON *obj = cJSON_CreateObject();
+    if (!obj)
+        return NULL;
+    cJSON_AddNumberToObject(obj, "n_views", res->n_normal_views);
+    cJSON_AddNumberToObject(obj, "n_gt_pixels", (double)s->n_gt);
+    cJSON_AddNumberToObject(obj, "n_pixels", (double)s->n);
+    add_number_or_null(obj, "mean_deg", s->mean_deg);
+    add_number_or_null(obj, "median_deg", s->median_deg);
+    add_number_or_null(obj, "frac_good", s->frac_good);
+    cJSON_AddNumberToObject(obj, "good_deg", ESR_NORMAL_GOOD_DEG);
+    add_number_or_null(obj, "coverage", s->coverage);
+    cJSON_AddNumberToObject(obj, "min_opacity", ESR_NORMAL_MIN_OPACITY);
+    cJSON_AddStringToObject(obj, "ground_truth", "gt/c<CCC>_normal.exr");
+    return obj;
+}
+
 static cJSON *result_json(const struct esr_dataset *ds, const struct esr_eval_result *res)
 {
     cJSON *root = cJSON_CreateObject();
@@ -61,6 +81,12 @@ static cJSON *result_json(const struct esr_dataset *ds, const struct esr_eval_re
         cJSON_AddStringToObject(o, "name", v->name);
         cJSON_AddStringToObject(o, "mode", esr_light_mode_name(v->mode));
         add_metrics(o, v->psnr, v->ssim, v->psnr_linear, v->ssim_linear, v->hdr_mse);
+        if (v->has_normal_gt) {
+            add_number_or_null(o, "normal_deg", v->normal.mean_deg);
+            add_number_or_null(o, "normal_median_deg", v->normal.median_deg);
+            add_number_or_null(o, "normal_frac_good", v->normal.frac_good);
+            add_number_or_null(o, "normal_coverage", v->normal.coverage);
+        }
         cJSON_AddItemToArray(views, o);
     }
     cJSON_AddItemToObject(root, "mean", mean_json(&res->all));
@@ -69,6 +95,8 @@ static cJSON *result_json(const struct esr_dataset *ds, const struct esr_eval_re
         if (res->by_mode[mode].n > 0)
             cJSON_AddItemToObject(by_mode, esr_light_mode_name((enum esr_light_mode)mode),
                                   mean_json(&res->by_mode[mode]));
+    if (res->n_normal_views > 0)
+        cJSON_AddItemToObject(root, "normals", normals_json(res));
     return root;
 }
 

@@ -71,6 +71,30 @@ static void put_summary(FILE *out, const struct esr_eval_result *res)
             ESR_EVAL_PSNR_CAP);
 }
 
+/* The pooled normal error, or a line saying the dataset has no ground-truth normal maps. */
+static void put_normals(FILE *out, const struct esr_eval_result *res)
+{
+    const struct esr_normal_stats *s = &res->normals;
+    fputs("<h2>Surface normals</h2>\n", out);
+    if (res->n_normal_views == 0) {
+        fputs("<p>The dataset has no ground-truth normal maps (gt/c&lt;CCC&gt;_normal.exr) for these views; not "
+              "scored.</p>\n",
+              out);
+        return;
+    }
+    fprintf(out, "<table><tr><th>views</th><th>mean error (deg)</th><th>median (deg)</th><th>under %.0f deg</th>"
+                 "<th>coverage</th></tr>\n<tr><td>%d</td>",
+            ESR_NORMAL_GOOD_DEG, res->n_normal_views);
+    put_number(out, "%.2f", s->mean_deg);
+    put_number(out, "%.2f", s->median_deg);
+    put_number(out, "%.3f", s->frac_good);
+    put_number(out, "%.3f", s->coverage);
+    fprintf(out, "</tr>\n</table>\n<p>Angle between the normalised composited normal of the render and the "
+                 "ground-truth world-space normal, over the %ld pixels (of %ld where the ground truth has a surface) "
+                 "whose rendered opacity is over %.1f; pixels of all views pooled.</p>\n",
+            s->n, s->n_gt, (double)ESR_NORMAL_MIN_OPACITY);
+}
+
 /* Training curves of the fields that the log has (none: the section is left out). */
 static int put_curves(FILE *out, const char *log_path)
 {
@@ -109,7 +133,7 @@ static void put_thumb(FILE *out, const char *href, const char *name, const char 
 static void put_views(FILE *out, const struct esr_report_spec *spec)
 {
     fprintf(out, "<h2>Views</h2>\n<table><tr><th>view</th><th>mode</th><th>ground truth</th><th>tone-mapped</th>"
-                 "<th>linear</th><th>normal</th>%s</tr>\n",
+                 "<th>linear</th><th>normal</th>%s<th>normal error (deg)</th></tr>\n",
             metric_header);
     for (int i = 0; i < spec->res->n_views; i++) {
         const struct esr_eval_view *v = &spec->res->views[i];
@@ -121,6 +145,7 @@ static void put_views(FILE *out, const struct esr_report_spec *spec)
         put_thumb(out, spec->render_href, v->name, "_linear.png");
         put_thumb(out, spec->render_href, v->name, "_normal.png");
         put_metric_cells(out, v->psnr, v->ssim, v->psnr_linear, v->ssim_linear, v->hdr_mse);
+        put_number(out, "%.2f", v->has_normal_gt ? v->normal.mean_deg : NAN);
         fputs("</tr>\n", out);
     }
     fputs("</table>\n", out);
@@ -163,6 +188,7 @@ static int put_page(FILE *out, const struct esr_report_spec *spec)
     put_escaped(out, spec->ds->root);
     fputs("</p>\n", out);
     put_summary(out, spec->res);
+    put_normals(out, spec->res);
     ESR_TRY(put_curves(out, spec->train_log));
     put_views(out, spec);
     fputs("</body></html>\n", out);

@@ -29,6 +29,7 @@ void esr_view_images_free(struct esr_view_images *v);
  *   N_linear.png   sRGB OETF of the linear RGB clipped to [0,1], 8-bit
  *   N.exr          linear RGB (float)
  *   N_normal.png   normal mapped to [0,1] as (n + 1) / 2, composited on white by opacity
+ *   N_normal.exr   raw composited normal sum w n (RGB, not normalised) and opacity (A), float
  *   N_depth.png    depth normalised to [0,1] between the nearest and farthest pixel of opacity
  *                  > 0.5 (0 = nearest); pixels of lower opacity are white
  *   N_depth.exr    raw depth (float, one channel)
@@ -39,7 +40,8 @@ int esr_view_write(const char *dir, const char *name, const struct esr_view_imag
  * does not fit in n bytes. */
 int esr_view_path(char *out, size_t n, const char *dir, const char *name, const char *suffix);
 
-/* 1 when the three files esr eval reads (N.png, N_linear.png, N.exr) all exist in dir. */
+/* 1 when the files esr eval reads (N.png, N_linear.png, N.exr, N_normal.exr) all exist in dir
+ * (render directories written before N_normal.exr existed count as incomplete). */
 int esr_view_outputs_exist(const char *dir, const char *name);
 
 /* Progress of esr_view_render_frames, reported after each written frame. */

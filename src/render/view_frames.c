@@ -13,9 +13,9 @@
 
 int esr_view_outputs_exist(const char *dir, const char *name)
 {
-    static const char *const suffixes[] = {".png", "_linear.png", ".exr"};
+    static const char *const suffixes[] = {".png", "_linear.png", ".exr", "_normal.exr"};
     char path[ESR_PATH_MAX];
-    for (int i = 0; i < 3; i++)
+    for (size_t i = 0; i < sizeof suffixes / sizeof suffixes[0]; i++)
         if (esr_view_path(path, sizeof path, dir, name, suffixes[i]) != ESR_OK || !esr_file_exists(path))
             return 0;
     return 1;

@@ -34,6 +34,17 @@ static void normal_image(const struct esr_view_images *v, struct esr_image *out)
     }
 }
 
+/* RGBA: the raw composited normal (RGB) and the opacity (A). */
+static void normal_opacity_image(const struct esr_view_images *v, struct esr_image *out)
+{
+    long long n = (long long)v->opacity.width * v->opacity.height;
+    for (long long i = 0; i < n; i++) {
+        for (int c = 0; c < 3; c++)
+            out->data[4 * i + c] = v->normal.data[3 * i + c];
+        out->data[4 * i + 3] = v->opacity.data[i];
+    }
+}
+
 static void depth_image(const struct esr_view_images *v, struct esr_image *out)
 {
     long long n = (long long)v->depth.width * v->depth.height;
@@ -71,11 +82,13 @@ static int write_exr(const char *dir, const char *name, const char *suffix, cons
 
 int esr_view_write(const char *dir, const char *name, const struct esr_view_images *v)
 {
-    struct esr_image rgb3 = {0}, grey = {0};
+    struct esr_image rgb3 = {0}, grey = {0}, rgba = {0};
     int w = v->rgb.width, h = v->rgb.height;
     int status = esr_image_alloc(&rgb3, w, h, 3);
     if (status == ESR_OK)
         status = esr_image_alloc(&grey, w, h, 1);
+    if (status == ESR_OK)
+        status = esr_image_alloc(&rgba, w, h, 4);
     if (status == ESR_OK)
         status = write_png(dir, name, ".png", &v->rgb);
     if (status == ESR_OK) {
@@ -89,6 +102,10 @@ int esr_view_write(const char *dir, const char *name, const struct esr_view_imag
         status = write_png(dir, name, "_normal.png", &rgb3);
     }
     if (status == ESR_OK) {
+        normal_opacity_image(v, &rgba);
+        status = write_exr(dir, name, "_normal.exr", &rgba);
+    }
+    if (status == ESR_OK) {
         depth_image(v, &grey);
         status = write_png(dir, name, "_depth.png", &grey);
     }
@@ -96,5 +113,6 @@ int esr_view_write(const char *dir, const char *name, const struct esr_view_imag
         status = write_exr(dir, name, "_depth.exr", &v->depth);
     esr_image_free(&rgb3);
     esr_image_free(&grey);
+    esr_image_free(&rgba);
     return status;
 }

@@ -1,0 +1,119 @@
+/* Batch first-hit queries: the per-ray marcher of first_hit.h over rays in parallel. */
+#include "volume/first_hit.h"
+
+#include <math.h>
+
+#include "core/error.h"
+#include "fields/trilerp.h"
+
+void esr_first_hit_params_init(struct esr_first_hit_params *p, const struct esr_grid *g)
+{
+    p->max_steps = 4 * (g->nx + g->ny + g->nz) + 256;
+    p->safety = 1.0f;
+    p->min_step = 0.02f;
+    p->tol = 1e-4f;
+    p->refine_iters = 24;
+    p->inside = ESR_FIRST_HIT_INSIDE_REPORT;
+    p->global_bound = 1;
+}
+
+/* G: the largest |difference| between lattice neighbours along each axis, a bound on the
+ * trilinear field's partial derivatives (lattice units) anywhere in the box. */
+ESR_HOT static void global_bound(const struct esr_grid *g, const float *v, float gmax[3])
+{
+    const int nx = g->nx, ny = g->ny, nz = g->nz;
+    const size_t sy = (size_t)nx, sz = (size_t)nx * (size_t)ny;
+    float gx = 0.0f, gy = 0.0f, gz = 0.0f;
+#pragma omp parallel for schedule(static) reduction(max : gx, gy, gz)
+    for (int iz = 0; iz < nz; iz++)
+        for (int iy = 0; iy < ny; iy++) {
+            const float *row = v + (size_t)iz * sz + (size_t)iy * sy;
+            for (int ix = 0; ix + 1 < nx; ix++)
+                gx = esr_fh_max(fabsf(row[ix + 1] - row[ix]), gx);
+            if (iy + 1 < ny)
+                for (int ix = 0; ix < nx; ix++)
+                    gy = esr_fh_max(fabsf(row[ix + sy] - row[ix]), gy);
+            if (iz + 1 < nz)
+                for (int ix = 0; ix < nx; ix++)
+                    gz = esr_fh_max(fabsf(row[ix + sz] - row[ix]), gz);
+        }
+    gmax[0] = gx;
+    gmax[1] = gy;
+    gmax[2] = gz;
+}
+
+void esr_first_hit_grid_prepare(struct esr_first_hit_grid *fg, const struct esr_grid *g,
+                                const float *data, int global_bound_on)
+{
+    esr_first_hit_grid_init(fg, g, data);
+    if (global_bound_on)
+        global_bound(g, data, fg->gmax);
+}
+
+ESR_HOT static void first_hit_batch(const struct esr_grid *g, const struct esr_first_hit_grid *fg,
+                                    const struct esr_first_hit_params *p,
+                                    const struct esr_first_hit_rays *rays,
+                                    const struct esr_first_hit_out *out)
+{
+    const size_t n = rays->n;
+    /* rays near surfaces cost many more steps than rays through empty space: dynamic chunks.
+     * Each ray writes only its own outputs, so the result does not depend on the schedule. */
+#pragma omp parallel for schedule(dynamic, 64)
+    for (size_t i = 0; i < n; i++) {
+        const float *o = rays->origins + i * 3, *d = rays->dirs + i * 3;
+        float t_min = rays->t_min ? rays->t_min[i] : 0.0f;
+        float t_max = rays->t_max ? rays->t_max[i] : INFINITY;
+        float t;
+        unsigned flags = esr_first_hit_ray(fg, p, o, d, t_min, t_max, &t);
+        int hit = (flags & ESR_FIRST_HIT_HIT) != 0;
+        float pos[3] = {0.0f, 0.0f, 0.0f};
+        if (hit)
+            for (int a = 0; a < 3; a++)
+                pos[a] = o[a] + t * d[a];
+        if (out->t)
+            out->t[i] = t;
+        if (out->flags)
+            out->flags[i] = (uint8_t)flags;
+        if (out->pos)
+            for (int a = 0; a < 3; a++)
+                out->pos[i * 3 + a] = pos[a];
+        if (out->normal) {
+            float nrm[3] = {0.0f, 0.0f, 0.0f};
+            if (hit) {
+                /* the same kernel as esr_grid_sample_value_dpoint, so normals agree with it */
+                struct esr_trilerp tl;
+                esr_trilerp_locate(g, pos, &tl);
+                (void)esr_trilerp_value_dpoint(fg->data, &tl, nrm);
+                float len = sqrtf(nrm[0] * nrm[0] + nrm[1] * nrm[1] + nrm[2] * nrm[2]);
+                float inv = len > 0.0f ? 1.0f / len : 0.0f;
+                for (int a = 0; a < 3; a++)
+                    nrm[a] *= inv;
+            }
+            for (int a = 0; a < 3; a++)
+                out->normal[i * 3 + a] = nrm[a];
+        }
+    }
+}
+
+int esr_first_hit(const struct esr_grid *g, const float *sdf, const struct esr_first_hit_params *p,
+                  const struct esr_first_hit_rays *rays, const struct esr_first_hit_out *out)
+{
+    if (g->channels != 1)
+        return ESR_FAIL("first hit: the SDF grid must have 1 channel, not %d", g->channels);
+    if (p->max_steps < 1 || !(p->safety > 0.0f && p->safety <= 1.0f) || !(p->min_step > 0.0f) ||
+        !(p->tol > 0.0f) || p->refine_iters < 0 ||
+        (p->inside != ESR_FIRST_HIT_INSIDE_REPORT && p->inside != ESR_FIRST_HIT_INSIDE_SKIP) ||
+        (p->global_bound != 0 && p->global_bound != 1))
+        return ESR_FAIL("first hit: bad parameters (max_steps %d, safety %g in (0, 1], min_step "
+                        "%g, tol %g, refine_iters %d, inside mode %d, global_bound %d)",
+                        p->max_steps, (double)p->safety, (double)p->min_step, (double)p->tol,
+                        p->refine_iters, p->inside, p->global_bound);
+    if (rays->n == 0)
+        return ESR_OK;
+    if (!sdf || !rays->origins || !rays->dirs)
+        return ESR_FAIL("first hit: %s missing", !sdf ? "SDF values" : "ray origins or directions");
+    struct esr_first_hit_grid fg;
+    esr_first_hit_grid_prepare(&fg, g, sdf, p->global_bound);
+    first_hit_batch(g, &fg, p, rays, out);
+    return ESR_OK;
+}
