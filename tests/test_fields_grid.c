@@ -293,7 +293,7 @@ static void test_geo_feature_bwd_fd(void **state)
         p.normalize = norm;
         memset(grad, 0, cnt * sizeof(float));
         assert_int_equal(esr_geo_feature_bwd(&g, sdf, &p, pts, N, d_feat, grad), ESR_OK);
-        for (size_t e = 5; e < cnt; e += 23) {
+        for (size_t e = 0; e < cnt; e++) {
             const float h = 2e-3f;
             float keep = sdf[e];
             sdf[e] = keep + h;
@@ -303,7 +303,10 @@ static void test_geo_feature_bwd_fd(void **state)
             esr_geo_feature_fwd(&g, sdf, &p, pts, N, feat);
             double lm = test_dot(feat, d_feat, N * D);
             sdf[e] = keep;
-            assert_true(test_close(grad[e], (lp - lm) / (2.0 * h), 2e-2, 2e-2));
+            /* every entry, not a sample of them */
+            if (!test_close(grad[e], (lp - lm) / (2.0 * h), 1e-3, 1e-2))
+                fail_msg("normalize %d, entry %zu: analytic %g vs central difference %g", norm, e,
+                         (double)grad[e], (lp - lm) / (2.0 * h));
         }
     }
     free(sdf);

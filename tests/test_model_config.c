@@ -121,8 +121,9 @@ static void test_presets_independent(void **state)
     esr_config_defaults(&p, ESR_PRESET_PAPER);
     assert_float_equal(f.coarse.lr_grid, 1e-2f, 0);
     assert_float_equal(p.coarse.lr_grid, 5e-3f, 0);
-    assert_float_equal(f.coarse.tv_sdf_grad, 0.0f, 0); /* off: the fast fine stage's rays/s */
-    assert_float_equal(f.fine.tv_sdf_grad, 0.0f, 0);
+    assert_float_equal(f.coarse.tv_sdf_grad, 0.05f, 0); /* +1.2 dB on lamp; band by distance */
+    assert_float_equal(f.fine.tv_sdf_grad, 0.0f, 0);  /* fine: costs more than it gives */
+    assert_float_equal(p.coarse.tv_sdf_grad, 0.05f, 0);
     assert_float_equal(p.alphamask.lr_grid, 0.1f, 0); /* METHOD.md: alphamask lr 0.1 */
     assert_float_equal(p.alphamask.lr_feat, 0.1f, 0);
     assert_float_equal(p.fine.step_vox, 0.5f, 0); /* METHOD.md: 0.5-voxel steps */

@@ -29,7 +29,8 @@ const struct esr_command cmd_bench = {
     "Measures, with all OpenMP threads (set OMP_NUM_THREADS to change):\n"
     "  nn      MLP layer kernels, own fused kernel vs oneDNN vs OpenBLAS, GFLOP/s\n"
     "  synth   path tracer samples/s on a fixed workload\n"
-    "  render  primary-ray path (sampling, SDF, features, alpha, composite, backward) points/s\n"
+    "  render  primary-ray path as training runs it (march: sampling, fused SDF value+gradient,\n"
+    "          alpha, kept list; feature grid, composite, backward) points/s and rays/s\n"
     "  train   a training run of every stage (alphamask, coarse, fine) with the fast preset:\n"
     "          seconds and rays/s over each whole stage and over its last log window; on --data,\n"
     "          else ../shared/scenes/lamp when present, else a small `esr synth` scene in a temp\n"
@@ -153,17 +154,21 @@ static int render_section(const struct bench_opts *o, cJSON *root)
     cJSON *j = cJSON_AddObjectToObject(root, "render");
     cJSON_AddNumberToObject(j, "rays", r.n_rays);
     cJSON_AddNumberToObject(j, "samples", r.samples);
+    cJSON_AddNumberToObject(j, "kept", r.kept);
     cJSON_AddNumberToObject(j, "fwd_points_per_s", r.fwd_points_per_s);
     cJSON_AddNumberToObject(j, "total_points_per_s", r.total_points_per_s);
+    cJSON_AddNumberToObject(j, "rays_per_s", r.rays_per_s);
     cJSON *ms = cJSON_AddObjectToObject(j, "ms");
-    printf("\nray path (%d rays, %.0f samples, %d threads)\n", r.n_rays, r.samples, r.threads);
+    printf("\nray path, the training code without the MLPs (%d rays, %.0f samples, %.0f kept, %d "
+           "threads)\n",
+           r.n_rays, r.samples, r.kept, r.threads);
     for (int s = 0; s < ESR_RENDER_BENCH_STAGE_COUNT; s++) {
         cJSON_AddNumberToObject(ms, esr_render_bench_stage_name(s), r.ms[s]);
         printf("  %-10s %9.3f ms  %8.2f Mpoints/s\n", esr_render_bench_stage_name(s), r.ms[s],
                r.ms[s] > 0 ? r.samples / r.ms[s] * 1e-3 : 0.0);
     }
-    printf("  forward %.2f Mpoints/s, forward+backward %.2f Mpoints/s\n", r.fwd_points_per_s * 1e-6,
-           r.total_points_per_s * 1e-6);
+    printf("  forward %.2f Mpoints/s, forward+backward %.2f Mpoints/s, %.0f rays/s\n",
+           r.fwd_points_per_s * 1e-6, r.total_points_per_s * 1e-6, r.rays_per_s);
     return ESR_OK;
 }
 

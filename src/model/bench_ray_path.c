@@ -1,4 +1,4 @@
-/* The primary-ray benchmark (see bench.h). */
+/* The primary-ray benchmark (see bench_ray_path.h). */
 #include "model/bench_ray_path.h"
 
 #include <math.h>
@@ -12,17 +12,15 @@
 #include "fields/mask.h"
 #include "fields/sdf.h"
 #include "volume/composite.h"
-#include "volume/neus.h"
-#include "volume/sampler.h"
+#include "volume/march.h"
 
 #define BENCH_RES 96
 #define BENCH_FEAT 12
-#define BENCH_MAX_PER_RAY 256
 
 const char *esr_render_bench_stage_name(int stage)
 {
-    static const char *names[ESR_RENDER_BENCH_STAGE_COUNT] = {"sample", "sdf", "feature", "alpha",
-                                                              "composite", "backward"};
+    static const char *names[ESR_RENDER_BENCH_STAGE_COUNT] = {"march", "feature", "composite",
+                                                              "backward"};
     return stage >= 0 && stage < ESR_RENDER_BENCH_STAGE_COUNT ? names[stage] : NULL;
 }
 
@@ -30,23 +28,43 @@ struct bench {
     struct esr_grid gs, gf;
     float *sdf, *feat, *g_sdf, *g_feat;
     struct esr_mask mask;
-    struct esr_samples smp;
-    struct esr_sample_params sp;
-    float *orig, *dir;
-    /* per sample */
-    float *f, *grad, *fv, *col, *fp, *fn, *alpha, *w, *d_alpha, *d_col, *d_fv, *d_f, *d_grad;
-    float *t_last, *rgb, *d_out;
-    float s;
+    struct esr_march mc;
+    struct esr_march_geometry geom;
+    float *orig, *dir, *rgb, *d_out;
+    size_t cap_rows;
+    float *fv, *col, *d_col, *d_fv; /* per kept row */
 };
+
+static void free_rows(struct bench *b)
+{
+    float *bufs[] = {b->fv, b->col, b->d_col, b->d_fv};
+    for (size_t i = 0; i < sizeof bufs / sizeof bufs[0]; i++)
+        free(bufs[i]);
+    b->fv = b->col = b->d_col = b->d_fv = NULL;
+    b->cap_rows = 0;
+}
+
+static int grow_rows(struct bench *b, size_t n)
+{
+    if (n <= b->cap_rows)
+        return ESR_OK;
+    free_rows(b);
+    b->fv = malloc(n * BENCH_FEAT * sizeof(float));
+    b->d_fv = malloc(n * BENCH_FEAT * sizeof(float));
+    b->col = malloc(n * 3 * sizeof(float));
+    b->d_col = malloc(n * 3 * sizeof(float));
+    if (!b->fv || !b->d_fv || !b->col || !b->d_col)
+        return ESR_FAIL("render bench: out of memory for %zu kept rows", n);
+    b->cap_rows = n;
+    return ESR_OK;
+}
 
 static void bench_free(struct bench *b)
 {
     esr_mask_free(&b->mask);
-    esr_samples_free(&b->smp);
-    float *bufs[] = {b->sdf, b->feat, b->g_sdf, b->g_feat, b->orig, b->dir, b->f, b->grad, b->fv,
-                     b->col, b->fp, b->fn, b->alpha, b->w, b->d_alpha, b->d_col, b->d_fv, b->d_f,
-                     b->d_grad,
-                     b->t_last, b->rgb, b->d_out};
+    esr_march_free(&b->mc);
+    free_rows(b);
+    float *bufs[] = {b->sdf, b->feat, b->g_sdf, b->g_feat, b->orig, b->dir, b->rgb, b->d_out};
     for (size_t i = 0; i < sizeof(bufs) / sizeof(bufs[0]); i++)
         free(bufs[i]);
 }
@@ -77,27 +95,15 @@ static int bench_setup(struct bench *b, int n_rays)
     ESR_TRY(esr_grid_init(&b->gs, 1, BENCH_RES, BENCH_RES, BENCH_RES, bmin, bmax));
     ESR_TRY(esr_grid_init(&b->gf, BENCH_FEAT, BENCH_RES, BENCH_RES, BENCH_RES, bmin, bmax));
     size_t ns = esr_grid_count(&b->gs), nf = esr_grid_count(&b->gf);
-    size_t cap = (size_t)n_rays * BENCH_MAX_PER_RAY;
     b->sdf = malloc(ns * sizeof(float));
     b->g_sdf = calloc(ns, sizeof(float));
     b->feat = malloc(nf * sizeof(float));
     b->g_feat = calloc(nf, sizeof(float));
     b->orig = malloc((size_t)n_rays * 3 * sizeof(float));
     b->dir = malloc((size_t)n_rays * 3 * sizeof(float));
-    float **per[] = {&b->f, &b->fp, &b->fn, &b->alpha, &b->w, &b->d_alpha, &b->d_f};
-    for (size_t i = 0; i < sizeof(per) / sizeof(per[0]); i++)
-        *per[i] = malloc(cap * sizeof(float));
-    float **per3[] = {&b->grad, &b->d_grad, &b->col, &b->d_col};
-    for (size_t i = 0; i < sizeof(per3) / sizeof(per3[0]); i++)
-        *per3[i] = malloc(cap * 3 * sizeof(float));
-    b->fv = malloc(cap * BENCH_FEAT * sizeof(float));
-    b->d_fv = malloc(cap * BENCH_FEAT * sizeof(float));
-    b->t_last = malloc((size_t)n_rays * sizeof(float));
     b->rgb = malloc((size_t)n_rays * 3 * sizeof(float));
     b->d_out = malloc((size_t)n_rays * 3 * sizeof(float));
-    if (!b->sdf || !b->g_sdf || !b->feat || !b->g_feat || !b->orig || !b->dir || !b->f || !b->fv ||
-        !b->fp || !b->fn || !b->alpha || !b->w || !b->d_alpha || !b->d_f || !b->grad ||
-        !b->d_grad || !b->col || !b->d_col || !b->fv || !b->d_fv || !b->t_last || !b->rgb || !b->d_out)
+    if (!b->sdf || !b->g_sdf || !b->feat || !b->g_feat || !b->orig || !b->dir || !b->rgb || !b->d_out)
         return ESR_FAIL("render bench: out of memory for %d rays", n_rays);
     ESR_TRY(esr_sdf_init_sphere(&b->gs, b->sdf, 0.5f));
     for (size_t i = 0; i < nf; i++)
@@ -106,93 +112,60 @@ static int bench_setup(struct bench *b, int n_rays)
         b->d_out[i] = 0.01f;
     ESR_TRY(esr_mask_alloc(&b->mask, &b->gs));
     ESR_TRY(esr_mask_from_sdf(&b->mask, &b->gs, b->sdf, 0.1f, 1));
-    ESR_TRY(esr_samples_alloc(&b->smp, cap, n_rays));
-    esr_sample_params_init(&b->sp, bmin, bmax, 0.5f * esr_grid_voxel_size(&b->gs, 0));
-    b->sp.jitter = 1;
-    b->sp.max_per_ray = BENCH_MAX_PER_RAY;
-    b->sp.mask = &b->mask;
-    b->s = 64.0f;
+    ESR_TRY(esr_march_init(&b->mc, n_rays, 1));
+    b->geom.alpha = ESR_MARCH_NEUS;
+    b->geom.grid = &b->gs;
+    b->geom.values = b->sdf;
+    b->geom.inv_s = 64.0f;
+    b->geom.step = 0.5f * esr_grid_voxel_size(&b->gs, 0);
+    b->geom.mask = &b->mask;
+    for (int a = 0; a < 3; a++) {
+        b->geom.bmin[a] = bmin[a];
+        b->geom.bmax[a] = bmax[a];
+    }
     make_rays(b, n_rays);
     return ESR_OK;
 }
 
-static void stage_alpha(struct bench *b)
+/* One forward + backward pass; t[] gets each stage's time in ms. */
+static int run_once(struct bench *b, int n_rays, uint64_t seed, double *t)
 {
-    size_t n = b->smp.count;
-    const float dt = b->sp.step;
-#pragma omp parallel for schedule(static)
-    for (size_t i = 0; i < n; i++) {
-        const float *d = b->dir + (size_t)b->smp.ray[i] * 3, *g = b->grad + i * 3;
-        esr_neus_section_fwd(b->f[i], d[0] * g[0] + d[1] * g[1] + d[2] * g[2], dt, 1.0f, &b->fp[i], &b->fn[i]);
-        b->alpha[i] = esr_neus_alpha_fwd(b->fp[i], b->fn[i], b->s);
-    }
-    esr_composite_weights(b->smp.n_rays, b->smp.ray_start, b->alpha, ESR_COMPOSITE_THRES, b->w, b->t_last);
-}
-
-static void composite_args(struct bench *b, struct esr_composite_args *a, const float *white)
-{
-    a->n_rays = b->smp.n_rays;
-    a->ray_start = b->smp.ray_start;
-    a->alpha = b->alpha;
-    a->weight = b->w;
-    a->t_last = b->t_last;
-    a->thres = ESR_COMPOSITE_THRES;
-    a->channels = 3;
-    a->values = b->col;
-    a->bg = white;
-    a->bg_per_ray = 0;
-}
-
-static void stage_backward(struct bench *b, const struct esr_composite_args *a)
-{
-    size_t n = b->smp.count;
-    memset(b->d_alpha, 0, n * sizeof(float));
-    memset(b->d_col, 0, n * 3 * sizeof(float));
-    esr_composite_bwd(a, b->d_out, b->d_alpha, b->d_col);
-    const float dt = b->sp.step;
-#pragma omp parallel for schedule(static)
-    for (size_t i = 0; i < n; i++) {
-        const float *d = b->dir + (size_t)b->smp.ray[i] * 3, *g = b->grad + i * 3;
-        float c = d[0] * g[0] + d[1] * g[1] + d[2] * g[2], dp, dn, dc;
-        esr_neus_alpha_bwd(b->fp[i], b->fn[i], b->s, b->d_alpha[i], &dp, &dn, NULL);
-        esr_neus_section_bwd(c, dt, 1.0f, dp, dn, &b->d_f[i], &dc);
-        for (int k = 0; k < 3; k++)
-            b->d_grad[i * 3 + k] = dc * d[k];
-    }
-    esr_grid_sample_value_dpoint_bwd(&b->gs, b->smp.pos, n, b->d_f, b->d_grad, b->g_sdf);
-    /* "colour" is the first 3 feature channels (a stand-in for the colour MLP) */
-#pragma omp parallel for schedule(static)
-    for (size_t i = 0; i < n; i++)
-        for (int c = 0; c < BENCH_FEAT; c++)
-            b->d_fv[i * BENCH_FEAT + c] = c < 3 ? b->d_col[i * 3 + c] : 0.0f;
-    esr_grid_sample_bwd(&b->gf, b->smp.pos, n, b->d_fv, b->g_feat);
-}
-
-/* One pass over all stages; adds each stage's time to t[]. */
-static int run_once(struct bench *b, int n_rays, double *t)
-{
+    struct esr_march *mc = &b->mc;
+    struct esr_march_rays rays;
+    memset(&rays, 0, sizeof rays);
+    rays.n = n_rays;
+    rays.origins = b->orig;
+    rays.dirs = b->dir;
+    rays.seed = seed;
+    rays.jitter = 1;
     double t0 = omp_get_wtime();
-    ESR_TRY(esr_sample_rays(&b->sp, b->orig, b->dir, n_rays, &b->smp));
+    ESR_TRY(esr_march_fwd(mc, &b->geom, &rays));
     double t1 = omp_get_wtime();
-    size_t n = b->smp.count;
-    esr_grid_sample_value_dpoint(&b->gs, b->sdf, b->smp.pos, n, b->f, b->grad);
+    const size_t nk = mc->n_kept;
+    ESR_TRY(grow_rows(b, nk));
+    esr_grid_sample_fwd(&b->gf, b->feat, mc->kpos3, nk, b->fv);
     double t2 = omp_get_wtime();
-    esr_grid_sample_fwd(&b->gf, b->feat, b->smp.pos, n, b->fv);
-    double t3 = omp_get_wtime();
-    stage_alpha(b);
-    double t4 = omp_get_wtime();
-    const float white[3] = {1.0f, 1.0f, 1.0f};
-    struct esr_composite_args a;
-    composite_args(b, &a, white);
+    /* "colour" is the first 3 feature channels (a stand-in for the colour head) */
 #pragma omp parallel for schedule(static)
-    for (size_t i = 0; i < n; i++)
+    for (size_t k = 0; k < nk; k++)
         for (int c = 0; c < 3; c++)
-            b->col[i * 3 + c] = b->fv[i * BENCH_FEAT + c];
+            b->col[k * 3 + c] = b->fv[k * BENCH_FEAT + c];
+    static const float white[3] = {1.0f, 1.0f, 1.0f};
+    struct esr_composite_args a;
+    esr_march_composite_args(mc, b->col, 3, white, 0, &a);
     esr_composite_fwd(&a, b->rgb);
-    double t5 = omp_get_wtime();
-    stage_backward(b, &a);
-    double t6 = omp_get_wtime();
-    const double dt[ESR_RENDER_BENCH_STAGE_COUNT] = {t1 - t0, t2 - t1, t3 - t2, t4 - t3, t5 - t4, t6 - t5};
+    double t3 = omp_get_wtime();
+    esr_march_zero_d_alpha(mc);
+    memset(b->d_col, 0, nk * 3 * sizeof(float));
+    esr_composite_bwd(&a, b->d_out, mc->d_alpha, b->d_col);
+    esr_march_bwd(mc, b->g_sdf);
+#pragma omp parallel for schedule(static)
+    for (size_t k = 0; k < nk; k++)
+        for (int c = 0; c < BENCH_FEAT; c++)
+            b->d_fv[k * BENCH_FEAT + c] = c < 3 ? b->d_col[k * 3 + c] : 0.0f;
+    esr_grid_sample_bwd(&b->gf, mc->kpos3, nk, b->d_fv, b->g_feat);
+    double t4 = omp_get_wtime();
+    const double dt[ESR_RENDER_BENCH_STAGE_COUNT] = {t1 - t0, t2 - t1, t3 - t2, t4 - t3};
     for (int s = 0; s < ESR_RENDER_BENCH_STAGE_COUNT; s++)
         t[s] = dt[s] * 1e3;
     return ESR_OK;
@@ -208,14 +181,15 @@ int esr_render_bench(int n_rays, int reps, struct esr_render_bench_result *res)
     int rc = bench_setup(&b, n_rays);
     double t[ESR_RENDER_BENCH_STAGE_COUNT];
     for (int r = 0; rc == ESR_OK && r <= reps; r++) {
-        rc = run_once(&b, n_rays, t);
+        rc = run_once(&b, n_rays, (uint64_t)r, t);
         for (int s = 0; rc == ESR_OK && r > 0 && s < ESR_RENDER_BENCH_STAGE_COUNT; s++)
             res->ms[s] = r == 1 ? t[s] : fmin(res->ms[s], t[s]);
     }
     if (rc == ESR_OK) {
         res->threads = omp_get_max_threads();
         res->n_rays = n_rays;
-        res->samples = (double)b.smp.count;
+        res->samples = (double)b.mc.smp.count;
+        res->kept = (double)b.mc.n_kept;
         double fwd = 0.0, all = 0.0;
         for (int s = 0; s < ESR_RENDER_BENCH_STAGE_COUNT; s++) {
             all += res->ms[s];
@@ -224,6 +198,7 @@ int esr_render_bench(int n_rays, int reps, struct esr_render_bench_result *res)
         }
         res->fwd_points_per_s = res->samples / (fwd * 1e-3);
         res->total_points_per_s = res->samples / (all * 1e-3);
+        res->rays_per_s = (double)n_rays / (all * 1e-3);
     }
     bench_free(&b);
     return rc;

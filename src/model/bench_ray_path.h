@@ -1,6 +1,8 @@
-/* Throughput of the primary-ray path on the CPU: sampling with the mask cache, trilinear SDF
- * value + gradient, a 12-channel feature grid, NeuS alpha, compositing, and the backward scatter
- * into the grids, on a coarse-stage-sized scene (96^3 sphere SDF). `esr bench` reports it. */
+/* Throughput of the primary-ray path on the CPU, through the code training runs: trace layer 1
+ * (volume/march.h: sampling with the mask cache, fused SDF value + gradient, NeuS alpha,
+ * weights, the kept list), a 12-channel feature grid on the kept rows (the point-fields layer's
+ * grid lookup; its MLPs are timed by the MLP section of `esr bench`), compositing, and the
+ * backward pass into both grids, on a coarse-stage-sized scene (96^3 sphere SDF). */
 #ifndef ESR_MODEL_BENCH_RAY_PATH_H
 #define ESR_MODEL_BENCH_RAY_PATH_H
 
@@ -9,22 +11,22 @@ extern "C" {
 #endif
 
 enum esr_render_bench_stage {
-    ESR_RENDER_BENCH_SAMPLE,      /* ray clipping + marching + mask queries */
-    ESR_RENDER_BENCH_SDF,         /* SDF value and spatial gradient at every sample */
-    ESR_RENDER_BENCH_FEATURE,     /* 12-channel feature grid at every sample */
-    ESR_RENDER_BENCH_ALPHA,       /* section estimate + NeuS alpha + weights */
+    ESR_RENDER_BENCH_MARCH,       /* esr_march_fwd: samples, SDF value + gradient, alpha, kept list */
+    ESR_RENDER_BENCH_FEATURE,     /* 12-channel feature grid at the kept rows */
     ESR_RENDER_BENCH_COMPOSITE,   /* RGB composite on white */
-    ESR_RENDER_BENCH_BACKWARD,    /* composite + alpha backward, scatter into SDF and feature grids */
+    ESR_RENDER_BENCH_BACKWARD,    /* composite backward, esr_march_bwd, feature-grid scatter */
     ESR_RENDER_BENCH_STAGE_COUNT
 };
 
 struct esr_render_bench_result {
     int threads;          /* OpenMP threads used */
     int n_rays;
-    double samples;       /* kept samples per batch */
+    double samples;       /* marched samples per batch */
+    double kept;          /* kept rows per batch (where heads run) */
     double ms[ESR_RENDER_BENCH_STAGE_COUNT]; /* best time of each stage */
-    double fwd_points_per_s;   /* samples / (sample + sdf + feature + alpha + composite) */
-    double total_points_per_s; /* samples / (all stages) */
+    double fwd_points_per_s;   /* marched samples / forward time */
+    double total_points_per_s; /* marched samples / (forward + backward) */
+    double rays_per_s;         /* rays / (forward + backward) */
 };
 
 /* Stage name for reports ("sample", "sdf", ...); NULL for an invalid stage. */

@@ -51,7 +51,7 @@ struct esr_train_config {
     int tone_pe;            /* fine: PE frequencies of the tone-mapper input */
     float lambda_tau;       /* fine: weight of the gamma(linear) loss term */
     float sdf_init_alpha;   /* coarse: SDF starts as the signed distance to alpha > this */
-    float fine_mask_band;   /* fine: mask keeps |coarse SDF| <= this many coarse voxels (0 = off) */
+    float fine_mask_band;   /* fine: mask keeps the band within this many voxels of the surface */
     int tv_every;           /* total-variation terms every N iterations (weight x N) */
     int mlp_engine;         /* enum esr_mlp_engine of the training MLPs */
     struct esr_stage_config alphamask, coarse, fine;

@@ -98,7 +98,8 @@ int esr_mask_narrow_to_sdf(struct esr_model *m, const struct esr_model *prev, fl
     size_t nv = (size_t)k->nx * k->ny * k->nz, ns = esr_grid_count(esr_model_grid(prev, ESR_COMP_SDF));
     float *view = malloc(ns * sizeof(float)), *scratch = malloc(ns * sizeof(float));
     float *pos = malloc(nv * 3 * sizeof(float)), *val = malloc(nv * sizeof(float));
-    int rc = view && scratch && pos && val ? ESR_OK : ESR_FAIL("mask narrowing: out of memory");
+    float *grad = malloc(nv * 3 * sizeof(float));
+    int rc = view && scratch && pos && val && grad ? ESR_OK : ESR_FAIL("mask narrowing: out of memory");
     if (rc == ESR_OK)
         rc = esr_model_view_sdf(prev, esr_model_values(prev, ESR_COMP_SDF), view, scratch);
     if (rc == ESR_OK) {
@@ -110,13 +111,23 @@ int esr_mask_narrow_to_sdf(struct esr_model *m, const struct esr_model *prev, fl
                     esr_grid_voxel_pos(&lat, x, y, z, pos + (((size_t)z * k->ny + y) * k->nx + x) * 3);
     }
     if (rc == ESR_OK) {
-        esr_grid_sample_fwd(esr_model_grid(prev, ESR_COMP_SDF), view, pos, nv, val);
-        for (size_t i = 0; i < nv; i++)
-            k->occ[i] = k->occ[i] && fabsf(val[i]) <= band;
+        esr_grid_sample_value_dpoint(esr_model_grid(prev, ESR_COMP_SDF), view, pos, nv, val, grad);
+#pragma omp parallel for schedule(static)
+        for (size_t i = 0; i < nv; i++) {
+            /* The grid SDF is not metric (no eikonal loss; the smoothed-gradient TV flattens it),
+             * so |f| alone overstates the band where the slope is below 1. Keep a voxel only
+             * when both |f| and the first-order distance estimate |f| / |grad f| are within the
+             * band: the estimate is what keeps the band tight, |f| guards flat regions. */
+            const float *g = grad + i * 3;
+            float slope = sqrtf(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
+            float f = fabsf(val[i]);
+            k->occ[i] = k->occ[i] && f <= band && f <= band * slope;
+        }
     }
     free(view);
     free(scratch);
     free(pos);
     free(val);
+    free(grad);
     return rc;
 }

@@ -16,8 +16,9 @@ int esr_sdf_init_from_density(struct esr_model *m, const struct esr_model *prev,
                               int *used);
 
 /* Fine stage: narrows m's mask cache (taken over from the alphamask stage) to the voxels whose
- * coarse SDF (prev, smoothed as the coarse renderer saw it) lies within band world units of the
- * surface, so marching skips both empty space and the solid interior. */
+ * coarse SDF (prev, smoothed as the coarse renderer saw it) puts within band world units of the
+ * surface, both by its value and by its first-order distance estimate |f| / |grad f|, so marching
+ * skips both empty space and the solid interior. */
 int esr_mask_narrow_to_sdf(struct esr_model *m, const struct esr_model *prev, float band);
 
 #endif
