@@ -90,17 +90,6 @@ static void expect_image(const char *dir, const char *file, int channels)
     esr_image_free(&img);
 }
 
-static cJSON *read_json(const char *path)
-{
-    unsigned char *text;
-    size_t size;
-    assert_int_equal(esr_file_read_all(path, &text, &size), ESR_OK);
-    cJSON *root = cJSON_Parse((char *)text);
-    free(text);
-    assert_non_null(root);
-    return root;
-}
-
 static void run_ok(const char *args)
 {
     int rc = test_run_esr(args, out, sizeof out);
@@ -156,7 +145,8 @@ static void test_eval(void **state)
     assert_non_null(strstr(out, "PSNR"));
     assert_non_null(strstr(out, "c000_off"));
     snprintf(path, sizeof path, "%s/eval/test_nv.json", run_dir);
-    cJSON *root = read_json(path);
+    cJSON *root = test_read_json(path);
+    assert_non_null(root);
     assert_int_equal(cJSON_GetArraySize(cJSON_GetObjectItem(root, "views")), 2);
     const cJSON *mean = cJSON_GetObjectItem(root, "mean");
     double psnr = cJSON_GetObjectItem(mean, "psnr")->valuedouble;
@@ -243,7 +233,8 @@ static void test_eval_existing(void **state)
     run_ok(args);
     assert_non_null(strstr(out, "no loadable model"));
     snprintf(path, sizeof path, "%s/eval/test_nv.json", run2);
-    cJSON *root = read_json(path);
+    cJSON *root = test_read_json(path);
+    assert_non_null(root);
     const cJSON *mean = cJSON_GetObjectItem(root, "mean");
     assert_true(cJSON_GetObjectItem(mean, "psnr")->valuedouble == 100.0);
     assert_true(cJSON_GetObjectItem(mean, "psnr_linear")->valuedouble == 100.0);
@@ -267,7 +258,8 @@ static void test_eval_existing(void **state)
         fail_msg("esr %s exited %d:\n%s", args, rc, out);
     assert_non_null(strstr(out, "no ground-truth normal maps"));
     assert_null(strstr(out, "normal-deg"));
-    root = read_json(path);
+    root = test_read_json(path);
+    assert_non_null(root);
     assert_null(cJSON_GetObjectItem(root, "normals"));
     assert_null(cJSON_GetObjectItem(cJSON_GetArrayItem(cJSON_GetObjectItem(root, "views"), 0), "normal_deg"));
     assert_non_null(cJSON_GetObjectItem(root, "mean"));
@@ -360,7 +352,8 @@ static void test_lamp(void **state)
     assert_int_equal(img.width, 160);
     esr_image_free(&img);
     snprintf(path, sizeof path, "%s/eval/test_nv.json", run);
-    cJSON *root = read_json(path);
+    cJSON *root = test_read_json(path);
+    assert_non_null(root);
     const cJSON *views = cJSON_GetObjectItem(root, "views");
     assert_int_equal(cJSON_GetArraySize(views), 2);
     for (int i = 0; i < 2; i++) {

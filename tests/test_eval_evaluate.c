@@ -196,11 +196,7 @@ static void test_json(void **state)
     assert_int_equal(esr_eval_phase(&ds, ESR_PHASE_TEST_NV, idx, n, render_dir, &res), ESR_OK);
     path_in(path, sizeof path, test_tmpdir, "eval.json");
     assert_int_equal(esr_eval_write_json(path, &ds, &res), ESR_OK);
-    unsigned char *text;
-    size_t size;
-    assert_int_equal(esr_file_read_all(path, &text, &size), ESR_OK);
-    cJSON *root = cJSON_Parse((char *)text);
-    free(text);
+    cJSON *root = test_read_json(path);
     assert_non_null(root);
     assert_string_equal(cJSON_GetObjectItem(root, "phase")->valuestring, "test_nv");
     assert_int_equal(cJSON_GetArraySize(cJSON_GetObjectItem(root, "views")), 2);
@@ -371,11 +367,7 @@ static void test_normals(void **state)
 
     path_in(path, sizeof path, test_tmpdir, "eval_normals.json");
     assert_int_equal(esr_eval_write_json(path, &ds, &res), ESR_OK);
-    unsigned char *text;
-    size_t size;
-    assert_int_equal(esr_file_read_all(path, &text, &size), ESR_OK);
-    cJSON *root = cJSON_Parse((char *)text);
-    free(text);
+    cJSON *root = test_read_json(path);
     assert_non_null(root);
     const cJSON *nrm = cJSON_GetObjectItem(root, "normals");
     assert_non_null(nrm);
@@ -400,6 +392,7 @@ static void test_normals(void **state)
     struct esr_report_spec spec = {html_path, "run", &ds, &res, "render", gt_dir, "eval/test_nv_gt", NULL};
     assert_int_equal(esr_report_write(&spec), ESR_OK);
     unsigned char *html;
+    size_t size;
     assert_int_equal(esr_file_read_all(html_path, &html, &size), ESR_OK);
     assert_non_null(strstr((char *)html, "Surface normals"));
     assert_non_null(strstr((char *)html, "<td>15.00</td>"));

@@ -1,6 +1,5 @@
 /* esr metrics A B [--json FILE]: PSNR / SSIM / MSE between two images. */
 #include <cJSON.h>
-#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -12,6 +11,7 @@
 #include "eval/metrics.h"
 #include "io/file.h"
 #include "io/image.h"
+#include "io/json_file.h"
 
 static int run_metrics(int argc, char **argv);
 
@@ -56,15 +56,6 @@ static int load_opaque(const char *path, struct esr_image *out)
     return status;
 }
 
-/* PSNR is +inf for identical images; JSON has no infinity, so it becomes null. */
-static void add_finite_or_null(cJSON *obj, const char *name, double value)
-{
-    if (isfinite(value))
-        cJSON_AddNumberToObject(obj, name, value);
-    else
-        cJSON_AddNullToObject(obj, name);
-}
-
 static int compute(const char *path_a, const char *path_b, cJSON *obj)
 {
     struct esr_image a = {0}, b = {0};
@@ -80,7 +71,8 @@ static int compute(const char *path_a, const char *path_b, cJSON *obj)
     if (status == ESR_OK)
         status = esr_metric_ssim(&a, &b, &ssim);
     if (status == ESR_OK) {
-        add_finite_or_null(obj, "psnr", esr_psnr_from_mse(mse));
+        /* identical images: PSNR +inf, written as null */
+        esr_json_add_number_or_null(obj, "psnr", esr_psnr_from_mse(mse));
         cJSON_AddNumberToObject(obj, "ssim", ssim);
         cJSON_AddNumberToObject(obj, "mse", mse);
         cJSON_AddNumberToObject(obj, "width", a.width);

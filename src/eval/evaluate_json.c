@@ -1,6 +1,5 @@
 /* JSON form of an evaluation result (RUN/eval/<phase>.json). */
 #include <cJSON.h>
-#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -8,23 +7,14 @@
 #include "eval/evaluate.h"
 #include "io/json_file.h"
 
-/* JSON has no NaN: a missing value becomes null. */
-static void add_number_or_null(cJSON *obj, const char *name, double value)
-{
-    if (isfinite(value))
-        cJSON_AddNumberToObject(obj, name, value);
-    else
-        cJSON_AddNullToObject(obj, name);
-}
-
 static void add_metrics(cJSON *obj, double psnr, double ssim, double psnr_linear, double ssim_linear,
                         double hdr_mse)
 {
-    add_number_or_null(obj, "psnr", psnr);
-    add_number_or_null(obj, "ssim", ssim);
-    add_number_or_null(obj, "psnr_linear", psnr_linear);
-    add_number_or_null(obj, "ssim_linear", ssim_linear);
-    add_number_or_null(obj, "hdr_mse", hdr_mse);
+    esr_json_add_number_or_null(obj, "psnr", psnr);
+    esr_json_add_number_or_null(obj, "ssim", ssim);
+    esr_json_add_number_or_null(obj, "psnr_linear", psnr_linear);
+    esr_json_add_number_or_null(obj, "ssim_linear", ssim_linear);
+    esr_json_add_number_or_null(obj, "hdr_mse", hdr_mse);
 }
 
 static cJSON *mean_json(const struct esr_eval_mean *m)
@@ -47,11 +37,11 @@ static cJSON *normals_json(const struct esr_eval_result *res)
     cJSON_AddNumberToObject(obj, "n_views", res->n_normal_views);
     cJSON_AddNumberToObject(obj, "n_gt_pixels", (double)s->n_gt);
     cJSON_AddNumberToObject(obj, "n_pixels", (double)s->n);
-    add_number_or_null(obj, "mean_deg", s->mean_deg);
-    add_number_or_null(obj, "median_deg", s->median_deg);
-    add_number_or_null(obj, "frac_good", s->frac_good);
+    esr_json_add_number_or_null(obj, "mean_deg", s->mean_deg);
+    esr_json_add_number_or_null(obj, "median_deg", s->median_deg);
+    esr_json_add_number_or_null(obj, "frac_good", s->frac_good);
     cJSON_AddNumberToObject(obj, "good_deg", ESR_NORMAL_GOOD_DEG);
-    add_number_or_null(obj, "coverage", s->coverage);
+    esr_json_add_number_or_null(obj, "coverage", s->coverage);
     cJSON_AddNumberToObject(obj, "min_opacity", ESR_NORMAL_MIN_OPACITY);
     cJSON_AddStringToObject(obj, "ground_truth", "gt/c<CCC>_normal.exr");
     return obj;
@@ -82,10 +72,10 @@ static cJSON *result_json(const struct esr_dataset *ds, const struct esr_eval_re
         cJSON_AddStringToObject(o, "mode", esr_light_mode_name(v->mode));
         add_metrics(o, v->psnr, v->ssim, v->psnr_linear, v->ssim_linear, v->hdr_mse);
         if (v->has_normal_gt) {
-            add_number_or_null(o, "normal_deg", v->normal.mean_deg);
-            add_number_or_null(o, "normal_median_deg", v->normal.median_deg);
-            add_number_or_null(o, "normal_frac_good", v->normal.frac_good);
-            add_number_or_null(o, "normal_coverage", v->normal.coverage);
+            esr_json_add_number_or_null(o, "normal_deg", v->normal.mean_deg);
+            esr_json_add_number_or_null(o, "normal_median_deg", v->normal.median_deg);
+            esr_json_add_number_or_null(o, "normal_frac_good", v->normal.frac_good);
+            esr_json_add_number_or_null(o, "normal_coverage", v->normal.coverage);
         }
         cJSON_AddItemToArray(views, o);
     }

@@ -42,14 +42,6 @@ void esr_dataset_summarise(const struct esr_dataset *ds, struct esr_dataset_summ
         summarise_phase(ds, &ds->phases[p], &out->phases[p]);
 }
 
-static cJSON *float_array(const float *v, int n)
-{
-    cJSON *arr = cJSON_CreateArray();
-    for (int i = 0; arr && i < n; i++)
-        cJSON_AddItemToArray(arr, cJSON_CreateNumber((double)v[i]));
-    return arr;
-}
-
 static cJSON *phase_json(const struct esr_phase_summary *s)
 {
     cJSON *obj = cJSON_CreateObject();
@@ -58,8 +50,8 @@ static cJSON *phase_json(const struct esr_phase_summary *s)
     for (int m = 0; m < ESR_LIGHT_MODE_COUNT; m++)
         if (s->mode_counts[m])
             cJSON_AddNumberToObject(modes, esr_light_mode_name((enum esr_light_mode)m), s->mode_counts[m]);
-    cJSON_AddItemToObject(obj, "camera_centre_min", float_array(s->centre_min, 3));
-    cJSON_AddItemToObject(obj, "camera_centre_max", float_array(s->centre_max, 3));
+    cJSON_AddItemToObject(obj, "camera_centre_min", esr_json_float_array(s->centre_min, 3));
+    cJSON_AddItemToObject(obj, "camera_centre_max", esr_json_float_array(s->centre_max, 3));
     cJSON_AddNumberToObject(obj, "camera_radius_min", (double)s->radius_min);
     cJSON_AddNumberToObject(obj, "camera_radius_max", (double)s->radius_max);
     return obj;
@@ -76,8 +68,8 @@ static cJSON *summary_json(const struct esr_dataset *ds, const struct esr_datase
     cJSON_AddNumberToObject(root, "camera_angle_x", (double)ds->camera_angle_x);
     cJSON_AddNumberToObject(root, "focal", (double)ds->focal);
     cJSON_AddNumberToObject(root, "n_lights", ds->n_lights);
-    cJSON_AddItemToObject(root, "bbox_min", float_array(ds->bbox_min, 3));
-    cJSON_AddItemToObject(root, "bbox_max", float_array(ds->bbox_max, 3));
+    cJSON_AddItemToObject(root, "bbox_min", esr_json_float_array(ds->bbox_min, 3));
+    cJSON_AddItemToObject(root, "bbox_max", esr_json_float_array(ds->bbox_max, 3));
     cJSON_AddStringToObject(root, "bbox_source", ds->bbox_from_scene ? "scene.json" : "default");
     cJSON *phases = cJSON_AddObjectToObject(root, "phases");
     for (int p = 0; p < ESR_PHASE_COUNT; p++)

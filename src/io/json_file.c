@@ -1,5 +1,6 @@
 #include "io/json_file.h"
 
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -23,4 +24,20 @@ int esr_json_write_atomic(const char *path, cJSON *root)
     int status = esr_file_write_atomic(path, line, len + 1);
     free(line);
     return status;
+}
+
+cJSON *esr_json_float_array(const float *v, int n)
+{
+    cJSON *a = cJSON_CreateArray();
+    for (int i = 0; a && i < n; i++)
+        cJSON_AddItemToArray(a, cJSON_CreateNumber((double)v[i]));
+    return a;
+}
+
+void esr_json_add_number_or_null(cJSON *obj, const char *name, double value)
+{
+    if (isfinite(value))
+        cJSON_AddNumberToObject(obj, name, value);
+    else
+        cJSON_AddNullToObject(obj, name);
 }

@@ -10,4 +10,9 @@
  * is reported as out of memory. */
 int esr_json_write_atomic(const char *path, cJSON *root);
 
+/* A JSON array of the n floats v (NULL on out of memory). */
+cJSON *esr_json_float_array(const float *v, int n);
+/* obj[name] = value, or null when value is NaN or infinite (JSON has neither). */
+void esr_json_add_number_or_null(cJSON *obj, const char *name, double value);
+
 #endif

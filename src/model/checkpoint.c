@@ -20,19 +20,12 @@
 
 #include "core/error.h"
 #include "io/file.h"
+#include "io/json_file.h"
 #include "model/model.h"
 
 #define CKPT_MAGIC "ESRCKPT"
 #define CKPT_VERSION 2u
 #define CKPT_MAX_HEADER (16u << 20)
-
-static cJSON *float_array(const float *v, int n)
-{
-    cJSON *a = cJSON_CreateArray();
-    for (int i = 0; a && i < n; i++)
-        cJSON_AddItemToArray(a, cJSON_CreateNumber((double)v[i]));
-    return a;
-}
 
 static cJSON *header_json(const struct esr_model *m)
 {
@@ -40,8 +33,8 @@ static cJSON *header_json(const struct esr_model *m)
     cJSON_AddStringToObject(h, "stage", esr_stage_name((enum esr_stage)m->stage));
     cJSON_AddNumberToObject(h, "step", (double)m->step);
     cJSON_AddNumberToObject(h, "done", m->stage_done);
-    cJSON_AddItemToObject(h, "scene_min", float_array(m->scene_min, 3));
-    cJSON_AddItemToObject(h, "scene_max", float_array(m->scene_max, 3));
+    cJSON_AddItemToObject(h, "scene_min", esr_json_float_array(m->scene_min, 3));
+    cJSON_AddItemToObject(h, "scene_max", esr_json_float_array(m->scene_max, 3));
     cJSON_AddItemToObject(h, "config", esr_config_to_json(&m->cfg));
     cJSON_AddNumberToObject(h, "params", (double)m->params.count);
     cJSON *comps = cJSON_AddArrayToObject(h, "components");
@@ -58,8 +51,8 @@ static cJSON *header_json(const struct esr_model *m)
         cJSON *k = cJSON_AddObjectToObject(h, "mask");
         int dims[3] = {m->mask.nx, m->mask.ny, m->mask.nz};
         cJSON_AddItemToObject(k, "dims", cJSON_CreateIntArray(dims, 3));
-        cJSON_AddItemToObject(k, "bmin", float_array(m->mask.bmin, 3));
-        cJSON_AddItemToObject(k, "bmax", float_array(m->mask.bmax, 3));
+        cJSON_AddItemToObject(k, "bmin", esr_json_float_array(m->mask.bmin, 3));
+        cJSON_AddItemToObject(k, "bmax", esr_json_float_array(m->mask.bmax, 3));
     }
     return h;
 }

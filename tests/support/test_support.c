@@ -6,6 +6,10 @@
 #include <sys/stat.h>
 #include <sys/wait.h>
 
+#include <cjson/cJSON.h>
+
+#include "io/file.h"
+
 const char *test_shared_scene(const char *name)
 {
     static char path[1024];
@@ -75,4 +79,15 @@ int test_write_file(const char *path, const char *text)
     size_t len = strlen(text);
     int ok = fwrite(text, 1, len, f) == len;
     return (fclose(f) == 0 && ok) ? 0 : -1;
+}
+
+cJSON *test_read_json(const char *path)
+{
+    unsigned char *text;
+    size_t size;
+    if (esr_file_read_all(path, &text, &size) != 0)
+        return NULL;
+    cJSON *root = cJSON_ParseWithLength((const char *)text, size);
+    free(text);
+    return root;
 }

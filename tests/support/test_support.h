@@ -18,5 +18,7 @@ int test_teardown_tmpdir(void **state);
 int test_run_esr(const char *args, char *out, size_t n);
 /* Writes `text` to path; returns 0 on success. */
 int test_write_file(const char *path, const char *text);
+/* The JSON document in path, or NULL when it cannot be read or parsed; cJSON_Delete it. */
+struct cJSON *test_read_json(const char *path);
 
 #endif
