@@ -44,6 +44,8 @@ struct esr_train_config {
     float alpha_thres;      /* mask cache: alpha threshold on the density grid */
     int smooth_ksize;       /* SDF Gaussian smoothing kernel (0 = off) */
     float smooth_sigma;
+    int normal_ksize;       /* shading/rendered normals: Gaussian kernel on the SDF (0 = raw) */
+    float normal_sigma;
     int geo_scales;         /* fine: geometry-feature scales (first K of 0.5,1,1.5,2 voxels) */
     int pe_pos;             /* fine: PE frequencies of x */
     int pe_dir;             /* fine: PE frequencies of the view direction */

@@ -22,6 +22,26 @@ int esr_model_view_sdf(const struct esr_model *m, const float *raw, float *out, 
                                m->cfg.smooth_sigma);
 }
 
+int esr_model_normal_sdf(const struct esr_model *m, float **out)
+{
+    *out = NULL;
+    if (!esr_model_has(m, ESR_COMP_SDF) || m->cfg.normal_ksize <= 1)
+        return ESR_OK;
+    const struct esr_grid *g = esr_model_grid(m, ESR_COMP_SDF);
+    size_t n = esr_grid_count(g);
+    float *smooth = malloc(n * sizeof(float)), *scratch = malloc(n * sizeof(float));
+    int rc = smooth && scratch ? esr_grid_smooth_fwd(g, esr_model_values(m, ESR_COMP_SDF), smooth,
+                                                     scratch, m->cfg.normal_ksize,
+                                                     m->cfg.normal_sigma)
+                               : ESR_FAIL("normals: out of memory for the smoothed SDF");
+    free(scratch);
+    if (rc != ESR_OK)
+        free(smooth);
+    else
+        *out = smooth;
+    return rc;
+}
+
 static void copy_out(float *dst, const float *src, size_t off, size_t n)
 {
     if (dst)
@@ -50,9 +70,15 @@ int esr_model_render_rays(const struct esr_model *m, const float *origins, const
         }
         sdf = view;
     }
+    float *normal_sdf = NULL;
+    int rc = out->normal ? esr_model_normal_sdf(m, &normal_sdf) : ESR_OK;
+    if (rc != ESR_OK) {
+        free(view);
+        return rc;
+    }
     struct esr_trace t;
     int chunk = n < RENDER_CHUNK ? (int)(n ? n : 1) : RENDER_CHUNK;
-    int rc = esr_trace_init(&t, m, chunk, 0);
+    rc = esr_trace_init(&t, m, chunk, 0);
     float *depth = NULL, *normal = NULL, *opac = NULL;
     uint8_t *flags = NULL;
     if (rc == ESR_OK) {
@@ -70,7 +96,7 @@ int esr_model_render_rays(const struct esr_model *m, const float *origins, const
         rc = esr_trace_fwd(&t, m, sdf, origins + r0 * 3, dirs + r0 * 3, flags, c, 0);
         if (rc != ESR_OK)
             break;
-        esr_trace_extras(&t, depth, normal, opac);
+        esr_trace_extras(&t, normal_sdf, depth, normal, opac);
         copy_out(out->rgb, t.rgb3, r0 * 3, (size_t)c * 3);
         copy_out(out->depth, depth, r0, (size_t)c);
         copy_out(out->normal, normal, r0 * 3, (size_t)c * 3);
@@ -87,5 +113,6 @@ int esr_model_render_rays(const struct esr_model *m, const float *origins, const
     free(flags);
     esr_trace_free(&t);
     free(view);
+    free(normal_sdf);
     return rc;
 }

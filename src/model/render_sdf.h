@@ -8,5 +8,10 @@
 
 /* out (and scratch) hold esr_grid_count(&m->sdf) floats; raw may not alias out. */
 int esr_model_view_sdf(const struct esr_model *m, const float *raw, float *out, float *scratch);
+/* The SDF whose gradient gives the model's normals (rendered normal maps, and what the shading
+ * stages will light with): the raw grid smoothed by options normal_ksize/normal_sigma, or NULL in
+ * *out when that is off (then the normals are the marched SDF's own gradient). *out is allocated;
+ * the caller frees it. */
+int esr_model_normal_sdf(const struct esr_model *m, float **out);
 
 #endif

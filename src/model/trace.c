@@ -148,7 +148,8 @@ int esr_trace_bwd(struct esr_trace *t, const struct esr_model *m, const float *s
     return ESR_OK;
 }
 
-void esr_trace_extras(struct esr_trace *t, float *depth, float *normal3, float *opacity)
+void esr_trace_extras(struct esr_trace *t, const float *normal_sdf, float *depth, float *normal3,
+                      float *opacity)
 {
     const struct esr_march *mc = &t->march;
     struct esr_composite_args a;
@@ -162,9 +163,11 @@ void esr_trace_extras(struct esr_trace *t, float *depth, float *normal3, float *
     if (normal3 && mc->geom.alpha == ESR_MARCH_NEUS) {
         float *nrm = t->d_tone_rows; /* free outside a training backward */
         const size_t nk = mc->n_kept;
+        if (normal_sdf)
+            esr_grid_sample_dpoint(mc->geom.grid, normal_sdf, 0, mc->kpos3, nk, nrm);
 #pragma omp parallel for schedule(static)
         for (size_t k = 0; k < nk; k++) {
-            const float *g = mc->grad3 + (size_t)mc->kidx[k] * 3;
+            const float *g = normal_sdf ? nrm + k * 3 : mc->grad3 + (size_t)mc->kidx[k] * 3;
             float len = sqrtf(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]) + 1e-8f;
             for (int c = 0; c < 3; c++)
                 nrm[k * 3 + c] = g[c] / len;

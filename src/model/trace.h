@@ -57,9 +57,11 @@ int esr_trace_fwd(struct esr_trace *t, const struct esr_model *m, const float *s
 int esr_trace_bwd(struct esr_trace *t, const struct esr_model *m, const float *sdf, float *g_sdf,
                   float *grads, const float *d_rgb3, const float *d_lin3);
 
-/* Per-ray extras of the last forward for rendering (any may be NULL): expected distance,
- * composited unit SDF normal, opacity. */
-void esr_trace_extras(struct esr_trace *t, float *depth, float *normal3, float *opacity);
+/* Per-ray extras of the last forward for rendering (any output may be NULL): expected distance,
+ * composited unit SDF normal, opacity. The normals are the gradient of normal_sdf (values on the
+ * SDF grid, see esr_model_normal_sdf) at the kept samples, or of the marched SDF when NULL. */
+void esr_trace_extras(struct esr_trace *t, const float *normal_sdf, float *depth, float *normal3,
+                      float *opacity);
 
 #ifdef __cplusplus
 }
