@@ -23,14 +23,14 @@
 static const float PLANE_N[3] = {0.26f, -0.17f, 0.9503f}; /* normalised below */
 
 /* Fine-stage model on [-1,1]^3 whose SDF is the signed distance to the plane through the origin
- * with normal PLANE_N, plus uniform noise of +-noise_vox voxels. */
+ * with normal PLANE_N, plus uniform noise of +-noise_vox voxels; normals smoothed by a kernel of
+ * normal_ksize (sigma: the default). */
 static void make_plane(struct esr_model *m, int normal_ksize, float noise_vox)
 {
     struct esr_train_config cfg;
     test_small_config(&cfg, 0.5f);
     cfg.fine.res = RES;
-    if (normal_ksize >= 0)
-        cfg.normal_ksize = normal_ksize;
+    cfg.normal_ksize = normal_ksize;
     const float bmin[3] = {-1, -1, -1}, bmax[3] = {1, 1, 1};
     assert_int_equal(esr_model_init(m, &cfg, ESR_STAGE_FINE, NULL, bmin, bmax), 0);
     m->inv_s = 400.0f; /* a sharp surface, as after training */
@@ -96,7 +96,9 @@ static void test_smoothed_normals_reject_voxel_noise(void **state)
     (void)state;
     struct esr_model raw, smooth;
     make_plane(&raw, 0, 0.3f);
-    make_plane(&smooth, -1, 0.3f); /* the default options */
+    struct esr_train_config defaults;
+    esr_config_defaults(&defaults, ESR_PRESET_FAST);
+    make_plane(&smooth, defaults.normal_ksize, 0.3f); /* the default options */
     assert_true(smooth.cfg.normal_ksize > 1);
     double e_raw = mean_normal_error(&raw), e_smooth = mean_normal_error(&smooth);
     print_message("plane with +-0.3 voxel SDF noise: raw gradient %.2f deg, smoothed %.2f deg\n",

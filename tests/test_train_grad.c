@@ -217,6 +217,71 @@ static void test_fine_lights_on_stop_gradient(void **state)
     teardown(&fx);
 }
 
+/* Walls around the sphere at |x| = 0.9 and |y| = 0.9, open at the top and bottom: secondary rays
+ * of the LTS loss hit a wall or leave the scene. */
+static void add_walls(struct esr_model *m)
+{
+    const struct esr_grid *g = esr_model_grid(m, ESR_COMP_SDF);
+    float *v = esr_model_values(m, ESR_COMP_SDF);
+    for (int z = 0; z < g->nz; z++)
+        for (int y = 0; y < g->ny; y++)
+            for (int x = 0; x < g->nx; x++) {
+                float p[3];
+                esr_grid_voxel_pos(g, x, y, z, p);
+                float *f = v + ((size_t)z * g->ny + y) * g->nx + x;
+                *f = fminf(*f, 0.9f - fmaxf(fabsf(p[0]), fabsf(p[1])));
+            }
+}
+
+static double max_abs(const struct fixture *fx, enum esr_component c)
+{
+    double mx = 0.0;
+    for (size_t i = 0; i < fx->m.part[c].count; i++)
+        mx = fmax(mx, fabs(fx->analytic[fx->m.part[c].off + i]));
+    return mx;
+}
+
+/* The lts stage: rendering loss + the light-transport loss (E, BRDF, environment, radiance at
+ * the points and at the secondary hits) with a weight that makes it dominate. The SDF is not
+ * compared: the LTS points' normals and the secondary rays' hit positions move with it but are
+ * detached by design (METHOD.md), so finite differences see dependencies the method cuts.
+ * Lights-off primary rays keep the rendering loss free of the fine stage's stop-gradient; the
+ * LTS term's L_emo = L_on - sg(L_off) equals the emo branch's output, so finite differences
+ * agree with it. */
+static void test_lts_gradients(void **state)
+{
+    (void)state;
+    struct fixture fx;
+    const uint8_t lights[N_RAYS] = {0, 0};
+    setup_stage(&fx, ESR_STAGE_LTS, lights);
+    fx.m.cfg.lts_weight = 1.0f;
+    add_walls(&fx.m);
+    test_randomise(&fx.m, ESR_COMP_BRDF_FEAT, 0.5f, 31);
+    float *env = esr_model_values(&fx.m, ESR_COMP_ENV);
+    for (int k = 0; k < fx.m.cfg.env_lobes; k++) {
+        env[k * 7 + 3] = 1.0f; /* broad lobes, so the few escaping rays see them */
+        for (int c = 0; c < 3; c++)
+            env[k * 7 + 4 + c] = 0.3f * (float)(c + 1); /* coloured */
+    }
+    analytic_gradient(&fx);
+    assert_true(fx.st.has_lts);
+    const struct esr_lts_stats *ls = &fx.st.lts_stats;
+    print_message("lts: %zu points, %zu secondary rays, %zu hits, mse off %.4g emo %.4g\n",
+                  ls->points, ls->secondary, ls->hits, ls->mse_off, ls->mse_emo);
+    assert_true(ls->points > 0 && ls->hits > 0 && ls->hits < ls->secondary);
+    /* the light-transport terms are what trains these, and they must matter */
+    assert_true(max_abs(&fx, ESR_COMP_EMIT_MLP) > 1e-3);
+    assert_true(max_abs(&fx, ESR_COMP_BRDF_MLP) > 1e-3);
+    print_message("max |grad| emit %.3g brdf %.3g env %.3g emo %.3g\n", max_abs(&fx, ESR_COMP_EMIT_MLP), max_abs(&fx, ESR_COMP_BRDF_MLP), max_abs(&fx, ESR_COMP_ENV), max_abs(&fx, ESR_COMP_EMO_MLP));
+    assert_true(max_abs(&fx, ESR_COMP_ENV) > 1e-3);
+    assert_true(max_abs(&fx, ESR_COMP_EMO_MLP) > 1e-3);
+    const uint32_t trained = esr_stage_info(ESR_STAGE_LTS)->trained;
+    for (int c = 0; c < ESR_COMP_COUNT; c++)
+        if ((trained & ESR_BIT(c)) && c != ESR_COMP_SDF)
+            check_component(&fx, (enum esr_component)c, eps_of((enum esr_component)c));
+    teardown(&fx);
+}
+
 static void test_coarse_gradients(void **state)
 {
     (void)state;
@@ -265,6 +330,7 @@ int main(void)
         cmocka_unit_test(test_fine_gradients_mixed_lighting),
         cmocka_unit_test(test_fine_lights_on_stop_gradient),
         cmocka_unit_test(test_coarse_gradients),
+        cmocka_unit_test(test_lts_gradients),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -54,6 +54,11 @@ static void tiny_config(struct esr_train_config *c)
     c->fine.mlp_depth = 2;
     c->fine.s_div = 1.0f;
     c->tone_width = 16;
+    c->lts.res = 32;
+    c->lts.iters = 60;
+    c->lts_points = 64;
+    c->lts_dirs = 16;
+    c->field_width = 16;
 }
 
 struct log_capture {
@@ -97,12 +102,12 @@ static void test_tiny_reaches_psnr(void **state)
     snprintf(run, sizeof run, "%s/runs/full", test_tmpdir); /* runs/ does not exist yet */
     struct esr_train_opts o;
     struct log_capture lc;
-    opts_for(&o, run, ESR_STAGE_FINE, &lc);
+    opts_for(&o, run, ESR_STAGE_LTS, &lc);
     if (esr_train_run(&o) != ESR_OK)
         fail_msg("%s", esr_error_message());
-    assert_int_equal(lc.stages_done, ESR_STAGE_COUNT);
+    assert_int_equal(lc.stages_done, ESR_STAGE_LTS + 1);
     const char *files[] = {"config.json", "train_log.jsonl", "ckpt_alphamask.bin",
-                           "ckpt_coarse.bin", "ckpt_fine.bin"};
+                           "ckpt_coarse.bin", "ckpt_fine.bin", "ckpt_lts.bin"};
     for (size_t i = 0; i < sizeof files / sizeof files[0]; i++) {
         snprintf(path, sizeof path, "%s/%s", run, files[i]);
         assert_true(esr_file_exists(path));
@@ -136,6 +141,17 @@ static void test_tiny_reaches_psnr(void **state)
     assert_true(isfinite(res.normals.mean_deg));
     assert_true(res.normals.mean_deg < 45.0); /* measured 33.6 */
     assert_true(res.normals.coverage > 0.8);
+    /* the lts model renders emission and an emitter mask, which evaluation scores */
+    char render_dir[4400], emission[4600];
+    snprintf(render_dir, sizeof render_dir, "%s/render", run);
+    assert_int_equal(esr_view_path(emission, sizeof emission, render_dir,
+                                   ds.phases[ESR_PHASE_TEST_NV].frames[idx[0]].name, "_emission.exr"),
+                     ESR_OK);
+    assert_true(esr_file_exists(emission));
+    assert_int_equal(res.n_emitter_views, n);
+    double iou = esr_iou_value(&res.emitter);
+    print_message("tiny scene emitter IoU after 60 lts iterations: %.3f\n", iou);
+    assert_true(iou >= 0.0 && iou <= 1.0);
     esr_eval_result_free(&res);
     free(idx);
     esr_model_free(&m);

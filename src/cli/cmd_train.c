@@ -59,7 +59,7 @@ static void fmt_eta(double s, char *out, size_t n)
 static void on_progress(void *user, const struct esr_train_progress *p)
 {
     struct progress_sink *s = user;
-    char line[512];
+    char line[768];
     if (p->event == ESR_TRAIN_STAGE_DONE)
         return; /* the trainer's own message says it */
     if (p->event == ESR_TRAIN_MESSAGE) {
@@ -72,6 +72,12 @@ static void on_progress(void *user, const struct esr_train_progress *p)
                  "ETA %s",
                  esr_stage_name(p->stage), p->iter, p->iters, p->loss, p->psnr, p->rays_per_s,
                  p->kept_per_ray, p->samples_per_ray, eta);
+        if (p->has_lts) {
+            size_t len = strlen(line);
+            snprintf(line + len, sizeof line - len,
+                     "  lts off %.4f emo %.4f  %.0f secondary/s (%.0f%% hit)", p->lts_mse_off,
+                     p->lts_mse_emo, p->secondary_per_s, 100.0 * p->hit_frac);
+        }
     }
     if (s->log) {
         fprintf(s->log, "%s\n", line);

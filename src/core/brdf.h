@@ -23,5 +23,10 @@ struct esr_material {
  * Returns 0 when wi or wo is below the surface. */
 void esr_brdf_eval(const struct esr_material *mat, struct esr_vec3 n, struct esr_vec3 wo, struct esr_vec3 wi,
                    float out[3]);
+/* Backward of esr_brdf_eval: ADDS d loss/d base, roughness, metallic into *d_mat given
+ * d loss/d out. The normal and directions get none (the method detaches normals). Zero gradient
+ * below the surface and for roughness under ESR_BRDF_MIN_ROUGHNESS (the clamp). */
+void esr_brdf_eval_bwd(const struct esr_material *mat, struct esr_vec3 n, struct esr_vec3 wo,
+                       struct esr_vec3 wi, const float d_out[3], struct esr_material *d_mat);
 
 #endif

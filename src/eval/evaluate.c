@@ -114,8 +114,41 @@ static int compare_normals(const struct esr_dataset *ds, const struct esr_frame 
     return status;
 }
 
-static int eval_view(const struct esr_dataset *ds, const struct esr_frame *f, const char *dir,
-                     struct esr_eval_view *v, struct esr_normal_errors *normals)
+/* Emitter mask N_emitter.png against the phase's ground-truth emission mask, when both exist:
+ * added to the pooled accumulator and scored alone in v. */
+static int compare_emitters(const struct esr_dataset *ds, enum esr_phase_id phase,
+                            const struct esr_frame *f, const char *dir, struct esr_eval_view *v,
+                            struct esr_iou_accum *pooled)
+{
+    char path[ESR_PATH_MAX], gt_path[ESR_PATH_MAX];
+    ESR_TRY(esr_view_path(path, sizeof path, dir, f->name, "_emitter.png"));
+    if (snprintf(gt_path, sizeof gt_path, "%s/%s/emission/%s.png", ds->root, esr_phase_name(phase),
+                 f->name) >= (int)sizeof gt_path)
+        return ESR_FAIL("ground-truth emission mask path for '%s' is too long", f->name);
+    if (!esr_file_exists(path) || !esr_file_exists(gt_path))
+        return ESR_OK;
+    struct esr_image pred = {0}, gt = {0};
+    int status = esr_image_read(path, &pred);
+    if (status == ESR_OK)
+        status = esr_image_read(gt_path, &gt);
+    struct esr_iou_accum one;
+    esr_iou_init(&one);
+    if (status == ESR_OK)
+        status = esr_iou_add(&one, &pred, 0.5f, &gt, 0.5f);
+    if (status == ESR_OK) {
+        pooled->intersection += one.intersection;
+        pooled->union_count += one.union_count;
+        v->has_emitter = 1;
+        v->emitter_iou = esr_iou_value(&one);
+    }
+    esr_image_free(&pred);
+    esr_image_free(&gt);
+    return status;
+}
+
+static int eval_view(const struct esr_dataset *ds, enum esr_phase_id phase, const struct esr_frame *f,
+                     const char *dir, struct esr_eval_view *v, struct esr_normal_errors *normals,
+                     struct esr_iou_accum *emitters)
 {
     char path[ESR_PATH_MAX];
     struct esr_image gt = {0};
@@ -135,6 +168,8 @@ static int eval_view(const struct esr_dataset *ds, const struct esr_frame *f, co
         status = compare_hdr(ds, f, path, &v->hdr_mse);
     if (status == ESR_OK)
         status = compare_normals(ds, f, dir, v, normals);
+    if (status == ESR_OK)
+        status = compare_emitters(ds, phase, f, dir, v, emitters);
     esr_image_free(&gt);
     return status;
 }
@@ -186,15 +221,18 @@ int esr_eval_phase(const struct esr_dataset *ds, enum esr_phase_id phase, const 
         return ESR_FAIL("out of memory evaluating %d views", n);
     struct esr_normal_errors normals;
     memset(&normals, 0, sizeof normals);
+    esr_iou_init(&res->emitter);
     int status = ESR_OK;
     for (int i = 0; i < n && status == ESR_OK; i++) {
         if (idx[i] < 0 || idx[i] >= ph->n_frames)
             status = ESR_FAIL("frame index %d out of range for phase %s", idx[i], esr_phase_name(phase));
         else
-            status = eval_view(ds, &ph->frames[idx[i]], render_dir, &res->views[i], &normals);
+            status = eval_view(ds, phase, &ph->frames[idx[i]], render_dir, &res->views[i], &normals,
+                               &res->emitter);
         if (status == ESR_OK) {
             res->n_views = i + 1;
             res->n_normal_views += res->views[i].has_normal_gt;
+            res->n_emitter_views += res->views[i].has_emitter;
         }
     }
     if (status == ESR_OK && res->n_normal_views > 0)

@@ -11,6 +11,7 @@
 #ifndef ESR_EVAL_EVALUATE_H
 #define ESR_EVAL_EVALUATE_H
 
+#include "eval/metrics.h"
 #include "eval/normals.h"
 #include "io/dataset.h"
 
@@ -26,6 +27,8 @@ struct esr_eval_view {
     double hdr_mse;            /* linear EXR vs ground-truth EXR; NAN when the dataset has none */
     int has_normal_gt;         /* 1 when the frame has a ground-truth normal map */
     struct esr_normal_stats normal; /* angular error of N_normal.exr vs it (when has_normal_gt) */
+    int has_emitter;           /* 1 when N_emitter.png and the phase's emission mask both exist */
+    double emitter_iou;        /* IoU of this view alone (when has_emitter) */
 };
 
 /* Means over a set of views (hdr_mse over the views that have it; NAN when none). */
@@ -43,6 +46,8 @@ struct esr_eval_result {
     struct esr_eval_mean by_mode[ESR_LIGHT_MODE_COUNT]; /* n = 0 for modes without views */
     int n_normal_views;                        /* views with a ground-truth normal map */
     struct esr_normal_stats normals;           /* pixels of those views pooled (n_normal_views > 0) */
+    int n_emitter_views;                       /* views with a predicted and a true emitter mask */
+    struct esr_iou_accum emitter;              /* their pixels pooled (METHOD.md: one division) */
 };
 
 /* Evaluates the frames idx[0..n) of `phase` (esr_select_frames) against the images in
@@ -61,7 +66,10 @@ void esr_eval_result_free(struct esr_eval_result *res);
  *    "mean": {"n", "psnr", "ssim", "psnr_linear", "ssim_linear", "hdr_mse"},
  *    "by_mode": {"off": {...mean...}, "on": {...}},   (only modes that have views)
  *    "normals": {"n_views", "n_gt_pixels", "n_pixels", "mean_deg", "median_deg", "frac_good",
- *                "good_deg": 10, "coverage", "min_opacity": 0.5, "ground_truth"}}
+ *                "good_deg": 10, "coverage", "min_opacity": 0.5, "ground_truth"},
+ *    "emitter_iou": pooled IoU of N_emitter.png vs <phase>/emission/<name>.png,
+ *    "emitter_views": views counted}
+ * (a view carries "emitter_iou" too; both only when some view has the two masks)
  * The normal_* keys of a view and "normals" are present only when there is a ground-truth normal
  * map (of that view / of any view); pixels are pooled over the views in "normals". A NAN value is
  * written as null. */

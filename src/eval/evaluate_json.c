@@ -77,6 +77,8 @@ static cJSON *result_json(const struct esr_dataset *ds, const struct esr_eval_re
             esr_json_add_number_or_null(o, "normal_frac_good", v->normal.frac_good);
             esr_json_add_number_or_null(o, "normal_coverage", v->normal.coverage);
         }
+        if (v->has_emitter)
+            cJSON_AddNumberToObject(o, "emitter_iou", v->emitter_iou);
         cJSON_AddItemToArray(views, o);
     }
     cJSON_AddItemToObject(root, "mean", mean_json(&res->all));
@@ -87,6 +89,10 @@ static cJSON *result_json(const struct esr_dataset *ds, const struct esr_eval_re
                                   mean_json(&res->by_mode[mode]));
     if (res->n_normal_views > 0)
         cJSON_AddItemToObject(root, "normals", normals_json(res));
+    if (res->n_emitter_views > 0) {
+        cJSON_AddNumberToObject(root, "emitter_iou", esr_iou_value(&res->emitter));
+        cJSON_AddNumberToObject(root, "emitter_views", res->n_emitter_views);
+    }
     return root;
 }
 

@@ -4,6 +4,8 @@
 #include <string.h>
 
 #include "core/error.h"
+#include "fields/env_sg.h"
+#include "model/material_fields.h"
 #include "model/model.h"
 #include "volume/neus.h"
 
@@ -19,14 +21,14 @@ static int take_grid(struct esr_model *m, enum esr_component c, int channels, in
 }
 
 static int take_mlp(struct esr_model *m, enum esr_component c, int n_in, int width, int depth,
-                    enum esr_nn_act out_act)
+                    int n_out, enum esr_nn_act out_act)
 {
     struct esr_part *p = &m->part[c];
     struct esr_mlp_desc d;
     d.n_in = n_in;
     d.width = width;
     d.n_hidden = depth;
-    d.n_out = 3;
+    d.n_out = n_out;
     d.hidden_act = ESR_NN_ACT_RELU;
     d.out_act = out_act;
     ESR_TRY(esr_mlp_init(&p->mlp, &d, &m->params));
@@ -66,7 +68,7 @@ static int layout_colour_mlp(struct esr_model *m, enum esr_component c)
 {
     const struct esr_stage_config *s = &m->cfg.coarse;
     int n_in = s->feat_channels + esr_pe_out_dims(&m->pe_dir) + 1; /* + lights flag */
-    return take_mlp(m, c, n_in, s->mlp_width, s->mlp_depth, ESR_NN_ACT_SIGMOID);
+    return take_mlp(m, c, n_in, s->mlp_width, s->mlp_depth, 3, ESR_NN_ACT_SIGMOID);
 }
 
 static int layout_radiance_mlp(struct esr_model *m, enum esr_component c)
@@ -74,12 +76,38 @@ static int layout_radiance_mlp(struct esr_model *m, enum esr_component c)
     const struct esr_stage_config *s = &m->cfg.fine;
     int n_in = s->feat_channels + esr_pe_out_dims(&m->pe_pos) + esr_geo_feature_dim(&m->geo) +
                esr_pe_out_dims(&m->pe_dir);
-    return take_mlp(m, c, n_in, s->mlp_width, s->mlp_depth, ESR_NN_ACT_SOFTPLUS);
+    return take_mlp(m, c, n_in, s->mlp_width, s->mlp_depth, 3, ESR_NN_ACT_SOFTPLUS);
 }
 
 static int layout_tone_mlp(struct esr_model *m, enum esr_component c)
 {
-    return take_mlp(m, c, esr_pe_out_dims(&m->pe_tone), m->cfg.tone_width, 1, ESR_NN_ACT_SIGMOID);
+    return take_mlp(m, c, esr_pe_out_dims(&m->pe_tone), m->cfg.tone_width, 1, 3,
+                    ESR_NN_ACT_SIGMOID);
+}
+
+/* Input of the emission and BRDF MLPs: the radiance MLPs' minus the view direction. */
+static int material_mlp_inputs(const struct esr_model *m)
+{
+    return m->cfg.fine.feat_channels + esr_pe_out_dims(&m->pe_pos) + esr_geo_feature_dim(&m->geo);
+}
+
+static int layout_emit_mlp(struct esr_model *m, enum esr_component c)
+{
+    return take_mlp(m, c, material_mlp_inputs(m), m->cfg.field_width, m->cfg.field_depth, 3,
+                    ESR_NN_ACT_SOFTPLUS);
+}
+
+static int layout_brdf_mlp(struct esr_model *m, enum esr_component c)
+{
+    return take_mlp(m, c, material_mlp_inputs(m), m->cfg.field_width, m->cfg.field_depth,
+                    ESR_BRDF_CHANNELS, ESR_NN_ACT_SIGMOID);
+}
+
+static int layout_env(struct esr_model *m, enum esr_component c)
+{
+    struct esr_part *p = &m->part[c];
+    p->count = esr_env_sg_param_count(m->cfg.env_lobes);
+    return esr_nn_params_take(&m->params, p->count, &p->off);
 }
 
 /* ---- the component table ---- */
@@ -106,6 +134,16 @@ static const struct esr_component_info components[ESR_COMP_COUNT] = {
                           -5.0f, layout_radiance_mlp},
     [ESR_COMP_TONE_MLP] = {"tone_mlp", ESR_KIND_MLP, ESR_LR_MLP, ESR_TV_NONE, ESR_INIT_KAIMING, 3,
                            0.0f, layout_tone_mlp},
+    /* softplus(0) ~ 0.69: every point starts as a weak emitter and the light-transport loss
+     * pulls E down where reflection explains the light (the authors' last bias 0) */
+    [ESR_COMP_EMIT_MLP] = {"emit_mlp", ESR_KIND_MLP, ESR_LR_MLP, ESR_TV_NONE, ESR_INIT_KAIMING, 4,
+                           0.0f, layout_emit_mlp},
+    [ESR_COMP_BRDF_FEAT] = {"brdf_feat", ESR_KIND_GRID, ESR_LR_FEAT, ESR_TV_FEAT, ESR_INIT_ZERO, 0,
+                            0.0f, layout_radiance_feat},
+    [ESR_COMP_BRDF_MLP] = {"brdf_mlp", ESR_KIND_MLP, ESR_LR_MLP, ESR_TV_NONE, ESR_INIT_KAIMING, 5,
+                           0.0f, layout_brdf_mlp},
+    [ESR_COMP_ENV] = {"env", ESR_KIND_VECTOR, ESR_LR_MLP, ESR_TV_NONE, ESR_INIT_ENV_SG, 6, 0.0f,
+                      layout_env},
 };
 
 const struct esr_component_info *esr_component_info(enum esr_component c)
@@ -129,6 +167,10 @@ enum esr_component esr_component_from_name(const char *name)
 #define FINE_PARTS                                                                                \
     (ESR_BIT(ESR_COMP_SDF) | ESR_BIT(ESR_COMP_OFF_FEAT) | ESR_BIT(ESR_COMP_EMO_FEAT) |            \
      ESR_BIT(ESR_COMP_OFF_MLP) | ESR_BIT(ESR_COMP_EMO_MLP) | ESR_BIT(ESR_COMP_TONE_MLP))
+
+#define LTS_PARTS                                                                                 \
+    (FINE_PARTS | ESR_BIT(ESR_COMP_EMIT_MLP) | ESR_BIT(ESR_COMP_BRDF_FEAT) |                      \
+     ESR_BIT(ESR_COMP_BRDF_MLP) | ESR_BIT(ESR_COMP_ENV))
 
 static const struct esr_stage_info stages[ESR_STAGE_COUNT] = {
     [ESR_STAGE_ALPHAMASK] = {.name = "alphamask",
@@ -156,6 +198,15 @@ static const struct esr_stage_info stages[ESR_STAGE_COUNT] = {
                         .decay = ESR_DECAY_COSINE,
                         .linear_loss = 1,
                         .narrows_mask = 1},
+    [ESR_STAGE_LTS] = {.name = "lts",
+                       .options = offsetof(struct esr_train_config, lts),
+                       .present = LTS_PARTS,
+                       .trained = LTS_PARTS,
+                       .alpha = ESR_ALPHA_NEUS,
+                       .head = ESR_HEAD_RADIANCE,
+                       .decay = ESR_DECAY_COSINE,
+                       .linear_loss = 1,
+                       .lts_loss = 1},
 };
 
 const struct esr_stage_info *esr_stage_info(enum esr_stage s)
@@ -175,7 +226,7 @@ int esr_stage_from_name(const char *name, enum esr_stage *out)
             *out = (enum esr_stage)i;
             return ESR_OK;
         }
-    return ESR_FAIL("unknown stage '%s' (valid: alphamask, coarse, fine)", name);
+    return ESR_FAIL("unknown stage '%s' (valid: alphamask, coarse, fine, lts)", name);
 }
 
 const struct esr_stage_config *esr_stage_options(const struct esr_train_config *cfg,

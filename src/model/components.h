@@ -34,10 +34,15 @@ enum esr_component {
     ESR_COMP_OFF_MLP,     /* fine: L_off radiance MLP, softplus (linear HDR) */
     ESR_COMP_EMO_MLP,     /* fine: L_emo radiance MLP, softplus */
     ESR_COMP_TONE_MLP,    /* fine: tone-mapper m_theta on PE(linear RGB), sigmoid */
+    ESR_COMP_EMIT_MLP,    /* lts: emission E(x) MLP on [emo feature | PE(x) | geometry], softplus */
+    ESR_COMP_BRDF_FEAT,   /* lts: feature grid of the BRDF */
+    ESR_COMP_BRDF_MLP,    /* lts: BRDF MLP -> base colour (3), roughness, metallic; sigmoid */
+    ESR_COMP_ENV,         /* lts: spherical-Gaussian environment map (fields/env_sg.h) */
     ESR_COMP_COUNT
 };
 
-enum esr_component_kind { ESR_KIND_GRID, ESR_KIND_MLP };
+/* Grids train with sparse Adam (beta2 0.99), MLPs and plain vectors with dense Adam (0.999). */
+enum esr_component_kind { ESR_KIND_GRID, ESR_KIND_MLP, ESR_KIND_VECTOR };
 /* Which learning rate of struct esr_stage_config a component trains with. */
 enum esr_lr_class { ESR_LR_GRID, ESR_LR_FEAT, ESR_LR_MLP };
 /* Which total-variation weight of struct esr_stage_config regularises a grid component. */
@@ -48,7 +53,8 @@ enum esr_init_kind {
     ESR_INIT_SDF,    /* signed distance to the previous stage's occupancy or its SDF resampled,
                         else a sphere */
     ESR_INIT_NOISE,  /* small uniform noise, so feature channels are not identical */
-    ESR_INIT_KAIMING /* MLP: Kaiming weights, last bias `last_bias` */
+    ESR_INIT_KAIMING, /* MLP: Kaiming weights, last bias `last_bias` */
+    ESR_INIT_ENV_SG   /* environment map: lobes spread over the sphere (esr_env_sg_init) */
 };
 
 struct esr_model;
@@ -74,6 +80,7 @@ enum esr_stage {
     ESR_STAGE_ALPHAMASK,
     ESR_STAGE_COARSE,
     ESR_STAGE_FINE,
+    ESR_STAGE_LTS,
     ESR_STAGE_COUNT
 };
 
@@ -100,13 +107,14 @@ struct esr_stage_info {
     int smoothed_sdf;         /* renders through the Gaussian-smoothed SDF (smooth_ksize) */
     int narrows_mask;         /* at its start: mask cache kept only near the previous SDF */
     int builds_mask;          /* at its end: mask cache from its density grid */
+    int lts_loss;             /* adds the light-transport-segment loss (train/lts.h) */
 };
 
 const struct esr_stage_info *esr_stage_info(enum esr_stage s);
-/* "alphamask", "coarse", "fine"; NULL for an invalid stage. */
+/* "alphamask", "coarse", "fine", "lts"; NULL for an invalid stage. */
 const char *esr_stage_name(enum esr_stage s);
 int esr_stage_from_name(const char *name, enum esr_stage *out);
-/* The stage's own options (cfg->alphamask / coarse / fine). */
+/* The stage's own options (cfg->alphamask / coarse / fine / lts). */
 const struct esr_stage_config *esr_stage_options(const struct esr_train_config *cfg,
                                                  enum esr_stage s);
 /* NeuS inv-s of stage s after `step` iterations (s0 + step / s_div of its options, via

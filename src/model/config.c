@@ -26,12 +26,13 @@ struct opt {
 /* A default as two named columns, so every option states its fast and its paper value itself: a
  * shared cell made tuning `fast` silently retune `paper` (coarse.lr_grid, tv_sdf_grad). */
 #define DEF(fast, paper) {[ESR_PRESET_FAST] = (fast), [ESR_PRESET_PAPER] = (paper)}
-/* One stage option in the three stages: the same bounds and help, one DEF per stage. Written as a
+/* One stage option in the four stages: the same bounds and help, one DEF per stage. Written as a
  * stage x preset grid so the macro's arity refuses a missing cell. */
-#define STAGE_OPT(field, type, lo, hi, help, am, co, fi)                                      \
+#define STAGE_OPT(field, type, lo, hi, help, am, co, fi, lt)                                  \
     {"alphamask." #field, type, OFF(alphamask.field), lo, hi, am, help},                       \
     {"coarse." #field, type, OFF(coarse.field), lo, hi, co, help},                             \
-    {"fine." #field, type, OFF(fine.field), lo, hi, fi, help}
+    {"fine." #field, type, OFF(fine.field), lo, hi, fi, help},                                 \
+    {"lts." #field, type, OFF(lts.field), lo, hi, lt, help}
 
 static const struct opt opts[] = {
     {"seed", OPT_INT, OFF(seed), 0, 2147483647, DEF(1, 1), "random seed (rays, jitter, init)"},
@@ -68,45 +69,62 @@ static const struct opt opts[] = {
     {"mlp_engine", OPT_INT, OFF(mlp_engine), 0, 2, DEF(1, 1),
      "MLP training kernels: 0 esr's fused kernel (bitwise the same for any thread count), "
      "1 oneDNN (fastest in `esr bench`), 2 OpenBLAS"},
+    {"lts_points", OPT_INT, OFF(lts_points), 1, 100000, DEF(128, 100),
+     "lts: surface points per step the light-transport loss checks"},
+    {"lts_dirs", OPT_INT, OFF(lts_dirs), 1, 4096, DEF(32, 256),
+     "lts: incident directions per point"},
+    {"lts_estimator", OPT_INT, OFF(lts_estimator), 0, 0, DEF(0, 0),
+     "lts: incident radiance estimator: 0 first hit of the SDF + radiance there, "
+     "cosine-weighted directions"},
+    {"lts_weight", OPT_FLOAT, OFF(lts_weight), 0, 1e6, DEF(0.01, 0.01),
+     "lts: weight of the light-transport MSE (off + emo)"},
+    {"field_width", OPT_INT, OFF(field_width), 8, 256, DEF(64, 128),
+     "lts: emission and BRDF MLP hidden width"},
+    {"field_depth", OPT_INT, OFF(field_depth), 1, 8, DEF(2, 4),
+     "lts: emission and BRDF MLP hidden layers"},
+    {"env_lobes", OPT_INT, OFF(env_lobes), 1, 512, DEF(48, 48),
+     "lts: spherical Gaussians of the environment map"},
+    {"emitter_k", OPT_FLOAT, OFF(emitter_k), 0, 1e6, DEF(0.2, 0.2),
+     "emitter mask threshold on the composited emission (METHOD.md: k starts at 0.2)"},
     {"tv_every", OPT_INT, OFF(tv_every), 1, 1000, DEF(4, 1),
      "total-variation regularisers every N iterations (weight scaled by N)"},
-    /* Stage options: one DEF(fast, paper) per stage, in the order alphamask, coarse, fine. */
+    /* Stage options: one DEF(fast, paper) per stage, in the order alphamask, coarse, fine, lts. */
     STAGE_OPT(res, OPT_INT, 8, 512, "grid lattice points per axis",
-              DEF(80, 100), DEF(80, 96), DEF(128, 160)),
+              DEF(80, 100), DEF(80, 96), DEF(128, 160), DEF(128, 160)),
     STAGE_OPT(iters, OPT_INT, 0, 1000000, "iterations",
-              DEF(500, 10000), DEF(1500, 10000), DEF(2000, 20000)),
+              DEF(500, 10000), DEF(1500, 10000), DEF(2000, 20000), DEF(1500, 40000)),
     STAGE_OPT(feat_channels, OPT_INT, 1, 64, "feature grid channels",
-              DEF(6, 6), DEF(12, 12), DEF(6, 6)),
+              DEF(6, 6), DEF(12, 12), DEF(6, 6), DEF(6, 6)),
     STAGE_OPT(mlp_width, OPT_INT, 8, 256, "MLP hidden width",
-              DEF(8, 8), DEF(64, 128), DEF(64, 192)),
+              DEF(8, 8), DEF(64, 128), DEF(64, 192), DEF(64, 192)),
     STAGE_OPT(mlp_depth, OPT_INT, 1, 8, "MLP hidden layers",
-              DEF(1, 1), DEF(2, 3), DEF(3, 4)),
+              DEF(1, 1), DEF(2, 3), DEF(3, 4), DEF(3, 4)),
     /* paper coarse 5e-3: the value before the fast preset was tuned to 1e-2 (the authors' SDF lr
      * once their step decays have run) */
     STAGE_OPT(lr_grid, OPT_FLOAT, 0, 10, "density/SDF grid learning rate",
-              DEF(0.1, 0.1), DEF(1e-2, 5e-3), DEF(2e-3, 2e-3)),
+              DEF(0.1, 0.1), DEF(1e-2, 5e-3), DEF(2e-3, 2e-3), DEF(5e-4, 5e-4)),
     STAGE_OPT(lr_feat, OPT_FLOAT, 0, 10, "feature grid learning rate",
-              DEF(0.1, 0.1), DEF(0.1, 0.1), DEF(0.1, 0.1)),
+              DEF(0.1, 0.1), DEF(0.1, 0.1), DEF(0.1, 0.1), DEF(0.05, 0.1)),
     STAGE_OPT(lr_mlp, OPT_FLOAT, 0, 1, "MLP learning rate",
-              DEF(1e-3, 1e-3), DEF(1e-3, 1e-3), DEF(1e-3, 1e-3)),
+              DEF(1e-3, 1e-3), DEF(1e-3, 1e-3), DEF(1e-3, 1e-3), DEF(1e-3, 3e-3)),
     STAGE_OPT(lr_final, OPT_FLOAT, 0, 1, "learning-rate factor reached at the last iteration",
-              DEF(0.1, 0.1), DEF(0.1, 0.1), DEF(0.1, 0.1)),
+              DEF(0.1, 0.1), DEF(0.1, 0.1), DEF(0.1, 0.1), DEF(0.1, 0.01)),
     STAGE_OPT(s0, OPT_FLOAT, 0.1, 10000, "NeuS inv-s at step 0",
-              DEF(1, 1), DEF(5, 5), DEF(100, 20)),
+              DEF(1, 1), DEF(5, 5), DEF(100, 20), DEF(200, 220)),
     STAGE_OPT(s_div, OPT_FLOAT, 0.01, 1e6, "inv-s grows by step / s_div",
-              DEF(1, 1), DEF(10, 50), DEF(20, 100)),
+              DEF(1, 1), DEF(10, 50), DEF(20, 100), DEF(1e6, 1e6)),
     STAGE_OPT(tv_sdf, OPT_FLOAT, 0, 100, "grid total-variation weight",
-              DEF(0, 0), DEF(1e-3, 1e-3), DEF(1e-3, 1e-3)),
+              DEF(0, 0), DEF(1e-3, 1e-3), DEF(1e-3, 1e-3), DEF(1e-3, 1e-3)),
     /* fast: coarse only (+1.2 dB on lamp; the fine band is narrowed by a distance estimate, so
      * the smoother SDF no longer widens it); paper: coarse and fine as METHOD.md says, at the
      * authors' weight */
     STAGE_OPT(tv_sdf_grad, OPT_FLOAT, 0, 100,
               "smoothed-gradient total-variation weight on the SDF (Voxurf; 0 = off)",
-              DEF(0, 0), DEF(0.05, 0.05), DEF(0, 0.05)),
+              DEF(0, 0), DEF(0.05, 0.05), DEF(0, 0.05), DEF(0, 0.05)),
     STAGE_OPT(tv_feat, OPT_FLOAT, 0, 100, "feature-grid total-variation weight",
-              DEF(0, 0), DEF(0, 0), DEF(0, 0)),
+              DEF(0, 0), DEF(0, 0), DEF(0, 0), DEF(0, 0)),
     STAGE_OPT(step_vox, OPT_FLOAT, 0.05, 4, "ray-marching step in voxels",
-              DEF(0.5, 0.5), DEF(0.5, 0.5), DEF(0.5, 0.5)),
+              DEF(0.5, 0.5), DEF(0.5, 0.5), DEF(0.5, 0.5), DEF(0.5, 0.5)),
 };
 #define N_OPTS (sizeof opts / sizeof opts[0])
 

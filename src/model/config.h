@@ -15,7 +15,7 @@ extern "C" {
 
 enum esr_preset { ESR_PRESET_FAST, ESR_PRESET_PAPER, ESR_PRESET_COUNT };
 
-/* Per-stage options shared by the three stages (unused ones are ignored by a stage). */
+/* Per-stage options shared by the stages (unused ones are ignored by a stage). */
 struct esr_stage_config {
     int res;            /* grid lattice points per axis (density / SDF) */
     int iters;          /* iterations of the stage */
@@ -56,7 +56,15 @@ struct esr_train_config {
     float fine_mask_band;   /* fine: mask keeps the band within this many voxels of the surface */
     int tv_every;           /* total-variation terms every N iterations (weight x N) */
     int mlp_engine;         /* enum esr_mlp_engine of the training MLPs */
-    struct esr_stage_config alphamask, coarse, fine;
+    int lts_points;         /* lts: points per step of the light-transport loss */
+    int lts_dirs;           /* lts: incident directions per point */
+    int lts_estimator;      /* lts: incident radiance estimator (0: first hit) */
+    float lts_weight;       /* lts: weight of the light-transport MSE */
+    int field_width;        /* lts: emission / BRDF MLP width */
+    int field_depth;        /* lts: emission / BRDF MLP hidden layers */
+    int env_lobes;          /* lts: spherical Gaussians of the environment map */
+    float emitter_k;        /* emitter mask: composited E above this in any channel */
+    struct esr_stage_config alphamask, coarse, fine, lts;
 };
 
 /* Defaults of a preset. */

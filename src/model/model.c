@@ -7,6 +7,7 @@
 #include "core/error.h"
 #include "core/rng.h"
 #include "fields/density.h"
+#include "fields/env_sg.h"
 #include "fields/sdf.h"
 #include "model/sdf_init.h"
 
@@ -34,13 +35,39 @@ static int init_sdf(struct esr_model *m, const struct esr_model *prev)
     return used ? ESR_OK : esr_sdf_init_sphere(esr_model_grid(m, ESR_COMP_SDF), sdf, 1.0f);
 }
 
-/* Initial values of every component of the stage (component table: init kind, seed offset). */
+/* 1 when prev has component c with the same shape as m's (then m starts from its values). */
+static int same_shape(const struct esr_model *m, const struct esr_model *prev, enum esr_component c)
+{
+    if (!prev || !esr_model_has(prev, c) || prev->part[c].count != m->part[c].count)
+        return 0;
+    const struct esr_part *a = &m->part[c], *b = &prev->part[c];
+    switch (esr_component_info(c)->kind) {
+    case ESR_KIND_GRID:
+        return a->grid.nx == b->grid.nx && a->grid.ny == b->grid.ny && a->grid.nz == b->grid.nz &&
+               a->grid.channels == b->grid.channels;
+    case ESR_KIND_MLP:
+        return a->mlp.desc.n_in == b->mlp.desc.n_in && a->mlp.desc.width == b->mlp.desc.width &&
+               a->mlp.desc.n_hidden == b->mlp.desc.n_hidden && a->mlp.desc.n_out == b->mlp.desc.n_out;
+    case ESR_KIND_VECTOR:
+        break;
+    }
+    return 1;
+}
+
+/* Initial values of every component of the stage: what the previous stage trained when it has
+ * the component in the same shape (the lts stage continues the fine stage's SDF and radiance),
+ * else the component table's init kind with its seed offset. */
 static int init_values(struct esr_model *m, const struct esr_model *prev)
 {
     const uint64_t seed = (uint64_t)m->cfg.seed * 1000 + (uint64_t)m->stage;
     for (int c = 0; c < ESR_COMP_COUNT; c++) {
         if (!esr_model_has(m, (enum esr_component)c))
             continue;
+        if (same_shape(m, prev, (enum esr_component)c)) {
+            memcpy(esr_model_values(m, (enum esr_component)c),
+                   esr_model_values(prev, (enum esr_component)c), m->part[c].count * sizeof(float));
+            continue;
+        }
         const struct esr_component_info *ci = esr_component_info((enum esr_component)c);
         const uint64_t cs = seed + (uint64_t)ci->seed_offset;
         switch (ci->init) {
@@ -54,6 +81,9 @@ static int init_values(struct esr_model *m, const struct esr_model *prev)
             break;
         case ESR_INIT_KAIMING:
             esr_mlp_init_weights(&m->part[c].mlp, m->params.w, cs, ci->last_bias);
+            break;
+        case ESR_INIT_ENV_SG:
+            esr_env_sg_init(esr_model_values(m, (enum esr_component)c), m->cfg.env_lobes, cs);
             break;
         }
     }

@@ -104,6 +104,8 @@ struct esr_render_out {
     float *depth;    /* [n]   expected ray distance of the surface (weights-normalised) */
     float *normal;   /* [n*3] composited unit SDF normal (world space, not normalised by opacity) */
     float *opacity;  /* [n]   1 - T_final */
+    float *emission; /* [n*3] composited emission E (linear HDR, no background); lts stage on,
+                        ignored by models without an emission field */
 };
 
 /* Renders n rays (origins/dirs [n*3], dirs unit length) with lights on (1) or off (0). Only

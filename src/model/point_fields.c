@@ -8,6 +8,7 @@
 #include "fields/geo_feature.h"
 #include "fields/grid.h"
 #include "nn/activation.h"
+#include "model/rows.h"
 #include "nn/encoding.h"
 
 /* Row widths of the stage's head. */
@@ -142,24 +143,6 @@ static int mlp_back(const struct esr_mlp *mlp, const float *w, float *grads, str
     return esr_mlp_bwd(mlp, w, grads, ctx, d_out, d_in, ESR_NN_GRAD_OVERWRITE);
 }
 
-/* Copies `cols` columns between row-major arrays of different strides. */
-static void copy_cols(const float *src, size_t src_stride, float *dst, size_t dst_stride, size_t n,
-                      int cols)
-{
-#pragma omp parallel for schedule(static)
-    for (size_t k = 0; k < n; k++)
-        memcpy(dst + k * dst_stride, src + k * src_stride, (size_t)cols * sizeof(float));
-}
-
-static void pe_into(const struct esr_pe *pe, const float *in, size_t n, float *out, size_t stride)
-{
-    struct esr_pe_rows rows;
-    rows.n = n;
-    rows.in_stride = 3;
-    rows.out_stride = stride;
-    esr_pe_fwd(pe, &rows, in, out);
-}
-
 /* Batch order: a stable partition of the caller's rows, lights-off first; positions and
  * directions gathered into it. */
 static void partition(struct esr_point_fields *pf, const struct esr_point_query *q)
@@ -238,8 +221,8 @@ static int colour_mlp_fwd(struct esr_point_fields *pf, const struct esr_model *m
     const int C = pf->ch_a;
     esr_grid_sample_fwd(esr_model_grid(m, ESR_COMP_COLOUR_FEAT),
                         esr_model_values(m, ESR_COMP_COLOUR_FEAT), pf->pos3, n, pf->fa);
-    copy_cols(pf->fa, (size_t)C, pf->x_a, ni, n, C);
-    pe_into(&m->pe_dir, pf->dir3, n, pf->x_a + C, ni);
+    esr_rows_copy_cols(pf->fa, (size_t)C, pf->x_a, ni, n, C);
+    esr_rows_pe(&m->pe_dir, pf->dir3, n, pf->x_a + C, ni);
 #pragma omp parallel for schedule(static)
     for (size_t k = 0; k < n; k++)
         pf->x_a[k * ni + ni - 1] = k >= n_off ? 1.0f : 0.0f;
@@ -253,7 +236,7 @@ static int colour_mlp_bwd(struct esr_point_fields *pf, const struct esr_model *m
     const int C = pf->ch_a;
     ESR_TRY(mlp_back(esr_model_mlp(m, ESR_COMP_COLOUR_MLP), m->params.w, grads, &pf->ctx_a,
                      pf->d_out3, pf->dx_a, n));
-    copy_cols(pf->dx_a, (size_t)pf->n_in_a, pf->d_fa, (size_t)C, n, C);
+    esr_rows_copy_cols(pf->dx_a, (size_t)pf->n_in_a, pf->d_fa, (size_t)C, n, C);
     esr_grid_sample_bwd(esr_model_grid(m, ESR_COMP_COLOUR_FEAT), pf->pos3, n, pf->d_fa,
                         grads + m->part[ESR_COMP_COLOUR_FEAT].off);
     return ESR_OK;
@@ -271,13 +254,13 @@ static int radiance_fwd(struct esr_point_fields *pf, const struct esr_model *m, 
     esr_grid_sample_fwd(esr_model_grid(m, ESR_COMP_EMO_FEAT), esr_model_values(m, ESR_COMP_EMO_FEAT),
                         pf->pos3 + n_off * 3, n_on, pf->fb);
     ESR_TRY(esr_geo_feature_fwd(esr_model_grid(m, ESR_COMP_SDF), sdf, &m->geo, pf->pos3, n, pf->geo));
-    copy_cols(pf->fa, (size_t)C, pf->x_a, ni, n, C);
-    pe_into(&m->pe_pos, pf->pos3, n, pf->x_a + C, ni);
-    copy_cols(pf->geo, (size_t)pf->geo_dim, pf->x_a + C + pp, ni, n, pf->geo_dim);
-    pe_into(&m->pe_dir, pf->dir3, n, pf->x_a + C + pp + pf->geo_dim, ni);
+    esr_rows_copy_cols(pf->fa, (size_t)C, pf->x_a, ni, n, C);
+    esr_rows_pe(&m->pe_pos, pf->pos3, n, pf->x_a + C, ni);
+    esr_rows_copy_cols(pf->geo, (size_t)pf->geo_dim, pf->x_a + C + pp, ni, n, pf->geo_dim);
+    esr_rows_pe(&m->pe_dir, pf->dir3, n, pf->x_a + C + pp + pf->geo_dim, ni);
     /* emo rows: own features, the shared columns of the same points */
-    copy_cols(pf->fb, (size_t)C, pf->x_b, ni, n_on, C);
-    copy_cols(pf->x_a + n_off * ni + C, ni, pf->x_b + C, ni, n_on, (int)ni - C);
+    esr_rows_copy_cols(pf->fb, (size_t)C, pf->x_b, ni, n_on, C);
+    esr_rows_copy_cols(pf->x_a + n_off * ni + C, ni, pf->x_b + C, ni, n_on, (int)ni - C);
     const struct esr_mlp *off = esr_model_mlp(m, ESR_COMP_OFF_MLP);
     ESR_TRY(mlp_run(pf, off, w, &pf->ctx_a, pf->x_a, pf->y_a3, n_off));
     /* stop-gradient: the off branch of lights-on rows needs no backward state */
@@ -288,7 +271,7 @@ static int radiance_fwd(struct esr_point_fields *pf, const struct esr_model *m, 
         for (int c = 0; c < 3; c++)
             pf->sum3[k * 3 + c] =
                 pf->y_a3[k * 3 + c] + (k >= n_off ? pf->y_b3[(k - n_off) * 3 + c] : 0.0f);
-    pe_into(&m->pe_tone, pf->sum3, n, pf->tone_in, (size_t)pf->n_tone_in);
+    esr_rows_pe(&m->pe_tone, pf->sum3, n, pf->tone_in, (size_t)pf->n_tone_in);
     ESR_TRY(mlp_run(pf, esr_model_mlp(m, ESR_COMP_TONE_MLP), w, &pf->ctx_tone, pf->tone_in, pf->out3, n));
     to_caller(pf, pf->sum3, pf->lin3);
     return ESR_OK;
@@ -311,15 +294,15 @@ static int radiance_bwd(struct esr_point_fields *pf, const struct esr_model *m, 
                      n_off));
     ESR_TRY(mlp_back(esr_model_mlp(m, ESR_COMP_EMO_MLP), w, grads, &pf->ctx_b, pf->d_sum3 + n_off * 3,
                      pf->dx_b, n_on));
-    copy_cols(pf->dx_a, ni, pf->d_fa, (size_t)C, n_off, C);
+    esr_rows_copy_cols(pf->dx_a, ni, pf->d_fa, (size_t)C, n_off, C);
     esr_grid_sample_bwd(esr_model_grid(m, ESR_COMP_OFF_FEAT), pf->pos3, n_off, pf->d_fa,
                         grads + m->part[ESR_COMP_OFF_FEAT].off);
-    copy_cols(pf->dx_b, ni, pf->d_fb, (size_t)C, n_on, C);
+    esr_rows_copy_cols(pf->dx_b, ni, pf->d_fb, (size_t)C, n_on, C);
     esr_grid_sample_bwd(esr_model_grid(m, ESR_COMP_EMO_FEAT), pf->pos3 + n_off * 3, n_on, pf->d_fb,
                         grads + m->part[ESR_COMP_EMO_FEAT].off);
     /* geometry feature rows: off rows from the off branch, on rows from the emo branch */
-    copy_cols(pf->dx_a + gcol, ni, pf->d_geo, (size_t)gd, n_off, gd);
-    copy_cols(pf->dx_b + gcol, ni, pf->d_geo + n_off * (size_t)gd, (size_t)gd, n_on, gd);
+    esr_rows_copy_cols(pf->dx_a + gcol, ni, pf->d_geo, (size_t)gd, n_off, gd);
+    esr_rows_copy_cols(pf->dx_b + gcol, ni, pf->d_geo + n_off * (size_t)gd, (size_t)gd, n_on, gd);
     return esr_geo_feature_bwd(esr_model_grid(m, ESR_COMP_SDF), sdf, &m->geo, pf->pos3, n, pf->d_geo,
                                g_sdf);
 }

@@ -5,8 +5,10 @@
 #include "core/colour.h"
 #include "core/error.h"
 #include "fields/sdf.h"
+#include "model/material_fields.h"
 #include "model/render_sdf.h"
 #include "model/trace.h"
+#include "volume/composite.h"
 
 #define RENDER_CHUNK 4096
 
@@ -40,6 +42,18 @@ int esr_model_normal_sdf(const struct esr_model *m, float **out)
     else
         *out = smooth;
     return rc;
+}
+
+/* Composited emission of the last trace forward's rays into emission3 (no background). */
+static int emission_rows(struct esr_trace *t, const struct esr_model *m, const float *sdf,
+                         struct esr_material_fields *mf, float *emission3)
+{
+    const struct esr_march *mc = &t->march;
+    ESR_TRY(esr_material_fields_fwd(mf, m, sdf, mc->kpos3, mc->n_kept));
+    struct esr_composite_args a;
+    esr_march_composite_args(mc, mf->emit3, 3, NULL, 0, &a);
+    esr_composite_fwd(&a, emission3);
+    return ESR_OK;
 }
 
 static void copy_out(float *dst, const float *src, size_t off, size_t n)
@@ -81,6 +95,11 @@ int esr_model_render_rays(const struct esr_model *m, const float *origins, const
     rc = esr_trace_init(&t, m, chunk, 0);
     float *depth = NULL, *normal = NULL, *opac = NULL;
     uint8_t *flags = NULL;
+    struct esr_material_fields mf;
+    const int emission = out->emission && esr_model_has(m, ESR_COMP_EMIT_MLP);
+    memset(&mf, 0, sizeof mf);
+    if (rc == ESR_OK && emission)
+        rc = esr_material_fields_init(&mf, m, (size_t)chunk * 8, 0);
     if (rc == ESR_OK) {
         flags = malloc((size_t)chunk);
         depth = malloc((size_t)chunk * sizeof(float));
@@ -101,6 +120,11 @@ int esr_model_render_rays(const struct esr_model *m, const float *origins, const
         copy_out(out->depth, depth, r0, (size_t)c);
         copy_out(out->normal, normal, r0 * 3, (size_t)c * 3);
         copy_out(out->opacity, opac, r0, (size_t)c);
+        if (emission) {
+            rc = emission_rows(&t, m, sdf, &mf, out->emission + r0 * 3);
+            if (rc != ESR_OK)
+                break;
+        }
         if (out->linear) {
             for (size_t i = 0; i < (size_t)c * 3; i++)
                 out->linear[r0 * 3 + i] = t.fields.lin3 ? t.lin_rgb3[i]
@@ -112,6 +136,7 @@ int esr_model_render_rays(const struct esr_model *m, const float *origins, const
     free(opac);
     free(flags);
     esr_trace_free(&t);
+    esr_material_fields_free(&mf);
     free(view);
     free(normal_sdf);
     return rc;

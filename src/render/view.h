@@ -15,6 +15,9 @@ struct esr_view_images {
     struct esr_image depth;   /* 1 ch: expected ray distance */
     struct esr_image normal;  /* 3 ch: composited world-space normal (sum of weights * normal) */
     struct esr_image opacity; /* 1 ch: 1 - final transmittance */
+    struct esr_image emission; /* 3 ch: composited emission E, linear HDR (lts stage on; else
+                                  empty: data NULL) */
+    float emitter_k;          /* emitter mask: emission above this in any channel */
 };
 
 /* Renders every pixel of cam with the lights on (1) or off (0) in one model call (the model
@@ -33,6 +36,10 @@ void esr_view_images_free(struct esr_view_images *v);
  *   N_depth.png    depth normalised to [0,1] between the nearest and farthest pixel of opacity
  *                  > 0.5 (0 = nearest); pixels of lower opacity are white
  *   N_depth.exr    raw depth (float, one channel)
+ * and with an emission image (lts stage on):
+ *   N_emission.exr composited emission E (linear RGB, float)
+ *   N_emission.png its sRGB OETF clipped to [0,1], 8-bit
+ *   N_emitter.png  emitter mask, grey 0 or 255: any channel of E above emitter_k
  * Fails naming the file on a write error. */
 int esr_view_write(const char *dir, const char *name, const struct esr_view_images *v);
 

@@ -80,6 +80,21 @@ static int write_exr(const char *dir, const char *name, const char *suffix, cons
     return esr_exr_write(path, img, 0);
 }
 
+/* N_emission.exr, N_emission.png and the emitter mask N_emitter.png (rgb3, grey: scratch). */
+static int write_emission(const char *dir, const char *name, const struct esr_view_images *v,
+                          struct esr_image *rgb3, struct esr_image *grey)
+{
+    ESR_TRY(write_exr(dir, name, "_emission.exr", &v->emission));
+    gamma_image(&v->emission, rgb3);
+    ESR_TRY(write_png(dir, name, "_emission.png", rgb3));
+    const long long n = (long long)grey->width * grey->height;
+    for (long long i = 0; i < n; i++) {
+        const float *e = v->emission.data + 3 * i;
+        grey->data[i] = fmaxf(e[0], fmaxf(e[1], e[2])) > v->emitter_k ? 1.0f : 0.0f;
+    }
+    return write_png(dir, name, "_emitter.png", grey);
+}
+
 int esr_view_write(const char *dir, const char *name, const struct esr_view_images *v)
 {
     struct esr_image rgb3 = {0}, grey = {0}, rgba = {0};
@@ -111,6 +126,8 @@ int esr_view_write(const char *dir, const char *name, const struct esr_view_imag
     }
     if (status == ESR_OK)
         status = write_exr(dir, name, "_depth.exr", &v->depth);
+    if (status == ESR_OK && v->emission.data)
+        status = write_emission(dir, name, v, &rgb3, &grey);
     esr_image_free(&rgb3);
     esr_image_free(&grey);
     esr_image_free(&rgba);

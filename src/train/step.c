@@ -11,6 +11,8 @@
 void esr_train_step_free(struct esr_train_step *st)
 {
     esr_trace_free(&st->tr);
+    if (st->has_lts)
+        esr_lts_free(&st->lts);
     float *bufs[] = {st->orig3, st->dir3,       st->tgt3,    st->d_rgb3,      st->d_lin3,
                      st->sdf_view, st->g_sdf_view, st->scratch, st->grad_tv_work};
     for (size_t i = 0; i < sizeof bufs / sizeof bufs[0]; i++)
@@ -43,6 +45,14 @@ int esr_train_step_init(struct esr_train_step *st, const struct esr_model *m, in
         esr_train_step_free(st);
         return ESR_FAIL("train: out of memory for a batch of %d rays", max_rays);
     }
+    if (esr_stage_info(s)->lts_loss) {
+        int rc = esr_lts_init(&st->lts, m);
+        if (rc != ESR_OK) {
+            esr_train_step_free(st);
+            return rc;
+        }
+        st->has_lts = 1;
+    }
     return ESR_OK;
 }
 
@@ -72,6 +82,11 @@ int esr_train_step_run(struct esr_train_step *st, struct esr_model *m, int n, ui
     esr_render_loss_batch(st->tr.rgb3, st->tr.lin_rgb3, st->tgt3, (size_t)n,
                           si->linear_loss ? m->cfg.lambda_tau : 0.0f, st->d_rgb3, d_lin, out);
     ESR_TRY(esr_trace_bwd(&st->tr, m, sdf, g_sdf, m->params.g, st->d_rgb3, d_lin));
+    if (st->has_lts) {
+        ESR_TRY(esr_lts_run(&st->lts, m, sdf, g_sdf, m->params.g, &st->tr.march,
+                            seed ^ 0x17a3c0ffeeULL, &st->lts_stats));
+        out->loss += st->lts_stats.loss;
+    }
     if (st->sdf_view)
         ESR_TRY(esr_grid_smooth_bwd(esr_model_grid(m, ESR_COMP_SDF), st->g_sdf_view, g_raw,
                                     st->scratch, m->cfg.smooth_ksize, m->cfg.smooth_sigma));

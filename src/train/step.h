@@ -1,7 +1,8 @@
 /* One training step's loss and gradient, the path the trainer runs every iteration and the
  * finite-difference tests check: the SDF the stage renders (raw, or Gaussian-smoothed in the
  * coarse stage), the trace forward (march -> point fields -> composite), the two-term rendering
- * loss, the trace backward and the smoothing's adjoint. Regularisers and the optimiser are the
+ * loss, the trace backward and the smoothing's adjoint; in the lts stage the light-transport
+ * loss on the batch's kept samples (train/lts.h) is added. Regularisers and the optimiser are the
  * trainer's (train/trainer.c). */
 #ifndef ESR_TRAIN_STEP_H
 #define ESR_TRAIN_STEP_H
@@ -10,6 +11,7 @@
 
 #include "model/model.h"
 #include "model/trace.h"
+#include "train/lts.h"
 #include "train/render_loss.h"
 
 #ifdef __cplusplus
@@ -25,6 +27,9 @@ struct esr_train_step {
     float *d_rgb3, *d_lin3;                 /* loss gradients per ray */
     float *sdf_view, *g_sdf_view, *scratch; /* smoothed-SDF stages: the view and its gradient */
     float *grad_tv_work;                    /* smoothed-gradient TV work space (when enabled) */
+    int has_lts;                            /* the stage adds the LTS loss */
+    struct esr_lts lts;
+    struct esr_lts_stats lts_stats;         /* of the last step */
 };
 
 /* Buffers for batches of up to max_rays rays of m's stage. */

@@ -41,6 +41,7 @@ struct run {
 
 struct window {
     double t0, loss, mse, samples, kept;
+    double lts_off, lts_emo, secondary, hits;
     long iters;
 };
 
@@ -174,12 +175,23 @@ static void report_window(struct run *r, const struct esr_model *m, enum esr_sta
     p.eta_s = dt > 0 ? dt / (double)w->iters * (double)(iters - it) : 0.0;
     p.samples_per_ray = w->samples / ((double)w->iters * B);
     p.kept_per_ray = w->kept / ((double)w->iters * B);
-    char line[512];
+    char line[768], extra[256] = "";
+    if (esr_stage_info(s)->lts_loss) {
+        p.has_lts = 1;
+        p.lts_mse_off = w->lts_off / (double)w->iters;
+        p.lts_mse_emo = w->lts_emo / (double)w->iters;
+        p.secondary_per_s = dt > 0 ? w->secondary / dt : 0.0;
+        p.hit_frac = w->secondary > 0 ? w->hits / w->secondary : 0.0;
+        snprintf(extra, sizeof extra,
+                 ",\"lts_mse_off\":%.6g,\"lts_mse_emo\":%.6g,\"secondary_per_s\":%.0f,"
+                 "\"hit_frac\":%.3f",
+                 p.lts_mse_off, p.lts_mse_emo, p.secondary_per_s, p.hit_frac);
+    }
     snprintf(line, sizeof line,
              "{\"stage\":\"%s\",\"iter\":%ld,\"loss\":%.6g,\"psnr\":%.3f,\"rays_per_s\":%.0f,"
-             "\"samples_per_ray\":%.2f,\"kept_per_ray\":%.2f,\"inv_s\":%.2f}",
+             "\"samples_per_ray\":%.2f,\"kept_per_ray\":%.2f,\"inv_s\":%.2f%s}",
              esr_stage_name(s), it, p.loss, p.psnr, p.rays_per_s, p.samples_per_ray,
-             p.kept_per_ray, (double)m->inv_s);
+             p.kept_per_ray, (double)m->inv_s, extra);
     append_jsonl(r, line);
     emit(r, &p);
     memset(w, 0, sizeof(*w));
@@ -225,6 +237,12 @@ static int iterate(struct run *r, struct esr_model *m, struct esr_train_step *b,
     w->mse += lr.mse_tone;
     w->samples += (double)b->tr.march.smp.count;
     w->kept += (double)b->tr.march.n_kept;
+    if (b->has_lts) {
+        w->lts_off += b->lts_stats.mse_off;
+        w->lts_emo += b->lts_stats.mse_emo;
+        w->secondary += (double)b->lts_stats.secondary;
+        w->hits += (double)b->lts_stats.hits;
+    }
     w->iters++;
     return ESR_OK;
 }

@@ -31,6 +31,10 @@ struct esr_train_progress {
     double eta_s;          /* remaining seconds of this stage */
     double seconds;        /* ESR_TRAIN_STAGE_DONE only */
     double samples_per_ray, kept_per_ray; /* marched / MLP-evaluated samples per ray */
+    int has_lts;           /* the stage adds the light-transport loss; then: */
+    double lts_mse_off, lts_mse_emo; /* its two MSE terms (last window) */
+    double secondary_per_s;          /* secondary rays per second */
+    double hit_frac;                 /* fraction of secondary rays that hit the surface */
     const char *message;   /* ESR_TRAIN_MESSAGE text */
 };
 

@@ -25,6 +25,13 @@ static inline void test_small_config(struct esr_train_config *c, float lambda_ta
     c->pe_pos = 2;
     c->geo_scales = 2;
     c->lambda_tau = lambda_tau;
+    c->lts.res = 8;
+    c->lts_points = 4;
+    c->lts_dirs = 16;
+    c->field_width = 8;
+    c->field_depth = 1;
+    c->env_lobes = 4;
+    c->normal_ksize = 0; /* an 8^3 grid is too small for the normals' smoothing */
 }
 
 /* Values in [-amp, amp) for component c, so its inputs matter. */

@@ -1,0 +1,142 @@
+/* Emission and BRDF heads at arbitrary points (see material_fields.h). */
+#include "model/material_fields.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+#include "core/error.h"
+#include "fields/geo_feature.h"
+#include "fields/grid.h"
+#include "model/rows.h"
+
+void esr_material_fields_free(struct esr_material_fields *mf)
+{
+    float *bufs[] = {mf->emit3, mf->brdf5, mf->x_e, mf->x_b, mf->dx_e, mf->dx_b, mf->fe,
+                     mf->fb,    mf->d_fe,  mf->d_fb, mf->geo, mf->d_geo};
+    for (size_t i = 0; i < sizeof bufs / sizeof bufs[0]; i++)
+        free(bufs[i]);
+    esr_mlp_ctx_free(&mf->ctx_e);
+    esr_mlp_ctx_free(&mf->ctx_b);
+    int train = mf->train;
+    memset(mf, 0, sizeof(*mf));
+    mf->train = train;
+}
+
+static int grow(struct esr_material_fields *mf, const struct esr_model *m, size_t cap)
+{
+    const int train = mf->train, ch = mf->ch, n_in = mf->n_in, gd = mf->geo_dim;
+    esr_material_fields_free(mf);
+    mf->train = train;
+    mf->ch = ch;
+    mf->n_in = n_in;
+    mf->geo_dim = gd;
+    struct {
+        float **p;
+        size_t per_row;
+    } all[] = {{&mf->emit3, 3},     {&mf->brdf5, ESR_BRDF_CHANNELS},
+               {&mf->x_e, n_in},    {&mf->x_b, n_in},
+               {&mf->dx_e, n_in},   {&mf->dx_b, n_in},
+               {&mf->fe, ch},       {&mf->fb, ch},
+               {&mf->d_fe, ch},     {&mf->d_fb, ch},
+               {&mf->geo, gd},      {&mf->d_geo, gd}};
+    int ok = 1;
+    for (size_t i = 0; i < sizeof all / sizeof all[0]; i++)
+        ok &= (*all[i].p = malloc(cap * all[i].per_row * sizeof(float))) != NULL;
+    int rc = ok ? ESR_OK : ESR_FAIL("material fields: out of memory for %zu rows", cap);
+    const enum esr_mlp_engine engine = (enum esr_mlp_engine)m->cfg.mlp_engine;
+    if (rc == ESR_OK && train)
+        rc = esr_mlp_ctx_init(&mf->ctx_e, esr_model_mlp(m, ESR_COMP_EMIT_MLP), cap, engine);
+    if (rc == ESR_OK && train)
+        rc = esr_mlp_ctx_init(&mf->ctx_b, esr_model_mlp(m, ESR_COMP_BRDF_MLP), cap, engine);
+    if (rc != ESR_OK) {
+        esr_material_fields_free(mf);
+        return rc;
+    }
+    mf->cap = cap;
+    return ESR_OK;
+}
+
+int esr_material_fields_init(struct esr_material_fields *mf, const struct esr_model *m, size_t cap,
+                             int train)
+{
+    memset(mf, 0, sizeof(*mf));
+    if (!esr_model_has(m, ESR_COMP_EMIT_MLP) || !esr_model_has(m, ESR_COMP_BRDF_MLP))
+        return ESR_FAIL("material fields: the %s stage has no emission/BRDF fields",
+                        esr_stage_name((enum esr_stage)m->stage));
+    mf->train = train;
+    mf->ch = esr_model_grid(m, ESR_COMP_EMO_FEAT)->channels;
+    mf->n_in = esr_model_mlp(m, ESR_COMP_EMIT_MLP)->desc.n_in;
+    mf->geo_dim = esr_geo_feature_dim(&m->geo);
+    return grow(mf, m, cap > 0 ? cap : 1);
+}
+
+static int mlp_run(const struct esr_material_fields *mf, const struct esr_mlp *mlp, const float *w,
+                   struct esr_mlp_ctx *ctx, const float *in, float *out, size_t n)
+{
+    if (mf->train)
+        return esr_mlp_fwd(mlp, w, ctx, in, out, n);
+    esr_mlp_infer(mlp, w, in, out, n);
+    return ESR_OK;
+}
+
+int esr_material_fields_fwd(struct esr_material_fields *mf, const struct esr_model *m,
+                            const float *sdf, const float *pos3, size_t n)
+{
+    if (n > mf->cap)
+        ESR_TRY(grow(mf, m, n + n / 4));
+    mf->n = n;
+    mf->pos3 = pos3;
+    if (n == 0)
+        return ESR_OK;
+    const size_t ni = (size_t)mf->n_in;
+    const int C = mf->ch, pp = esr_pe_out_dims(&m->pe_pos);
+    esr_grid_sample_fwd(esr_model_grid(m, ESR_COMP_EMO_FEAT), esr_model_values(m, ESR_COMP_EMO_FEAT),
+                        pos3, n, mf->fe);
+    esr_grid_sample_fwd(esr_model_grid(m, ESR_COMP_BRDF_FEAT),
+                        esr_model_values(m, ESR_COMP_BRDF_FEAT), pos3, n, mf->fb);
+    ESR_TRY(esr_geo_feature_fwd(esr_model_grid(m, ESR_COMP_SDF), sdf, &m->geo, pos3, n, mf->geo));
+    esr_rows_copy_cols(mf->fe, (size_t)C, mf->x_e, ni, n, C);
+    esr_rows_pe(&m->pe_pos, pos3, n, mf->x_e + C, ni);
+    esr_rows_copy_cols(mf->geo, (size_t)mf->geo_dim, mf->x_e + C + pp, ni, n, mf->geo_dim);
+    /* the BRDF rows: own features, the same PE and geometry columns */
+    esr_rows_copy_cols(mf->fb, (size_t)C, mf->x_b, ni, n, C);
+    esr_rows_copy_cols(mf->x_e + C, ni, mf->x_b + C, ni, n, (int)ni - C);
+    const float *w = m->params.w;
+    ESR_TRY(mlp_run(mf, esr_model_mlp(m, ESR_COMP_EMIT_MLP), w, &mf->ctx_e, mf->x_e, mf->emit3, n));
+    return mlp_run(mf, esr_model_mlp(m, ESR_COMP_BRDF_MLP), w, &mf->ctx_b, mf->x_b, mf->brdf5, n);
+}
+
+int esr_material_fields_bwd(struct esr_material_fields *mf, const struct esr_model *m,
+                            const float *sdf, float *g_sdf, float *grads, const float *d_emit3,
+                            const float *d_brdf5)
+{
+    const size_t n = mf->n, ni = (size_t)mf->n_in;
+    const int C = mf->ch, gcol = C + esr_pe_out_dims(&m->pe_pos), gd = mf->geo_dim;
+    if (n == 0 || (!d_emit3 && !d_brdf5))
+        return ESR_OK;
+    if (!mf->train)
+        return ESR_FAIL("material fields: backward of an inference forward");
+    const float *w = m->params.w;
+    if (d_emit3) {
+        ESR_TRY(esr_mlp_bwd(esr_model_mlp(m, ESR_COMP_EMIT_MLP), w, grads, &mf->ctx_e, d_emit3,
+                            mf->dx_e, ESR_NN_GRAD_OVERWRITE));
+        esr_rows_copy_cols(mf->dx_e, ni, mf->d_fe, (size_t)C, n, C);
+        esr_grid_sample_bwd(esr_model_grid(m, ESR_COMP_EMO_FEAT), mf->pos3, n, mf->d_fe,
+                            grads + m->part[ESR_COMP_EMO_FEAT].off);
+    }
+    if (d_brdf5) {
+        ESR_TRY(esr_mlp_bwd(esr_model_mlp(m, ESR_COMP_BRDF_MLP), w, grads, &mf->ctx_b, d_brdf5,
+                            mf->dx_b, ESR_NN_GRAD_OVERWRITE));
+        esr_rows_copy_cols(mf->dx_b, ni, mf->d_fb, (size_t)C, n, C);
+        esr_grid_sample_bwd(esr_model_grid(m, ESR_COMP_BRDF_FEAT), mf->pos3, n, mf->d_fb,
+                            grads + m->part[ESR_COMP_BRDF_FEAT].off);
+    }
+#pragma omp parallel for schedule(static)
+    for (size_t k = 0; k < n; k++)
+        for (int j = 0; j < gd; j++)
+            mf->d_geo[k * (size_t)gd + (size_t)j] =
+                (d_emit3 ? mf->dx_e[k * ni + (size_t)(gcol + j)] : 0.0f) +
+                (d_brdf5 ? mf->dx_b[k * ni + (size_t)(gcol + j)] : 0.0f);
+    return esr_geo_feature_bwd(esr_model_grid(m, ESR_COMP_SDF), sdf, &m->geo, mf->pos3, n,
+                               mf->d_geo, g_sdf);
+}

@@ -1,0 +1,302 @@
+/* The light-transport-segment loss (see lts.h). */
+#include "train/lts.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "core/brdf.h"
+#include "core/error.h"
+#include "core/rng.h"
+#include "core/sampling.h"
+#include "core/vec3.h"
+#include "fields/env_sg.h"
+#include "fields/grid.h"
+#include "model/render_sdf.h"
+#include "volume/first_hit.h"
+
+/* The normals' smoothed SDF follows the slowly trained SDF (lr 5e-4) every this many steps. */
+#define NORMAL_REFRESH 50
+/* Secondary rays start this many voxels off the surface point along the normal. */
+#define SECONDARY_OFFSET_VOX 1.0f
+
+void esr_lts_free(struct esr_lts *l)
+{
+    float *bufs[] = {l->normal_sdf, l->pos3,     l->nrm3,     l->wo3,       l->wi3,
+                     l->wt,         l->env3,     l->d_env3,   l->li_off3,   l->li_emo3,
+                     l->d_li_off3,  l->d_li_emo3, l->orig3,   l->hit_t,     l->hit_pos3,
+                     l->q_pos3,     l->q_dir3,   l->d_tone3,  l->d_lin3,    l->d_emit3,
+                     l->d_brdf5};
+    for (size_t i = 0; i < sizeof bufs / sizeof bufs[0]; i++)
+        free(bufs[i]);
+    free(l->hit_flags);
+    free(l->hit_row);
+    free(l->q_on);
+    esr_point_fields_free(&l->pf);
+    esr_material_fields_free(&l->mf);
+    memset(l, 0, sizeof(*l));
+}
+
+int esr_lts_init(struct esr_lts *l, const struct esr_model *m)
+{
+    memset(l, 0, sizeof(*l));
+    l->P = m->cfg.lts_points;
+    l->M = m->cfg.lts_dirs;
+    const size_t P = (size_t)l->P, PM = P * (size_t)l->M, rows = 4 * P + 2 * PM;
+    struct {
+        float **p;
+        size_t n;
+    } fl[] = {{&l->pos3, P * 3},       {&l->nrm3, P * 3},      {&l->wo3, P * 6},
+              {&l->wi3, PM * 3},       {&l->wt, PM},           {&l->env3, PM * 3},
+              {&l->d_env3, PM * 3},    {&l->li_off3, PM * 3},  {&l->li_emo3, PM * 3},
+              {&l->d_li_off3, PM * 3}, {&l->d_li_emo3, PM * 3}, {&l->orig3, PM * 3},
+              {&l->hit_t, PM},         {&l->hit_pos3, PM * 3}, {&l->q_pos3, rows * 3},
+              {&l->q_dir3, rows * 3},  {&l->d_tone3, rows * 3}, {&l->d_lin3, rows * 3},
+              {&l->d_emit3, P * 3},    {&l->d_brdf5, P * ESR_BRDF_CHANNELS}};
+    int ok = 1;
+    for (size_t i = 0; i < sizeof fl / sizeof fl[0]; i++)
+        ok &= (*fl[i].p = malloc(fl[i].n * sizeof(float))) != NULL;
+    ok &= (l->hit_flags = malloc(PM)) != NULL;
+    ok &= (l->hit_row = malloc(PM * sizeof(int32_t))) != NULL;
+    ok &= (l->q_on = malloc(rows)) != NULL;
+    int rc = ok ? ESR_OK : ESR_FAIL("lts: out of memory for %zu points x %d directions", P, l->M);
+    if (rc == ESR_OK)
+        rc = esr_point_fields_init(&l->pf, m, rows, 1);
+    if (rc == ESR_OK)
+        rc = esr_material_fields_init(&l->mf, m, P, 1);
+    if (rc != ESR_OK)
+        esr_lts_free(l);
+    return rc;
+}
+
+static struct esr_vec3 v3_at(const float *a, size_t i)
+{
+    return esr_v3(a[i * 3], a[i * 3 + 1], a[i * 3 + 2]);
+}
+
+static void v3_put(float *a, size_t i, struct esr_vec3 v)
+{
+    a[i * 3] = v.x;
+    a[i * 3 + 1] = v.y;
+    a[i * 3 + 2] = v.z;
+}
+
+/* Points (stratified over the kept list), their normals, outgoing and incident directions and
+ * the secondary rays' origins. Returns the number of points. */
+static size_t setup_points(struct esr_lts *l, const struct esr_model *m, const struct esr_march *mc,
+                           uint64_t seed)
+{
+    const size_t P = mc->n_kept < (size_t)l->P ? mc->n_kept : (size_t)l->P, M = (size_t)l->M;
+    const struct esr_grid *g = esr_model_grid(m, ESR_COMP_SDF);
+    const float off = SECONDARY_OFFSET_VOX * esr_grid_voxel_size(g, 0);
+    for (size_t p = 0; p < P; p++) {
+        struct esr_rng r = esr_rng_init(seed, p);
+        size_t k = (size_t)(((double)p + esr_rng_float(&r)) * (double)mc->n_kept / (double)P);
+        if (k >= mc->n_kept)
+            k = mc->n_kept - 1;
+        memcpy(l->pos3 + p * 3, mc->kpos3 + k * 3, 3 * sizeof(float));
+        memcpy(l->wo3 + p * 6, mc->kdir3 + k * 3, 3 * sizeof(float)); /* ray dir; negated below */
+    }
+    esr_grid_sample_dpoint(g, l->normal_sdf, 0, l->pos3, P, l->nrm3);
+#pragma omp parallel for schedule(static)
+    for (size_t p = 0; p < P; p++) {
+        struct esr_rng r = esr_rng_init(seed ^ 0x5bd1e995ULL, p);
+        struct esr_vec3 d = v3_at(l->wo3, 2 * p), n = v3_at(l->nrm3, p);
+        struct esr_vec3 wo = esr_v3_scale(d, -1.0f);
+        n = esr_v3_length(n) > 1e-12f ? esr_v3_normalize(n) : wo;
+        v3_put(l->nrm3, p, n);
+        struct esr_vec3 t, b;
+        esr_v3_basis(n, &t, &b);
+        float u1 = esr_rng_float(&r), u2 = esr_rng_float(&r);
+        v3_put(l->wo3, 2 * p, wo);
+        v3_put(l->wo3, 2 * p + 1, esr_v3_from_local(esr_sample_hemisphere_uniform(u1, u2), t, b, n));
+        struct esr_vec3 o = esr_v3_add(v3_at(l->pos3, p), esr_v3_scale(n, off));
+        for (size_t j = 0; j < M; j++) {
+            const size_t i = p * M + j;
+            /* stratified in u1 so few directions still cover the hemisphere */
+            u1 = ((float)j + esr_rng_float(&r)) / (float)M;
+            u2 = esr_rng_float(&r);
+            struct esr_vec3 loc = esr_sample_hemisphere_cosine(u1, u2);
+            v3_put(l->wi3, i, esr_v3_from_local(loc, t, b, n));
+            l->wt[i] = 1.0f / ((float)M * fmaxf(esr_pdf_hemisphere_cosine(loc), 1e-6f));
+            v3_put(l->orig3, i, o);
+        }
+    }
+    return P;
+}
+
+/* Query rows for the point fields: per point 2 outgoing x (off, on), then 2 per hit. */
+static size_t build_rows(struct esr_lts *l, size_t P)
+{
+    const size_t M = (size_t)l->M;
+    size_t r = 0;
+    for (size_t p = 0; p < P; p++)
+        for (int o = 0; o < 2; o++)
+            for (int on = 0; on < 2; on++, r++) {
+                v3_put(l->q_pos3, r, v3_at(l->pos3, p));
+                v3_put(l->q_dir3, r, esr_v3_scale(v3_at(l->wo3, 2 * p + (size_t)o), -1.0f));
+                l->q_on[r] = (uint8_t)on;
+            }
+    for (size_t i = 0; i < P * M; i++) {
+        l->hit_row[i] = -1;
+        if (!(l->hit_flags[i] & ESR_FIRST_HIT_HIT))
+            continue;
+        l->hit_row[i] = (int32_t)r;
+        for (int on = 0; on < 2; on++, r++) {
+            v3_put(l->q_pos3, r, v3_at(l->hit_pos3, i));
+            v3_put(l->q_dir3, r, v3_at(l->wi3, i));
+            l->q_on[r] = (uint8_t)on;
+        }
+    }
+    return r;
+}
+
+/* Material of point p from the BRDF rows. */
+static struct esr_material material_at(const float *brdf5, size_t p)
+{
+    struct esr_material mat;
+    const float *b = brdf5 + p * ESR_BRDF_CHANNELS;
+    for (int c = 0; c < 3; c++)
+        mat.base[c] = b[c];
+    mat.roughness = b[3];
+    mat.metallic = b[4];
+    return mat;
+}
+
+/* Estimates, loss and the gradients of everything they read, for point p. */
+static void point_loss(struct esr_lts *l, size_t p, float scale, double *se_off, double *se_emo)
+{
+    const size_t M = (size_t)l->M;
+    const float *lin = l->pf.lin3, *E = l->mf.emit3 + p * 3;
+    const struct esr_material mat = material_at(l->mf.brdf5, p);
+    const struct esr_vec3 n = v3_at(l->nrm3, p);
+    struct esr_material d_mat;
+    memset(&d_mat, 0, sizeof d_mat);
+    for (int o = 0; o < 2; o++) {
+        const struct esr_vec3 wo = v3_at(l->wo3, 2 * p + (size_t)o);
+        const size_t row_off = p * 4 + (size_t)o * 2, row_on = row_off + 1;
+        float hat_off[3] = {0, 0, 0}, hat_emo[3] = {E[0], E[1], E[2]};
+        for (size_t j = 0; j < M; j++) {
+            const size_t i = p * M + j;
+            float R[3];
+            esr_brdf_eval(&mat, n, wo, v3_at(l->wi3, i), R);
+            for (int c = 0; c < 3; c++) {
+                hat_off[c] += l->li_off3[i * 3 + c] * R[c] * l->wt[i];
+                hat_emo[c] += l->li_emo3[i * 3 + c] * R[c] * l->wt[i];
+            }
+        }
+        float d_hat_off[3], d_hat_emo[3];
+        for (int c = 0; c < 3; c++) {
+            const float L_off = lin[row_off * 3 + c];
+            const float L_emo = lin[row_on * 3 + c] - L_off; /* L_on = sg(L_off) + L_emo */
+            const float e_off = L_off - hat_off[c], e_emo = L_emo - hat_emo[c];
+            *se_off += (double)e_off * e_off;
+            *se_emo += (double)e_emo * e_emo;
+            l->d_lin3[row_off * 3 + c] += 2.0f * scale * e_off;
+            l->d_lin3[row_on * 3 + c] += 2.0f * scale * e_emo; /* reaches the emo branch only */
+            d_hat_off[c] = -2.0f * scale * e_off;
+            d_hat_emo[c] = -2.0f * scale * e_emo;
+            l->d_emit3[p * 3 + c] += d_hat_emo[c];
+        }
+        for (size_t j = 0; j < M; j++) {
+            const size_t i = p * M + j;
+            const struct esr_vec3 wi = v3_at(l->wi3, i);
+            float R[3], d_R[3];
+            esr_brdf_eval(&mat, n, wo, wi, R);
+            for (int c = 0; c < 3; c++) {
+                const float w = l->wt[i];
+                d_R[c] = (d_hat_off[c] * l->li_off3[i * 3 + c] + d_hat_emo[c] * l->li_emo3[i * 3 + c]) * w;
+                l->d_li_off3[i * 3 + c] += d_hat_off[c] * R[c] * w;
+                l->d_li_emo3[i * 3 + c] += d_hat_emo[c] * R[c] * w;
+            }
+            esr_brdf_eval_bwd(&mat, n, wo, wi, d_R, &d_mat);
+        }
+    }
+    float *db = l->d_brdf5 + p * ESR_BRDF_CHANNELS;
+    for (int c = 0; c < 3; c++)
+        db[c] = d_mat.base[c];
+    db[3] = d_mat.roughness;
+    db[4] = d_mat.metallic;
+}
+
+int esr_lts_run(struct esr_lts *l, const struct esr_model *m, const float *sdf, float *g_sdf,
+                float *grads, const struct esr_march *mc, uint64_t seed, struct esr_lts_stats *out)
+{
+    memset(out, 0, sizeof(*out));
+    if (mc->n_kept == 0)
+        return ESR_OK;
+    if (!l->normal_sdf || m->step % NORMAL_REFRESH == 0) {
+        free(l->normal_sdf);
+        l->normal_sdf = NULL;
+        ESR_TRY(esr_model_normal_sdf(m, &l->normal_sdf));
+        if (!l->normal_sdf) { /* smoothing off: the raw SDF's own gradient */
+            size_t ns = esr_grid_count(esr_model_grid(m, ESR_COMP_SDF));
+            if (!(l->normal_sdf = malloc(ns * sizeof(float))))
+                return ESR_FAIL("lts: out of memory for the normal SDF");
+            memcpy(l->normal_sdf, sdf, ns * sizeof(float));
+        }
+    }
+    const size_t P = setup_points(l, m, mc, seed), M = (size_t)l->M, PM = P * M;
+    const struct esr_grid *g = esr_model_grid(m, ESR_COMP_SDF);
+    /* secondary rays: first hit of the SDF, marching out of any inside region first */
+    struct esr_first_hit_params hp;
+    esr_first_hit_params_init(&hp, g);
+    hp.inside = ESR_FIRST_HIT_INSIDE_SKIP;
+    struct esr_first_hit_rays hr = {l->orig3, l->wi3, NULL, NULL, PM};
+    struct esr_first_hit_out ho = {l->hit_t, l->hit_flags, l->hit_pos3, NULL};
+    ESR_TRY(esr_first_hit(g, sdf, &hp, &hr, &ho));
+    const size_t rows = build_rows(l, P);
+    struct esr_point_query q = {rows, l->q_pos3, l->q_dir3, l->q_on};
+    ESR_TRY(esr_point_fields_fwd(&l->pf, m, sdf, &q));
+    ESR_TRY(esr_material_fields_fwd(&l->mf, m, sdf, l->pos3, P));
+    const int lobes = m->cfg.env_lobes;
+    const float *env = esr_model_values(m, ESR_COMP_ENV);
+    esr_env_sg_fwd(env, lobes, l->wi3, PM, l->env3);
+    /* incident radiance: the fields at the hit, or the environment (off) / nothing (emo) */
+    for (size_t i = 0; i < PM; i++)
+        for (int c = 0; c < 3; c++) {
+            const int32_t r = l->hit_row[i];
+            l->li_off3[i * 3 + c] = r >= 0 ? l->pf.lin3[(size_t)r * 3 + c] : l->env3[i * 3 + c];
+            l->li_emo3[i * 3 + c] =
+                r >= 0 ? l->pf.lin3[(size_t)(r + 1) * 3 + c] - l->pf.lin3[(size_t)r * 3 + c] : 0.0f;
+        }
+    memset(l->d_lin3, 0, rows * 3 * sizeof(float));
+    memset(l->d_tone3, 0, rows * 3 * sizeof(float));
+    memset(l->d_li_off3, 0, PM * 3 * sizeof(float));
+    memset(l->d_li_emo3, 0, PM * 3 * sizeof(float));
+    memset(l->d_emit3, 0, P * 3 * sizeof(float));
+    /* mean over points x 2 outgoing x 3 channels, per term */
+    const float w = m->cfg.lts_weight, scale = w / (float)(P * 2 * 3);
+    double se_off = 0.0, se_emo = 0.0;
+    /* each point writes only its own rows and directions */
+#pragma omp parallel for schedule(dynamic, 4) reduction(+ : se_off, se_emo)
+    for (size_t p = 0; p < P; p++)
+        point_loss(l, p, scale, &se_off, &se_emo);
+    /* incident gradients to their sources: hit rows (off row; emo -> the on row's emo branch),
+     * the environment for misses */
+    size_t hits = 0;
+    for (size_t i = 0; i < PM; i++) {
+        const int32_t r = l->hit_row[i];
+        for (int c = 0; c < 3; c++) {
+            if (r >= 0) {
+                l->d_lin3[(size_t)r * 3 + c] += l->d_li_off3[i * 3 + c];
+                l->d_lin3[(size_t)(r + 1) * 3 + c] += l->d_li_emo3[i * 3 + c];
+                l->d_env3[i * 3 + c] = 0.0f;
+            } else {
+                l->d_env3[i * 3 + c] = l->d_li_off3[i * 3 + c];
+            }
+        }
+        hits += r >= 0;
+    }
+    ESR_TRY(esr_point_fields_bwd(&l->pf, m, sdf, g_sdf, grads, l->d_tone3, l->d_lin3));
+    ESR_TRY(esr_material_fields_bwd(&l->mf, m, sdf, g_sdf, grads, l->d_emit3, l->d_brdf5));
+    esr_env_sg_bwd(env, lobes, l->wi3, PM, l->d_env3, grads + m->part[ESR_COMP_ENV].off);
+    const double n = (double)(P * 2 * 3);
+    out->mse_off = se_off / n;
+    out->mse_emo = se_emo / n;
+    out->loss = (double)w * (out->mse_off + out->mse_emo);
+    out->points = P;
+    out->secondary = PM;
+    out->hits = hits;
+    return ESR_OK;
+}

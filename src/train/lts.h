@@ -1,0 +1,69 @@
+/* The light-transport-segment (LTS) loss of the lts stage (METHOD.md stage 4, seed eq. 4): at
+ * points on the surface the radiance fields must agree with a re-rendering of themselves,
+ *     L^_off(x, wo) = sum_j (L_i^off(x, w_j)) R(x, wo, w_j) / (M pdf_j)
+ *     L^_emo(x, wo) = E(x) + sum_j L_i^emo(x, w_j) R(x, wo, w_j) / (M pdf_j)
+ *     loss = lts_weight * (MSE(L_off, L^_off) + MSE(L_emo, L^_emo))
+ * for the camera direction and one random outgoing direction per point. Both sides are trained
+ * (radiance at the point and at the secondary hits, E, BRDF, environment).
+ *
+ * Points: lts_points kept samples of the primary batch (stratified over the kept list), normals
+ * from the smoothed normal SDF (esr_model_normal_sdf, refreshed every NORMAL_REFRESH steps,
+ * detached). Incident radiance, estimator 0 (the default): lts_dirs cosine-weighted directions
+ * around the normal; the secondary ray starts one voxel off the surface along the normal and
+ * sphere-traces the SDF (volume/first_hit.h) to its first hit y, where L_i = the radiance
+ * fields at y seen along the secondary ray (L_off, and L_emo = L_on - sg(L_off)); a ray that
+ * leaves the scene sees the environment map (off) and nothing (emo). */
+#ifndef ESR_TRAIN_LTS_H
+#define ESR_TRAIN_LTS_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "model/material_fields.h"
+#include "model/model.h"
+#include "model/point_fields.h"
+#include "volume/march.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+struct esr_lts_stats {
+    double loss;            /* weighted loss added */
+    double mse_off, mse_emo;
+    size_t points, secondary, hits;
+};
+
+struct esr_lts {
+    int P, M;                  /* points, incident directions per point */
+    long calls;
+    float *normal_sdf;         /* smoothed SDF the normals come from (refreshed) */
+    /* per point [P]: position, normal, two outgoing directions (away from the surface) */
+    float *pos3, *nrm3, *wo3;
+    /* per (point, direction) [P*M]: direction, sampling weight 1/(M pdf), hit row or -1,
+     * environment radiance, incident radiance off/emo and their gradients */
+    float *wi3, *wt, *env3, *d_env3, *li_off3, *li_emo3, *d_li_off3, *d_li_emo3;
+    float *orig3, *hit_t, *hit_pos3;
+    uint8_t *hit_flags;
+    int32_t *hit_row;
+    /* point-field query rows: 4 per point (2 outgoing x off/on), 2 per hit */
+    float *q_pos3, *q_dir3, *d_tone3, *d_lin3;
+    uint8_t *q_on;
+    float *d_emit3, *d_brdf5;
+    struct esr_point_fields pf;
+    struct esr_material_fields mf;
+};
+
+int esr_lts_init(struct esr_lts *l, const struct esr_model *m);
+void esr_lts_free(struct esr_lts *l);
+
+/* The LTS loss on points taken from mc's kept list (the primary batch's last forward), its
+ * gradient ADDED into grads (flat base) and g_sdf (the SDF the fields read). `sdf` is that SDF. */
+int esr_lts_run(struct esr_lts *l, const struct esr_model *m, const float *sdf, float *g_sdf,
+                float *grads, const struct esr_march *mc, uint64_t seed,
+                struct esr_lts_stats *out);
+
+#ifdef __cplusplus
+}
+#endif
+#endif
