@@ -162,6 +162,75 @@ static void test_density_check_detects_mismatch(void **state)
     assert_true(test_chi2_statistic(observed, expected, NZ) > test_chi2_critical(NZ - 1, 4.0));
 }
 
+/* Cosine-weighted samples have E[cos] = integral cos^2 / pi = 2/3 and E[cos^2] = 1/2
+ * (tolerances ~5 standard errors: sd(cos) = sqrt(1/2 - 4/9) = 0.236, sd(cos^2) = sqrt(1/3 - 1/4)
+ * = 0.289); a uniform sampler would give 1/2 and 1/3. */
+static void test_cosine_mean_cos(void **state)
+{
+    (void)state;
+    enum { N = 400000 };
+    struct esr_rng rng = esr_rng_init(6, 0);
+    double sum = 0.0, sum2 = 0.0;
+    for (int i = 0; i < N; i++) {
+        float u1 = esr_rng_float(&rng);
+        struct esr_vec3 d = esr_sample_hemisphere_cosine(u1, esr_rng_float(&rng));
+        sum += d.z;
+        sum2 += (double)d.z * d.z;
+    }
+    assert_true(fabs(sum / N - 2.0 / 3.0) < 5.0 * 0.236 / sqrt(N));
+    assert_true(fabs(sum2 / N - 0.5) < 5.0 * 0.289 / sqrt(N));
+}
+
+/* The frame of core/vec3.h (esr_v3_basis, from_local, to_local) around normals anywhere on the
+ * sphere, the poles and the near-south-pole included (where naive frames divide by ~0):
+ * orthonormal and right-handed (t x b = n), local z maps to n, to_local inverts from_local, and
+ * cosine samples mapped to the world keep their pdf: n.w = local z, mean n.w = 2/3. */
+static void test_frame_maps_local_to_world(void **state)
+{
+    (void)state;
+    struct esr_rng rng = esr_rng_init(7, 0);
+    for (int i = 0; i < 20000; i++) {
+        struct esr_vec3 n;
+        if (i < 4) {
+            const struct esr_vec3 special[] = {{0, 0, 1}, {0, 0, -1}, {1, 0, 0}, {0, 1e-4f, -1}};
+            n = esr_v3_normalize(special[i]);
+        } else {
+            float u1 = esr_rng_float(&rng);
+            n = esr_sample_sphere_uniform(u1, esr_rng_float(&rng));
+        }
+        struct esr_vec3 t, b;
+        esr_v3_basis(n, &t, &b);
+        assert_true(fabsf(esr_v3_length(t) - 1.0f) < 1e-6f && fabsf(esr_v3_length(b) - 1.0f) < 1e-6f);
+        assert_true(fabsf(esr_v3_dot(t, b)) < 1e-6f);
+        assert_true(fabsf(esr_v3_dot(t, n)) < 1e-6f && fabsf(esr_v3_dot(b, n)) < 1e-6f);
+        struct esr_vec3 tb = esr_v3_cross(t, b);
+        assert_true(esr_v3_length(esr_v3_sub(tb, n)) < 2e-6f);
+        assert_true(esr_v3_length(esr_v3_sub(esr_v3_from_local(esr_v3(0, 0, 1), t, b, n), n)) < 1e-6f);
+
+        float u1 = esr_rng_float(&rng), u2 = esr_rng_float(&rng), v1, v2;
+        struct esr_vec3 local = esr_sample_hemisphere_cosine(u1, u2);
+        struct esr_vec3 w = esr_v3_from_local(local, t, b, n);
+        assert_true(fabsf(esr_v3_length(w) - 1.0f) < 2e-6f);
+        assert_true(fabsf(esr_v3_dot(w, n) - local.z) < 2e-6f);
+        struct esr_vec3 back = esr_v3_to_local(w, t, b, n);
+        assert_true(esr_v3_length(esr_v3_sub(back, local)) < 2e-6f);
+        assert_true(fabsf(esr_pdf_hemisphere_cosine(back) - esr_v3_dot(w, n) * (float)M_1_PI) < 1e-6f);
+        esr_invert_hemisphere_cosine(back, &v1, &v2); /* the world direction inverts to its u1 */
+        assert_true(fabsf(v1 - u1) < 4e-6f);
+    }
+    /* mean n.w of world-space cosine samples around one tilted normal */
+    const struct esr_vec3 n = esr_v3_normalize(esr_v3(0.3f, -0.5f, 0.2f));
+    struct esr_vec3 t, b;
+    esr_v3_basis(n, &t, &b);
+    double sum = 0.0;
+    enum { N = 200000 };
+    for (int i = 0; i < N; i++) {
+        float u1 = esr_rng_float(&rng);
+        sum += esr_v3_dot(esr_v3_from_local(esr_sample_hemisphere_cosine(u1, esr_rng_float(&rng)), t, b, n), n);
+    }
+    assert_true(fabs(sum / N - 2.0 / 3.0) < 5.0 * 0.236 / sqrt(N));
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -170,6 +239,8 @@ int main(void)
         cmocka_unit_test(test_sample_invert_round_trip),
         cmocka_unit_test(test_density_matches_pdf),
         cmocka_unit_test(test_density_check_detects_mismatch),
+        cmocka_unit_test(test_cosine_mean_cos),
+        cmocka_unit_test(test_frame_maps_local_to_world),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

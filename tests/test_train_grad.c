@@ -19,6 +19,7 @@
 #endif
 
 #include "core/colour.h"
+#include "fields/env_sg.h"
 #include "fields/sdf.h"
 #include "model/model.h"
 #include "train/render_loss.h"
@@ -258,10 +259,12 @@ static void test_lts_gradients(void **state)
     add_walls(&fx.m);
     test_randomise(&fx.m, ESR_COMP_BRDF_FEAT, 0.5f, 31);
     float *env = esr_model_values(&fx.m, ESR_COMP_ENV);
-    for (int k = 0; k < fx.m.cfg.env_lobes; k++) {
-        env[k * 7 + 3] = 1.0f; /* broad lobes, so the few escaping rays see them */
-        for (int c = 0; c < 3; c++)
-            env[k * 7 + 4 + c] = 0.3f * (float)(c + 1); /* coloured */
+    const int K = fx.m.cfg.env_lobes;
+    for (int k = 0; k < K; k++) {
+        env[esr_env_sg_index(K, ESR_ENV_SG_LAMBDA, k)] = 1.0f; /* broad: escaping rays see them */
+        for (int c = 0; c < 3; c++) /* coloured */
+            env[esr_env_sg_index(K, (enum esr_env_sg_block)(ESR_ENV_SG_MU_R + c), k)] =
+                0.3f * (float)(c + 1);
     }
     analytic_gradient(&fx);
     assert_true(fx.st.has_lts);
@@ -276,6 +279,42 @@ static void test_lts_gradients(void **state)
     assert_true(max_abs(&fx, ESR_COMP_ENV) > 1e-3);
     assert_true(max_abs(&fx, ESR_COMP_EMO_MLP) > 1e-3);
     const uint32_t trained = esr_stage_info(ESR_STAGE_LTS)->trained;
+    for (int c = 0; c < ESR_COMP_COUNT; c++)
+        if ((trained & ESR_BIT(c)) && c != ESR_COMP_SDF)
+            check_component(&fx, (enum esr_component)c, eps_of((enum esr_component)c));
+    teardown(&fx);
+}
+
+/* The pdra stage: the lts terms with ray groups (one certain ray whose LTS points drop E and
+ * whose composited E is suppressed, one uncertain ray) — every component but the SDF (as lts). */
+static void test_pdra_gradients(void **state)
+{
+    (void)state;
+    struct fixture fx;
+    const uint8_t lights[N_RAYS] = {0, 0};
+    setup_stage(&fx, ESR_STAGE_PDRA, lights);
+    fx.m.cfg.lts_weight = 1.0f;
+    fx.m.cfg.pdra_supp = 1.0f;
+    fx.m.cfg.pdra_sg = 0; /* the stop-gradient pair is invisible to FD: one plain MSE */
+    add_walls(&fx.m);
+    test_randomise(&fx.m, ESR_COMP_BRDF_FEAT, 0.5f, 31);
+    test_randomise(&fx.m, ESR_COMP_EMO_FEAT, 1.0f, 32);
+    /* k between the two rays' emission: one ray each side */
+    fx.m.cfg.pdra_k0 = fx.m.cfg.pdra_k_end = 1e-6f;
+    loss_at(&fx);
+    float e[N_RAYS];
+    for (int r = 0; r < N_RAYS; r++) {
+        const float *v = fx.st.pdra.e_ray3 + r * 3;
+        e[r] = fmaxf(v[0], fmaxf(v[1], v[2]));
+    }
+    fx.m.cfg.pdra_k0 = fx.m.cfg.pdra_k_end = 0.5f * (e[0] + e[1]);
+    fx.m.cfg.pdra_k_frac = 1.0f; /* the cap (the 99.5th percentile of 2 rays: the larger E) */
+    analytic_gradient(&fx);
+    print_message("pdra: E per ray %.4g %.4g, k %.4g, %d certain, suppression %.4g\n", e[0], e[1],
+                  (double)fx.st.pdra.k, fx.st.pdra.n_certain, fx.st.pdra.supp_loss);
+    assert_int_equal(fx.st.pdra.n_certain, 1);
+    assert_true(fx.st.pdra.supp_loss > 0.0);
+    const uint32_t trained = esr_stage_info(ESR_STAGE_PDRA)->trained;
     for (int c = 0; c < ESR_COMP_COUNT; c++)
         if ((trained & ESR_BIT(c)) && c != ESR_COMP_SDF)
             check_component(&fx, (enum esr_component)c, eps_of((enum esr_component)c));
@@ -331,6 +370,7 @@ int main(void)
         cmocka_unit_test(test_fine_lights_on_stop_gradient),
         cmocka_unit_test(test_coarse_gradients),
         cmocka_unit_test(test_lts_gradients),
+        cmocka_unit_test(test_pdra_gradients),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -31,10 +31,10 @@ const struct esr_command cmd_bench = {
     "  synth   path tracer samples/s on a fixed workload\n"
     "  render  primary-ray path as training runs it (march: sampling, fused SDF value+gradient,\n"
     "          alpha, kept list; feature grid, composite, backward) points/s and rays/s\n"
-    "  train   a training run of every stage (alphamask, coarse, fine) with the fast preset:\n"
+    "  train   a training run of every stage (alphamask, coarse, fine, lts, pdra) with the fast preset:\n"
     "          seconds and rays/s over each whole stage and over its last log window; on --data,\n"
     "          else ../shared/scenes/lamp when present, else a small `esr synth` scene in a temp\n"
-    "          dir (full stages on lamp: about 4 minutes on 2 cores)\n"
+    "          dir (full stages on lamp: about 9 minutes on 2 cores)\n"
     "and the peak resident memory, with the machine (CPU model, cores, threads), git commit and\n"
     "date. Prints a table and writes the JSON to --out.\n"
     "\n"
@@ -233,10 +233,15 @@ static int train_section(const struct bench_opts *o, cJSON *root)
         cJSON_AddNumberToObject(st, "last_window_rays_per_s", t->last_rays_per_s);
         cJSON_AddNumberToObject(st, "samples_per_ray", t->samples_per_ray);
         cJSON_AddNumberToObject(st, "kept_per_ray", t->kept_per_ray);
+        if (t->secondary_per_s > 0)
+            cJSON_AddNumberToObject(st, "secondary_rays_per_s", t->secondary_per_s);
         printf("  %-10s %6d iters %7.1f s %8.0f rays/s (last window %.0f; %d rays/iter, %.1f "
                "samples/ray, %.1f kept)\n",
                esr_stage_name((enum esr_stage)s), t->iters, t->seconds, t->rays_per_s,
                t->last_rays_per_s, t->batch_rays, t->samples_per_ray, t->kept_per_ray);
+        if (t->secondary_per_s > 0)
+            printf("  %-10s secondary rays (first-hit estimator) %.0f/s over the last window\n", "",
+                   t->secondary_per_s);
     }
     return ESR_OK;
 }

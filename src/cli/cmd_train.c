@@ -14,11 +14,13 @@ static int run_train(int argc, char **argv);
 
 const struct esr_command cmd_train = {
     "train",
-    "train the geometry and radiance model (alphamask, coarse, fine)",
+    "train the model: geometry, radiance, then emission and materials (alphamask .. pdra)",
     "usage: esr train DATA --out RUN [--until STAGE] [--resume] [--preset fast|paper]\n"
     "                 [--config FILE.json] [--set key=value ...] [--eval]\n"
     "\n"
-    "Runs the stages alphamask -> coarse -> fine on DATA's train frames (lights off and on).\n"
+    "Runs the stages alphamask -> coarse -> fine -> lts -> pdra on DATA's train frames (lights\n"
+    "off and on): geometry and radiance, then emission, BRDF and environment (lts), then the\n"
+    "emitters separated from reflected light (pdra, ray groups with a rising threshold k).\n"
     "RUN receives config.json (the resolved options), log (the progress lines),\n"
     "train_log.jsonl (metrics every log_every iterations) and ckpt_<stage>.bin checkpoints,\n"
     "written atomically at the start and end of each stage and every save_every iterations.\n"
@@ -27,7 +29,8 @@ const struct esr_command cmd_train = {
     "\n"
     "options:\n"
     "  --out RUN            run directory (created if missing)\n"
-    "  --until STAGE        last stage to run: alphamask, coarse or fine (default fine)\n"
+    "  --until STAGE        last stage to run: alphamask, coarse, fine, lts or pdra (default;\n"
+    "                       fine gives the geometry and radiance without the emitters)\n"
     "  --resume             continue from RUN's checkpoints with RUN's config.json\n"
     "  --preset NAME        defaults: fast (CPU, default) or paper (the authors' sizes)\n"
     "  --config FILE.json   options as JSON ({\"fine.iters\": 200} or {\"fine\": {\"iters\": 200}},\n"
@@ -59,7 +62,7 @@ static void fmt_eta(double s, char *out, size_t n)
 static void on_progress(void *user, const struct esr_train_progress *p)
 {
     struct progress_sink *s = user;
-    char line[768];
+    char line[1024];
     if (p->event == ESR_TRAIN_STAGE_DONE)
         return; /* the trainer's own message says it */
     if (p->event == ESR_TRAIN_MESSAGE) {
@@ -77,6 +80,11 @@ static void on_progress(void *user, const struct esr_train_progress *p)
             snprintf(line + len, sizeof line - len,
                      "  lts off %.4f emo %.4f  %.0f secondary/s (%.0f%% hit)", p->lts_mse_off,
                      p->lts_mse_emo, p->secondary_per_s, 100.0 * p->hit_frac);
+        }
+        if (p->has_groups) {
+            size_t len = strlen(line);
+            snprintf(line + len, sizeof line - len, "  k %.3f  %.1f%% uncertain", p->k,
+                     100.0 * p->uncertain_frac);
         }
     }
     if (s->log) {
@@ -124,7 +132,7 @@ static int run_train(int argc, char **argv)
         }
     struct esr_train_opts o;
     memset(&o, 0, sizeof o);
-    o.until = ESR_STAGE_FINE;
+    o.until = ESR_STAGE_PDRA;
     o.nan_test_iter = -1;
     enum esr_preset preset = ESR_PRESET_FAST;
     const char *config = NULL, *data = NULL;

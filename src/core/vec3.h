@@ -49,5 +49,11 @@ ESR_INLINE struct esr_vec3 esr_v3_from_local(struct esr_vec3 local, struct esr_v
 {
     return esr_v3_add(esr_v3_add(esr_v3_scale(t, local.x), esr_v3_scale(b, local.y)), esr_v3_scale(n, local.z));
 }
+/* The inverse of esr_v3_from_local: a world direction's coordinates in the frame (t, b, n), e.g.
+ * to evaluate a local-frame pdf or inverse (core/sampling.h) at a world direction. */
+ESR_INLINE struct esr_vec3 esr_v3_to_local(struct esr_vec3 world, struct esr_vec3 t, struct esr_vec3 b, struct esr_vec3 n)
+{
+    return esr_v3(esr_v3_dot(world, t), esr_v3_dot(world, b), esr_v3_dot(world, n));
+}
 
 #endif

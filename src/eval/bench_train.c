@@ -18,6 +18,7 @@ static void on_report(void *user, const struct esr_train_progress *p)
         s->last_rays_per_s = p->rays_per_s;
         s->samples_per_ray = p->samples_per_ray;
         s->kept_per_ray = p->kept_per_ray;
+        s->secondary_per_s = p->has_lts ? p->secondary_per_s : 0.0;
     } else if (p->event == ESR_TRAIN_STAGE_DONE) {
         s->iters = (int)p->iter;
         s->seconds = p->seconds;
@@ -33,11 +34,12 @@ int esr_bench_train(const char *data_dir, const char *run_dir, int iters, struct
     memset(&o, 0, sizeof o);
     o.data_dir = data_dir;
     o.run_dir = run_dir;
-    o.until = ESR_STAGE_FINE;
+    o.until = ESR_STAGE_PDRA;
     o.nan_test_iter = -1;
     esr_config_defaults(&o.cfg, ESR_PRESET_FAST);
     if (iters > 0) {
         o.cfg.alphamask.iters = o.cfg.coarse.iters = o.cfg.fine.iters = iters;
+        o.cfg.lts.iters = o.cfg.pdra.iters = iters;
         o.cfg.log_every = iters / 2; /* the last window is then the second half */
     }
     o.cfg.save_every = 1000000;

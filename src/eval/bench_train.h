@@ -1,4 +1,4 @@
-/* Training throughput for `esr bench`: a run of every stage (alphamask, coarse, fine) through
+/* Training throughput for `esr bench`: a run of every stage (alphamask .. pdra) through
  * the training driver, reporting each stage's rays per second over the whole stage and over its
  * last progress window. */
 #ifndef ESR_EVAL_BENCH_TRAIN_H
@@ -14,6 +14,7 @@ struct esr_bench_train_stage {
     double last_rays_per_s; /* over the last progress window (after warm-up) */
     double samples_per_ray; /* marched samples per ray in that window */
     double kept_per_ray;    /* samples that reached the MLPs */
+    double secondary_per_s; /* lts, pdra: secondary rays per second in that window (else 0) */
 };
 
 struct esr_bench_train_result {

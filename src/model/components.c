@@ -207,6 +207,16 @@ static const struct esr_stage_info stages[ESR_STAGE_COUNT] = {
                        .decay = ESR_DECAY_COSINE,
                        .linear_loss = 1,
                        .lts_loss = 1},
+    [ESR_STAGE_PDRA] = {.name = "pdra",
+                        .options = offsetof(struct esr_train_config, pdra),
+                        .present = LTS_PARTS,
+                        .trained = LTS_PARTS,
+                        .alpha = ESR_ALPHA_NEUS,
+                        .head = ESR_HEAD_RADIANCE,
+                        .decay = ESR_DECAY_COSINE,
+                        .linear_loss = 1,
+                        .lts_loss = 1,
+                        .ray_groups = 1},
 };
 
 const struct esr_stage_info *esr_stage_info(enum esr_stage s)
@@ -226,7 +236,7 @@ int esr_stage_from_name(const char *name, enum esr_stage *out)
             *out = (enum esr_stage)i;
             return ESR_OK;
         }
-    return ESR_FAIL("unknown stage '%s' (valid: alphamask, coarse, fine, lts)", name);
+    return ESR_FAIL("unknown stage '%s' (valid: alphamask, coarse, fine, lts, pdra)", name);
 }
 
 const struct esr_stage_config *esr_stage_options(const struct esr_train_config *cfg,

@@ -81,6 +81,7 @@ enum esr_stage {
     ESR_STAGE_COARSE,
     ESR_STAGE_FINE,
     ESR_STAGE_LTS,
+    ESR_STAGE_PDRA,
     ESR_STAGE_COUNT
 };
 
@@ -108,13 +109,14 @@ struct esr_stage_info {
     int narrows_mask;         /* at its start: mask cache kept only near the previous SDF */
     int builds_mask;          /* at its end: mask cache from its density grid */
     int lts_loss;             /* adds the light-transport-segment loss (train/lts.h) */
+    int ray_groups;           /* certain/uncertain rays by composited E vs k (train/pdra.h) */
 };
 
 const struct esr_stage_info *esr_stage_info(enum esr_stage s);
-/* "alphamask", "coarse", "fine", "lts"; NULL for an invalid stage. */
+/* "alphamask", "coarse", "fine", "lts", "pdra"; NULL for an invalid stage. */
 const char *esr_stage_name(enum esr_stage s);
 int esr_stage_from_name(const char *name, enum esr_stage *out);
-/* The stage's own options (cfg->alphamask / coarse / fine / lts). */
+/* The stage's own options (cfg->alphamask / coarse / fine / lts / pdra). */
 const struct esr_stage_config *esr_stage_options(const struct esr_train_config *cfg,
                                                  enum esr_stage s);
 /* NeuS inv-s of stage s after `step` iterations (s0 + step / s_div of its options, via

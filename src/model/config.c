@@ -26,13 +26,14 @@ struct opt {
 /* A default as two named columns, so every option states its fast and its paper value itself: a
  * shared cell made tuning `fast` silently retune `paper` (coarse.lr_grid, tv_sdf_grad). */
 #define DEF(fast, paper) {[ESR_PRESET_FAST] = (fast), [ESR_PRESET_PAPER] = (paper)}
-/* One stage option in the four stages: the same bounds and help, one DEF per stage. Written as a
+/* One stage option in the five stages: the same bounds and help, one DEF per stage. Written as a
  * stage x preset grid so the macro's arity refuses a missing cell. */
-#define STAGE_OPT(field, type, lo, hi, help, am, co, fi, lt)                                  \
+#define STAGE_OPT(field, type, lo, hi, help, am, co, fi, lt, pd)                              \
     {"alphamask." #field, type, OFF(alphamask.field), lo, hi, am, help},                       \
     {"coarse." #field, type, OFF(coarse.field), lo, hi, co, help},                             \
     {"fine." #field, type, OFF(fine.field), lo, hi, fi, help},                                 \
-    {"lts." #field, type, OFF(lts.field), lo, hi, lt, help}
+    {"lts." #field, type, OFF(lts.field), lo, hi, lt, help},                                   \
+    {"pdra." #field, type, OFF(pdra.field), lo, hi, pd, help}
 
 static const struct opt opts[] = {
     {"seed", OPT_INT, OFF(seed), 0, 2147483647, DEF(1, 1), "random seed (rays, jitter, init)"},
@@ -82,49 +83,73 @@ static const struct opt opts[] = {
      "lts: emission and BRDF MLP hidden width"},
     {"field_depth", OPT_INT, OFF(field_depth), 1, 8, DEF(2, 4),
      "lts: emission and BRDF MLP hidden layers"},
-    {"env_lobes", OPT_INT, OFF(env_lobes), 1, 512, DEF(48, 48),
+    {"env_lobes", OPT_INT, OFF(env_lobes), 1, 128, DEF(48, 48),
      "lts: spherical Gaussians of the environment map"},
     {"emitter_k", OPT_FLOAT, OFF(emitter_k), 0, 1e6, DEF(0.2, 0.2),
-     "emitter mask threshold on the composited emission (METHOD.md: k starts at 0.2)"},
+     "emitter mask threshold on the composited emission (the pdra stage sets it to its final k)"},
+    {"pdra.k0", OPT_FLOAT, OFF(pdra_k0), 0, 1e6, DEF(0.2, 0.2),
+     "pdra: certainty threshold k at the first step"},
+    {"pdra.k_end", OPT_FLOAT, OFF(pdra_k_end), 0, 1e6, DEF(0, 0),
+     "pdra: k at 3/4 of the stage and after (0 = derived from the data at the stage's start: "
+     "pdra.k_frac x the emitters' level, the 99.5th percentile of composited E)"},
+    /* lamp emitter IoU: 0.5 -> 0.895, 0.6 -> 0.940 (with the per-step cap; without it 0.6
+     * let k overtake the emitters: 0.04) */
+    {"pdra.k_frac", OPT_FLOAT, OFF(pdra_k_frac), 0.01, 1, DEF(0.6, 0.6),
+     "pdra: k_end as a fraction of the emitters' level when derived"},
+    /* fast 1: lamp emitter IoU 0.93 (0.1: 0.87, floor glow left above k); paper: the authors'
+     * default */
+    {"pdra.supp", OPT_FLOAT, OFF(pdra_supp), 0, 1e6, DEF(1, 0.1),
+     "pdra: emission-suppression weight on certain rays, w mean(E^2)"},
+    {"pdra.w_l", OPT_FLOAT, OFF(pdra_w_l), 0, 1e6, DEF(50, 50),
+     "pdra: weight of the LTS emo term that trains E towards sg(L_emo - reflection) "
+     "(the authors' w_l, here on E only)"},
+    {"pdra.w_r", OPT_FLOAT, OFF(pdra_w_r), 0, 1e6, DEF(1, 1),
+     "pdra: weight of the LTS emo term that trains L_emo towards sg(estimate) (w_r)"},
+    {"pdra.sg", OPT_INT, OFF(pdra_sg), 0, 1, DEF(1, 1),
+     "pdra: stop-gradients of the LTS emo pair (0 = the seed's ablation \"w/o sg\": one plain "
+     "MSE, the reflection also trained on uncertain rays)"},
+    {"pdra.progressive", OPT_INT, OFF(pdra_progressive), 0, 1, DEF(1, 1),
+     "pdra: ray groups with the rising k (0 = the seed's ablation \"w/o progressive\": every "
+     "ray uncertain, no suppression)"},
     {"tv_every", OPT_INT, OFF(tv_every), 1, 1000, DEF(4, 1),
      "total-variation regularisers every N iterations (weight scaled by N)"},
-    /* Stage options: one DEF(fast, paper) per stage, in the order alphamask, coarse, fine, lts. */
+    /* Stage options: one DEF(fast, paper) per stage, in the order alphamask, coarse, fine, lts, pdra. */
     STAGE_OPT(res, OPT_INT, 8, 512, "grid lattice points per axis",
-              DEF(80, 100), DEF(80, 96), DEF(128, 160), DEF(128, 160)),
+              DEF(80, 100), DEF(80, 96), DEF(128, 160), DEF(128, 160), DEF(128, 160)),
     STAGE_OPT(iters, OPT_INT, 0, 1000000, "iterations",
-              DEF(500, 10000), DEF(1500, 10000), DEF(2000, 20000), DEF(1500, 40000)),
+              DEF(500, 10000), DEF(1500, 10000), DEF(2000, 20000), DEF(1500, 40000), DEF(1000, 80000)),
     STAGE_OPT(feat_channels, OPT_INT, 1, 64, "feature grid channels",
-              DEF(6, 6), DEF(12, 12), DEF(6, 6), DEF(6, 6)),
+              DEF(6, 6), DEF(12, 12), DEF(6, 6), DEF(6, 6), DEF(6, 6)),
     STAGE_OPT(mlp_width, OPT_INT, 8, 256, "MLP hidden width",
-              DEF(8, 8), DEF(64, 128), DEF(64, 192), DEF(64, 192)),
+              DEF(8, 8), DEF(64, 128), DEF(64, 192), DEF(64, 192), DEF(64, 192)),
     STAGE_OPT(mlp_depth, OPT_INT, 1, 8, "MLP hidden layers",
-              DEF(1, 1), DEF(2, 3), DEF(3, 4), DEF(3, 4)),
+              DEF(1, 1), DEF(2, 3), DEF(3, 4), DEF(3, 4), DEF(3, 4)),
     /* paper coarse 5e-3: the value before the fast preset was tuned to 1e-2 (the authors' SDF lr
      * once their step decays have run) */
     STAGE_OPT(lr_grid, OPT_FLOAT, 0, 10, "density/SDF grid learning rate",
-              DEF(0.1, 0.1), DEF(1e-2, 5e-3), DEF(2e-3, 2e-3), DEF(5e-4, 5e-4)),
+              DEF(0.1, 0.1), DEF(1e-2, 5e-3), DEF(2e-3, 2e-3), DEF(5e-4, 5e-4), DEF(5e-6, 5e-7)),
     STAGE_OPT(lr_feat, OPT_FLOAT, 0, 10, "feature grid learning rate",
-              DEF(0.1, 0.1), DEF(0.1, 0.1), DEF(0.1, 0.1), DEF(0.05, 0.1)),
+              DEF(0.1, 0.1), DEF(0.1, 0.1), DEF(0.1, 0.1), DEF(0.05, 0.1), DEF(1e-2, 1e-2)),
     STAGE_OPT(lr_mlp, OPT_FLOAT, 0, 1, "MLP learning rate",
-              DEF(1e-3, 1e-3), DEF(1e-3, 1e-3), DEF(1e-3, 1e-3), DEF(1e-3, 3e-3)),
+              DEF(1e-3, 1e-3), DEF(1e-3, 1e-3), DEF(1e-3, 1e-3), DEF(1e-3, 3e-3), DEF(3e-4, 3e-4)),
     STAGE_OPT(lr_final, OPT_FLOAT, 0, 1, "learning-rate factor reached at the last iteration",
-              DEF(0.1, 0.1), DEF(0.1, 0.1), DEF(0.1, 0.1), DEF(0.1, 0.01)),
+              DEF(0.1, 0.1), DEF(0.1, 0.1), DEF(0.1, 0.1), DEF(0.1, 0.01), DEF(0.1, 0.01)),
     STAGE_OPT(s0, OPT_FLOAT, 0.1, 10000, "NeuS inv-s at step 0",
-              DEF(1, 1), DEF(5, 5), DEF(100, 20), DEF(200, 220)),
+              DEF(1, 1), DEF(5, 5), DEF(100, 20), DEF(200, 220), DEF(200, 220)),
     STAGE_OPT(s_div, OPT_FLOAT, 0.01, 1e6, "inv-s grows by step / s_div",
-              DEF(1, 1), DEF(10, 50), DEF(20, 100), DEF(1e6, 1e6)),
+              DEF(1, 1), DEF(10, 50), DEF(20, 100), DEF(1e6, 1e6), DEF(1e6, 1e6)),
     STAGE_OPT(tv_sdf, OPT_FLOAT, 0, 100, "grid total-variation weight",
-              DEF(0, 0), DEF(1e-3, 1e-3), DEF(1e-3, 1e-3), DEF(1e-3, 1e-3)),
+              DEF(0, 0), DEF(1e-3, 1e-3), DEF(1e-3, 1e-3), DEF(1e-3, 1e-3), DEF(1e-3, 1e-3)),
     /* fast: coarse only (+1.2 dB on lamp; the fine band is narrowed by a distance estimate, so
      * the smoother SDF no longer widens it); paper: coarse and fine as METHOD.md says, at the
      * authors' weight */
     STAGE_OPT(tv_sdf_grad, OPT_FLOAT, 0, 100,
               "smoothed-gradient total-variation weight on the SDF (Voxurf; 0 = off)",
-              DEF(0, 0), DEF(0.05, 0.05), DEF(0, 0.05), DEF(0, 0.05)),
+              DEF(0, 0), DEF(0.05, 0.05), DEF(0, 0.05), DEF(0, 0.05), DEF(0, 0.05)),
     STAGE_OPT(tv_feat, OPT_FLOAT, 0, 100, "feature-grid total-variation weight",
-              DEF(0, 0), DEF(0, 0), DEF(0, 0), DEF(0, 0)),
+              DEF(0, 0), DEF(0, 0), DEF(0, 0), DEF(0, 0), DEF(0, 0)),
     STAGE_OPT(step_vox, OPT_FLOAT, 0.05, 4, "ray-marching step in voxels",
-              DEF(0.5, 0.5), DEF(0.5, 0.5), DEF(0.5, 0.5), DEF(0.5, 0.5)),
+              DEF(0.5, 0.5), DEF(0.5, 0.5), DEF(0.5, 0.5), DEF(0.5, 0.5), DEF(0.5, 0.5)),
 };
 #define N_OPTS (sizeof opts / sizeof opts[0])
 

@@ -64,7 +64,15 @@ struct esr_train_config {
     int field_depth;        /* lts: emission / BRDF MLP hidden layers */
     int env_lobes;          /* lts: spherical Gaussians of the environment map */
     float emitter_k;        /* emitter mask: composited E above this in any channel */
-    struct esr_stage_config alphamask, coarse, fine, lts;
+    float pdra_k0;          /* pdra: k at the start */
+    float pdra_k_end;       /* pdra: k from 3/4 of the stage on (0: derived at its start) */
+    float pdra_k_frac;      /* pdra: derived k_end = this x the emitters' level */
+    float pdra_supp;        /* pdra: emission-suppression weight */
+    float pdra_w_l;         /* pdra: weight of MSE(sg(L_emo), L^_emo) on E */
+    float pdra_w_r;         /* pdra: weight of MSE(L_emo, sg(L^_emo)) (trains L_emo) */
+    int pdra_sg;            /* pdra: stop-gradient pair on (0: the "w/o sg" ablation) */
+    int pdra_progressive;   /* pdra: ray groups on (0: the "w/o progressive" ablation) */
+    struct esr_stage_config alphamask, coarse, fine, lts, pdra;
 };
 
 /* Defaults of a preset. */

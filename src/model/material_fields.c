@@ -17,14 +17,16 @@ void esr_material_fields_free(struct esr_material_fields *mf)
         free(bufs[i]);
     esr_mlp_ctx_free(&mf->ctx_e);
     esr_mlp_ctx_free(&mf->ctx_b);
-    int train = mf->train;
+    int train = mf->train, emission_only = mf->emission_only;
     memset(mf, 0, sizeof(*mf));
     mf->train = train;
+    mf->emission_only = emission_only;
 }
 
 static int grow(struct esr_material_fields *mf, const struct esr_model *m, size_t cap)
 {
     const int train = mf->train, ch = mf->ch, n_in = mf->n_in, gd = mf->geo_dim;
+    const size_t nb = mf->emission_only ? 0 : 1; /* BRDF rows per row */
     esr_material_fields_free(mf);
     mf->train = train;
     mf->ch = ch;
@@ -33,20 +35,21 @@ static int grow(struct esr_material_fields *mf, const struct esr_model *m, size_
     struct {
         float **p;
         size_t per_row;
-    } all[] = {{&mf->emit3, 3},     {&mf->brdf5, ESR_BRDF_CHANNELS},
-               {&mf->x_e, n_in},    {&mf->x_b, n_in},
-               {&mf->dx_e, n_in},   {&mf->dx_b, n_in},
-               {&mf->fe, ch},       {&mf->fb, ch},
-               {&mf->d_fe, ch},     {&mf->d_fb, ch},
-               {&mf->geo, gd},      {&mf->d_geo, gd}};
+    } all[] = {{&mf->emit3, 3},          {&mf->brdf5, nb * ESR_BRDF_CHANNELS},
+               {&mf->x_e, n_in},         {&mf->x_b, nb * n_in},
+               {&mf->dx_e, train * n_in}, {&mf->dx_b, nb * train * n_in},
+               {&mf->fe, ch},            {&mf->fb, nb * ch},
+               {&mf->d_fe, train * ch},  {&mf->d_fb, nb * train * ch},
+               {&mf->geo, gd},           {&mf->d_geo, train * gd}};
     int ok = 1;
     for (size_t i = 0; i < sizeof all / sizeof all[0]; i++)
-        ok &= (*all[i].p = malloc(cap * all[i].per_row * sizeof(float))) != NULL;
+        if (all[i].per_row)
+            ok &= (*all[i].p = malloc(cap * all[i].per_row * sizeof(float))) != NULL;
     int rc = ok ? ESR_OK : ESR_FAIL("material fields: out of memory for %zu rows", cap);
     const enum esr_mlp_engine engine = (enum esr_mlp_engine)m->cfg.mlp_engine;
     if (rc == ESR_OK && train)
         rc = esr_mlp_ctx_init(&mf->ctx_e, esr_model_mlp(m, ESR_COMP_EMIT_MLP), cap, engine);
-    if (rc == ESR_OK && train)
+    if (rc == ESR_OK && train && nb)
         rc = esr_mlp_ctx_init(&mf->ctx_b, esr_model_mlp(m, ESR_COMP_BRDF_MLP), cap, engine);
     if (rc != ESR_OK) {
         esr_material_fields_free(mf);
@@ -57,13 +60,14 @@ static int grow(struct esr_material_fields *mf, const struct esr_model *m, size_
 }
 
 int esr_material_fields_init(struct esr_material_fields *mf, const struct esr_model *m, size_t cap,
-                             int train)
+                             int flags)
 {
     memset(mf, 0, sizeof(*mf));
     if (!esr_model_has(m, ESR_COMP_EMIT_MLP) || !esr_model_has(m, ESR_COMP_BRDF_MLP))
         return ESR_FAIL("material fields: the %s stage has no emission/BRDF fields",
                         esr_stage_name((enum esr_stage)m->stage));
-    mf->train = train;
+    mf->train = (flags & ESR_MATERIAL_TRAIN) != 0;
+    mf->emission_only = (flags & ESR_MATERIAL_EMISSION_ONLY) != 0;
     mf->ch = esr_model_grid(m, ESR_COMP_EMO_FEAT)->channels;
     mf->n_in = esr_model_mlp(m, ESR_COMP_EMIT_MLP)->desc.n_in;
     mf->geo_dim = esr_geo_feature_dim(&m->geo);
@@ -92,18 +96,33 @@ int esr_material_fields_fwd(struct esr_material_fields *mf, const struct esr_mod
     const int C = mf->ch, pp = esr_pe_out_dims(&m->pe_pos);
     esr_grid_sample_fwd(esr_model_grid(m, ESR_COMP_EMO_FEAT), esr_model_values(m, ESR_COMP_EMO_FEAT),
                         pos3, n, mf->fe);
-    esr_grid_sample_fwd(esr_model_grid(m, ESR_COMP_BRDF_FEAT),
-                        esr_model_values(m, ESR_COMP_BRDF_FEAT), pos3, n, mf->fb);
     ESR_TRY(esr_geo_feature_fwd(esr_model_grid(m, ESR_COMP_SDF), sdf, &m->geo, pos3, n, mf->geo));
     esr_rows_copy_cols(mf->fe, (size_t)C, mf->x_e, ni, n, C);
     esr_rows_pe(&m->pe_pos, pos3, n, mf->x_e + C, ni);
     esr_rows_copy_cols(mf->geo, (size_t)mf->geo_dim, mf->x_e + C + pp, ni, n, mf->geo_dim);
-    /* the BRDF rows: own features, the same PE and geometry columns */
-    esr_rows_copy_cols(mf->fb, (size_t)C, mf->x_b, ni, n, C);
-    esr_rows_copy_cols(mf->x_e + C, ni, mf->x_b + C, ni, n, (int)ni - C);
     const float *w = m->params.w;
     ESR_TRY(mlp_run(mf, esr_model_mlp(m, ESR_COMP_EMIT_MLP), w, &mf->ctx_e, mf->x_e, mf->emit3, n));
+    if (mf->emission_only)
+        return ESR_OK;
+    /* the BRDF rows: own features, the same PE and geometry columns */
+    esr_grid_sample_fwd(esr_model_grid(m, ESR_COMP_BRDF_FEAT),
+                        esr_model_values(m, ESR_COMP_BRDF_FEAT), pos3, n, mf->fb);
+    esr_rows_copy_cols(mf->fb, (size_t)C, mf->x_b, ni, n, C);
+    esr_rows_copy_cols(mf->x_e + C, ni, mf->x_b + C, ni, n, (int)ni - C);
     return mlp_run(mf, esr_model_mlp(m, ESR_COMP_BRDF_MLP), w, &mf->ctx_b, mf->x_b, mf->brdf5, n);
+}
+
+/* One MLP's backward and its feature grid's: input-row gradients land in dx. */
+static int branch_bwd(struct esr_material_fields *mf, const struct esr_model *m,
+                      enum esr_component mlp, enum esr_component feat, struct esr_mlp_ctx *ctx,
+                      const float *d_out, float *dx, float *d_f, float *grads)
+{
+    const size_t n = mf->n, ni = (size_t)mf->n_in;
+    ESR_TRY(esr_mlp_bwd(esr_model_mlp(m, mlp), m->params.w, grads, ctx, d_out, dx,
+                        ESR_NN_GRAD_OVERWRITE));
+    esr_rows_copy_cols(dx, ni, d_f, (size_t)mf->ch, n, mf->ch);
+    esr_grid_sample_bwd(esr_model_grid(m, feat), mf->pos3, n, d_f, grads + m->part[feat].off);
+    return ESR_OK;
 }
 
 int esr_material_fields_bwd(struct esr_material_fields *mf, const struct esr_model *m,
@@ -111,26 +130,19 @@ int esr_material_fields_bwd(struct esr_material_fields *mf, const struct esr_mod
                             const float *d_brdf5)
 {
     const size_t n = mf->n, ni = (size_t)mf->n_in;
-    const int C = mf->ch, gcol = C + esr_pe_out_dims(&m->pe_pos), gd = mf->geo_dim;
+    const int gcol = mf->ch + esr_pe_out_dims(&m->pe_pos), gd = mf->geo_dim;
     if (n == 0 || (!d_emit3 && !d_brdf5))
         return ESR_OK;
     if (!mf->train)
         return ESR_FAIL("material fields: backward of an inference forward");
-    const float *w = m->params.w;
-    if (d_emit3) {
-        ESR_TRY(esr_mlp_bwd(esr_model_mlp(m, ESR_COMP_EMIT_MLP), w, grads, &mf->ctx_e, d_emit3,
-                            mf->dx_e, ESR_NN_GRAD_OVERWRITE));
-        esr_rows_copy_cols(mf->dx_e, ni, mf->d_fe, (size_t)C, n, C);
-        esr_grid_sample_bwd(esr_model_grid(m, ESR_COMP_EMO_FEAT), mf->pos3, n, mf->d_fe,
-                            grads + m->part[ESR_COMP_EMO_FEAT].off);
-    }
-    if (d_brdf5) {
-        ESR_TRY(esr_mlp_bwd(esr_model_mlp(m, ESR_COMP_BRDF_MLP), w, grads, &mf->ctx_b, d_brdf5,
-                            mf->dx_b, ESR_NN_GRAD_OVERWRITE));
-        esr_rows_copy_cols(mf->dx_b, ni, mf->d_fb, (size_t)C, n, C);
-        esr_grid_sample_bwd(esr_model_grid(m, ESR_COMP_BRDF_FEAT), mf->pos3, n, mf->d_fb,
-                            grads + m->part[ESR_COMP_BRDF_FEAT].off);
-    }
+    if (d_brdf5 && mf->emission_only)
+        return ESR_FAIL("material fields: BRDF gradient for an emission-only workspace");
+    if (d_emit3)
+        ESR_TRY(branch_bwd(mf, m, ESR_COMP_EMIT_MLP, ESR_COMP_EMO_FEAT, &mf->ctx_e, d_emit3, mf->dx_e,
+                           mf->d_fe, grads));
+    if (d_brdf5)
+        ESR_TRY(branch_bwd(mf, m, ESR_COMP_BRDF_MLP, ESR_COMP_BRDF_FEAT, &mf->ctx_b, d_brdf5,
+                           mf->dx_b, mf->d_fb, grads));
 #pragma omp parallel for schedule(static)
     for (size_t k = 0; k < n; k++)
         for (int j = 0; j < gd; j++)

@@ -24,6 +24,7 @@ extern "C" {
 
 struct esr_material_fields {
     int train;            /* 1: keep the MLP contexts for backward */
+    int emission_only;    /* 1: E only (brdf5 not computed) */
     size_t cap, n;
     const float *pos3;    /* the last forward's points (the caller keeps them alive) */
     float *emit3;         /* [cap * 3] E(x), linear HDR */
@@ -34,8 +35,11 @@ struct esr_material_fields {
     struct esr_mlp_ctx ctx_e, ctx_b;
 };
 
+/* flags: ESR_MATERIAL_EMISSION_ONLY skips the BRDF head (pdra's suppression, emission maps). */
+#define ESR_MATERIAL_TRAIN 1
+#define ESR_MATERIAL_EMISSION_ONLY 2
 int esr_material_fields_init(struct esr_material_fields *mf, const struct esr_model *m, size_t cap,
-                             int train);
+                             int flags);
 void esr_material_fields_free(struct esr_material_fields *mf);
 
 /* E and BRDF at n points (pos3 [n*3] must stay alive until the backward); `sdf` is the SDF the
@@ -43,7 +47,8 @@ void esr_material_fields_free(struct esr_material_fields *mf);
 int esr_material_fields_fwd(struct esr_material_fields *mf, const struct esr_model *m,
                             const float *sdf, const float *pos3, size_t n);
 /* Backward of the last forward from d loss/d emit3 and d loss/d brdf5 (either may be NULL: no
- * gradient): ADDS parameter gradients into grads and the geometry feature's into g_sdf. */
+ * gradient; d_brdf5 must be NULL when emission-only): ADDS parameter gradients into grads and the
+ * geometry feature's into g_sdf. */
 int esr_material_fields_bwd(struct esr_material_fields *mf, const struct esr_model *m,
                             const float *sdf, float *g_sdf, float *grads, const float *d_emit3,
                             const float *d_brdf5);

@@ -99,7 +99,7 @@ int esr_model_render_rays(const struct esr_model *m, const float *origins, const
     const int emission = out->emission && esr_model_has(m, ESR_COMP_EMIT_MLP);
     memset(&mf, 0, sizeof mf);
     if (rc == ESR_OK && emission)
-        rc = esr_material_fields_init(&mf, m, (size_t)chunk * 8, 0);
+        rc = esr_material_fields_init(&mf, m, (size_t)chunk * 8, ESR_MATERIAL_EMISSION_ONLY);
     if (rc == ESR_OK) {
         flags = malloc((size_t)chunk);
         depth = malloc((size_t)chunk * sizeof(float));

@@ -30,6 +30,8 @@ void esr_lts_free(struct esr_lts *l)
     for (size_t i = 0; i < sizeof bufs / sizeof bufs[0]; i++)
         free(bufs[i]);
     free(l->hit_flags);
+    free(l->certain);
+    free(l->pick);
     free(l->hit_row);
     free(l->q_on);
     esr_point_fields_free(&l->pf);
@@ -59,11 +61,12 @@ int esr_lts_init(struct esr_lts *l, const struct esr_model *m)
     ok &= (l->hit_flags = malloc(PM)) != NULL;
     ok &= (l->hit_row = malloc(PM * sizeof(int32_t))) != NULL;
     ok &= (l->q_on = malloc(rows)) != NULL;
+    ok &= (l->certain = malloc(P)) != NULL;
     int rc = ok ? ESR_OK : ESR_FAIL("lts: out of memory for %zu points x %d directions", P, l->M);
     if (rc == ESR_OK)
         rc = esr_point_fields_init(&l->pf, m, rows, 1);
     if (rc == ESR_OK)
-        rc = esr_material_fields_init(&l->mf, m, P, 1);
+        rc = esr_material_fields_init(&l->mf, m, P, ESR_MATERIAL_TRAIN);
     if (rc != ESR_OK)
         esr_lts_free(l);
     return rc;
@@ -84,17 +87,40 @@ static void v3_put(float *a, size_t i, struct esr_vec3 v)
 /* Points (stratified over the kept list), their normals, outgoing and incident directions and
  * the secondary rays' origins. Returns the number of points. */
 static size_t setup_points(struct esr_lts *l, const struct esr_model *m, const struct esr_march *mc,
-                           uint64_t seed)
+                           const uint8_t *ray_certain, uint64_t seed)
 {
     const size_t P = mc->n_kept < (size_t)l->P ? mc->n_kept : (size_t)l->P, M = (size_t)l->M;
     const struct esr_grid *g = esr_model_grid(m, ESR_COMP_SDF);
     const float off = SECONDARY_OFFSET_VOX * esr_grid_voxel_size(g, 0);
+    /* kept rows listed uncertain first; with ray groups, half the points come from each group
+     * (the few uncertain rays would otherwise get almost no points: pdra's stratified batches) */
+    size_t n_unc = 0;
+    if (ray_certain) {
+        for (size_t k = 0; k < mc->n_kept; k++)
+            if (!ray_certain[mc->kray[k]])
+                l->pick[n_unc++] = (uint32_t)k;
+        size_t j = n_unc;
+        for (size_t k = 0; k < mc->n_kept; k++)
+            if (ray_certain[mc->kray[k]])
+                l->pick[j++] = (uint32_t)k;
+    }
+    const size_t n_cer = mc->n_kept - n_unc;
+    size_t P_unc = n_unc == 0 ? 0 : n_cer == 0 ? P : P / 2;
+    if (!ray_certain)
+        P_unc = 0;
     for (size_t p = 0; p < P; p++) {
         struct esr_rng r = esr_rng_init(seed, p);
-        size_t k = (size_t)(((double)p + esr_rng_float(&r)) * (double)mc->n_kept / (double)P);
-        if (k >= mc->n_kept)
-            k = mc->n_kept - 1;
+        /* stratified within the point's group: [0, n_unc) or [n_unc, n_kept) of the list */
+        const int in_unc = p < P_unc;
+        const size_t base = !ray_certain ? 0 : in_unc ? 0 : n_unc;
+        const size_t span = !ray_certain ? mc->n_kept : in_unc ? n_unc : n_cer;
+        const size_t slot = in_unc ? p : p - P_unc, slots = in_unc ? P_unc : P - P_unc;
+        size_t i = base + (size_t)(((double)slot + esr_rng_float(&r)) * (double)span / (double)slots);
+        if (i >= base + span)
+            i = base + span - 1;
+        const size_t k = ray_certain ? l->pick[i] : i;
         memcpy(l->pos3 + p * 3, mc->kpos3 + k * 3, 3 * sizeof(float));
+        l->certain[p] = ray_certain ? ray_certain[mc->kray[k]] : 0;
         memcpy(l->wo3 + p * 6, mc->kdir3 + k * 3, 3 * sizeof(float)); /* ray dir; negated below */
     }
     esr_grid_sample_dpoint(g, l->normal_sdf, 0, l->pos3, P, l->nrm3);
@@ -164,7 +190,8 @@ static struct esr_material material_at(const float *brdf5, size_t p)
 }
 
 /* Estimates, loss and the gradients of everything they read, for point p. */
-static void point_loss(struct esr_lts *l, size_t p, float scale, double *se_off, double *se_emo)
+static void point_loss(struct esr_lts *l, size_t p, float scale, float w_l, float w_r, int sg,
+                       double *se_off, double *se_emo)
 {
     const size_t M = (size_t)l->M;
     const float *lin = l->pf.lin3, *E = l->mf.emit3 + p * 3;
@@ -172,10 +199,16 @@ static void point_loss(struct esr_lts *l, size_t p, float scale, double *se_off,
     const struct esr_vec3 n = v3_at(l->nrm3, p);
     struct esr_material d_mat;
     memset(&d_mat, 0, sizeof d_mat);
+    /* pdra's stop-gradient: an uncertain point's L^_emo = E + sg(reflection), so its emo error
+     * trains E (and L_emo), not the BRDF or the incident L_emo */
+    const float refl_emo = sg && !l->certain[p] ? 0.0f : 1.0f;
     for (int o = 0; o < 2; o++) {
         const struct esr_vec3 wo = v3_at(l->wo3, 2 * p + (size_t)o);
+        if (esr_v3_dot(n, wo) <= 0.0f)
+            continue; /* a back-facing camera direction: no reflection to compare with */
         const size_t row_off = p * 4 + (size_t)o * 2, row_on = row_off + 1;
-        float hat_off[3] = {0, 0, 0}, hat_emo[3] = {E[0], E[1], E[2]};
+        const float e_on = l->certain[p] ? 0.0f : 1.0f; /* certain: reflection alone */
+        float hat_off[3] = {0, 0, 0}, hat_emo[3] = {e_on * E[0], e_on * E[1], e_on * E[2]};
         for (size_t j = 0; j < M; j++) {
             const size_t i = p * M + j;
             float R[3];
@@ -193,10 +226,14 @@ static void point_loss(struct esr_lts *l, size_t p, float scale, double *se_off,
             *se_off += (double)e_off * e_off;
             *se_emo += (double)e_emo * e_emo;
             l->d_lin3[row_off * 3 + c] += 2.0f * scale * e_off;
-            l->d_lin3[row_on * 3 + c] += 2.0f * scale * e_emo; /* reaches the emo branch only */
+            /* the emo pair: w_r trains L_emo towards sg(L^_emo), w_l trains E towards
+             * sg(L_emo - reflection); both 1 = the plain MSE. The reflection side (BRDF,
+             * incident radiance) keeps weight 1: it also carries the off estimate, which a
+             * heavier pull through the shared BRDF wrecks (lamp: off MSE 0.003 -> 0.5) */
+            l->d_lin3[row_on * 3 + c] += 2.0f * w_r * scale * e_emo; /* the emo branch only */
             d_hat_off[c] = -2.0f * scale * e_off;
             d_hat_emo[c] = -2.0f * scale * e_emo;
-            l->d_emit3[p * 3 + c] += d_hat_emo[c];
+            l->d_emit3[p * 3 + c] += e_on * w_l * d_hat_emo[c];
         }
         for (size_t j = 0; j < M; j++) {
             const size_t i = p * M + j;
@@ -205,9 +242,10 @@ static void point_loss(struct esr_lts *l, size_t p, float scale, double *se_off,
             esr_brdf_eval(&mat, n, wo, wi, R);
             for (int c = 0; c < 3; c++) {
                 const float w = l->wt[i];
-                d_R[c] = (d_hat_off[c] * l->li_off3[i * 3 + c] + d_hat_emo[c] * l->li_emo3[i * 3 + c]) * w;
+                const float d_emo = refl_emo * d_hat_emo[c];
+                d_R[c] = (d_hat_off[c] * l->li_off3[i * 3 + c] + d_emo * l->li_emo3[i * 3 + c]) * w;
                 l->d_li_off3[i * 3 + c] += d_hat_off[c] * R[c] * w;
-                l->d_li_emo3[i * 3 + c] += d_hat_emo[c] * R[c] * w;
+                l->d_li_emo3[i * 3 + c] += d_emo * R[c] * w;
             }
             esr_brdf_eval_bwd(&mat, n, wo, wi, d_R, &d_mat);
         }
@@ -220,7 +258,8 @@ static void point_loss(struct esr_lts *l, size_t p, float scale, double *se_off,
 }
 
 int esr_lts_run(struct esr_lts *l, const struct esr_model *m, const float *sdf, float *g_sdf,
-                float *grads, const struct esr_march *mc, uint64_t seed, struct esr_lts_stats *out)
+                float *grads, const struct esr_march *mc, const uint8_t *ray_certain,
+                uint64_t seed, struct esr_lts_stats *out)
 {
     memset(out, 0, sizeof(*out));
     if (mc->n_kept == 0)
@@ -236,7 +275,15 @@ int esr_lts_run(struct esr_lts *l, const struct esr_model *m, const float *sdf, 
             memcpy(l->normal_sdf, sdf, ns * sizeof(float));
         }
     }
-    const size_t P = setup_points(l, m, mc, seed), M = (size_t)l->M, PM = P * M;
+    if (ray_certain && mc->n_kept > l->pick_cap) {
+        free(l->pick);
+        l->pick_cap = mc->n_kept + mc->n_kept / 4;
+        if (!(l->pick = malloc(l->pick_cap * sizeof(uint32_t)))) {
+            l->pick_cap = 0;
+            return ESR_FAIL("lts: out of memory for %zu kept rows", mc->n_kept);
+        }
+    }
+    const size_t P = setup_points(l, m, mc, ray_certain, seed), M = (size_t)l->M, PM = P * M;
     const struct esr_grid *g = esr_model_grid(m, ESR_COMP_SDF);
     /* secondary rays: first hit of the SDF, marching out of any inside region first */
     struct esr_first_hit_params hp;
@@ -267,11 +314,13 @@ int esr_lts_run(struct esr_lts *l, const struct esr_model *m, const float *sdf, 
     memset(l->d_emit3, 0, P * 3 * sizeof(float));
     /* mean over points x 2 outgoing x 3 channels, per term */
     const float w = m->cfg.lts_weight, scale = w / (float)(P * 2 * 3);
+    const int pair = ray_certain && m->cfg.pdra_sg; /* "w/o sg": one plain MSE */
+    const float w_l = pair ? m->cfg.pdra_w_l : 1.0f, w_r = pair ? m->cfg.pdra_w_r : 1.0f;
     double se_off = 0.0, se_emo = 0.0;
     /* each point writes only its own rows and directions */
 #pragma omp parallel for schedule(dynamic, 4) reduction(+ : se_off, se_emo)
     for (size_t p = 0; p < P; p++)
-        point_loss(l, p, scale, &se_off, &se_emo);
+        point_loss(l, p, scale, w_l, w_r, pair, &se_off, &se_emo);
     /* incident gradients to their sources: hit rows (off row; emo -> the on row's emo branch),
      * the environment for misses */
     size_t hits = 0;

@@ -3,10 +3,13 @@
  *     L^_off(x, wo) = sum_j (L_i^off(x, w_j)) R(x, wo, w_j) / (M pdf_j)
  *     L^_emo(x, wo) = E(x) + sum_j L_i^emo(x, w_j) R(x, wo, w_j) / (M pdf_j)
  *     loss = lts_weight * (MSE(L_off, L^_off) + MSE(L_emo, L^_emo))
+ * (in pdra the emo MSE's gradient is weighted: w_r on L_emo, w_l on E, the stop-gradient pair
+ * of METHOD.md stage 5 in squared form; the loss value is the plain MSE)
  * for the camera direction and one random outgoing direction per point. Both sides are trained
  * (radiance at the point and at the secondary hits, E, BRDF, environment).
  *
- * Points: lts_points kept samples of the primary batch (stratified over the kept list), normals
+ * Points: lts_points kept samples of the primary batch (stratified over the kept list; with pdra's
+ * ray groups half from the uncertain rays' samples and half from the certain ones'), normals
  * from the smoothed normal SDF (esr_model_normal_sdf, refreshed every NORMAL_REFRESH steps,
  * detached). Incident radiance, estimator 0 (the default): lts_dirs cosine-weighted directions
  * around the normal; the secondary ray starts one voxel off the surface along the normal and
@@ -50,6 +53,9 @@ struct esr_lts {
     float *q_pos3, *q_dir3, *d_tone3, *d_lin3;
     uint8_t *q_on;
     float *d_emit3, *d_brdf5;
+    uint8_t *certain;          /* [P] the point's ray is certain (pdra): L^_emo without E */
+    uint32_t *pick;            /* [pick_cap] kept rows, uncertain first (pdra) */
+    size_t pick_cap;
     struct esr_point_fields pf;
     struct esr_material_fields mf;
 };
@@ -58,10 +64,12 @@ int esr_lts_init(struct esr_lts *l, const struct esr_model *m);
 void esr_lts_free(struct esr_lts *l);
 
 /* The LTS loss on points taken from mc's kept list (the primary batch's last forward), its
- * gradient ADDED into grads (flat base) and g_sdf (the SDF the fields read). `sdf` is that SDF. */
+ * gradient ADDED into grads (flat base) and g_sdf (the SDF the fields read). `sdf` is that SDF.
+ * ray_certain (per ray of the batch, or NULL: none) marks the pdra stage's certain rays: their
+ * points re-render L_emo from reflection alone and give E no gradient. */
 int esr_lts_run(struct esr_lts *l, const struct esr_model *m, const float *sdf, float *g_sdf,
-                float *grads, const struct esr_march *mc, uint64_t seed,
-                struct esr_lts_stats *out);
+                float *grads, const struct esr_march *mc, const uint8_t *ray_certain,
+                uint64_t seed, struct esr_lts_stats *out);
 
 #ifdef __cplusplus
 }

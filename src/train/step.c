@@ -13,6 +13,8 @@ void esr_train_step_free(struct esr_train_step *st)
     esr_trace_free(&st->tr);
     if (st->has_lts)
         esr_lts_free(&st->lts);
+    if (st->has_pdra)
+        esr_pdra_free(&st->pdra);
     float *bufs[] = {st->orig3, st->dir3,       st->tgt3,    st->d_rgb3,      st->d_lin3,
                      st->sdf_view, st->g_sdf_view, st->scratch, st->grad_tv_work};
     for (size_t i = 0; i < sizeof bufs / sizeof bufs[0]; i++)
@@ -53,6 +55,14 @@ int esr_train_step_init(struct esr_train_step *st, const struct esr_model *m, in
         }
         st->has_lts = 1;
     }
+    if (esr_stage_info(s)->ray_groups) {
+        int rc = esr_pdra_init(&st->pdra, m, max_rays);
+        if (rc != ESR_OK) {
+            esr_train_step_free(st);
+            return rc;
+        }
+        st->has_pdra = 1;
+    }
     return ESR_OK;
 }
 
@@ -82,8 +92,15 @@ int esr_train_step_run(struct esr_train_step *st, struct esr_model *m, int n, ui
     esr_render_loss_batch(st->tr.rgb3, st->tr.lin_rgb3, st->tgt3, (size_t)n,
                           si->linear_loss ? m->cfg.lambda_tau : 0.0f, st->d_rgb3, d_lin, out);
     ESR_TRY(esr_trace_bwd(&st->tr, m, sdf, g_sdf, m->params.g, st->d_rgb3, d_lin));
+    const uint8_t *certain = NULL;
+    if (st->has_pdra) {
+        ESR_TRY(esr_pdra_step(&st->pdra, m, sdf, g_sdf, m->params.g, &st->tr.march,
+                              &st->pdra_chosen_k_end));
+        out->loss += st->pdra.supp_loss;
+        certain = st->pdra.certain;
+    }
     if (st->has_lts) {
-        ESR_TRY(esr_lts_run(&st->lts, m, sdf, g_sdf, m->params.g, &st->tr.march,
+        ESR_TRY(esr_lts_run(&st->lts, m, sdf, g_sdf, m->params.g, &st->tr.march, certain,
                             seed ^ 0x17a3c0ffeeULL, &st->lts_stats));
         out->loss += st->lts_stats.loss;
     }

@@ -12,6 +12,7 @@
 #include "model/model.h"
 #include "model/trace.h"
 #include "train/lts.h"
+#include "train/pdra.h"
 #include "train/render_loss.h"
 
 #ifdef __cplusplus
@@ -30,6 +31,9 @@ struct esr_train_step {
     int has_lts;                            /* the stage adds the LTS loss */
     struct esr_lts lts;
     struct esr_lts_stats lts_stats;         /* of the last step */
+    int has_pdra;                           /* the stage has ray groups */
+    struct esr_pdra pdra;
+    float pdra_chosen_k_end;                /* > 0 on the step that derived k_end */
 };
 
 /* Buffers for batches of up to max_rays rays of m's stage. */

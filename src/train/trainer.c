@@ -41,7 +41,8 @@ struct run {
 
 struct window {
     double t0, loss, mse, samples, kept;
-    double lts_off, lts_emo, secondary, hits;
+    double lts_off, lts_emo, secondary, hits, uncertain;
+    float k;
     long iters;
 };
 
@@ -176,6 +177,11 @@ static void report_window(struct run *r, const struct esr_model *m, enum esr_sta
     p.samples_per_ray = w->samples / ((double)w->iters * B);
     p.kept_per_ray = w->kept / ((double)w->iters * B);
     char line[768], extra[256] = "";
+    if (esr_stage_info(s)->ray_groups) {
+        p.has_groups = 1;
+        p.k = w->k;
+        p.uncertain_frac = w->uncertain / ((double)w->iters * B);
+    }
     if (esr_stage_info(s)->lts_loss) {
         p.has_lts = 1;
         p.lts_mse_off = w->lts_off / (double)w->iters;
@@ -184,8 +190,9 @@ static void report_window(struct run *r, const struct esr_model *m, enum esr_sta
         p.hit_frac = w->secondary > 0 ? w->hits / w->secondary : 0.0;
         snprintf(extra, sizeof extra,
                  ",\"lts_mse_off\":%.6g,\"lts_mse_emo\":%.6g,\"secondary_per_s\":%.0f,"
-                 "\"hit_frac\":%.3f",
-                 p.lts_mse_off, p.lts_mse_emo, p.secondary_per_s, p.hit_frac);
+                 "\"hit_frac\":%.3f,\"k\":%.4g,\"uncertain_frac\":%.4f",
+                 p.lts_mse_off, p.lts_mse_emo, p.secondary_per_s, p.hit_frac, p.k,
+                 p.uncertain_frac);
     }
     snprintf(line, sizeof line,
              "{\"stage\":\"%s\",\"iter\":%ld,\"loss\":%.6g,\"psnr\":%.3f,\"rays_per_s\":%.0f,"
@@ -242,6 +249,14 @@ static int iterate(struct run *r, struct esr_model *m, struct esr_train_step *b,
         w->lts_emo += b->lts_stats.mse_emo;
         w->secondary += (double)b->lts_stats.secondary;
         w->hits += (double)b->lts_stats.hits;
+    }
+    if (b->has_pdra) {
+        w->uncertain += (double)(B - b->pdra.n_certain);
+        w->k = b->pdra.k;
+        if (b->pdra_chosen_k_end > 0.0f)
+            say(r, s, "k_end %.4g derived from the data: %.2f x the emitters' level (99.5th "
+                      "percentile of composited E in the first batch); k rises from %.3g",
+                (double)b->pdra_chosen_k_end, (double)m->cfg.pdra_k_frac, (double)m->cfg.pdra_k0);
     }
     w->iters++;
     return ESR_OK;

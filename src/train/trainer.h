@@ -35,6 +35,9 @@ struct esr_train_progress {
     double lts_mse_off, lts_mse_emo; /* its two MSE terms (last window) */
     double secondary_per_s;          /* secondary rays per second */
     double hit_frac;                 /* fraction of secondary rays that hit the surface */
+    int has_groups;                  /* pdra: */
+    double k;                        /* certainty threshold at the window's end */
+    double uncertain_frac;           /* fraction of the batch's rays that are uncertain */
     const char *message;   /* ESR_TRAIN_MESSAGE text */
 };
 

@@ -26,6 +26,7 @@ static inline void test_small_config(struct esr_train_config *c, float lambda_ta
     c->geo_scales = 2;
     c->lambda_tau = lambda_tau;
     c->lts.res = 8;
+    c->pdra.res = 8;
     c->lts_points = 4;
     c->lts_dirs = 16;
     c->field_width = 8;
