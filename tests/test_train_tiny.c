@@ -12,8 +12,11 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include <cjson/cJSON.h>
+
 #include "core/error.h"
 #include "io/file.h"
+#include "io/json_file.h"
 #include "test_support.h"
 #include "model/model.h"
 #include "eval/evaluate.h"
@@ -148,6 +151,9 @@ static void test_tiny_reaches_psnr(void **state)
                                    ds.phases[ESR_PHASE_TEST_NV].frames[idx[0]].name, "_emission.exr"),
                      ESR_OK);
     assert_true(esr_file_exists(emission));
+    /* and its environment map, once per render directory */
+    assert_int_equal(esr_view_path(emission, sizeof emission, render_dir, "env", ".exr"), ESR_OK);
+    assert_true(esr_file_exists(emission));
     assert_int_equal(res.n_emitter_views, n);
     double iou = esr_iou_value(&res.emitter);
     print_message("tiny scene emitter IoU after 60 lts iterations: %.3f\n", iou);
@@ -277,6 +283,70 @@ static void test_empty_mask_cache_is_refused(void **state)
     esr_error_clear();
 }
 
+/* A copy of the tiny dataset whose training frames are only those with lighting `keep`
+ * ("off" or "on"), in dst. */
+static void one_lighting_dataset(const char *dst, const char *keep)
+{
+    char cmd[16384], path[4400];
+    snprintf(cmd, sizeof cmd, "rm -rf '%s' && cp -r '%s' '%s'", dst, data_dir, dst);
+    assert_int_equal(system(cmd), 0);
+    snprintf(path, sizeof path, "%s/transforms/transforms_train.json", dst);
+    unsigned char *text;
+    size_t size;
+    assert_int_equal(esr_file_read_all(path, &text, &size), 0);
+    cJSON *root = cJSON_ParseWithLength((const char *)text, size);
+    free(text);
+    assert_non_null(root);
+    cJSON *frames = cJSON_GetObjectItem(root, "frames");
+    for (int i = cJSON_GetArraySize(frames) - 1; i >= 0; i--) {
+        cJSON *light = cJSON_GetArrayItem(cJSON_GetObjectItem(cJSON_GetArrayItem(frames, i), "lights"), 0);
+        if (strcmp(cJSON_GetStringValue(cJSON_GetObjectItem(light, "mode")), keep) != 0)
+            cJSON_DeleteItemFromArray(frames, i);
+    }
+    assert_true(cJSON_GetArraySize(frames) > 0);
+    assert_int_equal(esr_json_write_atomic(path, root), 0);
+}
+
+/* The emitter stages on a dataset with one lighting only, continuing the full run's fine
+ * checkpoint: no lights-off images is refused with the reason; no lights-on images trains lts
+ * (materials and environment) and skips pdra, saying so. */
+static void test_emitter_stages_need_both_lightings(void **state)
+{
+    (void)state;
+    char data[4300], run[4300], cmd[24000];
+    struct esr_train_opts o;
+    struct log_capture lc;
+    const char *keep[2] = {"on", "off"};
+    for (int k = 0; k < 2; k++) {
+        snprintf(data, sizeof data, "%s/data_%s", test_tmpdir, keep[k]);
+        snprintf(run, sizeof run, "%s/run_%s", test_tmpdir, keep[k]);
+        one_lighting_dataset(data, keep[k]);
+        snprintf(cmd, sizeof cmd,
+                 "mkdir -p '%s' && cp '%s'/runs/full/ckpt_alphamask.bin '%s'/runs/full/ckpt_coarse.bin "
+                 "'%s'/runs/full/ckpt_fine.bin '%s'/",
+                 run, test_tmpdir, test_tmpdir, test_tmpdir, run);
+        assert_int_equal(system(cmd), 0);
+        opts_for(&o, run, ESR_STAGE_PDRA, &lc);
+        o.data_dir = data;
+        o.resume = 1;
+        esr_error_clear();
+        int rc = esr_train_run(&o);
+        if (k == 0) {
+            assert_int_equal(rc, ESR_ERR);
+            assert_non_null(strstr(esr_error_message(), "needs lights-off training images"));
+        } else {
+            if (rc != ESR_OK)
+                fail_msg("%s", esr_error_message());
+            assert_non_null(strstr(lc.text, "stage pdra skipped"));
+            snprintf(cmd, sizeof cmd, "%s/ckpt_lts.bin", run);
+            assert_true(esr_file_exists(cmd));
+            snprintf(cmd, sizeof cmd, "%s/ckpt_pdra.bin", run);
+            assert_false(esr_file_exists(cmd));
+        }
+        esr_error_clear();
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -285,6 +355,7 @@ int main(void)
         cmocka_unit_test(test_nan_is_recovered_then_stops),
         cmocka_unit_test(test_corrupt_checkpoints_are_refused),
         cmocka_unit_test(test_empty_mask_cache_is_refused),
+        cmocka_unit_test(test_emitter_stages_need_both_lightings),
     };
     return cmocka_run_group_tests(tests, group_setup, test_teardown_tmpdir);
 }

@@ -43,6 +43,11 @@ void esr_view_images_free(struct esr_view_images *v);
  * Fails naming the file on a write error. */
 int esr_view_write(const char *dir, const char *name, const struct esr_view_images *v);
 
+/* The model's environment map (lts stage on) as dir/env.exr (linear RGB) and dir/env.png (sRGB
+ * OETF clipped), equirectangular 256 x 128, +Z (up) in row 0 (fields/env_sg.h); nothing for a
+ * model without one. */
+int esr_view_write_env(const char *dir, const struct esr_model *m);
+
 /* Path of one of those files: "<dir>/<name><suffix>" (suffix e.g. "_linear.png"). Fails when it
  * does not fit in n bytes. */
 int esr_view_path(char *out, size_t n, const char *dir, const char *name, const char *suffix);
@@ -62,8 +67,9 @@ typedef void (*esr_view_progress_fn)(void *user, const struct esr_view_progress 
 /* Renders frames idx[0..n) of `phase` into dir (created if absent), each with its own camera and
  * lighting (frame mode "off" or "on"), writing the files of esr_view_write, then records the
  * model's stage and step and the frames rendered by that model in dir/render.json (frames of an
- * earlier model are dropped from the record). Edit frames (i_change, c_change, ic_change) are
- * refused before anything is rendered: relighting edits are not implemented by the model yet.
+ * earlier model are dropped from the record), plus the environment map (esr_view_write_env).
+ * Edit frames (i_change, c_change, ic_change) are refused before anything is rendered:
+ * relighting edits are not implemented by the model yet.
  * `progress` may be NULL. */
 int esr_view_render_frames(const struct esr_model *m, const struct esr_dataset *ds, enum esr_phase_id phase,
                            const int *idx, int n, const char *dir, esr_view_progress_fn progress, void *user);

@@ -149,6 +149,8 @@ int esr_view_render_frames(const struct esr_model *m, const struct esr_dataset *
             progress(user, &p);
         }
     }
+    if (status == ESR_OK)
+        status = esr_view_write_env(dir, m);
     /* Frames finished before a failure stay recorded. */
     int stamped = write_stamp(dir, m, frames);
     return status == ESR_OK ? stamped : status;

@@ -5,6 +5,7 @@
 
 #include "core/colour.h"
 #include "core/error.h"
+#include "fields/env_sg.h"
 #include "render/view.h"
 
 static float clamp01(float v)
@@ -93,6 +94,28 @@ static int write_emission(const char *dir, const char *name, const struct esr_vi
         grey->data[i] = fmaxf(e[0], fmaxf(e[1], e[2])) > v->emitter_k ? 1.0f : 0.0f;
     }
     return write_png(dir, name, "_emitter.png", grey);
+}
+
+int esr_view_write_env(const char *dir, const struct esr_model *m)
+{
+    if (!esr_model_has(m, ESR_COMP_ENV))
+        return ESR_OK;
+    struct esr_image lin = {0}, srgb = {0};
+    int status = esr_image_alloc(&lin, 256, 128, 3);
+    if (status == ESR_OK)
+        status = esr_image_alloc(&srgb, 256, 128, 3);
+    if (status == ESR_OK)
+        status = esr_env_sg_equirect(esr_model_values(m, ESR_COMP_ENV), m->cfg.env_lobes, 256, 128,
+                                     lin.data);
+    if (status == ESR_OK)
+        status = write_exr(dir, "env", ".exr", &lin);
+    if (status == ESR_OK) {
+        gamma_image(&lin, &srgb);
+        status = write_png(dir, "env", ".png", &srgb);
+    }
+    esr_image_free(&lin);
+    esr_image_free(&srgb);
+    return status;
 }
 
 int esr_view_write(const char *dir, const char *name, const struct esr_view_images *v)

@@ -356,6 +356,32 @@ static int run_stage(struct run *r, struct esr_model *m, enum esr_stage s)
     return rc;
 }
 
+/* Whether the dataset's lighting lets stage s run: the emitter stages compare lights-off and
+ * lights-on images. No lights-off images: refused (nothing tells emission from reflection). No
+ * lights-on images: lts trains materials and environment only, pdra is skipped (*skip). */
+static int check_lighting(struct run *r, enum esr_stage s, int *skip)
+{
+    *skip = 0;
+    if (!esr_stage_info(s)->lts_loss)
+        return ESR_OK;
+    const size_t n_on = r->rays.n - r->rays.n_off;
+    if (r->rays.n_off == 0)
+        return ESR_FAIL("stage %s needs lights-off training images to tell emission from "
+                        "reflection, and this dataset has none (train with --until fine)",
+                        esr_stage_name(s));
+    if (n_on > 0)
+        return ESR_OK;
+    if (esr_stage_info(s)->ray_groups) {
+        say(r, s, "no lights-on training images: no emitters to find, stage %s skipped",
+            esr_stage_name(s));
+        *skip = 1;
+    } else {
+        say(r, s, "no lights-on training images: stage %s trains materials and the environment "
+                  "only (emission stays untrained)", esr_stage_name(s));
+    }
+    return ESR_OK;
+}
+
 /* Model for stage s: the checkpoint when resuming, else a fresh one from prev. */
 static int stage_model(struct run *r, enum esr_stage s, const struct esr_model *prev,
                        struct esr_model *m)
@@ -425,6 +451,10 @@ int esr_train_run(const struct esr_train_opts *o)
     struct esr_model prev, cur;
     int have_prev = 0;
     for (int s = 0; rc == ESR_OK && s <= (int)o->until; s++) {
+        int skip = 0;
+        rc = check_lighting(&r, (enum esr_stage)s, &skip);
+        if (rc != ESR_OK || skip)
+            break;
         rc = stage_model(&r, (enum esr_stage)s, have_prev ? &prev : NULL, &cur);
         if (rc != ESR_OK)
             break;
