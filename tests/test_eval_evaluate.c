@@ -12,6 +12,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 #include <sys/stat.h>
 
 #include "core/error.h"
@@ -507,12 +508,66 @@ static void test_report(void **state)
     esr_dataset_free(&ds);
 }
 
+/* A grey mask: 1 where column x < cols (of RES), else 0. */
+static void write_mask(const char *path, int cols)
+{
+    struct esr_image img;
+    assert_int_equal(esr_image_alloc(&img, RES, RES, 1), ESR_OK);
+    for (int y = 0; y < RES; y++)
+        for (int x = 0; x < RES; x++)
+            img.data[y * RES + x] = x < cols ? 1.0f : 0.0f;
+    assert_int_equal(esr_png_write(path, &img, 8), ESR_OK);
+    esr_image_free(&img);
+}
+
+/* Emitter IoU pooled over views, and the thresholded-L_emo baseline, by hand: the true emitters
+ * are the left half, the rendered masks the left 3/4 (IoU 1/2 / 3/4 = 2/3 in each view); the
+ * renders' L_emo = on - off = 2.5 - 0.75 = 1.75 everywhere, so the baseline's best threshold
+ * (any k < 1.75) marks every pixel: IoU 1/2. */
+static void test_emitters(void **state)
+{
+    (void)state;
+    char path[2700], dir[1300];
+    path_in(dir, sizeof dir, ds_dir, "test_nv/emission");
+    assert_int_equal(mkdir(dir, 0755), 0);
+    const char *names[2] = {"c000_off", "c000_on"};
+    for (int i = 0; i < 2; i++) {
+        snprintf(path, sizeof path, "%s/%s.png", dir, names[i]);
+        write_mask(path, RES / 2);
+        snprintf(path, sizeof path, "%s/%s_emitter.png", render_dir, names[i]);
+        write_mask(path, 3 * RES / 4);
+    }
+    struct esr_dataset ds;
+    struct esr_eval_result res;
+    int *idx, n;
+    load_all(&ds, &idx, &n);
+    assert_int_equal(esr_eval_phase(&ds, ESR_PHASE_TEST_NV, idx, n, render_dir, &res), ESR_OK);
+    assert_int_equal(res.n_emitter_views, 2);
+    assert_float_equal(esr_iou_value(&res.emitter), 2.0 / 3.0, 1e-9);
+    assert_true(res.views[0].has_emitter && res.views[1].has_emitter);
+    assert_float_equal(res.views[1].emitter_iou, 2.0 / 3.0, 1e-9);
+    assert_int_equal(res.emo_baseline.n_cameras, 1);
+    assert_float_equal(res.emo_baseline.iou, 0.5, 1e-9);
+    assert_true(res.emo_baseline.k < 1.75); /* every k below it ties */
+    esr_eval_result_free(&res);
+    free(idx);
+    esr_dataset_free(&ds);
+    for (int i = 0; i < 2; i++) {
+        snprintf(path, sizeof path, "%s/%s.png", dir, names[i]);
+        assert_int_equal(remove(path), 0);
+        snprintf(path, sizeof path, "%s/%s_emitter.png", render_dir, names[i]);
+        assert_int_equal(remove(path), 0);
+    }
+    assert_int_equal(rmdir(dir), 0);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_known_values), cmocka_unit_test(test_json),   cmocka_unit_test(test_no_gt_exr),
         cmocka_unit_test(test_errors),       cmocka_unit_test(test_select), cmocka_unit_test(test_curve),
         cmocka_unit_test(test_report),       cmocka_unit_test(test_normals),
+        cmocka_unit_test(test_emitters),
     };
     return cmocka_run_group_tests(tests, setup, test_teardown_tmpdir);
 }

@@ -154,6 +154,18 @@ static void print_normals(const struct esr_eval_result *res)
            100.0 * s->coverage, s->n, s->n_gt, (double)ESR_NORMAL_MIN_OPACITY);
 }
 
+/* The pooled emitter IoU and the thresholded-L_emo baseline, when there is something to score. */
+static void print_emitters(const struct esr_eval_result *res)
+{
+    if (res->n_emitter_views > 0)
+        printf("emitters vs gt (%d views, pixels pooled): IoU %.3f\n", res->n_emitter_views,
+               esr_iou_value(&res->emitter));
+    if (res->emo_baseline.n_cameras > 0)
+        printf("baseline, L_emo = L_on - L_off thresholded at its best k (%.3g, %d cameras): IoU "
+               "%.3f\n",
+               res->emo_baseline.k, res->emo_baseline.n_cameras, res->emo_baseline.iou);
+}
+
 /* Paths under RUN: render/P, eval/, eval/P.json, eval/P_gt, report.html, train_log.jsonl. */
 struct eval_paths {
     char render[ESR_PATH_MAX], eval[ESR_PATH_MAX], json[ESR_PATH_MAX], gt[ESR_PATH_MAX];
@@ -192,6 +204,7 @@ static int evaluate(const struct eval_args *a, const struct esr_run_selection *s
     if (status == ESR_OK) {
         print_table(&res);
         print_normals(&res);
+        print_emitters(&res);
         fprintf(stderr, "wrote %s and %s\n", p->json, p->report);
     }
     esr_eval_result_free(&res);

@@ -11,6 +11,7 @@
 #ifndef ESR_EVAL_EVALUATE_H
 #define ESR_EVAL_EVALUATE_H
 
+#include "eval/emo_baseline.h"
 #include "eval/metrics.h"
 #include "eval/normals.h"
 #include "io/dataset.h"
@@ -48,6 +49,7 @@ struct esr_eval_result {
     struct esr_normal_stats normals;           /* pixels of those views pooled (n_normal_views > 0) */
     int n_emitter_views;                       /* views with a predicted and a true emitter mask */
     struct esr_iou_accum emitter;              /* their pixels pooled (METHOD.md: one division) */
+    struct esr_emo_baseline emo_baseline;      /* thresholded L_emo (n_cameras 0: not computed) */
 };
 
 /* Evaluates the frames idx[0..n) of `phase` (esr_select_frames) against the images in
@@ -68,8 +70,10 @@ void esr_eval_result_free(struct esr_eval_result *res);
  *    "normals": {"n_views", "n_gt_pixels", "n_pixels", "mean_deg", "median_deg", "frac_good",
  *                "good_deg": 10, "coverage", "min_opacity": 0.5, "ground_truth"},
  *    "emitter_iou": pooled IoU of N_emitter.png vs <phase>/emission/<name>.png,
- *    "emitter_views": views counted}
- * (a view carries "emitter_iou" too; both only when some view has the two masks)
+ *    "emitter_views": views counted,
+ *    "emitter_iou_emo_threshold": {"iou", "k", "cameras"}: the thresholded-L_emo baseline}
+ * (a view carries "emitter_iou" too; both only when some view has the two masks; the baseline
+ * when some camera has both lightings rendered and a ground-truth mask)
  * The normal_* keys of a view and "normals" are present only when there is a ground-truth normal
  * map (of that view / of any view); pixels are pooled over the views in "normals". A NAN value is
  * written as null. */

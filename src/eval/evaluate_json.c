@@ -93,6 +93,12 @@ static cJSON *result_json(const struct esr_dataset *ds, const struct esr_eval_re
         cJSON_AddNumberToObject(root, "emitter_iou", esr_iou_value(&res->emitter));
         cJSON_AddNumberToObject(root, "emitter_views", res->n_emitter_views);
     }
+    if (res->emo_baseline.n_cameras > 0) {
+        cJSON *b = cJSON_AddObjectToObject(root, "emitter_iou_emo_threshold");
+        cJSON_AddNumberToObject(b, "iou", res->emo_baseline.iou);
+        cJSON_AddNumberToObject(b, "k", res->emo_baseline.k);
+        cJSON_AddNumberToObject(b, "cameras", res->emo_baseline.n_cameras);
+    }
     return root;
 }
 
