@@ -71,6 +71,25 @@ static void put_summary(FILE *out, const struct esr_eval_result *res)
             ESR_EVAL_PSNR_CAP);
 }
 
+/* The pooled emitter IoU and the thresholded-L_emo baseline (when scored). */
+static void put_emitters(FILE *out, const struct esr_eval_result *res)
+{
+    if (res->n_emitter_views == 0 && res->emo_baseline.n_cameras == 0)
+        return;
+    fputs("<h2>Emitters</h2>\n<table><tr><th>method</th><th>IoU</th><th>views</th></tr>\n", out);
+    if (res->n_emitter_views > 0) {
+        fputs("<tr><td>emission E above k (lts/pdra)</td>", out);
+        put_number(out, "%.3f", esr_iou_value(&res->emitter));
+        fprintf(out, "<td>%d</td></tr>\n", res->n_emitter_views);
+    }
+    if (res->emo_baseline.n_cameras > 0) {
+        fprintf(out, "<tr><td>baseline: L_on - L_off above its best k (%.3g)</td>", res->emo_baseline.k);
+        put_number(out, "%.3f", res->emo_baseline.iou);
+        fprintf(out, "<td>%d cameras</td></tr>\n", res->emo_baseline.n_cameras);
+    }
+    fputs("</table>\n", out);
+}
+
 /* The pooled normal error, or a line saying the dataset has no ground-truth normal maps. */
 static void put_normals(FILE *out, const struct esr_eval_result *res)
 {
@@ -132,8 +151,10 @@ static void put_thumb(FILE *out, const char *href, const char *name, const char 
 
 static void put_views(FILE *out, const struct esr_report_spec *spec)
 {
+    const int emitters = spec->res->n_emitter_views > 0;
     fprintf(out, "<h2>Views</h2>\n<table><tr><th>view</th><th>mode</th><th>ground truth</th><th>tone-mapped</th>"
-                 "<th>linear</th><th>normal</th>%s<th>normal error (deg)</th></tr>\n",
+                 "<th>linear</th><th>normal</th>%s%s<th>normal error (deg)</th></tr>\n",
+            emitters ? "<th>emission</th><th>emitter mask</th><th>true emitters</th>" : "",
             metric_header);
     for (int i = 0; i < spec->res->n_views; i++) {
         const struct esr_eval_view *v = &spec->res->views[i];
@@ -144,11 +165,33 @@ static void put_views(FILE *out, const struct esr_report_spec *spec)
         put_thumb(out, spec->render_href, v->name, ".png");
         put_thumb(out, spec->render_href, v->name, "_linear.png");
         put_thumb(out, spec->render_href, v->name, "_normal.png");
+        if (emitters) {
+            put_thumb(out, spec->render_href, v->name, "_emission.png");
+            put_thumb(out, spec->render_href, v->name, "_emitter.png");
+            put_thumb(out, spec->gt_href, v->name, "_emitter_true.png");
+        }
         put_metric_cells(out, v->psnr, v->ssim, v->psnr_linear, v->ssim_linear, v->hdr_mse);
         put_number(out, "%.2f", v->has_normal_gt ? v->normal.mean_deg : NAN);
         fputs("</tr>\n", out);
     }
     fputs("</table>\n", out);
+}
+
+/* The phase's ground-truth emission mask of view `name` as gt_dir/<name>_emitter_true.png, when
+ * the dataset has one. */
+static int copy_true_emitters(const struct esr_report_spec *spec, const char *name)
+{
+    char src[ESR_PATH_MAX], dst[ESR_PATH_MAX];
+    if (snprintf(src, sizeof src, "%s/%s/emission/%s.png", spec->ds->root,
+                 esr_phase_name(spec->res->phase), name) >= (int)sizeof src ||
+        !esr_file_exists(src))
+        return ESR_OK;
+    ESR_TRY(esr_view_path(dst, sizeof dst, spec->gt_dir, name, "_emitter_true.png"));
+    struct esr_image mask = {0};
+    ESR_TRY(esr_image_read(src, &mask));
+    int status = esr_png_write(dst, &mask, 8);
+    esr_image_free(&mask);
+    return status;
 }
 
 /* Copies of the evaluated ground-truth images, composited on white as the metrics saw them. */
@@ -171,6 +214,7 @@ static int write_gt_copies(const struct esr_report_spec *spec)
         int status = esr_png_write(path, &rgb, 8);
         esr_image_free(&rgb);
         ESR_TRY(status);
+        ESR_TRY(copy_true_emitters(spec, name));
     }
     return ESR_OK;
 }
@@ -189,6 +233,7 @@ static int put_page(FILE *out, const struct esr_report_spec *spec)
     fputs("</p>\n", out);
     put_summary(out, spec->res);
     put_normals(out, spec->res);
+    put_emitters(out, spec->res);
     ESR_TRY(put_curves(out, spec->train_log));
     put_views(out, spec);
     fputs("</body></html>\n", out);
