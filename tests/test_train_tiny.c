@@ -151,6 +151,10 @@ static void test_tiny_reaches_psnr(void **state)
                                    ds.phases[ESR_PHASE_TEST_NV].frames[idx[0]].name, "_emission.exr"),
                      ESR_OK);
     assert_true(esr_file_exists(emission));
+    assert_int_equal(esr_view_path(emission, sizeof emission, render_dir,
+                                   ds.phases[ESR_PHASE_TEST_NV].frames[idx[0]].name, "_basecolor.png"),
+                     ESR_OK);
+    assert_true(esr_file_exists(emission));
     /* and its environment map, once per render directory */
     assert_int_equal(esr_view_path(emission, sizeof emission, render_dir, "env", ".exr"), ESR_OK);
     assert_true(esr_file_exists(emission));

@@ -106,6 +106,8 @@ struct esr_render_out {
     float *opacity;  /* [n]   1 - T_final */
     float *emission; /* [n*3] composited emission E (linear HDR, no background); lts stage on,
                         ignored by models without an emission field */
+    float *material; /* [n*5] composited BRDF: base colour (3, linear), roughness, metallic (no
+                        background: multiply out by opacity); lts stage on, like emission */
 };
 
 /* Renders n rays (origins/dirs [n*3], dirs unit length) with lights on (1) or off (0). Only

@@ -44,15 +44,22 @@ int esr_model_normal_sdf(const struct esr_model *m, float **out)
     return rc;
 }
 
-/* Composited emission of the last trace forward's rays into emission3 (no background). */
-static int emission_rows(struct esr_trace *t, const struct esr_model *m, const float *sdf,
-                         struct esr_material_fields *mf, float *emission3)
+/* Composited emission (3) and BRDF (5, unless mf is emission-only) of the last trace forward's
+ * rays (no background); either output may be NULL. */
+static int material_rows(struct esr_trace *t, const struct esr_model *m, const float *sdf,
+                         struct esr_material_fields *mf, float *emission3, float *material5)
 {
     const struct esr_march *mc = &t->march;
     ESR_TRY(esr_material_fields_fwd(mf, m, sdf, mc->kpos3, mc->n_kept));
     struct esr_composite_args a;
-    esr_march_composite_args(mc, mf->emit3, 3, NULL, 0, &a);
-    esr_composite_fwd(&a, emission3);
+    if (emission3) {
+        esr_march_composite_args(mc, mf->emit3, 3, NULL, 0, &a);
+        esr_composite_fwd(&a, emission3);
+    }
+    if (material5 && !mf->emission_only) {
+        esr_march_composite_args(mc, mf->brdf5, ESR_BRDF_CHANNELS, NULL, 0, &a);
+        esr_composite_fwd(&a, material5);
+    }
     return ESR_OK;
 }
 
@@ -96,10 +103,11 @@ int esr_model_render_rays(const struct esr_model *m, const float *origins, const
     float *depth = NULL, *normal = NULL, *opac = NULL;
     uint8_t *flags = NULL;
     struct esr_material_fields mf;
-    const int emission = out->emission && esr_model_has(m, ESR_COMP_EMIT_MLP);
+    const int fields = (out->emission || out->material) && esr_model_has(m, ESR_COMP_EMIT_MLP);
     memset(&mf, 0, sizeof mf);
-    if (rc == ESR_OK && emission)
-        rc = esr_material_fields_init(&mf, m, (size_t)chunk * 8, ESR_MATERIAL_EMISSION_ONLY);
+    if (rc == ESR_OK && fields)
+        rc = esr_material_fields_init(&mf, m, (size_t)chunk * 8,
+                                      out->material ? 0 : ESR_MATERIAL_EMISSION_ONLY);
     if (rc == ESR_OK) {
         flags = malloc((size_t)chunk);
         depth = malloc((size_t)chunk * sizeof(float));
@@ -120,8 +128,9 @@ int esr_model_render_rays(const struct esr_model *m, const float *origins, const
         copy_out(out->depth, depth, r0, (size_t)c);
         copy_out(out->normal, normal, r0 * 3, (size_t)c * 3);
         copy_out(out->opacity, opac, r0, (size_t)c);
-        if (emission) {
-            rc = emission_rows(&t, m, sdf, &mf, out->emission + r0 * 3);
+        if (fields) {
+            rc = material_rows(&t, m, sdf, &mf, out->emission ? out->emission + r0 * 3 : NULL,
+                               out->material ? out->material + r0 * ESR_BRDF_CHANNELS : NULL);
             if (rc != ESR_OK)
                 break;
         }

@@ -22,8 +22,12 @@ int esr_view_render(const struct esr_model *m, const struct esr_camera *cam, int
     if (cam->width < 1 || cam->height < 1)
         return ESR_FAIL("camera has an empty image (%dx%d)", cam->width, cam->height);
     ESR_TRY(alloc_images(out, cam->width, cam->height));
-    if (esr_model_has(m, ESR_COMP_EMIT_MLP))
+    if (esr_model_has(m, ESR_COMP_EMIT_MLP)) {
         ESR_TRY(esr_image_alloc(&out->emission, cam->width, cam->height, 3));
+        out->material = malloc((size_t)cam->width * (size_t)cam->height * 5 * sizeof(float));
+        if (!out->material)
+            return ESR_FAIL("out of memory for a %dx%d material image", cam->width, cam->height);
+    }
     out->emitter_k = m->cfg.emitter_k;
     size_t n = (size_t)cam->width * (size_t)cam->height;
     float *origins = malloc(n * 3 * sizeof *origins), *dirs = malloc(n * 3 * sizeof *dirs);
@@ -32,7 +36,7 @@ int esr_view_render(const struct esr_model *m, const struct esr_camera *cam, int
         esr_camera_pixel_rays(cam, origins, dirs);
     if (status == ESR_OK) {
         struct esr_render_out o = {out->rgb.data, out->linear.data, out->depth.data, out->normal.data,
-                                   out->opacity.data, out->emission.data};
+                                   out->opacity.data, out->emission.data, out->material};
         status = esr_model_render_rays(m, origins, dirs, n, lights_on, &o);
     }
     free(origins);
@@ -48,4 +52,6 @@ void esr_view_images_free(struct esr_view_images *v)
     esr_image_free(&v->normal);
     esr_image_free(&v->opacity);
     esr_image_free(&v->emission);
+    free(v->material);
+    v->material = NULL;
 }

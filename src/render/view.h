@@ -17,6 +17,8 @@ struct esr_view_images {
     struct esr_image opacity; /* 1 ch: 1 - final transmittance */
     struct esr_image emission; /* 3 ch: composited emission E, linear HDR (lts stage on; else
                                   empty: data NULL) */
+    float *material;          /* [w*h*5]: composited base colour (3), roughness, metallic (lts
+                                 stage on; else NULL) — five channels, more than an esr_image */
     float emitter_k;          /* emitter mask: emission above this in any channel */
 };
 
@@ -40,6 +42,8 @@ void esr_view_images_free(struct esr_view_images *v);
  *   N_emission.exr composited emission E (linear RGB, float)
  *   N_emission.png its sRGB OETF clipped to [0,1], 8-bit
  *   N_emitter.png  emitter mask, grey 0 or 255: any channel of E above emitter_k
+ *   N_basecolor.png  base colour (sRGB OETF of the linear value), N_roughness.png,
+ *   N_metallic.png   (grey), each divided by opacity and composited on white
  * Fails naming the file on a write error. */
 int esr_view_write(const char *dir, const char *name, const struct esr_view_images *v);
 

@@ -96,6 +96,35 @@ static int write_emission(const char *dir, const char *name, const struct esr_vi
     return write_png(dir, name, "_emitter.png", grey);
 }
 
+/* Channels [c0, c0 + n) of the composited material image divided by opacity (the surface's
+ * value), sRGB-encoded when srgb, on white where nothing was hit; into out (n channels). */
+static void material_image(const struct esr_view_images *v, int c0, int n, int srgb,
+                           struct esr_image *out)
+{
+    const long long np = (long long)v->opacity.width * v->opacity.height;
+    for (long long i = 0; i < np; i++) {
+        const float a = v->opacity.data[i];
+        for (int c = 0; c < n; c++) {
+            float x = a > 1e-4f ? v->material[5 * i + c0 + c] / a : 0.0f;
+            if (srgb)
+                x = esr_srgb_from_linear(clamp01(x));
+            out->data[n * i + c] = clamp01(a * x + (1.0f - a));
+        }
+    }
+}
+
+/* N_basecolor.png, N_roughness.png, N_metallic.png (rgb3, grey: scratch). */
+static int write_material(const char *dir, const char *name, const struct esr_view_images *v,
+                          struct esr_image *rgb3, struct esr_image *grey)
+{
+    material_image(v, 0, 3, 1, rgb3);
+    ESR_TRY(write_png(dir, name, "_basecolor.png", rgb3));
+    material_image(v, 3, 1, 0, grey);
+    ESR_TRY(write_png(dir, name, "_roughness.png", grey));
+    material_image(v, 4, 1, 0, grey);
+    return write_png(dir, name, "_metallic.png", grey);
+}
+
 int esr_view_write_env(const char *dir, const struct esr_model *m)
 {
     if (!esr_model_has(m, ESR_COMP_ENV))
@@ -151,6 +180,8 @@ int esr_view_write(const char *dir, const char *name, const struct esr_view_imag
         status = write_exr(dir, name, "_depth.exr", &v->depth);
     if (status == ESR_OK && v->emission.data)
         status = write_emission(dir, name, v, &rgb3, &grey);
+    if (status == ESR_OK && v->material)
+        status = write_material(dir, name, v, &rgb3, &grey);
     esr_image_free(&rgb3);
     esr_image_free(&grey);
     esr_image_free(&rgba);
