@@ -338,6 +338,10 @@ static int run_stage(struct run *r, struct esr_model *m, enum esr_stage s)
     }
     if (rc == ESR_OK && esr_stage_info(s)->builds_mask)
         rc = build_mask(r, m);
+    if (rc == ESR_OK && b.has_pdra && b.pdra.n_certain == B)
+        say(r, s, "no emitters found: every ray of the last batch has emission at most k = %.3g "
+                  "(the scene's lights are off or too dim to tell from reflection)",
+            (double)b.pdra.k);
     if (rc == ESR_OK) {
         m->stage_done = 1;
         rc = save(r, m, s);
