@@ -61,10 +61,9 @@ int esr_emo_baseline_eval(const struct esr_dataset *ds, enum esr_phase_id phase,
         const struct esr_frame *f = &ph->frames[idx[i]];
         char on_path[ESR_PATH_MAX], off_path[ESR_PATH_MAX], gt_path[ESR_PATH_MAX];
         if (!partner_path(off_path, sizeof off_path, render_dir, f->name) ||
-            esr_view_path(on_path, sizeof on_path, render_dir, f->name, ".exr") != ESR_OK ||
-            snprintf(gt_path, sizeof gt_path, "%s/%s/emission/%s.png", ds->root,
-                     esr_phase_name(phase), f->name) >= (int)sizeof gt_path)
+            esr_view_path(on_path, sizeof on_path, render_dir, f->name, ".exr") != ESR_OK)
             continue;
+        esr_frame_emission_path(ds, f, gt_path, sizeof gt_path);
         if (!esr_file_exists(on_path) || !esr_file_exists(off_path) || !esr_file_exists(gt_path))
             continue;
         struct esr_image on = {0}, off = {0}, gt = {0};

@@ -116,15 +116,12 @@ static int compare_normals(const struct esr_dataset *ds, const struct esr_frame 
 
 /* Emitter mask N_emitter.png against the phase's ground-truth emission mask, when both exist:
  * added to the pooled accumulator and scored alone in v. */
-static int compare_emitters(const struct esr_dataset *ds, enum esr_phase_id phase,
-                            const struct esr_frame *f, const char *dir, struct esr_eval_view *v,
-                            struct esr_iou_accum *pooled)
+static int compare_emitters(const struct esr_dataset *ds, const struct esr_frame *f, const char *dir,
+                            struct esr_eval_view *v, struct esr_iou_accum *pooled)
 {
     char path[ESR_PATH_MAX], gt_path[ESR_PATH_MAX];
     ESR_TRY(esr_view_path(path, sizeof path, dir, f->name, "_emitter.png"));
-    if (snprintf(gt_path, sizeof gt_path, "%s/%s/emission/%s.png", ds->root, esr_phase_name(phase),
-                 f->name) >= (int)sizeof gt_path)
-        return ESR_FAIL("ground-truth emission mask path for '%s' is too long", f->name);
+    esr_frame_emission_path(ds, f, gt_path, sizeof gt_path);
     if (!esr_file_exists(path) || !esr_file_exists(gt_path))
         return ESR_OK;
     struct esr_image pred = {0}, gt = {0};
@@ -146,8 +143,8 @@ static int compare_emitters(const struct esr_dataset *ds, enum esr_phase_id phas
     return status;
 }
 
-static int eval_view(const struct esr_dataset *ds, enum esr_phase_id phase, const struct esr_frame *f,
-                     const char *dir, struct esr_eval_view *v, struct esr_normal_errors *normals,
+static int eval_view(const struct esr_dataset *ds, const struct esr_frame *f, const char *dir,
+                     struct esr_eval_view *v, struct esr_normal_errors *normals,
                      struct esr_iou_accum *emitters)
 {
     char path[ESR_PATH_MAX];
@@ -169,7 +166,7 @@ static int eval_view(const struct esr_dataset *ds, enum esr_phase_id phase, cons
     if (status == ESR_OK)
         status = compare_normals(ds, f, dir, v, normals);
     if (status == ESR_OK)
-        status = compare_emitters(ds, phase, f, dir, v, emitters);
+        status = compare_emitters(ds, f, dir, v, emitters);
     esr_image_free(&gt);
     return status;
 }
@@ -227,7 +224,7 @@ int esr_eval_phase(const struct esr_dataset *ds, enum esr_phase_id phase, const 
         if (idx[i] < 0 || idx[i] >= ph->n_frames)
             status = ESR_FAIL("frame index %d out of range for phase %s", idx[i], esr_phase_name(phase));
         else
-            status = eval_view(ds, phase, &ph->frames[idx[i]], render_dir, &res->views[i], &normals,
+            status = eval_view(ds, &ph->frames[idx[i]], render_dir, &res->views[i], &normals,
                                &res->emitter);
         if (status == ESR_OK) {
             res->n_views = i + 1;

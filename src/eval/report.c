@@ -177,20 +177,20 @@ static void put_views(FILE *out, const struct esr_report_spec *spec)
     fputs("</table>\n", out);
 }
 
-/* The phase's ground-truth emission mask of view `name` as gt_dir/<name>_emitter_true.png, when
- * the dataset has one. */
-static int copy_true_emitters(const struct esr_report_spec *spec, const char *name)
+/* Frame f's ground-truth emission mask copied to gt_dir/<name>_emitter_true.png, when the
+ * dataset has one. */
+static int copy_true_emitters(const struct esr_report_spec *spec, const struct esr_frame *f)
 {
     char src[ESR_PATH_MAX], dst[ESR_PATH_MAX];
-    if (snprintf(src, sizeof src, "%s/%s/emission/%s.png", spec->ds->root,
-                 esr_phase_name(spec->res->phase), name) >= (int)sizeof src ||
-        !esr_file_exists(src))
+    esr_frame_emission_path(spec->ds, f, src, sizeof src);
+    if (!esr_file_exists(src))
         return ESR_OK;
-    ESR_TRY(esr_view_path(dst, sizeof dst, spec->gt_dir, name, "_emitter_true.png"));
-    struct esr_image mask = {0};
-    ESR_TRY(esr_image_read(src, &mask));
-    int status = esr_png_write(dst, &mask, 8);
-    esr_image_free(&mask);
+    ESR_TRY(esr_view_path(dst, sizeof dst, spec->gt_dir, f->name, "_emitter_true.png"));
+    unsigned char *bytes;
+    size_t size;
+    ESR_TRY(esr_file_read_all(src, &bytes, &size));
+    int status = esr_file_write_atomic(dst, bytes, size);
+    free(bytes);
     return status;
 }
 
@@ -214,7 +214,7 @@ static int write_gt_copies(const struct esr_report_spec *spec)
         int status = esr_png_write(path, &rgb, 8);
         esr_image_free(&rgb);
         ESR_TRY(status);
-        ESR_TRY(copy_true_emitters(spec, name));
+        ESR_TRY(copy_true_emitters(spec, f));
     }
     return ESR_OK;
 }
