@@ -22,7 +22,7 @@
 
 void esr_lts_free(struct esr_lts *l)
 {
-    float *bufs[] = {l->normal_sdf, l->pos3,     l->nrm3,     l->wo3,       l->wi3,
+    float *bufs[] = {l->R3, l->normal_sdf, l->pos3,     l->nrm3,     l->wo3,       l->wi3,
                      l->wt,         l->env3,     l->d_env3,   l->li_off3,   l->li_emo3,
                      l->d_li_off3,  l->d_li_emo3, l->orig3,   l->hit_t,     l->hit_pos3,
                      l->q_pos3,     l->q_dir3,   l->d_tone3,  l->d_lin3,    l->d_emit3,
@@ -52,12 +52,15 @@ int esr_lts_init(struct esr_lts *l, const struct esr_model *m)
               {&l->wi3, PM * 3},       {&l->wt, PM},           {&l->env3, PM * 3},
               {&l->d_env3, PM * 3},    {&l->li_off3, PM * 3},  {&l->li_emo3, PM * 3},
               {&l->d_li_off3, PM * 3}, {&l->d_li_emo3, PM * 3}, {&l->orig3, PM * 3},
+              {&l->R3, PM * 3},
               {&l->hit_t, PM},         {&l->hit_pos3, PM * 3}, {&l->q_pos3, rows * 3},
               {&l->q_dir3, rows * 3},  {&l->d_tone3, rows * 3}, {&l->d_lin3, rows * 3},
               {&l->d_emit3, P * 3},    {&l->d_brdf5, P * ESR_BRDF_CHANNELS}};
     int ok = 1;
     for (size_t i = 0; i < sizeof fl / sizeof fl[0]; i++)
         ok &= (*fl[i].p = malloc(fl[i].n * sizeof(float))) != NULL;
+    if (ok) /* the tone-mapped outputs of the LTS rows get no gradient, ever */
+        memset(l->d_tone3, 0, rows * 3 * sizeof(float));
     ok &= (l->hit_flags = malloc(PM)) != NULL;
     ok &= (l->hit_row = malloc(PM * sizeof(int32_t))) != NULL;
     ok &= (l->q_on = malloc(rows)) != NULL;
@@ -94,7 +97,7 @@ static size_t setup_points(struct esr_lts *l, const struct esr_model *m, const s
     const float off = SECONDARY_OFFSET_VOX * esr_grid_voxel_size(g, 0);
     /* kept rows listed uncertain first; with ray groups, half the points come from each group
      * (the few uncertain rays would otherwise get almost no points: pdra's stratified batches) */
-    size_t n_unc = 0;
+    size_t n_unc = 0; /* without groups: one group, the kept rows in order */
     if (ray_certain) {
         for (size_t k = 0; k < mc->n_kept; k++)
             if (!ray_certain[mc->kray[k]])
@@ -105,15 +108,12 @@ static size_t setup_points(struct esr_lts *l, const struct esr_model *m, const s
                 l->pick[j++] = (uint32_t)k;
     }
     const size_t n_cer = mc->n_kept - n_unc;
-    size_t P_unc = n_unc == 0 ? 0 : n_cer == 0 ? P : P / 2;
-    if (!ray_certain)
-        P_unc = 0;
+    const size_t P_unc = n_unc == 0 ? 0 : n_cer == 0 ? P : P / 2;
     for (size_t p = 0; p < P; p++) {
         struct esr_rng r = esr_rng_init(seed, p);
         /* stratified within the point's group: [0, n_unc) or [n_unc, n_kept) of the list */
         const int in_unc = p < P_unc;
-        const size_t base = !ray_certain ? 0 : in_unc ? 0 : n_unc;
-        const size_t span = !ray_certain ? mc->n_kept : in_unc ? n_unc : n_cer;
+        const size_t base = in_unc ? 0 : n_unc, span = in_unc ? n_unc : n_cer;
         const size_t slot = in_unc ? p : p - P_unc, slots = in_unc ? P_unc : P - P_unc;
         size_t i = base + (size_t)(((double)slot + esr_rng_float(&r)) * (double)span / (double)slots);
         if (i >= base + span)
@@ -211,7 +211,7 @@ static void point_loss(struct esr_lts *l, size_t p, float scale, float w_l, floa
         float hat_off[3] = {0, 0, 0}, hat_emo[3] = {e_on * E[0], e_on * E[1], e_on * E[2]};
         for (size_t j = 0; j < M; j++) {
             const size_t i = p * M + j;
-            float R[3];
+            float *R = l->R3 + i * 3; /* kept for the backward below */
             esr_brdf_eval(&mat, n, wo, v3_at(l->wi3, i), R);
             for (int c = 0; c < 3; c++) {
                 hat_off[c] += l->li_off3[i * 3 + c] * R[c] * l->wt[i];
@@ -237,9 +237,8 @@ static void point_loss(struct esr_lts *l, size_t p, float scale, float w_l, floa
         }
         for (size_t j = 0; j < M; j++) {
             const size_t i = p * M + j;
-            const struct esr_vec3 wi = v3_at(l->wi3, i);
-            float R[3], d_R[3];
-            esr_brdf_eval(&mat, n, wo, wi, R);
+            const float *R = l->R3 + i * 3;
+            float d_R[3];
             for (int c = 0; c < 3; c++) {
                 const float w = l->wt[i];
                 const float d_emo = refl_emo * d_hat_emo[c];
@@ -247,7 +246,7 @@ static void point_loss(struct esr_lts *l, size_t p, float scale, float w_l, floa
                 l->d_li_off3[i * 3 + c] += d_hat_off[c] * R[c] * w;
                 l->d_li_emo3[i * 3 + c] += d_emo * R[c] * w;
             }
-            esr_brdf_eval_bwd(&mat, n, wo, wi, d_R, &d_mat);
+            esr_brdf_eval_bwd(&mat, n, wo, v3_at(l->wi3, i), d_R, &d_mat);
         }
     }
     float *db = l->d_brdf5 + p * ESR_BRDF_CHANNELS;
@@ -308,7 +307,6 @@ int esr_lts_run(struct esr_lts *l, const struct esr_model *m, const float *sdf, 
                 r >= 0 ? l->pf.lin3[(size_t)(r + 1) * 3 + c] - l->pf.lin3[(size_t)r * 3 + c] : 0.0f;
         }
     memset(l->d_lin3, 0, rows * 3 * sizeof(float));
-    memset(l->d_tone3, 0, rows * 3 * sizeof(float));
     memset(l->d_li_off3, 0, PM * 3 * sizeof(float));
     memset(l->d_li_emo3, 0, PM * 3 * sizeof(float));
     memset(l->d_emit3, 0, P * 3 * sizeof(float));

@@ -47,6 +47,7 @@ struct esr_lts {
      * environment radiance, incident radiance off/emo and their gradients */
     float *wi3, *wt, *env3, *d_env3, *li_off3, *li_emo3, *d_li_off3, *d_li_emo3;
     float *orig3, *hit_t, *hit_pos3;
+    float *R3;                 /* [P*M*3] BRDF x cosine of the current outgoing direction */
     uint8_t *hit_flags;
     int32_t *hit_row;
     /* point-field query rows: 4 per point (2 outgoing x off/on), 2 per hit */

@@ -88,15 +88,16 @@ int esr_pdra_step(struct esr_pdra *pd, struct esr_model *m, const float *sdf, fl
         pd->supp_loss = 0.0;
         return ESR_OK;
     }
-    const float level = emitter_level(pd, n);
+    /* k_frac x the emitters' level in this batch, never below k0 */
+    const float k_level = fmaxf(m->cfg.pdra_k0, m->cfg.pdra_k_frac * emitter_level(pd, n));
     if (m->cfg.pdra_k_end <= 0.0f) {
-        m->cfg.pdra_k_end = fmaxf(m->cfg.pdra_k0, m->cfg.pdra_k_frac * level);
-        *chosen_k_end = m->cfg.pdra_k_end;
+        m->cfg.pdra_k_end = k_level;
+        *chosen_k_end = k_level;
     }
     /* the ramp, capped by the same fraction of the emitters' current level: emitters whose E
      * drifts down during the stage are never overtaken by k (and then suppressed for good) */
-    pd->k = fminf(esr_pdra_k(&m->cfg, m->step, esr_stage_options(&m->cfg, ESR_STAGE_PDRA)->iters),
-                  fmaxf(m->cfg.pdra_k0, m->cfg.pdra_k_frac * level));
+    const long iters = esr_stage_options(&m->cfg, (enum esr_stage)m->stage)->iters;
+    pd->k = fminf(esr_pdra_k(&m->cfg, m->step, iters), k_level);
     m->cfg.emitter_k = pd->k; /* the mask the model renders uses the current k */
     int n_certain = 0, n_suppressed = 0;
     for (int r = 0; r < n; r++) {
