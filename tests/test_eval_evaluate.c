@@ -561,13 +561,64 @@ static void test_emitters(void **state)
     assert_int_equal(rmdir(dir), 0);
 }
 
+/* Emitted radiance per light by hand: light 0's mask is the left half; the rendered emission is
+ * (3, 2, 1) there, except a border column of 100 that the mask's one-pixel erosion must leave
+ * out; the truth is (4, 2, 1): error |(1, 0, 0)| / |(4, 2, 1)| = 1/sqrt(21), ratio
+ * sqrt(14/21). */
+static void test_emitter_radiance(void **state)
+{
+    (void)state;
+    char path[2700];
+    struct esr_dataset ds;
+    int *idx, n;
+    load_all(&ds, &idx, &n);
+    ds.n_true_lights = 1;
+    const float truth[3] = {4.0f, 2.0f, 1.0f};
+    memcpy(ds.true_lights[0].radiance, truth, sizeof truth);
+    snprintf(ds.true_lights[0].name, sizeof ds.true_lights[0].name, "shade");
+    path_in(path, sizeof path, ds_dir, "test_nv/m0.png");
+    write_mask(path, RES / 2);
+    struct esr_image em;
+    assert_int_equal(esr_image_alloc(&em, RES, RES, 3), ESR_OK);
+    for (int y = 0; y < RES; y++)
+        for (int x = 0; x < RES; x++)
+            for (int c = 0; c < 3; c++)
+                em.data[(y * RES + x) * 3 + c] = x == RES / 2 - 1 ? 100.0f : x < RES / 2 ? 3.0f - (float)c : 0.0f;
+    for (int i = 0; i < n; i++) {
+        struct esr_frame *f = &ds.phases[ESR_PHASE_TEST_NV].frames[idx[i]];
+        snprintf(f->lights[0].mask_path, sizeof f->lights[0].mask_path, "test_nv/m0");
+        snprintf(path, sizeof path, "%s/%s_emission.exr", render_dir, f->name);
+        assert_int_equal(esr_exr_write(path, &em, 0), ESR_OK);
+    }
+    struct esr_emitter_radiance_result r;
+    assert_int_equal(esr_emitter_radiance_eval(&ds, ESR_PHASE_TEST_NV, idx, n, render_dir, &r), ESR_OK);
+    assert_int_equal(r.n, 1);
+    assert_string_equal(r.lights[0].name, "shade");
+    /* eroded: columns 1 .. RES/2 - 2, rows 1 .. RES - 2, in both views */
+    assert_int_equal(r.lights[0].pixels, 2L * (RES / 2 - 2) * (RES - 2));
+    for (int c = 0; c < 3; c++)
+        assert_float_equal(r.lights[0].mean[c], 3.0 - c, 1e-6);
+    assert_float_equal(r.lights[0].error_pct, 100.0 / sqrt(21.0), 1e-4);
+    assert_float_equal(r.lights[0].ratio, sqrt(14.0 / 21.0), 1e-6);
+    for (int i = 0; i < n; i++) {
+        snprintf(path, sizeof path, "%s/%s_emission.exr", render_dir,
+                 ds.phases[ESR_PHASE_TEST_NV].frames[idx[i]].name);
+        assert_int_equal(remove(path), 0);
+    }
+    path_in(path, sizeof path, ds_dir, "test_nv/m0.png");
+    assert_int_equal(remove(path), 0);
+    esr_image_free(&em);
+    free(idx);
+    esr_dataset_free(&ds);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_known_values), cmocka_unit_test(test_json),   cmocka_unit_test(test_no_gt_exr),
         cmocka_unit_test(test_errors),       cmocka_unit_test(test_select), cmocka_unit_test(test_curve),
         cmocka_unit_test(test_report),       cmocka_unit_test(test_normals),
-        cmocka_unit_test(test_emitters),
+        cmocka_unit_test(test_emitters),     cmocka_unit_test(test_emitter_radiance),
     };
     return cmocka_run_group_tests(tests, setup, test_teardown_tmpdir);
 }

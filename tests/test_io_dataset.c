@@ -66,7 +66,9 @@ static char *make_esr_fixture(const char *name)
     write_text(dir, "transforms/transforms_test_nv.json",
                "{\"camera_angle_x\": 0.6911, \"frames\": [{\"file_path\":\"test_nv/c000_on\",\"transform_matrix\":" MATRIX
                ",\"lights\":[" LIGHT("on", "1.0", "masks/nv_c000_on_l0") "]}]}");
-    write_text(dir, "scene.json", "{\"bounding_box\": {\"min\": [-1,-2,-3], \"max\": [1,2,3]}}");
+    write_text(dir, "scene.json",
+               "{\"bounding_box\": {\"min\": [-1,-2,-3], \"max\": [1,2,3]}, \"lights\": [{\"index\": 0, "
+               "\"name\": \"shade\", \"emitted_radiance_on\": [8, 6.4, 4.4]}]}");
     write_png(dir, "train/r_000.png", 4, 4, 4);
     write_png(dir, "train/r_001.png", 4, 4, 4);
     write_png(dir, "test_nv/c000_on.png", 4, 4, 4);
@@ -105,6 +107,9 @@ static void test_esr_fixture_loads(void **state)
     assert_int_equal(ds.n_lights, 1);
     assert_int_equal(ds.bbox_from_scene, 1);
     assert_float_equal(ds.bbox_min[2], -3.0f, 0.0);
+    assert_int_equal(ds.n_true_lights, 1); /* scene.json's ground truth for evaluation */
+    assert_string_equal(ds.true_lights[0].name, "shade");
+    assert_float_equal(ds.true_lights[0].radiance[1], 6.4f, 0.0);
     assert_float_equal(ds.focal, 2.0 / tan(0.5 * 0.6911), 1e-4);
     assert_int_equal(ds.phases[ESR_PHASE_TRAIN].n_frames, 2);
     assert_int_equal(ds.phases[ESR_PHASE_TEST_NV].n_frames, 1);

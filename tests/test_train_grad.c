@@ -19,9 +19,13 @@
 #endif
 
 #include "core/colour.h"
+#include "core/error.h"
+#include "core/rng.h"
 #include "fields/env_sg.h"
 #include "fields/sdf.h"
 #include "model/model.h"
+#include "train/lts.h"
+#include "train/pdra_reg.h"
 #include "train/render_loss.h"
 #include "train/step.h"
 #include "test_model.h"
@@ -35,11 +39,13 @@ struct fixture {
     float *analytic; /* the step's gradient, kept while central differences run */
 };
 
-/* lights[r] = lighting flag of ray r. */
-static void setup_stage(struct fixture *fx, enum esr_stage stage, const uint8_t lights[N_RAYS])
+/* lights[r] = lighting flag of ray r; estimator: the LTS loss's (lts and pdra stages). */
+static void setup_stage(struct fixture *fx, enum esr_stage stage, const uint8_t lights[N_RAYS],
+                        enum esr_lts_estimator estimator)
 {
     struct esr_train_config cfg;
     test_small_config(&cfg, LAMBDA);
+    cfg.lts_estimator = estimator;
     const float bmin[3] = {-1, -1, -1}, bmax[3] = {1, 1, 1};
     memset(fx, 0, sizeof(*fx));
     struct esr_model *m = &fx->m;
@@ -172,7 +178,7 @@ static void test_fine_gradients_lights_off(void **state)
     (void)state;
     struct fixture fx;
     const uint8_t lights[N_RAYS] = {0, 0};
-    setup_stage(&fx, ESR_STAGE_FINE, lights);
+    setup_stage(&fx, ESR_STAGE_FINE, lights, ESR_LTS_FIRST_HIT);
     analytic_gradient(&fx);
     /* lights-off rays never reach the emo branch */
     assert_true(all_zero(&fx, ESR_COMP_EMO_MLP));
@@ -188,7 +194,7 @@ static void test_fine_gradients_mixed_lighting(void **state)
     struct fixture fx;
     /* the lights-on ray first: the point fields reorder rows internally */
     const uint8_t lights[N_RAYS] = {1, 0};
-    setup_stage(&fx, ESR_STAGE_FINE, lights);
+    setup_stage(&fx, ESR_STAGE_FINE, lights, ESR_LTS_FIRST_HIT);
     analytic_gradient(&fx);
     assert_true(!all_zero(&fx, ESR_COMP_EMO_MLP) && !all_zero(&fx, ESR_COMP_OFF_MLP));
     /* Finite differences see through the stop-gradient, so only the components it does not
@@ -207,7 +213,7 @@ static void test_fine_lights_on_stop_gradient(void **state)
     (void)state;
     struct fixture fx;
     const uint8_t lights[N_RAYS] = {1, 1};
-    setup_stage(&fx, ESR_STAGE_FINE, lights);
+    setup_stage(&fx, ESR_STAGE_FINE, lights, ESR_LTS_FIRST_HIT);
     analytic_gradient(&fx);
     /* stop-gradient: lights-on rays do not train the off branch */
     assert_true(all_zero(&fx, ESR_COMP_OFF_MLP));
@@ -251,10 +257,11 @@ static double max_abs(const struct fixture *fx, enum esr_component c)
  * agree with it. */
 /* An lts or pdra fixture: lights-off rays, the LTS loss weighted to dominate, the sphere in
  * walls, a non-zero BRDF grid and broad coloured environment lobes. */
-static void setup_emitter_stage(struct fixture *fx, enum esr_stage stage)
+static void setup_emitter_stage(struct fixture *fx, enum esr_stage stage,
+                                enum esr_lts_estimator estimator)
 {
     const uint8_t lights[N_RAYS] = {0, 0};
-    setup_stage(fx, stage, lights);
+    setup_stage(fx, stage, lights, estimator);
     fx->m.cfg.lts_weight = 1.0f;
     add_walls(&fx->m);
     test_randomise(&fx->m, ESR_COMP_BRDF_FEAT, 0.5f, 31);
@@ -268,16 +275,16 @@ static void setup_emitter_stage(struct fixture *fx, enum esr_stage stage)
     }
 }
 
-static void test_lts_gradients(void **state)
+static void check_lts_gradients(enum esr_lts_estimator estimator)
 {
-    (void)state;
     struct fixture fx;
-    setup_emitter_stage(&fx, ESR_STAGE_LTS);
+    setup_emitter_stage(&fx, ESR_STAGE_LTS, estimator);
     analytic_gradient(&fx);
     assert_true(fx.st.has_lts);
     const struct esr_lts_stats *ls = &fx.st.lts_stats;
-    print_message("lts: %zu points, %zu secondary rays, %zu hits, mse off %.4g emo %.4g\n",
-                  ls->points, ls->secondary, ls->hits, ls->mse_off, ls->mse_emo);
+    print_message("lts (estimator %d): %zu points, %zu secondary rays, %zu hits, mse off %.4g "
+                  "emo %.4g\n", (int)estimator, ls->points, ls->secondary, ls->hits, ls->mse_off,
+                  ls->mse_emo);
     assert_true(ls->points > 0 && ls->hits > 0 && ls->hits < ls->secondary);
     /* the light-transport terms are what trains these, and they must matter */
     assert_true(max_abs(&fx, ESR_COMP_EMIT_MLP) > 1e-3);
@@ -288,13 +295,27 @@ static void test_lts_gradients(void **state)
     teardown(&fx);
 }
 
+static void test_lts_gradients(void **state)
+{
+    (void)state;
+    check_lts_gradients(ESR_LTS_FIRST_HIT);
+}
+
+/* The faithful estimator: radiance composited along the secondary rays (their samples' radiance
+ * rows, the environment weighted by the final transmittance). */
+static void test_lts_volume_gradients(void **state)
+{
+    (void)state;
+    check_lts_gradients(ESR_LTS_VOLUME);
+}
+
 /* The pdra stage: the lts terms with ray groups (one certain ray whose LTS points drop E and
  * whose composited E is suppressed, one uncertain ray) — every component but the SDF (as lts). */
 static void test_pdra_gradients(void **state)
 {
     (void)state;
     struct fixture fx;
-    setup_emitter_stage(&fx, ESR_STAGE_PDRA);
+    setup_emitter_stage(&fx, ESR_STAGE_PDRA, ESR_LTS_FIRST_HIT);
     fx.m.cfg.pdra_supp = 1.0f;
     fx.m.cfg.pdra_sg = 0; /* the stop-gradient pair is invisible to FD: one plain MSE */
     test_randomise(&fx.m, ESR_COMP_EMO_FEAT, 1.0f, 32);
@@ -317,12 +338,103 @@ static void test_pdra_gradients(void **state)
     teardown(&fx);
 }
 
+/* pdra's emission smoothness and final-transmittance entropy with the LTS and suppression terms
+ * off: every gradient they add is exact, so every component is compared, the SDF included (they
+ * reach it through the geometry feature and the alphas). Normal smoothness is checked on its own
+ * below: its per-sample terms are not weighted by the samples' weights, so the kept list's
+ * threshold (a sample entering or leaving it) is a jump finite differences cannot take. */
+static void test_pdra_regulariser_gradients(void **state)
+{
+    (void)state;
+    struct fixture fx;
+    setup_emitter_stage(&fx, ESR_STAGE_PDRA, ESR_LTS_FIRST_HIT);
+    fx.m.cfg.lts_weight = 0.0f;
+    fx.m.cfg.pdra_supp = 0.0f;
+    fx.m.cfg.pdra_w_es = 0.5f;
+    fx.m.cfg.pdra_w_ns = 0.0f;
+    fx.m.cfg.pdra_w_ent = 0.5f;
+    test_randomise(&fx.m, ESR_COMP_EMO_FEAT, 1.0f, 33);
+    analytic_gradient(&fx);
+    print_message("pdra regularisers: emission smoothness %.4g, entropy %.4g\n",
+                  fx.st.pdra.reg.es_loss, fx.st.ent_loss);
+    assert_true(fx.st.pdra.reg.es_loss > 0.0 && fx.st.ent_loss > 0.0);
+    assert_true(max_abs(&fx, ESR_COMP_EMIT_MLP) > 1e-4);
+    check_stage(&fx, 0);
+    teardown(&fx);
+}
+
+/* Normal smoothness on a fixed set of points: its SDF gradient against central differences of
+ * its loss, every SDF entry. */
+static void test_normal_smoothness_gradient(void **state)
+{
+    (void)state;
+    struct fixture fx;
+    setup_emitter_stage(&fx, ESR_STAGE_PDRA, ESR_LTS_FIRST_HIT);
+    struct esr_model *m = &fx.m;
+    m->cfg.pdra_w_es = 0.0f;
+    m->cfg.pdra_w_ns = 1.0f;
+    enum { NP = 24 };
+    float pos[NP * 3], dir[NP * 3];
+    for (int i = 0; i < NP; i++) { /* points around the sphere's surface */
+        struct esr_rng r = esr_rng_init(41, (uint64_t)i);
+        for (int a = 0; a < 3; a++) {
+            pos[i * 3 + a] = 0.7f * (2.0f * esr_rng_float(&r) - 1.0f);
+            dir[i * 3 + a] = a == 2 ? 1.0f : 0.0f;
+        }
+    }
+    struct esr_march pts;
+    memset(&pts, 0, sizeof pts);
+    pts.n_kept = NP;
+    pts.kpos3 = pos;
+    pts.kdir3 = dir;
+    const struct esr_grid *g = esr_model_grid(m, ESR_COMP_SDF);
+    float *sdf = esr_model_values(m, ESR_COMP_SDF);
+    const size_t ns = esr_grid_count(g);
+    float *g_sdf = calloc(ns, sizeof(float)), *grads = calloc(m->params.count, sizeof(float));
+    float emit[NP * 3] = {0}, d_emit[NP * 3] = {0};
+    struct esr_pdra_reg *reg = &fx.st.pdra.reg;
+    assert_int_equal(esr_pdra_reg_smooth(reg, m, sdf, g_sdf, grads, &pts, emit, d_emit, 9), ESR_OK);
+    assert_true(reg->ns_loss > 0.0);
+    size_t bad = 0, nonzero = 0;
+    float *junk = calloc(ns, sizeof(float));
+    for (size_t i = 0; i < ns; i++) {
+        /* an L1 kink within eps takes the one-sided slopes, as entry_agrees does */
+        const float keep = sdf[i];
+        double fd = 0.0, l[3];
+        int ok = 0;
+        for (float eps = 1e-3f; !ok && eps > 1e-6f; eps *= 0.1f) {
+            const float at[3] = {keep + eps, keep - eps, keep};
+            for (int k = 0; k < 3; k++) {
+                sdf[i] = at[k];
+                esr_pdra_reg_smooth(reg, m, sdf, junk, grads, &pts, emit, d_emit, 9);
+                l[k] = reg->ns_loss;
+            }
+            fd = (l[0] - l[1]) / (2.0 * eps);
+            ok = agrees(g_sdf[i], fd) || agrees(g_sdf[i], (l[0] - l[2]) / eps) ||
+                 agrees(g_sdf[i], (l[2] - l[1]) / eps);
+        }
+        sdf[i] = keep;
+        nonzero += g_sdf[i] != 0.0f;
+        if (!ok && bad++ < 5)
+            print_error("sdf entry %zu: analytic %.6g vs central difference %.6g\n", i,
+                        (double)g_sdf[i], fd);
+    }
+    free(junk);
+    print_message("normal smoothness %.4g: %zu SDF entries with a gradient, %zu disagree\n",
+                  reg->ns_loss, nonzero, bad);
+    assert_true(nonzero > 0);
+    assert_int_equal(bad, 0);
+    free(g_sdf);
+    free(grads);
+    teardown(&fx);
+}
+
 static void test_coarse_gradients(void **state)
 {
     (void)state;
     struct fixture fx;
     const uint8_t lights[N_RAYS] = {0, 1}; /* lighting flag input */
-    setup_stage(&fx, ESR_STAGE_COARSE, lights);
+    setup_stage(&fx, ESR_STAGE_COARSE, lights, ESR_LTS_FIRST_HIT);
     analytic_gradient(&fx);
     assert_true(fx.st.sdf_view != NULL); /* the SDF gradient goes through the smoothing */
     check_stage(&fx, 0);
@@ -366,7 +478,10 @@ int main(void)
         cmocka_unit_test(test_fine_lights_on_stop_gradient),
         cmocka_unit_test(test_coarse_gradients),
         cmocka_unit_test(test_lts_gradients),
+        cmocka_unit_test(test_lts_volume_gradients),
         cmocka_unit_test(test_pdra_gradients),
+        cmocka_unit_test(test_pdra_regulariser_gradients),
+        cmocka_unit_test(test_normal_smoothness_gradient),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -59,6 +59,8 @@ static void tiny_config(struct esr_train_config *c)
     c->tone_width = 16;
     c->lts.res = 32;
     c->lts.iters = 60;
+    c->pdra.res = 32;
+    c->pdra.iters = 40;
     c->lts_points = 64;
     c->lts_dirs = 16;
     c->field_width = 16;
@@ -351,6 +353,50 @@ static void test_emitter_stages_need_both_lightings(void **state)
     }
 }
 
+/* The pdra stage, continuing the full run's lts checkpoint, ends by finding the lights and
+ * storing them in its checkpoint; `esr lights` lists them and writes RUN/lights.json. */
+static void test_pdra_finds_lights(void **state)
+{
+    (void)state;
+    char run[4300], cmd[24000], out[8192];
+    snprintf(run, sizeof run, "%s/run_pdra", test_tmpdir);
+    snprintf(cmd, sizeof cmd, "mkdir -p '%s' && cp '%s'/runs/full/ckpt_*.bin '%s'/", run, test_tmpdir,
+             run);
+    assert_int_equal(system(cmd), 0);
+    struct esr_train_opts o;
+    struct log_capture lc;
+    opts_for(&o, run, ESR_STAGE_PDRA, &lc);
+    o.resume = 1;
+    if (esr_train_run(&o) != ESR_OK)
+        fail_msg("%s", esr_error_message());
+    print_message("%s", strstr(lc.text, "lights found") ? strstr(lc.text, "lights found") : lc.text);
+    assert_non_null(strstr(lc.text, "lights found: "));
+    struct esr_model m;
+    snprintf(cmd, sizeof cmd, "%s/ckpt_pdra.bin", run);
+    assert_int_equal(esr_model_load(&m, cmd), ESR_OK);
+    assert_true(m.lights.n >= 0 && m.lights.n <= ESR_MAX_LIGHTS);
+    for (int i = 0; i < m.lights.n; i++) {
+        const struct esr_light *l = &m.lights.light[i];
+        assert_true(l->points > 0 && l->area > 0.0f);
+        for (int c = 0; c < 3; c++)
+            assert_true(isfinite(l->scale[c]) && l->scale[c] >= 0.0f);
+    }
+    snprintf(cmd, sizeof cmd, "lights %s", run);
+    assert_int_equal(test_run_esr(cmd, out, sizeof out), 0);
+    snprintf(cmd, sizeof cmd, "%d light", m.lights.n);
+    assert_non_null(strstr(out, cmd));
+    snprintf(cmd, sizeof cmd, "%s/lights.json", run);
+    unsigned char *text;
+    size_t size;
+    assert_int_equal(esr_file_read_all(cmd, &text, &size), ESR_OK);
+    cJSON *root = cJSON_ParseWithLength((const char *)text, size);
+    free(text);
+    assert_non_null(root);
+    assert_int_equal(cJSON_GetArraySize(cJSON_GetObjectItem(root, "lights")), m.lights.n);
+    cJSON_Delete(root);
+    esr_model_free(&m);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -360,6 +406,7 @@ int main(void)
         cmocka_unit_test(test_corrupt_checkpoints_are_refused),
         cmocka_unit_test(test_empty_mask_cache_is_refused),
         cmocka_unit_test(test_emitter_stages_need_both_lightings),
+        cmocka_unit_test(test_pdra_finds_lights),
     };
     return cmocka_run_group_tests(tests, group_setup, test_teardown_tmpdir);
 }

@@ -233,12 +233,40 @@ static void test_end_to_end_one_ray(void **state)
     free(g_col);
 }
 
+/* d T_N / d alpha against central differences of esr_composite_weights' T_N, on a ray with a
+ * pruned sample, and exactly on a ray with an opaque sample (alpha = 1: only it has a non-zero
+ * derivative, minus the product of the others). */
+static void test_t_last_backward(void **state)
+{
+    (void)state;
+    float alpha[7] = {0.3f, 0.00005f, 0.6f, 0.2f, 0.9f, /* ray 2: */ 0.5f, 1.0f};
+    const size_t start[3] = {0, 5, 7};
+    float weight[7], t_last[2], d_alpha[7] = {0};
+    const float d_t[2] = {1.5f, -2.0f};
+    esr_composite_t_last_bwd(2, start, alpha, ESR_COMPOSITE_THRES, d_t, d_alpha);
+    for (int i = 0; i < 5; i++) {
+        const float keep = alpha[i], eps = 1e-3f;
+        alpha[i] = keep + eps;
+        esr_composite_weights(2, start, alpha, ESR_COMPOSITE_THRES, weight, t_last);
+        const double tp = t_last[0];
+        alpha[i] = keep - eps;
+        esr_composite_weights(2, start, alpha, ESR_COMPOSITE_THRES, weight, t_last);
+        const double tm = t_last[0];
+        alpha[i] = keep;
+        const double fd = i == 1 ? 0.0 : d_t[0] * (tp - tm) / (2.0 * eps); /* pruned: none */
+        assert_float_equal(d_alpha[i], fd, 1e-4);
+    }
+    assert_float_equal(d_alpha[5], 0.0, 0.0);                /* 1 - alpha_6 = 0 */
+    assert_float_equal(d_alpha[6], -d_t[1] * (1.0 - 0.5), 1e-7); /* -d x (1 - alpha_5) */
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_forward_and_pruning),
         cmocka_unit_test(test_backward_fd),
         cmocka_unit_test(test_end_to_end_one_ray),
+        cmocka_unit_test(test_t_last_backward),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

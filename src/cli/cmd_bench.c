@@ -12,7 +12,9 @@
 
 #include "cli/commands.h"
 #include "core/error.h"
+#include "eval/bench_lts.h"
 #include "eval/bench_train.h"
+#include "eval/run_dir.h"
 #include "io/file.h"
 #include "io/json_file.h"
 #include "nn/bench.h"
@@ -35,6 +37,9 @@ const struct esr_command cmd_bench = {
     "          seconds and rays/s over each whole stage and over its last log window; on --data,\n"
     "          else ../shared/scenes/lamp when present, else a small `esr synth` scene in a temp\n"
     "          dir (full stages on lamp: about 9 minutes on 2 cores)\n"
+    "  lts     the LTS incident-radiance estimators on the trained pdra checkpoint (or --run's):\n"
+    "          time per LTS call, secondary rays/s, and bias and standard deviation of the\n"
+    "          estimate L^_o against the faithful estimator with 4096 directions (relative RMS)\n"
     "and the peak resident memory, with the machine (CPU model, cores, threads), git commit and\n"
     "date. Prints a table and writes the JSON to --out.\n"
     "\n"
@@ -46,12 +51,13 @@ const struct esr_command cmd_bench = {
     "  --iters N     training iterations per stage instead of the preset's\n"
     "  --data DIR    dataset for the training benchmark\n"
     "  --no-train    skip the training benchmark\n"
+    "  --run RUN     also compare the LTS estimators on RUN's pdra (else lts) checkpoint\n"
     "  -h, --help    this text\n",
     run_bench,
 };
 
 struct bench_opts {
-    const char *out, *data;
+    const char *out, *data, *run;
     int quick, train;
     int iters; /* training iterations per stage; -1 = by --quick */
 };
@@ -172,6 +178,53 @@ static int render_section(const struct bench_opts *o, cJSON *root)
     return ESR_OK;
 }
 
+/* The LTS estimators on run's last emitter-stage checkpoint (pdra, else lts), into root's
+ * "lts_estimators" (name given for the JSON's "checkpoint"). */
+static int lts_section(const char *run, const char *data, int repeats, cJSON *root)
+{
+    char ckpt[4200];
+    snprintf(ckpt, sizeof ckpt, "%s/ckpt_pdra.bin", run);
+    if (!esr_file_exists(ckpt))
+        snprintf(ckpt, sizeof ckpt, "%s/ckpt_lts.bin", run);
+    struct esr_bench_lts_result r;
+    ESR_TRY(esr_bench_lts(ckpt, data, repeats, &r));
+    cJSON *j = cJSON_AddObjectToObject(root, "lts_estimators");
+    cJSON_AddStringToObject(j, "checkpoint", ckpt);
+    cJSON_AddStringToObject(j, "stage", r.stage);
+    cJSON_AddNumberToObject(j, "points", r.points);
+    cJSON_AddNumberToObject(j, "calls", r.repeats);
+    cJSON_AddNumberToObject(j, "reference_dirs", r.ref_dirs);
+    cJSON_AddNumberToObject(j, "reference_rms_off", r.ref_rms_off);
+    cJSON_AddNumberToObject(j, "reference_rms_emo", r.ref_rms_emo);
+    printf("\nLTS estimators (%s checkpoint %s, %d points, %d calls each; bias and sd relative to\n"
+           "the RMS of the faithful estimate with %d directions: off %.4g, emo %.4g)\n",
+           r.stage, ckpt, r.points, r.repeats, r.ref_dirs, r.ref_rms_off, r.ref_rms_emo);
+    printf("  %-22s %8s %11s %5s %9s %7s %7s %9s %7s %7s\n", "estimator", "ms/call", "secondary/s",
+           "hit", "bias off", "(noise)", "sd off", "bias emo", "(noise)", "sd emo");
+    cJSON *rows = cJSON_AddArrayToObject(j, "rows");
+    for (int i = 0; i < r.n_rows; i++) {
+        const struct esr_bench_lts_row *w = &r.rows[i];
+        cJSON *row = cJSON_CreateObject();
+        cJSON_AddStringToObject(row, "name", w->name);
+        cJSON_AddNumberToObject(row, "estimator", w->estimator);
+        cJSON_AddNumberToObject(row, "dirs", w->dirs);
+        cJSON_AddNumberToObject(row, "ms_per_call", w->ms_per_call);
+        cJSON_AddNumberToObject(row, "secondary_rays_per_s", w->secondary_per_s);
+        cJSON_AddNumberToObject(row, "hit_frac", w->hit_frac);
+        cJSON_AddNumberToObject(row, "bias_off", w->bias_off);
+        cJSON_AddNumberToObject(row, "sd_off", w->sd_off);
+        cJSON_AddNumberToObject(row, "bias_emo", w->bias_emo);
+        cJSON_AddNumberToObject(row, "sd_emo", w->sd_emo);
+        cJSON_AddItemToArray(rows, row);
+        cJSON_AddNumberToObject(row, "bias_noise_off", w->noise_off);
+        cJSON_AddNumberToObject(row, "bias_noise_emo", w->noise_emo);
+        printf("  %-22s %8.1f %11.0f %4.0f%% %9.4f %7.4f %7.4f %9.4f %7.4f %7.4f\n", w->name,
+               w->ms_per_call, w->secondary_per_s, 100.0 * w->hit_frac, w->bias_off, w->noise_off,
+               w->sd_off, w->bias_emo, w->noise_emo, w->sd_emo);
+    }
+    return ESR_OK;
+}
+
 static int remove_entry(const char *path, const struct stat *st, int flag, struct FTW *ftw)
 {
     (void)st, (void)flag, (void)ftw;
@@ -215,6 +268,9 @@ static int train_section(const struct bench_opts *o, cJSON *root)
     int status = train_dataset(o, tmp, data, sizeof data, &what);
     if (status == ESR_OK)
         status = esr_bench_train(data, run, iters, &r);
+    /* the estimators on the checkpoint just trained, before it is removed */
+    if (status == ESR_OK && !o->run)
+        status = lts_section(run, data, o->quick ? 4 : 8, root);
     nftw(tmp, remove_entry, 16, FTW_DEPTH | FTW_PHYS);
     ESR_TRY(status);
     cJSON *j = cJSON_AddObjectToObject(root, "train");
@@ -261,6 +317,12 @@ static int bench_all(const struct bench_opts *o, cJSON *root)
     fflush(stdout);
     if (sections == ESR_OK && o->train)
         sections = train_section(o, root);
+    if (sections == ESR_OK && o->run) {
+        char data[4096];
+        sections = esr_run_data_dir(o->run, o->data, data, sizeof data);
+        if (sections == ESR_OK)
+            sections = lts_section(o->run, data, o->quick ? 4 : 8, root);
+    }
     if (sections != ESR_OK) {
         cJSON_Delete(root);
         return sections;
@@ -279,7 +341,7 @@ static int run_bench(int argc, char **argv)
 {
     if (cli_wants_help(&cmd_bench, argc, argv))
         return 0;
-    struct bench_opts o = {"bench.json", NULL, 0, 1, -1};
+    struct bench_opts o = {"bench.json", NULL, NULL, 0, 1, -1};
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
         int has_value = i + 1 < argc;
@@ -287,6 +349,8 @@ static int run_bench(int argc, char **argv)
             o.out = argv[++i];
         else if (!strcmp(a, "--data") && has_value)
             o.data = argv[++i];
+        else if (!strcmp(a, "--run") && has_value)
+            o.run = argv[++i];
         else if (!strcmp(a, "--iters") && has_value) {
             if (cli_parse_int(argv[++i], 2, 1000000, &o.iters))
                 return cli_fail(&cmd_bench, "--iters: expected an integer in 2..1000000, got '%s'",

@@ -164,6 +164,13 @@ static void print_emitters(const struct esr_eval_result *res)
         printf("baseline, L_emo = L_on - L_off thresholded at its best k (%.3g, %d cameras): IoU "
                "%.3f\n",
                res->emo_baseline.k, res->emo_baseline.n_cameras, res->emo_baseline.iou);
+    for (int k = 0; k < res->radiance.n; k++) {
+        const struct esr_emitter_radiance *r = &res->radiance.lights[k];
+        printf("light %d (%s): emitted radiance %.3g %.3g %.3g vs true %.3g %.3g %.3g: %.1f%% off, "
+               "%.0f%% of its strength (%ld pixels)\n",
+               r->light, r->name, r->mean[0], r->mean[1], r->mean[2], r->truth[0], r->truth[1],
+               r->truth[2], r->error_pct, 100.0 * r->ratio, r->pixels);
+    }
 }
 
 /* Paths under RUN: render/P, eval/, eval/P.json, eval/P_gt, report.html, train_log.jsonl. */

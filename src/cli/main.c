@@ -17,6 +17,7 @@ static const struct esr_command *const commands[] = {
     &cmd_render,
     &cmd_eval,
     &cmd_export,
+    &cmd_lights,
     &cmd_bench,
 };
 #define N_COMMANDS (int)(sizeof commands / sizeof commands[0])

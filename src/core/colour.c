@@ -81,3 +81,8 @@ double esr_psnr_from_mse(double mse)
 {
     return mse > 0.0 ? -10.0 * log10(mse) : INFINITY;
 }
+
+float esr_luminance(const float rgb[3])
+{
+    return 0.2126f * rgb[0] + 0.7152f * rgb[1] + 0.0722f * rgb[2];
+}

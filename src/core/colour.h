@@ -17,6 +17,10 @@ void esr_hsv_to_rgb(const float hsv[3], float rgb[3]);
 /* The seed's edit rule: replace hue and saturation of `rgb` by those of `target_hs`, keep V. */
 void esr_recolour_keep_value(const float rgb[3], float target_h, float target_s, float out[3]);
 
+/* Relative luminance of linear Rec. 709 / sRGB primaries (ITU-R BT.709: 0.2126 R + 0.7152 G +
+ * 0.0722 B). */
+float esr_luminance(const float rgb[3]);
+
 /* PSNR in dB for peak value 1: -10 log10(mse). +INFINITY when mse == 0 (callers that print
  * JSON floor mse first). The one PSNR of the code base: training logs, quick and full eval. */
 double esr_psnr_from_mse(double mse);

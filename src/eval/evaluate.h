@@ -11,6 +11,7 @@
 #ifndef ESR_EVAL_EVALUATE_H
 #define ESR_EVAL_EVALUATE_H
 
+#include "eval/emitter_radiance.h"
 #include "eval/emo_baseline.h"
 #include "eval/metrics.h"
 #include "eval/normals.h"
@@ -50,6 +51,7 @@ struct esr_eval_result {
     int n_emitter_views;                       /* views with a predicted and a true emitter mask */
     struct esr_iou_accum emitter;              /* their pixels pooled (METHOD.md: one division) */
     struct esr_emo_baseline emo_baseline;      /* thresholded L_emo (n_cameras 0: not computed) */
+    struct esr_emitter_radiance_result radiance; /* per light vs scene.json (n 0: not scored) */
 };
 
 /* Evaluates the frames idx[0..n) of `phase` (esr_select_frames) against the images in
@@ -71,7 +73,10 @@ void esr_eval_result_free(struct esr_eval_result *res);
  *                "good_deg": 10, "coverage", "min_opacity": 0.5, "ground_truth"},
  *    "emitter_iou": pooled IoU of N_emitter.png vs <phase>/emission/<name>.png,
  *    "emitter_views": views counted,
- *    "emitter_iou_emo_threshold": {"iou", "k", "cameras"}: the thresholded-L_emo baseline}
+ *    "emitter_iou_emo_threshold": {"iou", "k", "cameras"}: the thresholded-L_emo baseline,
+ *    "emitter_radiance": [{"light", "name", "pixels", "mean_rgb", "truth_rgb", "error_pct",
+ *                          "ratio"}...] (eval/emitter_radiance.h; when scored),
+ *    "hdr_mse_off", "hdr_mse_on": by_mode's hdr_mse of those modes (when they have views)}
  * (a view carries "emitter_iou" too; both only when some view has the two masks; the baseline
  * when some camera has both lightings rendered and a ground-truth mask)
  * The normal_* keys of a view and "normals" are present only when there is a ground-truth normal

@@ -99,6 +99,26 @@ static cJSON *result_json(const struct esr_dataset *ds, const struct esr_eval_re
         cJSON_AddNumberToObject(b, "k", res->emo_baseline.k);
         cJSON_AddNumberToObject(b, "cameras", res->emo_baseline.n_cameras);
     }
+    if (res->radiance.n > 0) {
+        cJSON *arr = cJSON_AddArrayToObject(root, "emitter_radiance");
+        for (int k = 0; k < res->radiance.n; k++) {
+            const struct esr_emitter_radiance *r = &res->radiance.lights[k];
+            cJSON *o = cJSON_CreateObject();
+            cJSON_AddNumberToObject(o, "light", r->light);
+            cJSON_AddStringToObject(o, "name", r->name);
+            cJSON_AddNumberToObject(o, "pixels", (double)r->pixels);
+            cJSON_AddItemToObject(o, "mean_rgb", cJSON_CreateDoubleArray(r->mean, 3));
+            cJSON_AddItemToObject(o, "truth_rgb", cJSON_CreateDoubleArray(r->truth, 3));
+            esr_json_add_number_or_null(o, "error_pct", r->error_pct);
+            esr_json_add_number_or_null(o, "ratio", r->ratio);
+            cJSON_AddItemToArray(arr, o);
+        }
+    }
+    const enum esr_light_mode modes[2] = {ESR_LIGHT_OFF, ESR_LIGHT_ON};
+    const char *keys[2] = {"hdr_mse_off", "hdr_mse_on"};
+    for (int i = 0; i < 2; i++)
+        if (res->by_mode[modes[i]].n > 0)
+            esr_json_add_number_or_null(root, keys[i], res->by_mode[modes[i]].hdr_mse);
     return root;
 }
 

@@ -88,6 +88,21 @@ static void put_emitters(FILE *out, const struct esr_eval_result *res)
         fprintf(out, "<td>%d cameras</td></tr>\n", res->emo_baseline.n_cameras);
     }
     fputs("</table>\n", out);
+    if (res->radiance.n == 0)
+        return;
+    fputs("<table><tr><th>light</th><th>emitted radiance found (linear RGB)</th><th>true</th>"
+          "<th>error</th><th>strength found</th></tr>\n", out);
+    for (int k = 0; k < res->radiance.n; k++) {
+        const struct esr_emitter_radiance *r = &res->radiance.lights[k];
+        fprintf(out, "<tr><td>%d %s</td><td>%.3g, %.3g, %.3g</td><td>%.3g, %.3g, %.3g</td>",
+                r->light, r->name, r->mean[0], r->mean[1], r->mean[2], r->truth[0], r->truth[1],
+                r->truth[2]);
+        put_number(out, "%.1f%%", r->error_pct);
+        put_number(out, "%.0f%%", 100.0 * r->ratio);
+        fputs("</tr>\n", out);
+    }
+    fputs("</table>\n<p>Mean composited emission over each light's true mask (eroded by one "
+          "pixel), against scene.json's emitted radiance.</p>\n", out);
 }
 
 /* The pooled normal error, or a line saying the dataset has no ground-truth normal maps. */

@@ -229,6 +229,35 @@ void esr_env_sg_init(float *params, int lobes, uint64_t seed)
     }
 }
 
+void esr_env_sg_set_level(float *params, int lobes, float level)
+{
+    enum { N = 512 };
+    float dirs[N * 3], rgb[N * 3];
+    for (int i = 0; i < N; i++) { /* Fibonacci sphere */
+        const float z = 1.0f - (2.0f * (float)i + 1.0f) / N, r = sqrtf(fmaxf(0.0f, 1.0f - z * z));
+        const float phi = 2.39996323f * (float)i;
+        dirs[i * 3] = r * cosf(phi);
+        dirs[i * 3 + 1] = r * sinf(phi);
+        dirs[i * 3 + 2] = z;
+    }
+    /* the mean rises monotonically with a common mu: bisect it */
+    float lo = -100.0f, hi = 100.0f;
+    for (int it = 0; it < 60; it++) {
+        const float mid = 0.5f * (lo + hi);
+        for (int k = 0; k < lobes; k++)
+            for (int c = 0; c < 3; c++)
+                params[esr_env_sg_index(lobes, (enum esr_env_sg_block)(ESR_ENV_SG_MU_R + c), k)] = mid;
+        esr_env_sg_fwd(params, lobes, dirs, N, rgb);
+        double mean = 0.0;
+        for (int i = 0; i < N; i++)
+            mean += rgb[i * 3];
+        if (mean / N < level)
+            lo = mid;
+        else
+            hi = mid;
+    }
+}
+
 void esr_env_sg_equirect_dir(int width, int height, int row, int col, float dir[3])
 {
     double theta = M_PI * (row + 0.5) / height, phi = 2.0 * M_PI * (col + 0.5) / width;

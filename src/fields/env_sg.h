@@ -62,6 +62,11 @@ size_t esr_env_sg_param_count(int lobes);
  * ~ 0.69 in every direction and channel (see env_sg.c). Deterministic per seed. */
 void esr_env_sg_init(float *params, int lobes, uint64_t seed);
 
+/* Sets every mu of an initialised map to one value such that the map's mean over the sphere is
+ * `level` (> 0; bisection on a 512-direction Fibonacci sphere): a grey start at a chosen
+ * brightness instead of ln 2. */
+void esr_env_sg_set_level(float *params, int lobes, float level);
+
 /* rgb_out[i*3 + c] = env_c(dirs[i*3 .. i*3+2]) for i < n; dirs are unit vectors. Parallel over
  * directions for large n; allocates nothing. */
 void esr_env_sg_fwd(const float *params, int lobes, const float *dirs, size_t n, float *rgb_out);

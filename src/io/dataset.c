@@ -259,8 +259,31 @@ static int load_phase(struct esr_dataset *ds, enum esr_phase_id phase, const cha
     return status;
 }
 
-/* scene.json is ground truth and optional; when present it must parse, and its box is used. */
-static int load_scene_box(struct esr_dataset *ds)
+/* scene.json's "lights": name and emitted radiance of each, in index order (ground truth for
+ * evaluation; a light without "emitted_radiance_on" ends the list). */
+static int load_true_lights(const struct json_where *w, const cJSON *lights, struct esr_dataset *ds)
+{
+    ds->n_true_lights = 0;
+    if (!cJSON_IsArray(lights))
+        return ESR_OK;
+    const int n = cJSON_GetArraySize(lights);
+    for (int i = 0; i < n && i < ESR_MAX_TRUE_LIGHTS; i++) {
+        const cJSON *l = cJSON_GetArrayItem(lights, i);
+        const cJSON *rad = cJSON_GetObjectItemCaseSensitive(l, "emitted_radiance_on");
+        if (!rad)
+            break;
+        struct esr_true_light *t = &ds->true_lights[i];
+        ESR_TRY(json_vector(w, rad, "lights[].emitted_radiance_on", t->radiance, 3));
+        const cJSON *name = cJSON_GetObjectItemCaseSensitive(l, "name");
+        snprintf(t->name, sizeof t->name, "%s", cJSON_IsString(name) ? name->valuestring : "");
+        ds->n_true_lights = i + 1;
+    }
+    return ESR_OK;
+}
+
+/* scene.json is ground truth and optional; when present it must parse, and its box and lights
+ * are used. */
+static int load_scene_truth(struct esr_dataset *ds)
 {
     for (int k = 0; k < 3; k++) {
         ds->bbox_min[k] = -1.5f;
@@ -285,6 +308,8 @@ static int load_scene_box(struct esr_dataset *ds)
                 status = JSON_FAIL(&w, "'bounding_box' min must be below max");
         ds->bbox_from_scene = status == ESR_OK;
     }
+    if (status == ESR_OK)
+        status = load_true_lights(&w, cJSON_GetObjectItemCaseSensitive(root, "lights"), ds);
     cJSON_Delete(root);
     return status;
 }
@@ -339,7 +364,7 @@ static int load_all(const char *dir, struct esr_dataset *ds)
     }
     if (ds->n_lights < 0)
         ds->n_lights = 0;
-    ESR_TRY(load_scene_box(ds));
+    ESR_TRY(load_scene_truth(ds));
     return load_size(ds);
 }
 

@@ -55,6 +55,14 @@ struct esr_phase {
     struct esr_frame *frames;
 };
 
+#define ESR_MAX_TRUE_LIGHTS 16
+
+/* A light as scene.json records it (ground truth, evaluation only). */
+struct esr_true_light {
+    char name[64];
+    float radiance[3];            /* emitted radiance when on: linear RGB x strength */
+};
+
 struct esr_dataset {
     char root[ESR_PATH_MAX];
     enum esr_layout layout;
@@ -64,6 +72,8 @@ struct esr_dataset {
     int n_lights;
     float bbox_min[3], bbox_max[3]; /* scene box: scene.json when present, else [-1.5,1.5]^3 */
     int bbox_from_scene;      /* 1 when bbox_min/max come from scene.json */
+    int n_true_lights;        /* scene.json's "lights" with "emitted_radiance_on" (0: none) */
+    struct esr_true_light true_lights[ESR_MAX_TRUE_LIGHTS];
     struct esr_phase phases[ESR_PHASE_COUNT];
 };
 

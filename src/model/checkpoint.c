@@ -1,11 +1,14 @@
 /* Checkpoint files (model.h): a versioned snapshot written atomically, matched by name on load.
  *   "ESRCKPT\0" | u32 version | u64 header bytes | header (JSON text) |
- *   f32 w[n] | f32 adam_m[n] | f32 adam_v[n] | u8 mask occupancy [nx*ny*nz] (when it has one)
+ *   f32 w[n] | f32 adam_m[n] | f32 adam_v[n] | u8 mask occupancy [nx*ny*nz] (when it has one) |
+ *   u8 light labels [lattice points] (when it has lights)
  * with the header
  *   {"stage": "fine", "step": 2000, "done": 1, "scene_min": [..], "scene_max": [..],
  *    "config": {every option, flat}, "params": n,
  *    "components": [{"name": "sdf", "offset": 0, "count": 2097152}, ...],
- *    "mask": {"dims": [nx, ny, nz], "bmin": [..], "bmax": [..]}}
+ *    "mask": {"dims": [nx, ny, nz], "bmin": [..], "bmax": [..]},
+ *    "lights": {"dims": [..], "bmin": [..], "bmax": [..], "table": [{"centroid", "area", "points",
+ *               "field_rgb", "scale", "radiance", "power", "calib_points"}...]}}  (model/lights.h)
  * Loading rebuilds the model from the stored options (missing options take their preset default,
  * so adding an option never breaks old files) and then copies every stored component into the
  * component of the same name (a component the file lacks keeps its initial values: a new
@@ -54,6 +57,28 @@ static cJSON *header_json(const struct esr_model *m)
         cJSON_AddItemToObject(k, "bmin", esr_json_float_array(m->mask.bmin, 3));
         cJSON_AddItemToObject(k, "bmax", esr_json_float_array(m->mask.bmax, 3));
     }
+    if (m->lights.n > 0) {
+        const struct esr_grid *g = &m->lights.grid;
+        cJSON *k = cJSON_AddObjectToObject(h, "lights");
+        int dims[3] = {g->nx, g->ny, g->nz};
+        cJSON_AddItemToObject(k, "dims", cJSON_CreateIntArray(dims, 3));
+        cJSON_AddItemToObject(k, "bmin", esr_json_float_array(g->bmin, 3));
+        cJSON_AddItemToObject(k, "bmax", esr_json_float_array(g->bmax, 3));
+        cJSON *t = cJSON_AddArrayToObject(k, "table");
+        for (int i = 0; i < m->lights.n; i++) {
+            const struct esr_light *l = &m->lights.light[i];
+            cJSON *e = cJSON_CreateObject();
+            cJSON_AddItemToObject(e, "centroid", esr_json_float_array(l->centroid, 3));
+            cJSON_AddNumberToObject(e, "area", l->area);
+            cJSON_AddNumberToObject(e, "points", (double)l->points);
+            cJSON_AddItemToObject(e, "field_rgb", esr_json_float_array(l->field_rgb, 3));
+            cJSON_AddItemToObject(e, "scale", esr_json_float_array(l->scale, 3));
+            cJSON_AddItemToObject(e, "radiance", esr_json_float_array(l->radiance, 3));
+            cJSON_AddNumberToObject(e, "power", l->power);
+            cJSON_AddNumberToObject(e, "calib_points", l->calib_points);
+            cJSON_AddItemToArray(t, e);
+        }
+    }
     return h;
 }
 
@@ -66,7 +91,8 @@ int esr_model_save(const struct esr_model *m, const char *path)
         return ESR_FAIL("checkpoint %s: out of memory for the header", path);
     const uint64_t hn = strlen(text), n = m->params.count;
     const size_t mask_n = m->has_mask ? (size_t)m->mask.nx * m->mask.ny * m->mask.nz : 0;
-    const size_t total = 8 + 4 + 8 + hn + 3 * n * sizeof(float) + mask_n;
+    const size_t label_n = m->lights.n > 0 ? esr_grid_voxels(&m->lights.grid) : 0;
+    const size_t total = 8 + 4 + 8 + hn + 3 * n * sizeof(float) + mask_n + label_n;
     unsigned char *buf = malloc(total), *p = buf;
     if (!buf) {
         free(text);
@@ -81,7 +107,9 @@ int esr_model_save(const struct esr_model *m, const char *path)
     memcpy(p, m->adam.m, n * sizeof(float)), p += n * sizeof(float);
     memcpy(p, m->adam.v, n * sizeof(float)), p += n * sizeof(float);
     if (mask_n)
-        memcpy(p, m->mask.occ, mask_n);
+        memcpy(p, m->mask.occ, mask_n), p += mask_n;
+    if (label_n)
+        memcpy(p, m->lights.label, label_n);
     free(text);
     int rc = esr_file_write_atomic(path, buf, total);
     free(buf);
@@ -196,24 +224,73 @@ static int read_components(struct esr_model *m, const cJSON *h, const unsigned c
     return ESR_OK;
 }
 
+/* A lattice header {"dims", "bmin", "bmax"} (mask cache, light labels). */
+static int read_lattice(const cJSON *k, const char *what, struct esr_grid *lat, const char *path)
+{
+    float dimf[3], bmin[3], bmax[3];
+    ESR_TRY(json_floats(k, "dims", dimf, 3, path));
+    ESR_TRY(json_floats(k, "bmin", bmin, 3, path));
+    ESR_TRY(json_floats(k, "bmax", bmax, 3, path));
+    for (int a = 0; a < 3; a++)
+        if (!(dimf[a] >= 2 && dimf[a] <= 4096))
+            return ESR_FAIL("checkpoint %s: corrupt %s header", path, what);
+    if (esr_grid_init(lat, 1, (int)dimf[0], (int)dimf[1], (int)dimf[2], bmin, bmax) != ESR_OK)
+        return ESR_FAIL("checkpoint %s: corrupt %s header", path, what);
+    return ESR_OK;
+}
+
 static int read_mask(struct esr_model *m, const cJSON *h, struct rbuf *b)
 {
     const cJSON *k = cJSON_GetObjectItemCaseSensitive(h, "mask");
     if (!k)
         return ESR_OK;
-    float dimf[3], bmin[3], bmax[3];
-    ESR_TRY(json_floats(k, "dims", dimf, 3, b->path));
-    ESR_TRY(json_floats(k, "bmin", bmin, 3, b->path));
-    ESR_TRY(json_floats(k, "bmax", bmax, 3, b->path));
     struct esr_grid lat;
-    for (int a = 0; a < 3; a++)
-        if (!(dimf[a] >= 2 && dimf[a] <= 4096))
-            return ESR_FAIL("checkpoint %s: corrupt mask cache header", b->path);
-    if (esr_grid_init(&lat, 1, (int)dimf[0], (int)dimf[1], (int)dimf[2], bmin, bmax) != ESR_OK)
-        return ESR_FAIL("checkpoint %s: corrupt mask cache header", b->path);
+    ESR_TRY(read_lattice(k, "mask cache", &lat, b->path));
     ESR_TRY(esr_mask_alloc(&m->mask, &lat));
     m->has_mask = 1;
     return get(b, m->mask.occ, esr_grid_voxels(&lat));
+}
+
+static int read_lights(struct esr_model *m, const cJSON *h, struct rbuf *b)
+{
+    const cJSON *k = cJSON_GetObjectItemCaseSensitive(h, "lights");
+    if (!k)
+        return ESR_OK;
+    struct esr_lights *L = &m->lights;
+    ESR_TRY(read_lattice(k, "light labels", &L->grid, b->path));
+    const cJSON *t = cJSON_GetObjectItemCaseSensitive(k, "table");
+    const int n = cJSON_IsArray(t) ? cJSON_GetArraySize(t) : -1;
+    if (n < 1 || n > ESR_MAX_LIGHTS)
+        return ESR_FAIL("checkpoint %s: light table missing or of more than %d lights", b->path,
+                        ESR_MAX_LIGHTS);
+    for (int i = 0; i < n; i++) {
+        const cJSON *e = cJSON_GetArrayItem(t, i);
+        struct esr_light *l = &L->light[i];
+        double pts = 0;
+        ESR_TRY(json_floats(e, "centroid", l->centroid, 3, b->path));
+        ESR_TRY(json_floats(e, "field_rgb", l->field_rgb, 3, b->path));
+        ESR_TRY(json_floats(e, "scale", l->scale, 3, b->path));
+        ESR_TRY(json_floats(e, "radiance", l->radiance, 3, b->path));
+        ESR_TRY(json_count(e, "points", 1e12, &pts, b->path));
+        l->points = (long)pts;
+        const char *keys[3] = {"area", "power", "calib_points"};
+        float *vals[3] = {&l->area, &l->power, &l->calib_points};
+        for (int j = 0; j < 3; j++) {
+            const cJSON *v = cJSON_GetObjectItemCaseSensitive(e, keys[j]);
+            if (!cJSON_IsNumber(v))
+                return ESR_FAIL("checkpoint %s: light %d has no '%s'", b->path, i, keys[j]);
+            *vals[j] = (float)v->valuedouble;
+        }
+    }
+    const size_t nl = esr_grid_voxels(&L->grid);
+    if (!(L->label = malloc(nl)))
+        return ESR_FAIL("checkpoint %s: out of memory for the light labels", b->path);
+    L->n = n;
+    ESR_TRY(get(b, L->label, nl));
+    for (size_t i = 0; i < nl; i++)
+        if (L->label[i] > n)
+            return ESR_FAIL("checkpoint %s: light label %d of %d lights", b->path, L->label[i], n);
+    return ESR_OK;
 }
 
 static int deserialise(struct esr_model *m, struct rbuf *b)
@@ -249,6 +326,8 @@ static int deserialise(struct esr_model *m, struct rbuf *b)
         b->at += 3 * (size_t)n * sizeof(float);
         if (rc == ESR_OK)
             rc = read_mask(m, h, b);
+        if (rc == ESR_OK)
+            rc = read_lights(m, h, b);
         if (rc != ESR_OK)
             esr_model_free(m);
     }

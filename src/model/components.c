@@ -216,7 +216,8 @@ static const struct esr_stage_info stages[ESR_STAGE_COUNT] = {
                         .decay = ESR_DECAY_COSINE,
                         .linear_loss = 1,
                         .lts_loss = 1,
-                        .ray_groups = 1},
+                        .ray_groups = 1,
+                        .finds_lights = 1},
 };
 
 const struct esr_stage_info *esr_stage_info(enum esr_stage s)

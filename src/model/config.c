@@ -74,9 +74,10 @@ static const struct opt opts[] = {
      "lts: surface points per step the light-transport loss checks"},
     {"lts_dirs", OPT_INT, OFF(lts_dirs), 1, 4096, DEF(32, 256),
      "lts: incident directions per point"},
-    {"lts_estimator", OPT_INT, OFF(lts_estimator), 0, 0, DEF(0, 0),
-     "lts: incident radiance estimator: 0 first hit of the SDF + radiance there, "
-     "cosine-weighted directions"},
+    {"lts_estimator", OPT_INT, OFF(lts_estimator), 0, 1, DEF(0, 1),
+     "lts: incident radiance estimator: 0 first hit of the SDF + radiance there, stratified "
+     "cosine-weighted directions; 1 the authors' (faithful): radiance volume-rendered along "
+     "each secondary ray, uniform directions"},
     {"lts_weight", OPT_FLOAT, OFF(lts_weight), 0, 1e6, DEF(0.01, 0.01),
      "lts: weight of the light-transport MSE (off + emo)"},
     {"field_width", OPT_INT, OFF(field_width), 8, 256, DEF(64, 128),
@@ -85,6 +86,9 @@ static const struct opt opts[] = {
      "lts: emission and BRDF MLP hidden layers"},
     {"env_lobes", OPT_INT, OFF(env_lobes), 1, 128, DEF(48, 48),
      "lts: spherical Gaussians of the environment map"},
+    {"env_level", OPT_FLOAT, OFF(env_level), 0, 1e6, DEF(0, 0),
+     "lts: the environment map's starting mean radiance (0 = from the data: the mean lights-off "
+     "radiance of the surfaces the cameras see / 0.3, a mid-grey albedo under a 60%-visible sky)"},
     {"emitter_k", OPT_FLOAT, OFF(emitter_k), 0, 1e6, DEF(0.2, 0.2),
      "emitter mask threshold on the composited emission (the pdra stage sets it to its final k)"},
     {"pdra.k0", OPT_FLOAT, OFF(pdra_k0), 0, 1e6, DEF(0.2, 0.2),
@@ -105,6 +109,13 @@ static const struct opt opts[] = {
      "(the authors' w_l, here on E only)"},
     {"pdra.w_r", OPT_FLOAT, OFF(pdra_w_r), 0, 1e6, DEF(1, 1),
      "pdra: weight of the LTS emo term that trains L_emo towards sg(estimate) (w_r)"},
+    {"pdra.w_es", OPT_FLOAT, OFF(pdra_w_es), 0, 1e6, DEF(0.01, 0.01),
+     "pdra: emission smoothness, w mean |E(x) - E(x + 0.08-voxel jitter)| on the batch's samples"},
+    {"pdra.w_ns", OPT_FLOAT, OFF(pdra_w_ns), 0, 1e6, DEF(0.001, 0.001),
+     "pdra: normal smoothness, w mean |grad f(x) - grad f(x + 0.8-voxel jitter)| (the authors' "
+     "0.001)"},
+    {"pdra.w_ent", OPT_FLOAT, OFF(pdra_w_ent), 0, 1e6, DEF(0.001, 0.001),
+     "pdra: entropy of each ray's final transmittance (hit or miss, not half; the authors' 0.001)"},
     {"pdra.sg", OPT_INT, OFF(pdra_sg), 0, 1, DEF(1, 1),
      "pdra: stop-gradients of the LTS emo pair (0 = the seed's ablation \"w/o sg\": one plain "
      "MSE, the reflection also trained on uncertain rays)"},

@@ -58,11 +58,12 @@ struct esr_train_config {
     int mlp_engine;         /* enum esr_mlp_engine of the training MLPs */
     int lts_points;         /* lts: points per step of the light-transport loss */
     int lts_dirs;           /* lts: incident directions per point */
-    int lts_estimator;      /* lts: incident radiance estimator (0: first hit) */
+    int lts_estimator;      /* lts: incident radiance estimator (enum esr_lts_estimator) */
     float lts_weight;       /* lts: weight of the light-transport MSE */
     int field_width;        /* lts: emission / BRDF MLP width */
     int field_depth;        /* lts: emission / BRDF MLP hidden layers */
     int env_lobes;          /* lts: spherical Gaussians of the environment map */
+    float env_level;        /* lts: the map's starting mean radiance (0: from the data) */
     float emitter_k;        /* emitter mask: composited E above this in any channel */
     float pdra_k0;          /* pdra: k at the start */
     float pdra_k_end;       /* pdra: k from 3/4 of the stage on (0: derived at its start) */
@@ -70,6 +71,9 @@ struct esr_train_config {
     float pdra_supp;        /* pdra: emission-suppression weight */
     float pdra_w_l;         /* pdra: weight of MSE(sg(L_emo), L^_emo) on E */
     float pdra_w_r;         /* pdra: weight of MSE(L_emo, sg(L^_emo)) (trains L_emo) */
+    float pdra_w_es;        /* pdra: emission smoothness weight (train/pdra_reg.h) */
+    float pdra_w_ns;        /* pdra: normal smoothness weight */
+    float pdra_w_ent;       /* pdra: final-transmittance entropy weight */
     int pdra_sg;            /* pdra: stop-gradient pair on (0: the "w/o sg" ablation) */
     int pdra_progressive;   /* pdra: ray groups on (0: the "w/o progressive" ablation) */
     struct esr_stage_config alphamask, coarse, fine, lts, pdra;

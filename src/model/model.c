@@ -161,6 +161,7 @@ void esr_model_free(struct esr_model *m)
     esr_adam_free(&m->adam);
     if (m->has_mask)
         esr_mask_free(&m->mask);
+    esr_lights_free(&m->lights);
     memset(m, 0, sizeof(*m));
 }
 

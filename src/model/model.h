@@ -27,6 +27,7 @@
 #include "nn/adam.h"
 #include "nn/encoding.h"
 #include "nn/mlp.h"
+#include "model/lights.h"
 #include "nn/params.h"
 
 #ifdef __cplusplus
@@ -54,6 +55,7 @@ struct esr_model {
     float density_shift;  /* DVGO act_shift of the density grid */
     struct esr_mask mask; /* mask cache (from the alphamask stage; all-occupied until then) */
     int has_mask;
+    struct esr_lights lights; /* the lights found after pdra (n 0: none / not yet) */
     float inv_s;          /* NeuS s at the current step (esr_stage_inv_s) */
     /* encodings and the geometry feature the MLP components read */
     struct esr_geo_feature_params geo;
@@ -104,8 +106,12 @@ struct esr_render_out {
     float *depth;    /* [n]   expected ray distance of the surface (weights-normalised) */
     float *normal;   /* [n*3] composited unit SDF normal (world space, not normalised by opacity) */
     float *opacity;  /* [n]   1 - T_final */
-    float *emission; /* [n*3] composited emission E (linear HDR, no background); lts stage on,
-                        ignored by models without an emission field */
+    float *emission; /* [n*3] composited emission E of the field (linear HDR, no background); lts
+                        stage on, ignored by models without an emission field */
+    float *emitted;  /* [n*3] composited emitted radiance: E times its light's strength scale
+                        (model/lights.h; = emission for a model without lights), like emission.
+                        A model with lights also adds emitted - emission to `linear` of
+                        lights-on renders: the emitters at their calibrated strength */
     float *material; /* [n*5] composited BRDF: base colour (3, linear), roughness, metallic (no
                         background: multiply out by opacity); lts stage on, like emission */
 };

@@ -44,13 +44,22 @@ int esr_model_normal_sdf(const struct esr_model *m, float **out)
     return rc;
 }
 
-/* Composited emission (3) and BRDF (5, unless mf is emission-only) of the last trace forward's
- * rays (no background); either output may be NULL. */
+/* Per-call scratch of the emitted-radiance rows (grown to the kept rows of a chunk). */
+struct emit_scratch {
+    float *rows;
+    size_t cap;
+};
+
+/* Composited emission (3), emitted radiance (3) and BRDF (5, unless mf is emission-only) of the
+ * last trace forward's rays (no background); any output may be NULL. For a lights-on render of a
+ * model with lights, lin3 (the chunk's linear radiance) gains the emitted radiance beyond E. */
 static int material_rows(struct esr_trace *t, const struct esr_model *m, const float *sdf,
-                         struct esr_material_fields *mf, float *emission3, float *material5)
+                         struct esr_material_fields *mf, struct emit_scratch *es, int lights_on,
+                         float *emission3, float *emitted3, float *material5, float *lin3)
 {
     const struct esr_march *mc = &t->march;
-    ESR_TRY(esr_material_fields_fwd(mf, m, sdf, mc->kpos3, mc->n_kept));
+    const size_t nk = mc->n_kept;
+    ESR_TRY(esr_material_fields_fwd(mf, m, sdf, mc->kpos3, nk));
     struct esr_composite_args a;
     if (emission3) {
         esr_march_composite_args(mc, mf->emit3, 3, NULL, 0, &a);
@@ -59,6 +68,39 @@ static int material_rows(struct esr_trace *t, const struct esr_model *m, const f
     if (material5 && !mf->emission_only) {
         esr_march_composite_args(mc, mf->brdf5, ESR_BRDF_CHANNELS, NULL, 0, &a);
         esr_composite_fwd(&a, material5);
+    }
+    const int calibrated = m->lights.n > 0;
+    if (!emitted3 && !(calibrated && lights_on && lin3))
+        return ESR_OK;
+    if (!calibrated) {
+        if (emitted3 && emission3)
+            memcpy(emitted3, emission3, (size_t)mc->n_rays * 3 * sizeof(float));
+        else if (emitted3) {
+            esr_march_composite_args(mc, mf->emit3, 3, NULL, 0, &a);
+            esr_composite_fwd(&a, emitted3);
+        }
+        return ESR_OK;
+    }
+    if (nk * 3 > es->cap) {
+        free(es->rows);
+        es->cap = nk * 3 + nk;
+        if (!(es->rows = malloc(es->cap * sizeof(float)))) {
+            es->cap = 0;
+            return ESR_FAIL("render: out of memory for %zu emission rows", nk);
+        }
+    }
+    memcpy(es->rows, mf->emit3, nk * 3 * sizeof(float));
+    esr_lights_scale_emission(&m->lights, mc->kpos3, nk, es->rows);
+    esr_march_composite_args(mc, es->rows, 3, NULL, 0, &a);
+    if (emitted3)
+        esr_composite_fwd(&a, emitted3);
+    if (lights_on && lin3) { /* the linear radiance's emission at the calibrated strength */
+        for (size_t i = 0; i < nk * 3; i++)
+            es->rows[i] -= mf->emit3[i];
+        float extra[3 * RENDER_CHUNK];
+        esr_composite_fwd(&a, extra);
+        for (int i = 0; i < mc->n_rays * 3; i++)
+            lin3[i] += extra[i];
     }
     return ESR_OK;
 }
@@ -103,7 +145,10 @@ int esr_model_render_rays(const struct esr_model *m, const float *origins, const
     float *depth = NULL, *normal = NULL, *opac = NULL;
     uint8_t *flags = NULL;
     struct esr_material_fields mf;
-    const int fields = (out->emission || out->material) && esr_model_has(m, ESR_COMP_EMIT_MLP);
+    const int fields = (out->emission || out->emitted || out->material ||
+                        (lights_on && out->linear && m->lights.n > 0)) &&
+                       esr_model_has(m, ESR_COMP_EMIT_MLP);
+    struct emit_scratch es = {NULL, 0};
     memset(&mf, 0, sizeof mf);
     if (rc == ESR_OK && fields)
         rc = esr_material_fields_init(&mf, m, (size_t)chunk * 8,
@@ -128,18 +173,22 @@ int esr_model_render_rays(const struct esr_model *m, const float *origins, const
         copy_out(out->depth, depth, r0, (size_t)c);
         copy_out(out->normal, normal, r0 * 3, (size_t)c * 3);
         copy_out(out->opacity, opac, r0, (size_t)c);
-        if (fields) {
-            rc = material_rows(&t, m, sdf, &mf, out->emission ? out->emission + r0 * 3 : NULL,
-                               out->material ? out->material + r0 * ESR_BRDF_CHANNELS : NULL);
-            if (rc != ESR_OK)
-                break;
-        }
         if (out->linear) {
             for (size_t i = 0; i < (size_t)c * 3; i++)
                 out->linear[r0 * 3 + i] = t.fields.lin3 ? t.lin_rgb3[i]
                                                         : esr_linear_from_srgb(t.rgb3[i]);
         }
+        if (fields) {
+            rc = material_rows(&t, m, sdf, &mf, &es, lights_on,
+                               out->emission ? out->emission + r0 * 3 : NULL,
+                               out->emitted ? out->emitted + r0 * 3 : NULL,
+                               out->material ? out->material + r0 * ESR_BRDF_CHANNELS : NULL,
+                               out->linear ? out->linear + r0 * 3 : NULL);
+            if (rc != ESR_OK)
+                break;
+        }
     }
+    free(es.rows);
     free(depth);
     free(normal);
     free(opac);

@@ -141,6 +141,11 @@ int esr_trace_bwd(struct esr_trace *t, const struct esr_model *m, const float *s
         esr_composite_bwd(&a, d_lin3, mc->d_alpha, t->d_lin_rows);
         d_lin_rows = t->d_lin_rows;
     }
+    if (t->d_t_last) {
+        esr_composite_t_last_bwd(mc->n_rays, mc->smp.ray_start, mc->alpha, ESR_COMPOSITE_THRES,
+                                 t->d_t_last, mc->d_alpha);
+        t->d_t_last = NULL;
+    }
     ESR_TRY(esr_point_fields_bwd(&t->fields, m, sdf, g_sdf, grads, t->d_tone_rows, d_lin_rows));
     float *g_geom = mc->geom.alpha == ESR_MARCH_DENSITY ? grads + m->part[ESR_COMP_DENSITY].off
                                                         : g_sdf;

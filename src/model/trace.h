@@ -32,6 +32,8 @@ struct esr_trace {
     uint8_t *row_on;         /* [cap_rows] lighting flag of each kept row (its ray's) */
     float *d_tone_rows, *d_lin_rows; /* [cap_rows * 3] gradients of the kept rows' values */
     const uint8_t *lights_on; /* per ray, of the last forward */
+    const float *d_t_last;   /* per ray, or NULL: a loss gradient on the final transmittances
+                                for the next backward (set after the forward; consumed) */
     /* per ray [max_rays * 3] */
     float *rgb3;             /* tone-mapped / LDR colour on white */
     float *lin_rgb3;         /* linear HDR on white (= rgb3 for the LDR heads) */
@@ -51,7 +53,8 @@ void esr_trace_geometry(const struct esr_model *m, const float *sdf, struct esr_
 int esr_trace_fwd(struct esr_trace *t, const struct esr_model *m, const float *sdf,
                   const float *origins, const float *dirs, const uint8_t *lights_on, int n,
                   uint64_t seed);
-/* Backward of the last forward given d loss/d rgb and d loss/d lin (per ray x3; lin may be NULL):
+/* Backward of the last forward given d loss/d rgb and d loss/d lin (per ray x3; lin may be NULL)
+ * and t->d_t_last when set:
  * adds into g_sdf (SDF gradient w.r.t. the values passed to forward; the density gradient in
  * the alphamask stage goes into grads) and into grads (the flat gradient base). */
 int esr_trace_bwd(struct esr_trace *t, const struct esr_model *m, const float *sdf, float *g_sdf,

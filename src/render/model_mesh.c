@@ -57,7 +57,7 @@ static int vertex_colours(const struct esr_model *m, struct esr_mesh *mesh)
             dirs[3 * i + a] = -nrm;
         }
     }
-    struct esr_render_out out = {NULL, mesh->colour, NULL, NULL, NULL, NULL, NULL};
+    struct esr_render_out out = {.linear = mesh->colour};
     int status = esr_model_render_rays(m, origins, dirs, n, 0, &out);
     for (size_t i = 0; status == ESR_OK && i < n * 3; i++)
         mesh->colour[i] = mesh->colour[i] < 0.0f ? 0.0f : (mesh->colour[i] > 1.0f ? 1.0f : mesh->colour[i]);

@@ -22,8 +22,12 @@ int esr_view_render(const struct esr_model *m, const struct esr_camera *cam, int
     if (cam->width < 1 || cam->height < 1)
         return ESR_FAIL("camera has an empty image (%dx%d)", cam->width, cam->height);
     ESR_TRY(alloc_images(out, cam->width, cam->height));
-    if (esr_model_has(m, ESR_COMP_EMIT_MLP)) {
+    const int fields = esr_model_has(m, ESR_COMP_EMIT_MLP);
+    if (fields) {
         ESR_TRY(esr_image_alloc(&out->emission, cam->width, cam->height, 3));
+        ESR_TRY(esr_image_alloc(&out->emitted, cam->width, cam->height, 3));
+        if (lights_on)
+            ESR_TRY(esr_image_alloc(&out->emo, cam->width, cam->height, 3));
         out->material = malloc((size_t)cam->width * (size_t)cam->height * 5 * sizeof(float));
         if (!out->material)
             return ESR_FAIL("out of memory for a %dx%d material image", cam->width, cam->height);
@@ -35,9 +39,19 @@ int esr_view_render(const struct esr_model *m, const struct esr_camera *cam, int
     if (status == ESR_OK)
         esr_camera_pixel_rays(cam, origins, dirs);
     if (status == ESR_OK) {
-        struct esr_render_out o = {out->rgb.data, out->linear.data, out->depth.data, out->normal.data,
-                                   out->opacity.data, out->emission.data, out->material};
+        struct esr_render_out o = {.rgb = out->rgb.data,         .linear = out->linear.data,
+                                   .depth = out->depth.data,     .normal = out->normal.data,
+                                   .opacity = out->opacity.data, .emission = out->emission.data,
+                                   .emitted = out->emitted.data, .material = out->material};
         status = esr_model_render_rays(m, origins, dirs, n, lights_on, &o);
+    }
+    if (status == ESR_OK && out->emo.data) { /* the same view with the lights off */
+        struct esr_render_out o;
+        memset(&o, 0, sizeof o);
+        o.linear = out->emo.data;
+        status = esr_model_render_rays(m, origins, dirs, n, 0, &o);
+        for (size_t i = 0; status == ESR_OK && i < n * 3; i++)
+            out->emo.data[i] = out->linear.data[i] - out->emo.data[i];
     }
     free(origins);
     free(dirs);
@@ -52,6 +66,8 @@ void esr_view_images_free(struct esr_view_images *v)
     esr_image_free(&v->normal);
     esr_image_free(&v->opacity);
     esr_image_free(&v->emission);
+    esr_image_free(&v->emitted);
+    esr_image_free(&v->emo);
     free(v->material);
     v->material = NULL;
 }

@@ -15,8 +15,13 @@ struct esr_view_images {
     struct esr_image depth;   /* 1 ch: expected ray distance */
     struct esr_image normal;  /* 3 ch: composited world-space normal (sum of weights * normal) */
     struct esr_image opacity; /* 1 ch: 1 - final transmittance */
-    struct esr_image emission; /* 3 ch: composited emission E, linear HDR (lts stage on; else
-                                  empty: data NULL) */
+    struct esr_image emission; /* 3 ch: composited emission E of the field, linear HDR (lts
+                                  stage on; else empty: data NULL); the emitter mask's source */
+    struct esr_image emitted;  /* 3 ch: composited emitted radiance, E at its light's calibrated
+                                  strength (model/lights.h), like emission */
+    struct esr_image emo;      /* 3 ch: lights-on views of an lts+ model: the emission's effect,
+                                  linear on - linear off (the illumination decomposition); else
+                                  empty */
     float *material;          /* [w*h*5]: composited base colour (3), roughness, metallic (lts
                                  stage on; else NULL) — five channels, more than an esr_image */
     float emitter_k;          /* emitter mask: emission above this in any channel */
@@ -39,9 +44,12 @@ void esr_view_images_free(struct esr_view_images *v);
  *                  > 0.5 (0 = nearest); pixels of lower opacity are white
  *   N_depth.exr    raw depth (float, one channel)
  * and with an emission image (lts stage on):
- *   N_emission.exr composited emission E (linear RGB, float)
+ *   N_emission.exr composited emitted radiance (E at its light's calibrated strength; linear
+ *                  RGB, float)
  *   N_emission.png its sRGB OETF clipped to [0,1], 8-bit
- *   N_emitter.png  emitter mask, grey 0 or 255: any channel of E above emitter_k
+ *   N_emitter.png  emitter mask, grey 0 or 255: any channel of the field's E above emitter_k
+ *   N_emo.exr, N_emo.png  lights-on views: the emission's effect, linear on - off (float; PNG:
+ *                  sRGB OETF clipped), so that off + emo = on (the illumination decomposition)
  *   N_basecolor.png  base colour (sRGB OETF of the linear value), N_roughness.png,
  *   N_metallic.png   (grey), each divided by opacity and composited on white
  * Fails naming the file on a write error. */

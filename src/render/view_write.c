@@ -81,13 +81,19 @@ static int write_exr(const char *dir, const char *name, const char *suffix, cons
     return esr_exr_write(path, img, 0);
 }
 
-/* N_emission.exr, N_emission.png and the emitter mask N_emitter.png (rgb3, grey: scratch). */
+/* N_emission.exr, N_emission.png, the emitter mask N_emitter.png and for lights-on views N_emo.exr
+ * and N_emo.png (rgb3, grey: scratch). */
 static int write_emission(const char *dir, const char *name, const struct esr_view_images *v,
                           struct esr_image *rgb3, struct esr_image *grey)
 {
-    ESR_TRY(write_exr(dir, name, "_emission.exr", &v->emission));
-    gamma_image(&v->emission, rgb3);
+    ESR_TRY(write_exr(dir, name, "_emission.exr", &v->emitted));
+    gamma_image(&v->emitted, rgb3);
     ESR_TRY(write_png(dir, name, "_emission.png", rgb3));
+    if (v->emo.data) {
+        ESR_TRY(write_exr(dir, name, "_emo.exr", &v->emo));
+        gamma_image(&v->emo, rgb3);
+        ESR_TRY(write_png(dir, name, "_emo.png", rgb3));
+    }
     const long long n = (long long)grey->width * grey->height;
     for (long long i = 0; i < n; i++) {
         const float *e = v->emission.data + 3 * i;

@@ -13,7 +13,7 @@
 #include "fields/env_sg.h"
 #include "fields/grid.h"
 #include "model/render_sdf.h"
-#include "volume/first_hit.h"
+#include "train/lts_incident.h"
 
 /* The normals' smoothed SDF follows the slowly trained SDF (lr 5e-4) every this many steps. */
 #define NORMAL_REFRESH 50
@@ -26,7 +26,7 @@ void esr_lts_free(struct esr_lts *l)
                      l->wt,         l->env3,     l->d_env3,   l->li_off3,   l->li_emo3,
                      l->d_li_off3,  l->d_li_emo3, l->orig3,   l->hit_t,     l->hit_pos3,
                      l->q_pos3,     l->q_dir3,   l->d_tone3,  l->d_lin3,    l->d_emit3,
-                     l->d_brdf5};
+                     l->d_brdf5,    l->hat3,     l->sec_off3, l->sec_emo3, l->d_sec_off3, l->d_sec_emo3};
     for (size_t i = 0; i < sizeof bufs / sizeof bufs[0]; i++)
         free(bufs[i]);
     free(l->hit_flags);
@@ -34,6 +34,7 @@ void esr_lts_free(struct esr_lts *l)
     free(l->pick);
     free(l->hit_row);
     free(l->q_on);
+    esr_march_free(&l->sec);
     esr_point_fields_free(&l->pf);
     esr_material_fields_free(&l->mf);
     memset(l, 0, sizeof(*l));
@@ -44,30 +45,32 @@ int esr_lts_init(struct esr_lts *l, const struct esr_model *m)
     memset(l, 0, sizeof(*l));
     l->P = m->cfg.lts_points;
     l->M = m->cfg.lts_dirs;
-    const size_t P = (size_t)l->P, PM = P * (size_t)l->M, rows = 4 * P + 2 * PM;
+    l->estimator = m->cfg.lts_estimator;
+    const size_t P = (size_t)l->P, PM = P * (size_t)l->M;
     struct {
         float **p;
         size_t n;
-    } fl[] = {{&l->pos3, P * 3},       {&l->nrm3, P * 3},      {&l->wo3, P * 6},
-              {&l->wi3, PM * 3},       {&l->wt, PM},           {&l->env3, PM * 3},
-              {&l->d_env3, PM * 3},    {&l->li_off3, PM * 3},  {&l->li_emo3, PM * 3},
+    } fl[] = {{&l->pos3, P * 3},       {&l->nrm3, P * 3},       {&l->wo3, P * 6},
+              {&l->wi3, PM * 3},       {&l->wt, PM},            {&l->env3, PM * 3},
+              {&l->d_env3, PM * 3},    {&l->li_off3, PM * 3},   {&l->li_emo3, PM * 3},
               {&l->d_li_off3, PM * 3}, {&l->d_li_emo3, PM * 3}, {&l->orig3, PM * 3},
-              {&l->R3, PM * 3},
-              {&l->hit_t, PM},         {&l->hit_pos3, PM * 3}, {&l->q_pos3, rows * 3},
-              {&l->q_dir3, rows * 3},  {&l->d_tone3, rows * 3}, {&l->d_lin3, rows * 3},
-              {&l->d_emit3, P * 3},    {&l->d_brdf5, P * ESR_BRDF_CHANNELS}};
+              {&l->R3, PM * 3},        {&l->hit_t, PM},         {&l->hit_pos3, PM * 3},
+              {&l->d_emit3, P * 3},    {&l->d_brdf5, P * ESR_BRDF_CHANNELS},
+              {&l->hat3, P * 12}};
     int ok = 1;
     for (size_t i = 0; i < sizeof fl / sizeof fl[0]; i++)
         ok &= (*fl[i].p = malloc(fl[i].n * sizeof(float))) != NULL;
-    if (ok) /* the tone-mapped outputs of the LTS rows get no gradient, ever */
-        memset(l->d_tone3, 0, rows * 3 * sizeof(float));
     ok &= (l->hit_flags = malloc(PM)) != NULL;
     ok &= (l->hit_row = malloc(PM * sizeof(int32_t))) != NULL;
-    ok &= (l->q_on = malloc(rows)) != NULL;
     ok &= (l->certain = malloc(P)) != NULL;
     int rc = ok ? ESR_OK : ESR_FAIL("lts: out of memory for %zu points x %d directions", P, l->M);
+    /* rows: the points', and two per secondary ray to start with (one pair per hit) */
     if (rc == ESR_OK)
-        rc = esr_point_fields_init(&l->pf, m, rows, 1);
+        rc = esr_lts_reserve_rows(l, 4 * P + 2 * PM);
+    if (rc == ESR_OK && l->estimator == ESR_LTS_VOLUME)
+        rc = esr_march_init(&l->sec, (int)PM, 1);
+    if (rc == ESR_OK)
+        rc = esr_point_fields_init(&l->pf, m, 4 * P + 2 * PM, 1);
     if (rc == ESR_OK)
         rc = esr_material_fields_init(&l->mf, m, P, ESR_MATERIAL_TRAIN);
     if (rc != ESR_OK)
@@ -139,22 +142,30 @@ static size_t setup_points(struct esr_lts *l, const struct esr_model *m, const s
         struct esr_vec3 o = esr_v3_add(v3_at(l->pos3, p), esr_v3_scale(n, off));
         for (size_t j = 0; j < M; j++) {
             const size_t i = p * M + j;
-            /* stratified in u1 so few directions still cover the hemisphere */
-            u1 = ((float)j + esr_rng_float(&r)) / (float)M;
-            u2 = esr_rng_float(&r);
-            struct esr_vec3 loc = esr_sample_hemisphere_cosine(u1, u2);
+            struct esr_vec3 loc;
+            float pdf;
+            if (l->estimator == ESR_LTS_VOLUME) { /* the authors': independent, uniform */
+                u1 = esr_rng_float(&r);
+                u2 = esr_rng_float(&r);
+                loc = esr_sample_hemisphere_uniform(u1, u2);
+                pdf = esr_pdf_hemisphere_uniform(loc);
+            } else { /* stratified in u1 so few directions still cover the hemisphere */
+                u1 = ((float)j + esr_rng_float(&r)) / (float)M;
+                u2 = esr_rng_float(&r);
+                loc = esr_sample_hemisphere_cosine(u1, u2);
+                pdf = esr_pdf_hemisphere_cosine(loc);
+            }
             v3_put(l->wi3, i, esr_v3_from_local(loc, t, b, n));
-            l->wt[i] = 1.0f / ((float)M * fmaxf(esr_pdf_hemisphere_cosine(loc), 1e-6f));
+            l->wt[i] = 1.0f / ((float)M * fmaxf(pdf, 1e-6f));
             v3_put(l->orig3, i, o);
         }
     }
     return P;
 }
 
-/* Query rows for the point fields: per point 2 outgoing x (off, on), then 2 per hit. */
-static size_t build_rows(struct esr_lts *l, size_t P)
+/* Query rows of the points: per point 2 outgoing x (off, on). */
+static void build_point_rows(struct esr_lts *l, size_t P)
 {
-    const size_t M = (size_t)l->M;
     size_t r = 0;
     for (size_t p = 0; p < P; p++)
         for (int o = 0; o < 2; o++)
@@ -163,18 +174,6 @@ static size_t build_rows(struct esr_lts *l, size_t P)
                 v3_put(l->q_dir3, r, esr_v3_scale(v3_at(l->wo3, 2 * p + (size_t)o), -1.0f));
                 l->q_on[r] = (uint8_t)on;
             }
-    for (size_t i = 0; i < P * M; i++) {
-        l->hit_row[i] = -1;
-        if (!(l->hit_flags[i] & ESR_FIRST_HIT_HIT))
-            continue;
-        l->hit_row[i] = (int32_t)r;
-        for (int on = 0; on < 2; on++, r++) {
-            v3_put(l->q_pos3, r, v3_at(l->hit_pos3, i));
-            v3_put(l->q_dir3, r, v3_at(l->wi3, i));
-            l->q_on[r] = (uint8_t)on;
-        }
-    }
-    return r;
 }
 
 /* Material of point p from the BRDF rows. */
@@ -204,8 +203,12 @@ static void point_loss(struct esr_lts *l, size_t p, float scale, float w_l, floa
     const float refl_emo = sg && !l->certain[p] ? 0.0f : 1.0f;
     for (int o = 0; o < 2; o++) {
         const struct esr_vec3 wo = v3_at(l->wo3, 2 * p + (size_t)o);
-        if (esr_v3_dot(n, wo) <= 0.0f)
-            continue; /* a back-facing camera direction: no reflection to compare with */
+        float *hat_out = l->hat3 + (p * 2 + (size_t)o) * 6;
+        if (esr_v3_dot(n, wo) <= 0.0f) { /* back-facing camera direction: nothing to compare */
+            for (int c = 0; c < 6; c++)
+                hat_out[c] = NAN;
+            continue;
+        }
         const size_t row_off = p * 4 + (size_t)o * 2, row_on = row_off + 1;
         const float e_on = l->certain[p] ? 0.0f : 1.0f; /* certain: reflection alone */
         float hat_off[3] = {0, 0, 0}, hat_emo[3] = {e_on * E[0], e_on * E[1], e_on * E[2]};
@@ -220,6 +223,8 @@ static void point_loss(struct esr_lts *l, size_t p, float scale, float w_l, floa
         }
         float d_hat_off[3], d_hat_emo[3];
         for (int c = 0; c < 3; c++) {
+            hat_out[c] = hat_off[c];
+            hat_out[3 + c] = hat_emo[c];
             const float L_off = lin[row_off * 3 + c];
             const float L_emo = lin[row_on * 3 + c] - L_off; /* L_on = sg(L_off) + L_emo */
             const float e_off = L_off - hat_off[c], e_emo = L_emo - hat_emo[c];
@@ -283,29 +288,16 @@ int esr_lts_run(struct esr_lts *l, const struct esr_model *m, const float *sdf, 
         }
     }
     const size_t P = setup_points(l, m, mc, ray_certain, seed), M = (size_t)l->M, PM = P * M;
-    const struct esr_grid *g = esr_model_grid(m, ESR_COMP_SDF);
-    /* secondary rays: first hit of the SDF, marching out of any inside region first */
-    struct esr_first_hit_params hp;
-    esr_first_hit_params_init(&hp, g);
-    hp.inside = ESR_FIRST_HIT_INSIDE_SKIP;
-    struct esr_first_hit_rays hr = {l->orig3, l->wi3, NULL, NULL, PM};
-    struct esr_first_hit_out ho = {l->hit_t, l->hit_flags, l->hit_pos3, NULL};
-    ESR_TRY(esr_first_hit(g, sdf, &hp, &hr, &ho));
-    const size_t rows = build_rows(l, P);
+    size_t rows;
+    ESR_TRY(esr_lts_incident_trace(l, m, sdf, P, seed ^ 0x2545f4914f6cdd1dULL, &rows));
+    build_point_rows(l, P);
     struct esr_point_query q = {rows, l->q_pos3, l->q_dir3, l->q_on};
     ESR_TRY(esr_point_fields_fwd(&l->pf, m, sdf, &q));
     ESR_TRY(esr_material_fields_fwd(&l->mf, m, sdf, l->pos3, P));
     const int lobes = m->cfg.env_lobes;
     const float *env = esr_model_values(m, ESR_COMP_ENV);
     esr_env_sg_fwd(env, lobes, l->wi3, PM, l->env3);
-    /* incident radiance: the fields at the hit, or the environment (off) / nothing (emo) */
-    for (size_t i = 0; i < PM; i++)
-        for (int c = 0; c < 3; c++) {
-            const int32_t r = l->hit_row[i];
-            l->li_off3[i * 3 + c] = r >= 0 ? l->pf.lin3[(size_t)r * 3 + c] : l->env3[i * 3 + c];
-            l->li_emo3[i * 3 + c] =
-                r >= 0 ? l->pf.lin3[(size_t)(r + 1) * 3 + c] - l->pf.lin3[(size_t)r * 3 + c] : 0.0f;
-        }
+    esr_lts_incident_gather(l, P);
     memset(l->d_lin3, 0, rows * 3 * sizeof(float));
     memset(l->d_li_off3, 0, PM * 3 * sizeof(float));
     memset(l->d_li_emo3, 0, PM * 3 * sizeof(float));
@@ -319,22 +311,7 @@ int esr_lts_run(struct esr_lts *l, const struct esr_model *m, const float *sdf, 
 #pragma omp parallel for schedule(dynamic, 4) reduction(+ : se_off, se_emo)
     for (size_t p = 0; p < P; p++)
         point_loss(l, p, scale, w_l, w_r, pair, &se_off, &se_emo);
-    /* incident gradients to their sources: hit rows (off row; emo -> the on row's emo branch),
-     * the environment for misses */
-    size_t hits = 0;
-    for (size_t i = 0; i < PM; i++) {
-        const int32_t r = l->hit_row[i];
-        for (int c = 0; c < 3; c++) {
-            if (r >= 0) {
-                l->d_lin3[(size_t)r * 3 + c] += l->d_li_off3[i * 3 + c];
-                l->d_lin3[(size_t)(r + 1) * 3 + c] += l->d_li_emo3[i * 3 + c];
-                l->d_env3[i * 3 + c] = 0.0f;
-            } else {
-                l->d_env3[i * 3 + c] = l->d_li_off3[i * 3 + c];
-            }
-        }
-        hits += r >= 0;
-    }
+    const size_t hits = esr_lts_incident_scatter(l, P, g_sdf);
     ESR_TRY(esr_point_fields_bwd(&l->pf, m, sdf, g_sdf, grads, l->d_tone3, l->d_lin3));
     ESR_TRY(esr_material_fields_bwd(&l->mf, m, sdf, g_sdf, grads, l->d_emit3, l->d_brdf5));
     esr_env_sg_bwd(env, lobes, l->wi3, PM, l->d_env3, grads + m->part[ESR_COMP_ENV].off);

@@ -11,11 +11,16 @@
  * Points: lts_points kept samples of the primary batch (stratified over the kept list; with pdra's
  * ray groups half from the uncertain rays' samples and half from the certain ones'), normals
  * from the smoothed normal SDF (esr_model_normal_sdf, refreshed every NORMAL_REFRESH steps,
- * detached). Incident radiance, estimator 0 (the default): lts_dirs cosine-weighted directions
- * around the normal; the secondary ray starts one voxel off the surface along the normal and
- * sphere-traces the SDF (volume/first_hit.h) to its first hit y, where L_i = the radiance
- * fields at y seen along the secondary ray (L_off, and L_emo = L_on - sg(L_off)); a ray that
- * leaves the scene sees the environment map (off) and nothing (emo). */
+ * detached). Secondary rays start one voxel off the surface along the normal. Incident
+ * radiance (lts_estimator, train/lts_incident.h):
+ *   ESR_LTS_FIRST_HIT (fast, the default): lts_dirs stratified cosine-weighted directions; each
+ *     ray sphere-traces the SDF (volume/first_hit.h) to its first hit y, where L_i = the
+ *     radiance fields at y seen along the ray (L_off, and L_emo = L_on - sg(L_off)); a miss sees
+ *     the environment map (off) and nothing (emo). No gradient reaches the geometry.
+ *   ESR_LTS_VOLUME (the authors', faithful): lts_dirs uniform directions; L_i is volume-rendered
+ *     along each ray with the primary rays' march (NeuS alpha, mask cache, step, kept samples),
+ *     L_i^off = sum w L_off + T_last env(w), L_i^emo = sum w L_emo; the gradient reaches the
+ *     samples' radiance, the environment and the SDF through the alphas. */
 #ifndef ESR_TRAIN_LTS_H
 #define ESR_TRAIN_LTS_H
 
@@ -31,14 +36,18 @@
 extern "C" {
 #endif
 
+enum esr_lts_estimator { ESR_LTS_FIRST_HIT = 0, ESR_LTS_VOLUME = 1 };
+
 struct esr_lts_stats {
     double loss;            /* weighted loss added */
     double mse_off, mse_emo;
-    size_t points, secondary, hits;
+    size_t points, secondary, hits; /* hits: secondary rays that reached a surface (first hit)
+                                        or whose final transmittance is below 1/2 (volume) */
 };
 
 struct esr_lts {
     int P, M;                  /* points, incident directions per point */
+    int estimator;             /* enum esr_lts_estimator */
     long calls;
     float *normal_sdf;         /* smoothed SDF the normals come from (refreshed) */
     /* per point [P]: position, normal, two outgoing directions (away from the surface) */
@@ -48,11 +57,20 @@ struct esr_lts {
     float *wi3, *wt, *env3, *d_env3, *li_off3, *li_emo3, *d_li_off3, *d_li_emo3;
     float *orig3, *hit_t, *hit_pos3;
     float *R3;                 /* [P*M*3] BRDF x cosine of the current outgoing direction */
+    float *hat3;               /* [P*2*2*3] the estimates L^_off, L^_emo per point and outgoing
+                                  direction (NaN for a back-facing one): (p, o, off/emo, rgb) */
     uint8_t *hit_flags;
     int32_t *hit_row;
-    /* point-field query rows: 4 per point (2 outgoing x off/on), 2 per hit */
+    /* point-field query rows [cap_rows]: 4 per point (2 outgoing x off/on), then 2 (off, on)
+     * per hit (first hit) or per kept secondary sample (volume) */
+    size_t cap_rows;
     float *q_pos3, *q_dir3, *d_tone3, *d_lin3;
     uint8_t *q_on;
+    /* volume estimator: the secondary rays' march and per kept sample [cap_sec * 3] the off and
+     * emo radiance and their gradients */
+    struct esr_march sec;
+    size_t cap_sec;
+    float *sec_off3, *sec_emo3, *d_sec_off3, *d_sec_emo3;
     float *d_emit3, *d_brdf5;
     uint8_t *certain;          /* [P] the point's ray is certain (pdra): L^_emo without E */
     uint32_t *pick;            /* [pick_cap] kept rows, uncertain first (pdra) */

@@ -14,6 +14,7 @@
 void esr_pdra_free(struct esr_pdra *pd)
 {
     esr_material_fields_free(&pd->mf);
+    esr_pdra_reg_free(&pd->reg);
     free(pd->e_ray3);
     free(pd->d_e_ray3);
     free(pd->d_rows3);
@@ -28,6 +29,11 @@ int esr_pdra_init(struct esr_pdra *pd, const struct esr_model *m, int max_rays)
     pd->max_rays = max_rays;
     ESR_TRY(esr_material_fields_init(&pd->mf, m, (size_t)max_rays * 8,
                                      ESR_MATERIAL_TRAIN | ESR_MATERIAL_EMISSION_ONLY));
+    int rc = esr_pdra_reg_init(&pd->reg, m, (size_t)max_rays * 8);
+    if (rc != ESR_OK) {
+        esr_material_fields_free(&pd->mf);
+        return rc;
+    }
     pd->e_ray3 = malloc((size_t)max_rays * 3 * sizeof(float));
     pd->d_e_ray3 = malloc((size_t)max_rays * 3 * sizeof(float));
     pd->certain = malloc((size_t)max_rays);
@@ -62,32 +68,13 @@ static float emitter_level(struct esr_pdra *pd, int n)
     return pd->sorted[(size_t)(EMITTER_LEVEL_PERCENTILE * (n - 1))];
 }
 
-int esr_pdra_step(struct esr_pdra *pd, struct esr_model *m, const float *sdf, float *g_sdf,
-                  float *grads, const struct esr_march *mc, float *chosen_k_end)
+/* The groups at the current k, the suppression loss and its gradient ADDED into pd->d_rows3
+ * (the kept rows' E, through the composite a: E only, not alpha). */
+static void groups_and_suppression(struct esr_pdra *pd, struct esr_model *m,
+                                   const struct esr_march *mc, const struct esr_composite_args *a,
+                                   float *chosen_k_end)
 {
     const int n = mc->n_rays;
-    *chosen_k_end = 0.0f;
-    if (n > pd->max_rays)
-        return ESR_FAIL("pdra: %d rays for a workspace of %d", n, pd->max_rays);
-    const size_t nk = mc->n_kept;
-    ESR_TRY(esr_material_fields_fwd(&pd->mf, m, sdf, mc->kpos3, nk));
-    if (nk > pd->rows_cap) {
-        free(pd->d_rows3);
-        pd->rows_cap = nk + nk / 4;
-        if (!(pd->d_rows3 = malloc(pd->rows_cap * 3 * sizeof(float)))) {
-            pd->rows_cap = 0;
-            return ESR_FAIL("pdra: out of memory for %zu kept rows", nk);
-        }
-    }
-    struct esr_composite_args a;
-    esr_march_composite_args(mc, pd->mf.emit3, 3, NULL, 0, &a);
-    esr_composite_fwd(&a, pd->e_ray3);
-    if (!m->cfg.pdra_progressive) { /* "w/o progressive": every ray uncertain */
-        memset(pd->certain, 0, (size_t)n);
-        pd->n_certain = 0;
-        pd->supp_loss = 0.0;
-        return ESR_OK;
-    }
     /* k_frac x the emitters' level in this batch, never below k0 */
     const float k_level = fmaxf(m->cfg.pdra_k0, m->cfg.pdra_k_frac * emitter_level(pd, n));
     if (m->cfg.pdra_k_end <= 0.0f) {
@@ -109,9 +96,8 @@ int esr_pdra_step(struct esr_pdra *pd, struct esr_model *m, const float *sdf, fl
         n_suppressed += pd->certain[r] && mc->kept_start[r + 1] > mc->kept_start[r];
     }
     pd->n_certain = n_certain;
-    pd->supp_loss = 0.0;
     if (n_suppressed == 0 || m->cfg.pdra_supp <= 0.0f)
-        return ESR_OK;
+        return;
     const float scale = m->cfg.pdra_supp / (3.0f * (float)n_suppressed);
     double sum = 0.0;
     for (int r = 0; r < n; r++)
@@ -121,7 +107,36 @@ int esr_pdra_step(struct esr_pdra *pd, struct esr_model *m, const float *sdf, fl
             pd->d_e_ray3[r * 3 + c] = 2.0f * scale * e;
         }
     pd->supp_loss = (double)scale * sum;
+    esr_composite_bwd(a, pd->d_e_ray3, NULL, pd->d_rows3);
+}
+
+int esr_pdra_step(struct esr_pdra *pd, struct esr_model *m, const float *sdf, float *g_sdf,
+                  float *grads, const struct esr_march *mc, uint64_t seed, float *chosen_k_end)
+{
+    const int n = mc->n_rays;
+    *chosen_k_end = 0.0f;
+    if (n > pd->max_rays)
+        return ESR_FAIL("pdra: %d rays for a workspace of %d", n, pd->max_rays);
+    const size_t nk = mc->n_kept;
+    ESR_TRY(esr_material_fields_fwd(&pd->mf, m, sdf, mc->kpos3, nk));
+    if (nk > pd->rows_cap) {
+        free(pd->d_rows3);
+        pd->rows_cap = nk + nk / 4;
+        if (!(pd->d_rows3 = malloc(pd->rows_cap * 3 * sizeof(float)))) {
+            pd->rows_cap = 0;
+            return ESR_FAIL("pdra: out of memory for %zu kept rows", nk);
+        }
+    }
+    struct esr_composite_args a;
+    esr_march_composite_args(mc, pd->mf.emit3, 3, NULL, 0, &a);
+    esr_composite_fwd(&a, pd->e_ray3);
     memset(pd->d_rows3, 0, nk * 3 * sizeof(float));
-    esr_composite_bwd(&a, pd->d_e_ray3, NULL, pd->d_rows3); /* through E only, not alpha */
+    memset(pd->certain, 0, (size_t)n);
+    pd->n_certain = 0;
+    pd->supp_loss = 0.0;
+    if (m->cfg.pdra_progressive) /* else "w/o progressive": every ray uncertain */
+        groups_and_suppression(pd, m, mc, &a, chosen_k_end);
+    ESR_TRY(esr_pdra_reg_smooth(&pd->reg, m, sdf, g_sdf, grads, mc, pd->mf.emit3, pd->d_rows3,
+                                seed));
     return esr_material_fields_bwd(&pd->mf, m, sdf, g_sdf, grads, pd->d_rows3, NULL);
 }

@@ -22,6 +22,7 @@
 
 #include "model/material_fields.h"
 #include "model/model.h"
+#include "train/pdra_reg.h"
 #include "volume/march.h"
 
 #ifdef __cplusplus
@@ -37,6 +38,7 @@ struct esr_pdra {
     size_t rows_cap;
     uint8_t *certain;              /* [max_rays] */
     float *sorted;                 /* [max_rays] scratch for the emitters' level */
+    struct esr_pdra_reg reg;       /* emission and normal smoothness */
     /* the last step */
     float k;
     int n_certain;
@@ -50,11 +52,12 @@ void esr_pdra_free(struct esr_pdra *pd);
 float esr_pdra_k(const struct esr_train_config *cfg, long step, long iters);
 
 /* Composited E of the n rays of mc's last forward, their groups at k(m->step), the suppression
- * loss (returned in pd->supp_loss) and its gradient ADDED into grads and g_sdf (through E only:
- * the geometry's alpha gets none). When m->cfg.pdra_k_end is 0 it is derived from this batch
+ * loss (returned in pd->supp_loss) and the smoothness terms (pd->reg, jitter from seed), their
+ * gradients ADDED into grads and g_sdf (suppression through E only: the geometry's alpha gets
+ * none). When m->cfg.pdra_k_end is 0 it is derived from this batch
  * and written into m->cfg; *chosen_k_end then receives it (else 0). */
 int esr_pdra_step(struct esr_pdra *pd, struct esr_model *m, const float *sdf, float *g_sdf,
-                  float *grads, const struct esr_march *mc, float *chosen_k_end);
+                  float *grads, const struct esr_march *mc, uint64_t seed, float *chosen_k_end);
 
 #ifdef __cplusplus
 }

@@ -16,7 +16,7 @@ void esr_train_step_free(struct esr_train_step *st)
     if (st->has_pdra)
         esr_pdra_free(&st->pdra);
     float *bufs[] = {st->orig3, st->dir3,       st->tgt3,    st->d_rgb3,      st->d_lin3,
-                     st->sdf_view, st->g_sdf_view, st->scratch, st->grad_tv_work};
+                     st->sdf_view, st->g_sdf_view, st->scratch, st->grad_tv_work, st->d_t_last};
     for (size_t i = 0; i < sizeof bufs / sizeof bufs[0]; i++)
         free(bufs[i]);
     free(st->lights_on);
@@ -33,6 +33,7 @@ int esr_train_step_init(struct esr_train_step *st, const struct esr_model *m, in
     for (size_t i = 0; i < sizeof per_ray / sizeof per_ray[0]; i++)
         ok &= (*per_ray[i] = malloc((size_t)max_rays * 3 * sizeof(float))) != NULL;
     ok &= (st->lights_on = malloc((size_t)max_rays)) != NULL;
+    ok &= (st->d_t_last = malloc((size_t)max_rays * sizeof(float))) != NULL;
     const enum esr_stage s = (enum esr_stage)m->stage;
     if (ok && esr_stage_info(s)->smoothed_sdf && m->cfg.smooth_ksize > 1) {
         size_t ns = esr_grid_count(esr_model_grid(m, ESR_COMP_SDF));
@@ -91,12 +92,18 @@ int esr_train_step_run(struct esr_train_step *st, struct esr_model *m, int n, ui
     float *d_lin = si->linear_loss ? st->d_lin3 : NULL;
     esr_render_loss_batch(st->tr.rgb3, st->tr.lin_rgb3, st->tgt3, (size_t)n,
                           si->linear_loss ? m->cfg.lambda_tau : 0.0f, st->d_rgb3, d_lin, out);
+    st->ent_loss = 0.0;
+    if (st->has_pdra && m->cfg.pdra_w_ent > 0.0f) { /* pdra's entropy on T_last */
+        st->ent_loss = esr_pdra_reg_entropy(m->cfg.pdra_w_ent, st->tr.march.t_last, n, st->d_t_last);
+        st->tr.d_t_last = st->d_t_last;
+        out->loss += st->ent_loss;
+    }
     ESR_TRY(esr_trace_bwd(&st->tr, m, sdf, g_sdf, m->params.g, st->d_rgb3, d_lin));
     const uint8_t *certain = NULL;
     if (st->has_pdra) {
         ESR_TRY(esr_pdra_step(&st->pdra, m, sdf, g_sdf, m->params.g, &st->tr.march,
-                              &st->pdra_chosen_k_end));
-        out->loss += st->pdra.supp_loss;
+                              seed ^ 0x5eed0f5a11ULL, &st->pdra_chosen_k_end));
+        out->loss += st->pdra.supp_loss + st->pdra.reg.es_loss + st->pdra.reg.ns_loss;
         certain = st->pdra.certain;
     }
     if (st->has_lts) {

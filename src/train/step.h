@@ -26,6 +26,8 @@ struct esr_train_step {
     float *orig3, *dir3, *tgt3;
     uint8_t *lights_on;
     float *d_rgb3, *d_lin3;                 /* loss gradients per ray */
+    float *d_t_last;                        /* [max_rays] entropy gradient (pdra) */
+    double ent_loss;                        /* pdra's entropy term of the last step */
     float *sdf_view, *g_sdf_view, *scratch; /* smoothed-SDF stages: the view and its gradient */
     float *grad_tv_work;                    /* smoothed-gradient TV work space (when enabled) */
     int has_lts;                            /* the stage adds the LTS loss */

@@ -14,6 +14,7 @@
 #include "core/colour.h"
 #include "core/error.h"
 #include "core/rng.h"
+#include "fields/env_sg.h"
 #include "fields/sdf.h"
 #include "io/dataset.h"
 #include "io/dir.h"
@@ -22,6 +23,8 @@
 #include "nn/adam.h"
 #include "nn/guard.h"
 #include "nn/schedule.h"
+#include "train/env_init.h"
+#include "train/lights.h"
 #include "train/rays.h"
 #include "train/render_loss.h"
 #include "train/step.h"
@@ -288,6 +291,26 @@ static int build_mask(struct run *r, struct esr_model *m)
     return ESR_OK;
 }
 
+/* The lights of the emitter stage's model: found, calibrated on the lights-off training rays. */
+static int find_lights(struct run *r, struct esr_model *m, enum esr_stage s)
+{
+    ESR_TRY(esr_lights_find(m));
+    ESR_TRY(esr_lights_calibrate(m, r->rays.orig3, r->rays.dir3, r->rays.n_off,
+                                 ESR_LIGHTS_CALIB_POINTS, (uint64_t)r->cfg.seed));
+    say(r, s, "lights found: %d", m->lights.n);
+    for (int i = 0; i < m->lights.n; i++) {
+        const struct esr_light *l = &m->lights.light[i];
+        say(r, s, "  light %d: at (%.2f, %.2f, %.2f), area %.3g, emitted radiance %.3g %.3g %.3g "
+                  "(field %.3g %.3g %.3g x strength %.3g %.3g %.3g from %.0f points)",
+            i, (double)l->centroid[0], (double)l->centroid[1], (double)l->centroid[2],
+            (double)l->area, (double)l->radiance[0], (double)l->radiance[1],
+            (double)l->radiance[2], (double)l->field_rgb[0], (double)l->field_rgb[1],
+            (double)l->field_rgb[2], (double)l->scale[0], (double)l->scale[1],
+            (double)l->scale[2], (double)l->calib_points);
+    }
+    return ESR_OK;
+}
+
 static int run_stage(struct run *r, struct esr_model *m, enum esr_stage s)
 {
     const struct esr_stage_config *sc = esr_stage_options(&r->cfg, s);
@@ -342,6 +365,8 @@ static int run_stage(struct run *r, struct esr_model *m, enum esr_stage s)
         say(r, s, "no emitters found: every ray of the last batch has emission at most k = %.3g "
                   "(the scene's lights are off or too dim to tell from reflection)",
             (double)b.pdra.k);
+    else if (rc == ESR_OK && esr_stage_info(s)->finds_lights)
+        rc = find_lights(r, m, s);
     if (rc == ESR_OK) {
         m->stage_done = 1;
         rc = save(r, m, s);
@@ -398,7 +423,25 @@ static int stage_model(struct run *r, enum esr_stage s, const struct esr_model *
             m->stage_done ? ", finished" : "");
         return ESR_OK;
     }
-    return esr_model_init(m, &r->cfg, s, prev, r->scene_min, r->scene_max);
+    ESR_TRY(esr_model_init(m, &r->cfg, s, prev, r->scene_min, r->scene_max));
+    if (!esr_model_has(m, ESR_COMP_ENV) || (prev && esr_model_has(prev, ESR_COMP_ENV)))
+        return ESR_OK;
+    /* a fresh environment map: its starting brightness (train/env_init.h) */
+    float level = m->cfg.env_level, surface = 0.0f;
+    int rc = ESR_OK;
+    if (level <= 0.0f && prev && r->rays.n_off > 0) {
+        rc = esr_env_init_level(prev, r->rays.orig3, r->rays.dir3, r->rays.n_off,
+                                (uint64_t)r->cfg.seed, &level, &surface);
+        if (rc == ESR_OK)
+            say(r, s, "environment map starts at mean radiance %.3g, derived from the data: the "
+                      "lights-off surfaces' mean radiance %.3g / %.1f",
+                level, (double)surface, (double)ESR_ENV_INIT_AV);
+    }
+    if (rc == ESR_OK && level > 0.0f)
+        esr_env_sg_set_level(esr_model_values(m, ESR_COMP_ENV), m->cfg.env_lobes, level);
+    if (rc != ESR_OK)
+        esr_model_free(m);
+    return rc;
 }
 
 /* RUN/run.json records the absolute dataset path so that `esr render/eval/export RUN` find the

@@ -11,6 +11,39 @@ void esr_composite_weights(int n_rays, const size_t *ray_start, const float *alp
     }
 }
 
+void esr_composite_t_last_bwd(int n_rays, const size_t *ray_start, const float *alpha, float thres,
+                              const float *d_t_last, float *d_alpha)
+{
+#pragma omp parallel for schedule(static)
+    for (int r = 0; r < n_rays; r++) {
+        const float d = d_t_last[r];
+        if (d == 0.0f)
+            continue;
+        const size_t s0 = ray_start[r], s1 = ray_start[r + 1];
+        /* prod_{j != i} (1 - alpha_j) = P / (1 - alpha_i) with P the product of the non-zero
+         * factors (dividing a product by one of its factors is well conditioned); a factor of
+         * exactly 0 (alpha = 1) leaves only its own sample a non-zero derivative */
+        double P = 1.0;
+        int zeros = 0;
+        for (size_t i = s0; i < s1; i++) {
+            if (alpha[i] <= thres)
+                continue;
+            const double f = 1.0 - (double)alpha[i];
+            if (f == 0.0)
+                zeros++;
+            else
+                P *= f;
+        }
+        for (size_t i = s0; i < s1; i++) {
+            if (alpha[i] <= thres)
+                continue;
+            const double f = 1.0 - (double)alpha[i];
+            const double others = zeros == 0 ? P / f : (zeros == 1 && f == 0.0 ? P : 0.0);
+            d_alpha[i] -= (float)(d * others);
+        }
+    }
+}
+
 /* Where sample i's values live. */
 static size_t row_of(const struct esr_composite_args *a, size_t i)
 {

@@ -64,6 +64,11 @@ struct esr_composite_args {
 /* weight[] and t_last[] for every ray of the batch. Parallel over rays. */
 void esr_composite_weights(int n_rays, const size_t *ray_start, const float *alpha, float thres,
                            float *weight, float *t_last);
+/* Gradient of a loss on the final transmittances T_N = prod (1 - alpha_i) (samples with alpha <=
+ * thres dropped, as in the weights): d_alpha[i] += d_t_last[r] * -prod_{j != i} (1 - alpha_j),
+ * the product taken as prefix x suffix so an opaque sample (alpha = 1) is exact. Parallel. */
+void esr_composite_t_last_bwd(int n_rays, const size_t *ray_start, const float *alpha, float thres,
+                              const float *d_t_last, float *d_alpha);
 /* out[r * C + c] = sum_{kept i of r} weight_i values[i*C + c] + t_last[r] bg_c. Parallel. */
 void esr_composite_fwd(const struct esr_composite_args *a, float *out);
 /* Given d_out[r * C + c]: d_alpha[i] += d loss/d alpha_i, d_values[i*C + c] += d loss/d v

@@ -1,0 +1,147 @@
+/* esr lights RUN: the lights the run found (ids, place, size, colour, strength) as a table and
+ * RUN/lights.json. */
+#include <cjson/cJSON.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "cli/commands.h"
+#include "core/colour.h"
+#include "core/error.h"
+#include "eval/run_dir.h"
+#include "io/dataset.h"
+#include "io/json_file.h"
+#include "model/model.h"
+#include "train/lights.h"
+#include "train/rays.h"
+
+static int run_lights(int argc, char **argv);
+
+const struct esr_command cmd_lights = {
+    "lights",
+    "list the lights a run found (id, centroid, area, colour, emitted radiance and power)",
+    "usage: esr lights RUN [--recompute] [--data DIR]\n"
+    "\n"
+    "Reads the lights stored in RUN's pdra checkpoint (found and calibrated when the pdra stage\n"
+    "ended: the emitting surface split into connected lights, each light's strength fixed by the\n"
+    "light it casts on the rest of the scene), prints them and writes RUN/lights.json:\n"
+    "  {\"lights\": [{\"id\", \"centroid\", \"area\", \"points\", \"rgb\" (emitted radiance, linear),\n"
+    "               \"hsv\", \"power\", \"field_rgb\", \"strength_scale\", \"calibration_points\"}...],\n"
+    "   \"emitter_k\", \"checkpoint\"}\n"
+    "\n"
+    "options:\n"
+    "  --recompute   find and calibrate the lights again (also for a checkpoint written before\n"
+    "                esr stored lights) and store them in the checkpoint\n"
+    "  --data DIR    dataset (default: the one RUN was trained on; --recompute reads its\n"
+    "                lights-off training images)\n"
+    "  -h, --help    this text\n",
+    run_lights,
+};
+
+/* Finds and calibrates the lights of m from DATA's lights-off training rays. */
+static int recompute(struct esr_model *m, const char *data)
+{
+    struct esr_dataset ds;
+    ESR_TRY(esr_dataset_load(data, &ds));
+    struct esr_ray_set rs;
+    memset(&rs, 0, sizeof rs);
+    int rc = esr_ray_set_build(&rs, &ds, ESR_PHASE_TRAIN);
+    esr_dataset_free(&ds);
+    if (rc == ESR_OK && rs.n_off == 0)
+        rc = ESR_FAIL("dataset %s: no lights-off training images to calibrate with", data);
+    if (rc == ESR_OK)
+        rc = esr_lights_find(m);
+    if (rc == ESR_OK)
+        rc = esr_lights_calibrate(m, rs.orig3, rs.dir3, rs.n_off, ESR_LIGHTS_CALIB_POINTS,
+                                  (uint64_t)m->cfg.seed);
+    esr_ray_set_free(&rs);
+    return rc;
+}
+
+static cJSON *lights_json(const struct esr_model *m, const char *ckpt)
+{
+    cJSON *root = cJSON_CreateObject();
+    cJSON_AddStringToObject(root, "checkpoint", ckpt);
+    cJSON_AddNumberToObject(root, "emitter_k", m->cfg.emitter_k);
+    cJSON *arr = cJSON_AddArrayToObject(root, "lights");
+    for (int i = 0; i < m->lights.n; i++) {
+        const struct esr_light *l = &m->lights.light[i];
+        float hsv[3];
+        esr_rgb_to_hsv(l->radiance, hsv);
+        cJSON *o = cJSON_CreateObject();
+        cJSON_AddNumberToObject(o, "id", i);
+        cJSON_AddItemToObject(o, "centroid", esr_json_float_array(l->centroid, 3));
+        cJSON_AddNumberToObject(o, "area", l->area);
+        cJSON_AddNumberToObject(o, "points", (double)l->points);
+        cJSON_AddItemToObject(o, "rgb", esr_json_float_array(l->radiance, 3));
+        cJSON_AddItemToObject(o, "hsv", esr_json_float_array(hsv, 3));
+        cJSON_AddNumberToObject(o, "power", l->power);
+        cJSON_AddItemToObject(o, "field_rgb", esr_json_float_array(l->field_rgb, 3));
+        cJSON_AddItemToObject(o, "strength_scale", esr_json_float_array(l->scale, 3));
+        cJSON_AddNumberToObject(o, "calibration_points", l->calib_points);
+        cJSON_AddItemToArray(arr, o);
+    }
+    return root;
+}
+
+static int lights(const char *run, const char *data_override, int again)
+{
+    char ckpt[4200], data[4096], out[4200];
+    snprintf(ckpt, sizeof ckpt, "%s/ckpt_pdra.bin", run);
+    struct esr_model m;
+    ESR_TRY(esr_model_load(&m, ckpt));
+    int rc = m.stage_done ? ESR_OK
+                          : ESR_FAIL("%s: the pdra stage has not finished (step %ld); train it "
+                                     "to the end first",
+                                     ckpt, m.step);
+    if (rc == ESR_OK && (again || m.lights.n == 0)) {
+        rc = esr_run_data_dir(run, data_override, data, sizeof data);
+        if (rc == ESR_OK)
+            rc = recompute(&m, data);
+        if (rc == ESR_OK)
+            rc = esr_model_save(&m, ckpt);
+    }
+    if (rc == ESR_OK) {
+        printf("%d light%s (emitter threshold k %.3g):\n", m.lights.n, m.lights.n == 1 ? "" : "s",
+               (double)m.cfg.emitter_k);
+        printf("  id  centroid                 area    emitted radiance (linear RGB)   power    "
+               "strength scale\n");
+        for (int i = 0; i < m.lights.n; i++) {
+            const struct esr_light *l = &m.lights.light[i];
+            printf("  %2d  (%6.2f %6.2f %6.2f)  %6.3f  %8.3g %8.3g %8.3g  %8.3g  %.2f %.2f %.2f\n", i,
+                   (double)l->centroid[0], (double)l->centroid[1], (double)l->centroid[2],
+                   (double)l->area, (double)l->radiance[0], (double)l->radiance[1],
+                   (double)l->radiance[2], (double)l->power, (double)l->scale[0],
+                   (double)l->scale[1], (double)l->scale[2]);
+        }
+        snprintf(out, sizeof out, "%s/lights.json", run);
+        rc = esr_json_write_atomic(out, lights_json(&m, ckpt));
+        if (rc == ESR_OK)
+            fprintf(stderr, "wrote %s\n", out);
+    }
+    esr_model_free(&m);
+    return rc;
+}
+
+static int run_lights(int argc, char **argv)
+{
+    if (cli_wants_help(&cmd_lights, argc, argv))
+        return 0;
+    const char *run = NULL, *data = NULL;
+    int again = 0;
+    for (int i = 1; i < argc; i++) {
+        const char *a = argv[i];
+        if (!strcmp(a, "--recompute"))
+            again = 1;
+        else if (!strcmp(a, "--data") && i + 1 < argc)
+            data = argv[++i];
+        else if (a[0] == '-' && a[1])
+            return cli_fail(&cmd_lights, "unknown option or missing value: '%s'", a);
+        else if (run)
+            return cli_fail(&cmd_lights, "more than one RUN given ('%s', '%s')", run, a);
+        else
+            run = a;
+    }
+    if (!run)
+        return cli_fail(&cmd_lights, "missing RUN directory");
+    return lights(run, data, again) == ESR_OK ? 0 : cli_fail_lib(&cmd_lights);
+}

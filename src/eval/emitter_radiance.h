@@ -1,0 +1,31 @@
+/* Emitted radiance per light against the truth (issue: "every light's emitted radiance within
+ * 15% of the truth"): for each light K that scene.json lists with its emitted radiance, the mean
+ * of the rendered composited emission N_emission.exr over the pixels of K's ground-truth mask
+ * (the frames' lights[K].mask_path), pooled over the evaluated views that have both. The mask is
+ * eroded by one pixel first: a boundary pixel's composite mixes the emitter with what is beside
+ * it (the true mask is a first-hit mask of the pixel centre).
+ *   error_pct = 100 |mean - truth| / |truth|   (RGB vectors)
+ *   ratio     = |mean| / |truth|               (how much of the light's strength was found) */
+#ifndef ESR_EVAL_EMITTER_RADIANCE_H
+#define ESR_EVAL_EMITTER_RADIANCE_H
+
+#include "io/dataset.h"
+
+struct esr_emitter_radiance {
+    int light;
+    char name[64];
+    long pixels;           /* mask pixels counted (after erosion) */
+    double mean[3], truth[3];
+    double error_pct, ratio;
+};
+
+struct esr_emitter_radiance_result {
+    int n;                 /* lights scored (0: no truth, no masks or no emission images) */
+    struct esr_emitter_radiance lights[ESR_MAX_TRUE_LIGHTS];
+};
+
+/* Scores the frames idx[0..n) of `phase` with their renders in render_dir. */
+int esr_emitter_radiance_eval(const struct esr_dataset *ds, enum esr_phase_id phase, const int *idx,
+                              int n, const char *render_dir, struct esr_emitter_radiance_result *out);
+
+#endif

@@ -1,0 +1,62 @@
+/* Lights of a model: labels and calibration lookups (see lights.h). */
+#include "model/lights.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+void esr_lights_free(struct esr_lights *L)
+{
+    free(L->label);
+    memset(L, 0, sizeof(*L));
+}
+
+int esr_lights_id_at(const struct esr_lights *L, const float pos[3])
+{
+    if (L->n == 0 || !L->label)
+        return -1;
+    const struct esr_grid *g = &L->grid;
+    const int n[3] = {g->nx, g->ny, g->nz};
+    int lo[3];
+    float fr[3];
+    for (int a = 0; a < 3; a++) {
+        float u = (pos[a] - g->bmin[a]) / (g->bmax[a] - g->bmin[a]) * (float)(n[a] - 1);
+        if (!(u >= 0.0f && u <= (float)(n[a] - 1)))
+            return -1;
+        lo[a] = (int)u;
+        if (lo[a] > n[a] - 2)
+            lo[a] = n[a] - 2;
+        fr[a] = u - (float)lo[a];
+    }
+    /* corners nearest first: by squared distance in lattice units */
+    int best = -1;
+    float best_d = INFINITY;
+    for (int c = 0; c < 8; c++) {
+        const int o[3] = {c & 1, (c >> 1) & 1, (c >> 2) & 1};
+        const size_t i = ((size_t)(lo[2] + o[2]) * (size_t)n[1] + (size_t)(lo[1] + o[1])) *
+                             (size_t)n[0] + (size_t)(lo[0] + o[0]);
+        if (!L->label[i])
+            continue;
+        float d = 0.0f;
+        for (int a = 0; a < 3; a++)
+            d += (fr[a] - (float)o[a]) * (fr[a] - (float)o[a]);
+        if (d < best_d) {
+            best_d = d;
+            best = L->label[i] - 1;
+        }
+    }
+    return best;
+}
+
+void esr_lights_scale_emission(const struct esr_lights *L, const float *pos3, size_t n, float *emit3)
+{
+    if (L->n == 0)
+        return;
+#pragma omp parallel for schedule(static)
+    for (size_t i = 0; i < n; i++) {
+        const int id = esr_lights_id_at(L, pos3 + i * 3);
+        if (id >= 0)
+            for (int c = 0; c < 3; c++)
+                emit3[i * 3 + c] *= L->light[id].scale[c];
+    }
+}

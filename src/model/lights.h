@@ -1,0 +1,56 @@
+/* The lights a model found (pdra stage, train/lights.h): the emitting surface split into
+ * separate lights, each with an id, and each light's emission strength calibrated against the
+ * light it casts on the rest of the scene.
+ *
+ * Storage: a label per lattice point of the SDF grid (0 = not an emitter, id + 1 otherwise) and
+ * a small table per light. E(x) of a point on light K is reported as scale_K (per channel) x the
+ * emission field's E(x): the field is trained on LDR images, where every emitter is saturated, so
+ * it learns the emitters' shape and hue but not their strength; the scale restores the strength
+ * (train/lights.h says how). Saved in the checkpoint (model/checkpoint.c). */
+#ifndef ESR_MODEL_LIGHTS_H
+#define ESR_MODEL_LIGHTS_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "fields/grid.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+#define ESR_MAX_LIGHTS 16
+
+struct esr_light {
+    float centroid[3];    /* world position, mean of the light's surface points */
+    float area;           /* surface area, world units^2 (surface points x voxel face area) */
+    long points;          /* surface lattice points labelled with this light */
+    float field_rgb[3];   /* mean E of the emission field over those points (uncalibrated) */
+    float scale[3];       /* per-channel strength calibration (1 = the field as trained) */
+    float radiance[3];    /* emitted radiance found: scale x field_rgb (linear RGB) */
+    float power;          /* emitted power, luminance x pi x area (Lambertian, one side; W-like
+                             units of the dataset's radiance) */
+    float calib_points;   /* non-emitting surface points whose lighting fixed the scale */
+};
+
+struct esr_lights {
+    int n;                /* 0: none found (or not computed) */
+    struct esr_light light[ESR_MAX_LIGHTS];
+    struct esr_grid grid; /* the lattice the labels live on (the SDF grid's) */
+    uint8_t *label;       /* [nx*ny*nz] 0 or id + 1; NULL when n == 0 */
+};
+
+void esr_lights_free(struct esr_lights *L);
+
+/* Light id of a surface point (the label of the nearest labelled corner of its lattice cell),
+ * or -1. */
+int esr_lights_id_at(const struct esr_lights *L, const float pos[3]);
+
+/* The calibrated emission of n points: emit3 [n*3] multiplied in place by the scale of each
+ * point's light (points on no light keep E). */
+void esr_lights_scale_emission(const struct esr_lights *L, const float *pos3, size_t n, float *emit3);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

@@ -1,0 +1,51 @@
+/* The environment map's starting brightness (see env_init.h). */
+#include "train/env_init.h"
+
+#include <stdlib.h>
+
+#include "core/error.h"
+#include "core/rng.h"
+
+#define RAYS 8192
+/* a ray sees a surface when its opacity exceeds this */
+#define SURFACE_OPACITY 0.5f
+
+int esr_env_init_level(const struct esr_model *prev, const float *orig3, const float *dir3,
+                       size_t n, uint64_t seed, float *level, float *surface_mean)
+{
+    if (n == 0)
+        return ESR_FAIL("environment level: no lights-off rays to measure it on");
+    float *o = malloc(RAYS * 3 * sizeof(float)), *d = malloc(RAYS * 3 * sizeof(float));
+    float *lin = malloc(RAYS * 3 * sizeof(float)), *opac = malloc(RAYS * sizeof(float));
+    int rc = o && d && lin && opac ? ESR_OK : ESR_FAIL("environment level: out of memory");
+    struct esr_rng rng = esr_rng_init(seed, 0xe7);
+    for (int i = 0; rc == ESR_OK && i < RAYS; i++) {
+        const size_t r = (size_t)(((uint64_t)esr_rng_u32(&rng) << 32 | esr_rng_u32(&rng)) % n);
+        for (int c = 0; c < 3; c++) {
+            o[i * 3 + c] = orig3[r * 3 + c];
+            d[i * 3 + c] = dir3[r * 3 + c];
+        }
+    }
+    if (rc == ESR_OK) {
+        struct esr_render_out out = {.linear = lin, .opacity = opac};
+        rc = esr_model_render_rays(prev, o, d, RAYS, 0, &out);
+    }
+    double sum = 0.0;
+    long count = 0;
+    for (int i = 0; rc == ESR_OK && i < RAYS; i++) {
+        const float a = opac[i];
+        if (a <= SURFACE_OPACITY)
+            continue;
+        for (int c = 0; c < 3; c++) /* the surface's own radiance: lin = a L + (1 - a) white */
+            sum += (lin[i * 3 + c] - (1.0f - a)) / a;
+        count += 3;
+    }
+    if (rc == ESR_OK && count == 0)
+        rc = ESR_FAIL("environment level: none of %d lights-off rays sees a surface", RAYS);
+    if (rc == ESR_OK) {
+        *surface_mean = (float)(sum / (double)count);
+        *level = (*surface_mean > 1e-4f ? *surface_mean : 1e-4f) / ESR_ENV_INIT_AV;
+    }
+    free(o), free(d), free(lin), free(opac);
+    return rc;
+}

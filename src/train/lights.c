@@ -1,0 +1,503 @@
+/* Lights as objects: finding and calibrating them (see lights.h). */
+#include "train/lights.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "core/brdf.h"
+#include "core/colour.h"
+#include "core/error.h"
+#include "core/rng.h"
+#include "core/vec3.h"
+#include "fields/grid.h"
+#include "model/material_fields.h"
+#include "model/trace.h"
+#include "train/lts.h"
+
+/* a component smaller than this share of all emitting points (or points) is noise */
+#define LIGHTS_MIN_SHARE 0.005
+#define LIGHTS_MIN_POINTS 8
+/* material-field evaluations per batch */
+#define EVAL_CHUNK 16384
+/* calibration: LTS points per call, directions per point, camera rays traced per batch */
+#define CALIB_CHUNK 250
+#define CALIB_DIRS 128
+#define CALIB_RAYS 8192
+#define CALIB_MAX_ROUNDS 64
+/* a calibration point: a ray's strongest sample of at least this weight (a surface) ... */
+#define CALIB_SURFACE_WEIGHT 0.3f
+/* ... whose emission stays below this share of k (not an emitter, nor its fringe) */
+#define CALIB_E_SHARE 0.25f
+/* ridge towards scale 1, relative to each light's own normal-equation diagonal */
+#define CALIB_RIDGE 1e-3
+
+static size_t lattice_index(const struct esr_grid *g, int x, int y, int z)
+{
+    return ((size_t)z * (size_t)g->ny + (size_t)y) * (size_t)g->nx + (size_t)x;
+}
+
+/* Lattice points with a sign change to an axis neighbour: indices and surface positions
+ * (projected along the SDF gradient by at most a voxel) and unit normals. */
+static int surface_points(const struct esr_model *m, uint32_t **idx_out, float **pos_out,
+                          float **nrm_out, size_t *n_out)
+{
+    const struct esr_grid *g = esr_model_grid(m, ESR_COMP_SDF);
+    const float *f = esr_model_values(m, ESR_COMP_SDF);
+    size_t n = 0, cap = 1 << 16;
+    uint32_t *idx = malloc(cap * sizeof(uint32_t));
+    if (!idx)
+        return ESR_FAIL("lights: out of memory for the surface points");
+    for (int z = 0; z < g->nz; z++)
+        for (int y = 0; y < g->ny; y++)
+            for (int x = 0; x < g->nx; x++) {
+                const size_t i = lattice_index(g, x, y, z);
+                const int in = f[i] <= 0.0f;
+                const int nb[6][3] = {{x - 1, y, z}, {x + 1, y, z}, {x, y - 1, z},
+                                      {x, y + 1, z}, {x, y, z - 1}, {x, y, z + 1}};
+                int edge = 0;
+                for (int k = 0; k < 6 && !edge; k++) {
+                    const int *q = nb[k];
+                    if (q[0] < 0 || q[1] < 0 || q[2] < 0 || q[0] >= g->nx || q[1] >= g->ny ||
+                        q[2] >= g->nz)
+                        continue;
+                    edge = (f[lattice_index(g, q[0], q[1], q[2])] <= 0.0f) != in;
+                }
+                if (!edge)
+                    continue;
+                if (n == cap) {
+                    uint32_t *t = realloc(idx, 2 * cap * sizeof(uint32_t));
+                    if (!t) {
+                        free(idx);
+                        return ESR_FAIL("lights: out of memory for the surface points");
+                    }
+                    idx = t;
+                    cap *= 2;
+                }
+                idx[n++] = (uint32_t)i;
+            }
+    float *pos = malloc((n ? n : 1) * 3 * sizeof(float)), *nrm = malloc((n ? n : 1) * 3 * sizeof(float));
+    if (!pos || !nrm) {
+        free(idx), free(pos), free(nrm);
+        return ESR_FAIL("lights: out of memory for %zu surface points", n);
+    }
+    for (size_t k = 0; k < n; k++) {
+        const size_t i = idx[k];
+        const int x = (int)(i % (size_t)g->nx), y = (int)(i / (size_t)g->nx % (size_t)g->ny),
+                  z = (int)(i / ((size_t)g->nx * (size_t)g->ny));
+        esr_grid_voxel_pos(g, x, y, z, pos + k * 3);
+    }
+    esr_grid_sample_dpoint(g, f, 0, pos, n, nrm);
+    const float h = esr_grid_voxel_size(g, 0);
+#pragma omp parallel for schedule(static)
+    for (size_t k = 0; k < n; k++) {
+        float *p = pos + k * 3, *d = nrm + k * 3;
+        const float g2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+        if (g2 < 1e-20f) {
+            d[0] = d[1] = 0.0f, d[2] = 1.0f;
+            continue;
+        }
+        float step = -f[idx[k]] / g2; /* Newton step onto the level set, at most a voxel */
+        const float len = fabsf(step) * sqrtf(g2);
+        if (len > h)
+            step *= h / len;
+        const float inv = 1.0f / sqrtf(g2);
+        for (int a = 0; a < 3; a++) {
+            p[a] += step * d[a];
+            d[a] *= inv;
+        }
+    }
+    *idx_out = idx;
+    *pos_out = pos;
+    *nrm_out = nrm;
+    *n_out = n;
+    return ESR_OK;
+}
+
+/* E at n points, in chunks. */
+static int emission_at(const struct esr_model *m, const float *pos3, size_t n, float *emit3)
+{
+    struct esr_material_fields mf;
+    ESR_TRY(esr_material_fields_init(&mf, m, EVAL_CHUNK, ESR_MATERIAL_EMISSION_ONLY));
+    const float *sdf = esr_model_values(m, ESR_COMP_SDF);
+    int rc = ESR_OK;
+    for (size_t i0 = 0; i0 < n && rc == ESR_OK; i0 += EVAL_CHUNK) {
+        const size_t c = n - i0 < EVAL_CHUNK ? n - i0 : EVAL_CHUNK;
+        rc = esr_material_fields_fwd(&mf, m, sdf, pos3 + i0 * 3, c);
+        if (rc == ESR_OK)
+            memcpy(emit3 + i0 * 3, mf.emit3, c * 3 * sizeof(float));
+    }
+    esr_material_fields_free(&mf);
+    return rc;
+}
+
+static float max3(const float *v)
+{
+    return fmaxf(v[0], fmaxf(v[1], v[2]));
+}
+
+/* 26-connected components of the flagged lattice points (comp[i] = component or -1); returns
+ * the number of components, their sizes in *sizes (allocated). */
+static int components(const struct esr_grid *g, const uint8_t *flag, int32_t *comp,
+                      uint32_t *queue, long **sizes_out, int *n_out)
+{
+    const size_t N = esr_grid_voxels(g);
+    int nc = 0, cap = 64;
+    long *sizes = malloc((size_t)cap * sizeof(long));
+    if (!sizes)
+        return ESR_FAIL("lights: out of memory");
+    for (size_t i = 0; i < N; i++)
+        comp[i] = -1;
+    for (size_t s = 0; s < N; s++) {
+        if (!flag[s] || comp[s] >= 0)
+            continue;
+        if (nc == cap) {
+            long *t = realloc(sizes, (size_t)(cap *= 2) * sizeof(long));
+            if (!t) {
+                free(sizes);
+                return ESR_FAIL("lights: out of memory");
+            }
+            sizes = t;
+        }
+        size_t head = 0, tail = 0;
+        queue[tail++] = (uint32_t)s;
+        comp[s] = nc;
+        while (head < tail) {
+            const size_t i = queue[head++];
+            const int x = (int)(i % (size_t)g->nx), y = (int)(i / (size_t)g->nx % (size_t)g->ny),
+                      z = (int)(i / ((size_t)g->nx * (size_t)g->ny));
+            for (int dz = -1; dz <= 1; dz++)
+                for (int dy = -1; dy <= 1; dy++)
+                    for (int dx = -1; dx <= 1; dx++) {
+                        const int u = x + dx, v = y + dy, w = z + dz;
+                        if (u < 0 || v < 0 || w < 0 || u >= g->nx || v >= g->ny || w >= g->nz)
+                            continue;
+                        const size_t j = lattice_index(g, u, v, w);
+                        if (flag[j] && comp[j] < 0) {
+                            comp[j] = nc;
+                            queue[tail++] = (uint32_t)j;
+                        }
+                    }
+        }
+        sizes[nc++] = (long)tail;
+    }
+    *sizes_out = sizes;
+    *n_out = nc;
+    return ESR_OK;
+}
+
+int esr_lights_find(struct esr_model *m)
+{
+    esr_lights_free(&m->lights);
+    if (!esr_model_has(m, ESR_COMP_EMIT_MLP))
+        return ESR_FAIL("lights: the %s stage has no emission field (train lts and pdra first)",
+                        esr_stage_name((enum esr_stage)m->stage));
+    const struct esr_grid *g = esr_model_grid(m, ESR_COMP_SDF);
+    const size_t N = esr_grid_voxels(g);
+    const float k = m->cfg.emitter_k, h = esr_grid_voxel_size(g, 0);
+    uint32_t *idx = NULL;
+    float *pos = NULL, *nrm = NULL, *emit = NULL;
+    size_t n = 0;
+    ESR_TRY(surface_points(m, &idx, &pos, &nrm, &n));
+    uint8_t *flag = calloc(N, 1);
+    int32_t *comp = malloc(N * sizeof(int32_t));
+    uint32_t *queue = malloc(N * sizeof(uint32_t));
+    emit = malloc((n ? n : 1) * 3 * sizeof(float));
+    long *sizes = NULL;
+    int nc = 0;
+    int rc = flag && comp && queue && emit ? ESR_OK : ESR_FAIL("lights: out of memory");
+    if (rc == ESR_OK)
+        rc = emission_at(m, pos, n, emit);
+    long emitting = 0;
+    for (size_t i = 0; rc == ESR_OK && i < n; i++)
+        if (max3(emit + i * 3) > k) {
+            flag[idx[i]] = 1;
+            emitting++;
+        }
+    if (rc == ESR_OK)
+        rc = components(g, flag, comp, queue, &sizes, &nc);
+    /* the kept components, largest first: id_of[c] = light id or -1 */
+    int32_t *id_of = rc == ESR_OK ? malloc((size_t)(nc ? nc : 1) * sizeof(int32_t)) : NULL;
+    int kept = 0;
+    if (rc == ESR_OK && !id_of)
+        rc = ESR_FAIL("lights: out of memory");
+    const long min_points = (long)fmax(LIGHTS_MIN_POINTS, LIGHTS_MIN_SHARE * (double)emitting);
+    for (int c = 0; rc == ESR_OK && c < nc; c++)
+        id_of[c] = -1;
+    while (rc == ESR_OK && kept < ESR_MAX_LIGHTS) {
+        int best = -1;
+        for (int c = 0; c < nc; c++)
+            if (id_of[c] < 0 && sizes[c] >= min_points && (best < 0 || sizes[c] > sizes[best]))
+                best = c;
+        if (best < 0)
+            break;
+        id_of[best] = kept++;
+    }
+    struct esr_lights *L = &m->lights;
+    if (rc == ESR_OK && kept > 0) {
+        L->grid = *g;
+        L->grid.channels = 1;
+        if (!(L->label = calloc(N, 1)))
+            rc = ESR_FAIL("lights: out of memory for the labels");
+    }
+    if (rc == ESR_OK && kept > 0) {
+        L->n = kept;
+        double acc[ESR_MAX_LIGHTS][7]; /* centroid 3, E 3, area */
+        memset(acc, 0, sizeof acc);
+        for (size_t i = 0; i < n; i++) {
+            const int c = comp[idx[i]];
+            const int id = c < 0 ? -1 : id_of[c];
+            if (id < 0)
+                continue;
+            L->label[idx[i]] = (uint8_t)(id + 1);
+            L->light[id].points++;
+            for (int a = 0; a < 3; a++) {
+                acc[id][a] += pos[i * 3 + a];
+                acc[id][3 + a] += emit[i * 3 + a];
+            }
+            /* the band's points on each side of a plane tile it once: one per lattice step
+             * along the normal's dominant axis, so each stands for h^2 / max|n_a| of area; both
+             * sides, halved, cancel a curved surface's first-order shell growth (outside) and
+             * shrinkage (inside) */
+            const float *d = nrm + i * 3;
+            const float mx = fmaxf(fabsf(d[0]), fmaxf(fabsf(d[1]), fabsf(d[2])));
+            acc[id][6] += 0.5 * (double)h * h / fmax(mx, 0.577);
+        }
+        for (int j = 0; j < kept; j++) {
+            struct esr_light *l = &L->light[j];
+            const double np = (double)(l->points > 0 ? l->points : 1);
+            for (int a = 0; a < 3; a++) {
+                l->centroid[a] = (float)(acc[j][a] / np);
+                l->field_rgb[a] = (float)(acc[j][3 + a] / np);
+                l->scale[a] = 1.0f;
+                l->radiance[a] = l->field_rgb[a];
+            }
+            l->area = (float)acc[j][6];
+            l->power = esr_luminance(l->radiance) * (float)M_PI * l->area;
+        }
+    }
+    free(idx), free(pos), free(nrm), free(emit), free(flag), free(comp), free(queue), free(sizes);
+    free(id_of);
+    if (rc != ESR_OK)
+        esr_lights_free(L);
+    return rc;
+}
+
+/* Calibration points: the strongest sample (weight >= CALIB_SURFACE_WEIGHT) of evenly spread
+ * rays, kept when it lies on no light and its E is well below k. */
+static int calib_points(const struct esr_model *m, const float *orig3, const float *dir3, size_t n,
+                        int want, uint64_t seed, float *pos3, float *dir_out3, int *got)
+{
+    const float *sdf = esr_model_values(m, ESR_COMP_SDF);
+    const float k = m->cfg.emitter_k;
+    struct esr_trace t;
+    struct esr_material_fields mf;
+    ESR_TRY(esr_trace_init(&t, m, CALIB_RAYS, 0));
+    int rc = esr_material_fields_init(&mf, m, CALIB_RAYS, ESR_MATERIAL_EMISSION_ONLY);
+    float *o = malloc(CALIB_RAYS * 3 * sizeof(float)), *d = malloc(CALIB_RAYS * 3 * sizeof(float));
+    float *cand = malloc(CALIB_RAYS * 6 * sizeof(float));
+    uint8_t *on = calloc(CALIB_RAYS, 1);
+    if (rc == ESR_OK && (!o || !d || !cand || !on))
+        rc = ESR_FAIL("lights: out of memory for the calibration rays");
+    *got = 0;
+    /* rounds of CALIB_RAYS random rays (a fixed stride would alias with the image width) */
+    struct esr_rng rng = esr_rng_init(seed, 0x11ad5);
+    for (int round = 0; rc == ESR_OK && *got < want && round < CALIB_MAX_ROUNDS; round++) {
+        const int nr = CALIB_RAYS;
+        for (int i = 0; i < nr; i++) {
+            const size_t r = (size_t)(((uint64_t)esr_rng_u32(&rng) << 32 | esr_rng_u32(&rng)) % n);
+            memcpy(o + i * 3, orig3 + r * 3, 3 * sizeof(float));
+            memcpy(d + i * 3, dir3 + r * 3, 3 * sizeof(float));
+        }
+        rc = esr_trace_fwd(&t, m, sdf, o, d, on, nr, seed);
+        const struct esr_march *mc = &t.march;
+        int nc = 0;
+        for (int r = 0; rc == ESR_OK && r < nr; r++) {
+            float wmax = 0.0f;
+            size_t best = 0;
+            for (size_t q = mc->kept_start[r]; q < mc->kept_start[r + 1]; q++)
+                if (mc->weight[mc->kidx[q]] > wmax) {
+                    wmax = mc->weight[mc->kidx[q]];
+                    best = q;
+                }
+            if (wmax < CALIB_SURFACE_WEIGHT || esr_lights_id_at(&m->lights, mc->kpos3 + best * 3) >= 0)
+                continue;
+            memcpy(cand + nc * 6, mc->kpos3 + best * 3, 3 * sizeof(float));
+            memcpy(cand + nc * 6 + 3, mc->kdir3 + best * 3, 3 * sizeof(float));
+            nc++;
+        }
+        for (int c = 0; c < nc; c++) /* positions contiguous for the E query */
+            memcpy(o + c * 3, cand + c * 6, 3 * sizeof(float));
+        if (rc == ESR_OK && nc > 0)
+            rc = esr_material_fields_fwd(&mf, m, sdf, o, (size_t)nc);
+        for (int c = 0; rc == ESR_OK && c < nc && *got < want; c++) {
+            if (max3(mf.emit3 + c * 3) >= CALIB_E_SHARE * k)
+                continue;
+            memcpy(pos3 + *got * 3, cand + c * 6, 3 * sizeof(float));
+            memcpy(dir_out3 + *got * 3, cand + c * 6 + 3, 3 * sizeof(float));
+            (*got)++;
+        }
+    }
+    free(o), free(d), free(cand), free(on);
+    esr_material_fields_free(&mf);
+    esr_trace_free(&t);
+    return rc;
+}
+
+/* Solves (G + ridge) s = r + ridge . 1 for K unknowns by Gaussian elimination with partial
+ * pivoting; G is K x K row-major (overwritten). */
+static void solve_ridge(int K, double *G, double *r, double *s)
+{
+    for (int i = 0; i < K; i++) {
+        const double lam = CALIB_RIDGE * G[i * K + i] + 1e-12;
+        G[i * K + i] += lam;
+        r[i] += lam;
+    }
+    for (int c = 0; c < K; c++) {
+        int piv = c;
+        for (int i = c + 1; i < K; i++)
+            if (fabs(G[i * K + c]) > fabs(G[piv * K + c]))
+                piv = i;
+        for (int j = 0; j < K; j++) {
+            double t = G[c * K + j];
+            G[c * K + j] = G[piv * K + j];
+            G[piv * K + j] = t;
+        }
+        double t = r[c];
+        r[c] = r[piv];
+        r[piv] = t;
+        for (int i = c + 1; i < K; i++) {
+            const double f = G[i * K + c] / G[c * K + c];
+            for (int j = c; j < K; j++)
+                G[i * K + j] -= f * G[c * K + j];
+            r[i] -= f * r[c];
+        }
+    }
+    for (int i = K - 1; i >= 0; i--) {
+        double v = r[i];
+        for (int j = i + 1; j < K; j++)
+            v -= G[i * K + j] * s[j];
+        s[i] = v / G[i * K + i];
+    }
+}
+
+/* Adds one LTS call's points to the per-channel normal equations G[c] (K x K), rhs[c] (K). */
+static void accumulate(const struct esr_model *m, const struct esr_lts *l, size_t P,
+                       const float *hit_emit3, double *G, double *rhs, double *seen)
+{
+    const int K = m->lights.n;
+    const size_t M = (size_t)l->M;
+    for (size_t p = 0; p < P; p++) {
+        const struct esr_vec3 n = esr_v3(l->nrm3[p * 3], l->nrm3[p * 3 + 1], l->nrm3[p * 3 + 2]);
+        const struct esr_vec3 wo = esr_v3(l->wo3[p * 6], l->wo3[p * 6 + 1], l->wo3[p * 6 + 2]);
+        if (esr_v3_dot(n, wo) <= 0.0f)
+            continue;
+        struct esr_material mat;
+        const float *b = l->mf.brdf5 + p * ESR_BRDF_CHANNELS;
+        for (int c = 0; c < 3; c++)
+            mat.base[c] = b[c];
+        mat.roughness = b[3];
+        mat.metallic = b[4];
+        double A[ESR_MAX_LIGHTS][3], B[3] = {0, 0, 0};
+        memset(A, 0, sizeof A);
+        for (size_t j = 0; j < M; j++) {
+            const size_t i = p * M + j;
+            if (l->hit_row[i] < 0)
+                continue;
+            float R[3];
+            const float *wi = l->wi3 + i * 3;
+            esr_brdf_eval(&mat, n, wo, esr_v3(wi[0], wi[1], wi[2]), R);
+            const int id = esr_lights_id_at(&m->lights, l->hit_pos3 + i * 3);
+            for (int c = 0; c < 3; c++) {
+                const double w = (double)R[c] * l->wt[i], li = l->li_emo3[i * 3 + c];
+                if (id >= 0) { /* the light's emission, and what it reflects */
+                    A[id][c] += hit_emit3[i * 3 + c] * w;
+                    B[c] += (li - hit_emit3[i * 3 + c]) * w;
+                } else {
+                    B[c] += li * w;
+                }
+            }
+        }
+        /* L_emo at the point for the camera direction: on row minus off row */
+        const float *lin = l->pf.lin3;
+        for (int c = 0; c < 3; c++) {
+            const double y = (double)lin[(p * 4 + 1) * 3 + c] - lin[(p * 4) * 3 + c] - B[c];
+            for (int a = 0; a < K; a++) {
+                rhs[c * K + a] += A[a][c] * y;
+                for (int e = 0; e < K; e++)
+                    G[(c * K + a) * K + e] += A[a][c] * A[e][c];
+            }
+        }
+        for (int a = 0; a < K; a++)
+            seen[a] += A[a][0] + A[a][1] + A[a][2] > 0.0;
+    }
+}
+
+int esr_lights_calibrate(struct esr_model *m, const float *orig3, const float *dir3, size_t n,
+                         int want, uint64_t seed)
+{
+    const int K = m->lights.n;
+    if (K == 0 || want <= 0)
+        return ESR_OK;
+    float *pos = malloc((size_t)want * 3 * sizeof(float)), *dir = malloc((size_t)want * 3 * sizeof(float));
+    const size_t ns = esr_grid_count(esr_model_grid(m, ESR_COMP_SDF));
+    float *grads = calloc(m->params.count, sizeof(float)), *g_sdf = calloc(ns, sizeof(float));
+    double *G = calloc((size_t)3 * K * K, sizeof(double)), *rhs = calloc((size_t)3 * K, sizeof(double));
+    double seen[ESR_MAX_LIGHTS] = {0};
+    int got = 0;
+    int rc = pos && dir && grads && g_sdf && G && rhs
+                 ? ESR_OK
+                 : ESR_FAIL("lights: out of memory for the calibration");
+    if (rc == ESR_OK)
+        rc = calib_points(m, orig3, dir3, n, want, seed, pos, dir, &got);
+    /* the LTS machinery at these points: its own sizes, first hit; restored below */
+    const struct esr_train_config keep_cfg = m->cfg;
+    const long keep_step = m->step;
+    m->cfg.lts_points = CALIB_CHUNK;
+    m->cfg.lts_dirs = CALIB_DIRS;
+    m->cfg.lts_estimator = ESR_LTS_FIRST_HIT;
+    m->step = 1; /* off the normal SDF's refresh period: computed once */
+    struct esr_lts l;
+    memset(&l, 0, sizeof l);
+    if (rc == ESR_OK)
+        rc = esr_lts_init(&l, m);
+    struct esr_material_fields mf;
+    memset(&mf, 0, sizeof mf);
+    if (rc == ESR_OK)
+        rc = esr_material_fields_init(&mf, m, (size_t)CALIB_CHUNK * CALIB_DIRS,
+                                      ESR_MATERIAL_EMISSION_ONLY);
+    const float *sdf = esr_model_values(m, ESR_COMP_SDF);
+    for (int p0 = 0; rc == ESR_OK && p0 < got; p0 += CALIB_CHUNK) {
+        const size_t P = (size_t)(got - p0 < CALIB_CHUNK ? got - p0 : CALIB_CHUNK);
+        struct esr_march pts; /* the points as a kept list: the LTS takes each once */
+        memset(&pts, 0, sizeof pts);
+        pts.n_kept = P;
+        pts.kpos3 = pos + (size_t)p0 * 3;
+        pts.kdir3 = dir + (size_t)p0 * 3;
+        struct esr_lts_stats st;
+        rc = esr_lts_run(&l, m, sdf, g_sdf, grads, &pts, NULL, seed + (uint64_t)p0, &st);
+        if (rc == ESR_OK)
+            rc = esr_material_fields_fwd(&mf, m, sdf, l.hit_pos3, P * CALIB_DIRS);
+        if (rc == ESR_OK)
+            accumulate(m, &l, P, mf.emit3, G, rhs, seen);
+    }
+    esr_material_fields_free(&mf);
+    esr_lts_free(&l);
+    m->cfg = keep_cfg;
+    m->step = keep_step;
+    for (int c = 0; rc == ESR_OK && c < 3; c++) {
+        double s[ESR_MAX_LIGHTS];
+        solve_ridge(K, G + (size_t)c * K * K, rhs + (size_t)c * K, s);
+        for (int a = 0; a < K; a++)
+            m->lights.light[a].scale[c] = (float)fmax(s[a], 0.0);
+    }
+    for (int a = 0; rc == ESR_OK && a < K; a++) {
+        struct esr_light *lt = &m->lights.light[a];
+        for (int c = 0; c < 3; c++)
+            lt->radiance[c] = lt->scale[c] * lt->field_rgb[c];
+        lt->power = esr_luminance(lt->radiance) * (float)M_PI * lt->area;
+        lt->calib_points = (float)seen[a];
+    }
+    free(pos), free(dir), free(grads), free(g_sdf), free(G), free(rhs);
+    return rc;
+}

@@ -1,0 +1,49 @@
+/* Lights as objects (after the pdra stage): which surfaces emit, split into separate lights, and
+ * how strongly each emits (model/lights.h holds the result).
+ *
+ * Finding: the SDF lattice points next to the zero level set (a sign change to an axis
+ * neighbour) are projected onto the surface; E is evaluated there, and a point emits when any
+ * channel of E exceeds the emitter threshold k (the pdra stage's final k). Emitting points are
+ * split into 26-connected components; components below LIGHTS_MIN_SHARE of the emitting points
+ * (or LIGHTS_MIN_POINTS) are noise and dropped; the rest, largest first, are the lights.
+ *
+ * Strength: the emission field learns from LDR images, where every emitter is clipped to white,
+ * so E comes out near 1 whatever the true strength. What does pin the strength is the light the
+ * emitters cast on the rest of the scene: at a non-emitting surface point x the emo radiance the
+ * images show must equal what the lights and the other surfaces send there,
+ *     L_emo(x, wo) = sum_K s_K . A_K(x) + B(x)   (per channel)
+ *     A_K(x) = sum_j E(y_j) R(x, wo, w_j) / (M pdf_j)      over directions whose first hit y_j
+ *                                                          lies on light K
+ *     B(x)   = the same sum of the other incident emo radiance (other surfaces, the lights'
+ *              own reflected part L_emo(y) - E(y))
+ * (the LTS estimate of seed eq. 4 with the trained BRDF, lts_dirs x CALIB_DIR_FACTOR cosine
+ * directions, first-hit estimator). The scales s_K come from least squares over calib_points
+ * points seen by the lights-off training cameras, per channel, with a small ridge towards 1 so
+ * that a light no point sees keeps its field strength. Caveat: images fix the product of albedo
+ * and light, so s_K is only as right as the reconstructed base colour (see docs). */
+#ifndef ESR_TRAIN_LIGHTS_H
+#define ESR_TRAIN_LIGHTS_H
+
+#include <stddef.h>
+
+#include "model/model.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* Calibration points the trainer and `esr lights` use. */
+#define ESR_LIGHTS_CALIB_POINTS 2000
+
+/* Labels the emitting surface of m into lights (m->lights, replacing any), scales 1. */
+int esr_lights_find(struct esr_model *m);
+
+/* Calibrates the strength of m's lights from calib_points surface points of the lights-off rays
+ * (orig3/dir3 [n*3]; rays are picked evenly). Sets scale, radiance, power, calib_points. */
+int esr_lights_calibrate(struct esr_model *m, const float *orig3, const float *dir3, size_t n,
+                         int calib_points, uint64_t seed);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

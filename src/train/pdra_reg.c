@@ -1,0 +1,129 @@
+/* The pdra stage's regularisers (see pdra_reg.h). */
+#include "train/pdra_reg.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "core/error.h"
+#include "core/rng.h"
+#include "fields/grid.h"
+
+/* the entropy's transmittance is clamped this far from 0 and 1 (H' is infinite there) */
+#define ENT_EPS 1e-5f
+
+void esr_pdra_reg_free(struct esr_pdra_reg *r)
+{
+    esr_material_fields_free(&r->mf);
+    free(r->jit3);
+    free(r->d_jit3);
+    free(r->g0);
+    free(r->g1);
+    free(r->d_g);
+    memset(r, 0, sizeof(*r));
+}
+
+static int reserve(struct esr_pdra_reg *r, size_t n)
+{
+    if (n <= r->cap)
+        return ESR_OK;
+    const size_t cap = n + n / 4;
+    float **b[] = {&r->jit3, &r->d_jit3, &r->g0, &r->g1, &r->d_g};
+    int ok = 1;
+    for (size_t i = 0; i < sizeof b / sizeof b[0]; i++) {
+        free(*b[i]);
+        ok &= (*b[i] = malloc(cap * 3 * sizeof(float))) != NULL;
+    }
+    if (!ok)
+        return ESR_FAIL("pdra: out of memory for the regularisers' %zu rows", cap);
+    r->cap = cap;
+    return ESR_OK;
+}
+
+int esr_pdra_reg_init(struct esr_pdra_reg *r, const struct esr_model *m, size_t cap)
+{
+    memset(r, 0, sizeof(*r));
+    int rc = esr_material_fields_init(&r->mf, m, cap, ESR_MATERIAL_TRAIN | ESR_MATERIAL_EMISSION_ONLY);
+    if (rc == ESR_OK)
+        rc = reserve(r, cap);
+    if (rc != ESR_OK)
+        esr_pdra_reg_free(r);
+    return rc;
+}
+
+/* jit3 = pos3 + sigma N(0, 1) per coordinate (Box-Muller on stream i of seed). */
+static void jitter(const float *pos3, size_t n, float sigma, uint64_t seed, float *jit3)
+{
+#pragma omp parallel for schedule(static)
+    for (size_t i = 0; i < n; i++) {
+        struct esr_rng g = esr_rng_init(seed, i);
+        for (int a = 0; a < 3; a++) {
+            const float u1 = 1.0f - esr_rng_float(&g), u2 = esr_rng_float(&g);
+            jit3[i * 3 + a] = pos3[i * 3 + a] + sigma * sqrtf(-2.0f * logf(u1)) * cosf(6.2831853f * u2);
+        }
+    }
+}
+
+static float sign(float x)
+{
+    return (float)((x > 0.0f) - (x < 0.0f));
+}
+
+int esr_pdra_reg_smooth(struct esr_pdra_reg *r, const struct esr_model *m, const float *sdf,
+                        float *g_sdf, float *grads, const struct esr_march *mc, const float *emit3,
+                        float *d_emit3, uint64_t seed)
+{
+    const size_t n = mc->n_kept;
+    const struct esr_grid *g = esr_model_grid(m, ESR_COMP_SDF);
+    const float vox = esr_grid_voxel_size(g, 0);
+    r->es_loss = r->ns_loss = 0.0;
+    if (n == 0)
+        return ESR_OK;
+    ESR_TRY(reserve(r, n));
+    const float w_es = m->cfg.pdra_w_es, w_ns = m->cfg.pdra_w_ns;
+    const float scale = 1.0f / (3.0f * (float)n);
+    if (w_es > 0.0f) {
+        jitter(mc->kpos3, n, ESR_PDRA_ES_SIGMA_VOX * vox, seed, r->jit3);
+        ESR_TRY(esr_material_fields_fwd(&r->mf, m, sdf, r->jit3, n));
+        double sum = 0.0;
+        for (size_t i = 0; i < n * 3; i++) {
+            const float d = emit3[i] - r->mf.emit3[i];
+            sum += fabsf(d);
+            d_emit3[i] += w_es * scale * sign(d);
+            r->d_jit3[i] = -w_es * scale * sign(d);
+        }
+        r->es_loss = w_es * scale * sum;
+        ESR_TRY(esr_material_fields_bwd(&r->mf, m, sdf, g_sdf, grads, r->d_jit3, NULL));
+    }
+    if (w_ns > 0.0f) {
+        jitter(mc->kpos3, n, ESR_PDRA_NS_SIGMA_VOX * vox, seed ^ 0x9e3779b9ULL, r->jit3);
+        esr_grid_sample_dpoint(g, sdf, 0, mc->kpos3, n, r->g0);
+        esr_grid_sample_dpoint(g, sdf, 0, r->jit3, n, r->g1);
+        double sum = 0.0;
+        for (size_t i = 0; i < n * 3; i++) {
+            const float d = r->g0[i] - r->g1[i];
+            sum += fabsf(d);
+            r->d_g[i] = w_ns * scale * sign(d);
+        }
+        r->ns_loss = w_ns * scale * sum;
+        esr_grid_sample_dpoint_bwd(g, 0, mc->kpos3, n, r->d_g, g_sdf);
+        for (size_t i = 0; i < n * 3; i++)
+            r->d_g[i] = -r->d_g[i];
+        esr_grid_sample_dpoint_bwd(g, 0, r->jit3, n, r->d_g, g_sdf);
+    }
+    return ESR_OK;
+}
+
+double esr_pdra_reg_entropy(float w_ent, const float *t_last, int n, float *d_t_last)
+{
+    double sum = 0.0;
+    const float scale = w_ent / (float)(n > 0 ? n : 1);
+    for (int i = 0; i < n; i++) {
+        const float raw = t_last[i];
+        const float t = fminf(fmaxf(raw, ENT_EPS), 1.0f - ENT_EPS);
+        sum += -(double)t * log(t) - (1.0 - t) * log(1.0 - t);
+        /* dH/dT = ln((1 - T) / T); zero where the clamp is active */
+        d_t_last[i] = raw > ENT_EPS && raw < 1.0f - ENT_EPS ? scale * logf((1.0f - t) / t) : 0.0f;
+    }
+    return (double)scale * sum;
+}

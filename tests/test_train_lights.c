@@ -1,0 +1,151 @@
+/* Lights as objects (train/lights.h, model/lights.h): the emitting surface split into lights, each
+ * light's area and centroid, point lookups, and the lights' round trip through a checkpoint. The
+ * emission field is made constant (zero weights, last bias b: E = softplus(b) everywhere), so
+ * which surfaces emit is decided by the geometry alone and the answers are known: a sphere of
+ * radius r has area 4 pi r^2 and its centre as centroid. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <cmocka.h>
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "core/error.h"
+#include "fields/grid.h"
+#include "model/model.h"
+#include "test_model.h"
+#include "test_support.h"
+#include "train/lights.h"
+
+#define RES 48
+
+/* A pdra-stage model on [-1, 1]^3 whose SDF is the union of spheres (cx, 0, 0) of radius r and
+ * whose emission is the constant softplus(bias). */
+static void setup(struct esr_model *m, const float *cx, int n_spheres, float r, float bias)
+{
+    struct esr_train_config cfg;
+    test_small_config(&cfg, 0.5f);
+    cfg.pdra.res = RES;
+    const float bmin[3] = {-1, -1, -1}, bmax[3] = {1, 1, 1};
+    assert_int_equal(esr_model_init(m, &cfg, ESR_STAGE_PDRA, NULL, bmin, bmax), ESR_OK);
+    const struct esr_grid *g = esr_model_grid(m, ESR_COMP_SDF);
+    float *f = esr_model_values(m, ESR_COMP_SDF);
+    for (int z = 0; z < g->nz; z++)
+        for (int y = 0; y < g->ny; y++)
+            for (int x = 0; x < g->nx; x++) {
+                float p[3], d = INFINITY;
+                esr_grid_voxel_pos(g, x, y, z, p);
+                for (int s = 0; s < n_spheres; s++)
+                    d = fminf(d, sqrtf((p[0] - cx[s]) * (p[0] - cx[s]) + p[1] * p[1] + p[2] * p[2]) - r);
+                f[((size_t)z * g->ny + y) * g->nx + x] = d;
+            }
+    const struct esr_mlp *e = esr_model_mlp(m, ESR_COMP_EMIT_MLP);
+    memset(m->params.w + e->offset, 0, e->count * sizeof(float));
+    for (int c = 0; c < 3; c++)
+        m->params.w[e->b_off[e->n_layers - 1] + (size_t)c] = bias;
+}
+
+static void test_one_emitting_sphere_is_one_light(void **state)
+{
+    (void)state;
+    struct esr_model m;
+    const float cx[1] = {0.1f};
+    setup(&m, cx, 1, 0.5f, 3.0f);
+    assert_int_equal(esr_lights_find(&m), ESR_OK);
+    assert_int_equal(m.lights.n, 1);
+    const struct esr_light *l = &m.lights.light[0];
+    const double area = 4.0 * M_PI * 0.25;
+    print_message("sphere r 0.5: area %.4f (true %.4f), centroid %.3f %.3f %.3f, E %.3f\n",
+                  (double)l->area, area, (double)l->centroid[0], (double)l->centroid[1],
+                  (double)l->centroid[2], (double)l->field_rgb[0]);
+    assert_true(fabs(l->area - area) < 0.05 * area); /* measured 1.1% */
+    assert_true(fabsf(l->centroid[0] - 0.1f) < 0.02f && fabsf(l->centroid[1]) < 0.02f &&
+                fabsf(l->centroid[2]) < 0.02f);
+    const float e = log1pf(expf(3.0f));
+    for (int c = 0; c < 3; c++) {
+        assert_true(fabsf(l->field_rgb[c] - e) < 1e-3f * e);
+        assert_true(l->scale[c] == 1.0f && l->radiance[c] == l->field_rgb[c]);
+    }
+    /* a point on the surface is on light 0; the centre and far space are on none */
+    const float on[3] = {0.6f, 0.0f, 0.0f}, inside[3] = {0.1f, 0.0f, 0.0f}, away[3] = {-0.9f, 0.9f, 0.9f};
+    assert_int_equal(esr_lights_id_at(&m.lights, on), 0);
+    assert_int_equal(esr_lights_id_at(&m.lights, inside), -1);
+    assert_int_equal(esr_lights_id_at(&m.lights, away), -1);
+    esr_model_free(&m);
+}
+
+static void test_two_spheres_are_two_lights(void **state)
+{
+    (void)state;
+    struct esr_model m;
+    const float cx[2] = {-0.5f, 0.45f};
+    setup(&m, cx, 2, 0.3f, 3.0f);
+    assert_int_equal(esr_lights_find(&m), ESR_OK);
+    assert_int_equal(m.lights.n, 2);
+    const double area = 4.0 * M_PI * 0.09;
+    int left = m.lights.light[0].centroid[0] < 0.0f ? 0 : 1;
+    for (int i = 0; i < 2; i++) {
+        const struct esr_light *l = &m.lights.light[i];
+        print_message("light %d: area %.4f (true %.4f), centroid x %.3f\n", i, (double)l->area,
+                      area, (double)l->centroid[0]);
+        assert_true(fabs(l->area - area) < 0.05 * area); /* measured 3.1%, 1.1% */
+        assert_true(fabsf(l->centroid[0] - cx[i == left ? 0 : 1]) < 0.02f);
+    }
+    /* ids follow size, largest first */
+    assert_true(m.lights.light[0].points >= m.lights.light[1].points);
+    const float p_left[3] = {-0.5f, 0.3f, 0.0f}, p_right[3] = {0.45f, 0.0f, -0.3f};
+    assert_int_equal(esr_lights_id_at(&m.lights, p_left), left);
+    assert_int_equal(esr_lights_id_at(&m.lights, p_right), 1 - left);
+    esr_model_free(&m);
+}
+
+static void test_dark_field_has_no_lights(void **state)
+{
+    (void)state;
+    struct esr_model m;
+    const float cx[1] = {0.0f};
+    setup(&m, cx, 1, 0.5f, -6.0f); /* E = softplus(-6) ~ 0.0025, below k */
+    assert_int_equal(esr_lights_find(&m), ESR_OK);
+    assert_int_equal(m.lights.n, 0);
+    assert_null(m.lights.label);
+    const float on[3] = {0.5f, 0.0f, 0.0f};
+    assert_int_equal(esr_lights_id_at(&m.lights, on), -1);
+    esr_model_free(&m);
+}
+
+static void test_lights_survive_a_checkpoint(void **state)
+{
+    (void)state;
+    struct esr_model m, back;
+    const float cx[2] = {-0.5f, 0.45f};
+    setup(&m, cx, 2, 0.3f, 3.0f);
+    assert_int_equal(esr_lights_find(&m), ESR_OK);
+    m.lights.light[1].scale[2] = 7.5f; /* as a calibration would set it */
+    char path[4200];
+    snprintf(path, sizeof path, "%s/lights.bin", test_tmpdir);
+    assert_int_equal(esr_model_save(&m, path), ESR_OK);
+    assert_int_equal(esr_model_load(&back, path), ESR_OK);
+    assert_int_equal(back.lights.n, 2);
+    assert_memory_equal(back.lights.light, m.lights.light, sizeof m.lights.light);
+    assert_memory_equal(back.lights.label, m.lights.label, esr_grid_voxels(&m.lights.grid));
+    /* a scaled light's emission is reported scaled */
+    float pos[3] = {0.45f, 0.0f, -0.3f}, e[3] = {1.0f, 1.0f, 1.0f};
+    const int id = esr_lights_id_at(&back.lights, pos);
+    esr_lights_scale_emission(&back.lights, pos, 1, e);
+    assert_true(e[2] == back.lights.light[id].scale[2] && e[0] == back.lights.light[id].scale[0]);
+    esr_model_free(&back);
+    esr_model_free(&m);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_one_emitting_sphere_is_one_light),
+        cmocka_unit_test(test_two_spheres_are_two_lights),
+        cmocka_unit_test(test_dark_field_has_no_lights),
+        cmocka_unit_test(test_lights_survive_a_checkpoint),
+    };
+    return cmocka_run_group_tests(tests, test_setup_tmpdir, test_teardown_tmpdir);
+}
