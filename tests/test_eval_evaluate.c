@@ -390,7 +390,8 @@ static void test_normals(void **state)
     char gt_dir[1300], html_path[1300];
     path_in(html_path, sizeof html_path, test_tmpdir, "report_normals.html");
     path_in(gt_dir, sizeof gt_dir, test_tmpdir, "eval/test_nv_gt");
-    struct esr_report_spec spec = {html_path, "run", &ds, &res, "render", gt_dir, "eval/test_nv_gt", NULL};
+    struct esr_report_spec spec = {html_path, "run", &ds, &res, "render", gt_dir, "eval/test_nv_gt", NULL,
+                                   NULL};
     assert_int_equal(esr_report_write(&spec), ESR_OK);
     unsigned char *html;
     size_t size;
@@ -485,14 +486,20 @@ static void test_report(void **state)
     path_in(gt_dir, sizeof gt_dir, test_tmpdir, "eval/test_nv_gt");
     path_in(log, sizeof log, test_tmpdir, "train_log.jsonl");
     assert_int_equal(test_write_file(log, "{\"loss\": 0.5, \"psnr\": 10}\n{\"loss\": 0.3, \"psnr\": 14}\n"), 0);
-    struct esr_report_spec spec = {path, "run <x>", &ds, &res, "render", gt_dir, "eval/test_nv_gt", log};
+    struct esr_lights lights;
+    memset(&lights, 0, sizeof lights);
+    lights.n = 1;
+    lights.light[0].radiance[0] = 12.5f;
+    struct esr_report_spec spec = {path, "run <x>", &ds, &res, "render", gt_dir, "eval/test_nv_gt", log,
+                                   &lights};
     assert_int_equal(esr_report_write(&spec), ESR_OK);
     unsigned char *html;
     size_t size;
     assert_int_equal(esr_file_read_all(path, &html, &size), ESR_OK);
     static const char *const expected[] = {"<h1>run &lt;x&gt;</h1>", "<img src=\"render/c000_on.png\"",
                                            "render/c000_on_linear.png", "render/c000_on_normal.png",
-                                           "eval/test_nv_gt/c000_off.png", "<polyline", "13.98", "</html>"};
+                                           "eval/test_nv_gt/c000_off.png", "<polyline", "13.98",
+                                           "Lights found (1)", "12.5, 0, 0", "</html>"};
     for (size_t i = 0; i < sizeof expected / sizeof expected[0]; i++)
         if (!strstr((char *)html, expected[i]))
             fail_msg("'%s' missing from the report", expected[i]);
@@ -612,6 +619,48 @@ static void test_emitter_radiance(void **state)
     esr_dataset_free(&ds);
 }
 
+/* The light split by hand: light 0's mask is the left half (8 of 16 columns); the rendered ids
+ * are esr light 1 on columns 0-5 and esr light 0 on columns 6-9: light 0 maps to esr light 1,
+ * IoU 6 / (8 + 6 - 6) = 0.75 (esr light 0: 2 / (8 + 4 - 2) = 0.2). */
+static void test_light_split(void **state)
+{
+    (void)state;
+    char path[2700];
+    struct esr_dataset ds;
+    int *idx, n;
+    load_all(&ds, &idx, &n);
+    path_in(path, sizeof path, ds_dir, "test_nv/m0.png");
+    write_mask(path, RES / 2);
+    struct esr_image ids;
+    assert_int_equal(esr_image_alloc(&ids, RES, RES, 1), ESR_OK);
+    for (int y = 0; y < RES; y++)
+        for (int x = 0; x < RES; x++)
+            ids.data[y * RES + x] = (x < 6 ? 2.0f : x < 10 ? 1.0f : 0.0f) / 255.0f;
+    for (int i = 0; i < n; i++) {
+        struct esr_frame *f = &ds.phases[ESR_PHASE_TEST_NV].frames[idx[i]];
+        snprintf(f->lights[0].mask_path, sizeof f->lights[0].mask_path, "test_nv/m0");
+        snprintf(path, sizeof path, "%s/%s_lights.png", render_dir, f->name);
+        assert_int_equal(esr_png_write(path, &ids, 8), ESR_OK);
+    }
+    struct esr_light_split sp;
+    assert_int_equal(esr_light_split_eval(&ds, ESR_PHASE_TEST_NV, idx, n, render_dir, &sp), ESR_OK);
+    assert_int_equal(sp.views, 2);
+    assert_int_equal(sp.n, 1);
+    assert_int_equal(sp.rows[0].esr_light, 1);
+    assert_float_equal(sp.rows[0].iou, 0.75, 1e-9);
+    assert_float_equal(sp.mean_iou, 0.75, 1e-9);
+    for (int i = 0; i < n; i++) {
+        snprintf(path, sizeof path, "%s/%s_lights.png", render_dir,
+                 ds.phases[ESR_PHASE_TEST_NV].frames[idx[i]].name);
+        assert_int_equal(remove(path), 0);
+    }
+    path_in(path, sizeof path, ds_dir, "test_nv/m0.png");
+    assert_int_equal(remove(path), 0);
+    esr_image_free(&ids);
+    free(idx);
+    esr_dataset_free(&ds);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -619,6 +668,7 @@ int main(void)
         cmocka_unit_test(test_errors),       cmocka_unit_test(test_select), cmocka_unit_test(test_curve),
         cmocka_unit_test(test_report),       cmocka_unit_test(test_normals),
         cmocka_unit_test(test_emitters),     cmocka_unit_test(test_emitter_radiance),
+        cmocka_unit_test(test_light_split),
     };
     return cmocka_run_group_tests(tests, setup, test_teardown_tmpdir);
 }

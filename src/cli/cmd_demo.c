@@ -22,9 +22,11 @@ const struct esr_command cmd_demo = {
     "  2. DIR/info.json   the dataset check and summary (`esr info`), DIR/contact_sheet.png\n"
     "  3. DIR/run         training, alphamask -> coarse -> fine -> lts -> pdra (`esr train\n"
     "                     --resume`: an interrupted demo continues where it stopped)\n"
-    "  4. DIR/run/eval    test_nv renders, PSNR/SSIM per view and lighting, Chamfer distance to\n"
-    "                     the ground-truth surface when the scene has one, DIR/run/report.html\n"
-    "  5. DIR/mesh.ply    the reconstructed surface with normals and colours (`esr export`)\n"
+    "  4. DIR/run/lights.json  the lights found: id, place, area, emitted radiance (`esr lights`)\n"
+    "  5. DIR/run/eval    test_nv renders, PSNR/SSIM per view and lighting, emitter IoU and each\n"
+    "                     light's emitted radiance against the truth, Chamfer distance to the\n"
+    "                     ground-truth surface when the scene has one, DIR/run/report.html\n"
+    "  6. DIR/mesh.ply    the reconstructed surface with normals and colours (`esr export`)\n"
     "\n"
     "options:\n"
     "  --out DIR          output folder (default runs/demo; created if missing)\n"
@@ -142,22 +144,30 @@ static int run_demo(int argc, char **argv)
         return 1;
     t_train = now_s() - t_train;
 
+    snprintf(probe, sizeof probe, "%s/ckpt_pdra.bin", run);
+    char *lights[] = {"lights", run, "--data", (char *)data};
+    if (is_file(probe) && step(4, &cmd_lights, 4, lights))
+        return 1;
+
     char *eval[] = {"eval", run, "--data", (char *)data};
-    if (step(4, &cmd_eval, 4, eval))
+    if (step(5, &cmd_eval, 4, eval))
         return 1;
 
     char *export[] = {"export", run, "--mesh", mesh};
-    if (step(5, &cmd_export, 4, export))
+    if (step(6, &cmd_export, 4, export))
         return 1;
 
     printf("\ndemo finished in %.1f min (training %.1f min). Results in %s:\n", (now_s() - t0) / 60.0,
            t_train / 60.0, a.out);
     printf("  %s/report.html            open in a browser: renders, metrics, training curves\n", run);
-    printf("  %s/eval/test_nv.json      PSNR / SSIM per view and lighting mode\n", run);
+    printf("  %s/eval/test_nv.json      PSNR / SSIM per view and lighting mode, emitter IoU, "
+           "emitted radiance per light\n", run);
+    printf("  %s/lights.json            the lights found (id, centroid, area, colour, strength)\n", run);
     snprintf(probe, sizeof probe, "%s/eval/geometry.json", run);
     if (is_file(probe))
         printf("  %s   Chamfer distance to the ground-truth surface\n", probe);
-    printf("  %s/render/test_nv         rendered test views (PNG, linear PNG, EXR, normals, depth)\n", run);
+    printf("  %s/render/test_nv         rendered test views (PNG, linear PNG, EXR, normals, depth, "
+           "emission, emitter masks, materials, the emission's effect)\n", run);
     printf("  %s                   reconstructed surface (PLY)\n", mesh);
     printf("  %s  %s\n", info, sheet);
     return 0;

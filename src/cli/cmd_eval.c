@@ -11,6 +11,7 @@
 #include "eval/report.h"
 #include "eval/run_dir.h"
 #include "io/dir.h"
+#include "io/file.h"
 #include "render/view.h"
 #include "model/model.h"
 
@@ -171,6 +172,11 @@ static void print_emitters(const struct esr_eval_result *res)
                r->light, r->name, r->mean[0], r->mean[1], r->mean[2], r->truth[0], r->truth[1],
                r->truth[2], r->error_pct, 100.0 * r->ratio, r->pixels);
     }
+    for (int k = 0; k < res->split.n; k++) {
+        const struct esr_light_split_row *r = &res->split.rows[k];
+        printf("light %d (%s) is esr light %d: IoU %.3f (%d views pooled)\n", r->light, r->name,
+               r->esr_light, r->iou, res->split.views);
+    }
 }
 
 /* Paths under RUN: render/P, eval/, eval/P.json, eval/P_gt, report.html, train_log.jsonl. */
@@ -204,10 +210,19 @@ static int evaluate(const struct eval_args *a, const struct esr_run_selection *s
         status = esr_dir_create(p->eval);
     if (status == ESR_OK)
         status = esr_eval_write_json(p->json, &sel->ds, &res);
+    /* the lights the run found, for the report (a run without a pdra checkpoint has none) */
+    struct esr_model m;
+    memset(&m, 0, sizeof m);
+    char ckpt[ESR_PATH_MAX + 16];
+    snprintf(ckpt, sizeof ckpt, "%s/ckpt_pdra.bin", a->run);
+    if (status == ESR_OK && esr_file_exists(ckpt))
+        status = esr_model_load(&m, ckpt);
     if (status == ESR_OK) {
-        struct esr_report_spec spec = {p->report, a->run, &sel->ds, &res, p->render_href, p->gt, p->gt_href, p->log};
+        struct esr_report_spec spec = {p->report, a->run,  &sel->ds, &res,     p->render_href,
+                                       p->gt,     p->gt_href, p->log, &m.lights};
         status = esr_report_write(&spec);
     }
+    esr_model_free(&m);
     if (status == ESR_OK) {
         print_table(&res);
         print_normals(&res);

@@ -13,6 +13,7 @@
 
 #include "eval/emitter_radiance.h"
 #include "eval/emo_baseline.h"
+#include "eval/light_split.h"
 #include "eval/metrics.h"
 #include "eval/normals.h"
 #include "io/dataset.h"
@@ -52,6 +53,7 @@ struct esr_eval_result {
     struct esr_iou_accum emitter;              /* their pixels pooled (METHOD.md: one division) */
     struct esr_emo_baseline emo_baseline;      /* thresholded L_emo (n_cameras 0: not computed) */
     struct esr_emitter_radiance_result radiance; /* per light vs scene.json (n 0: not scored) */
+    struct esr_light_split split;              /* esr's lights vs per-light masks (views 0: none) */
 };
 
 /* Evaluates the frames idx[0..n) of `phase` (esr_select_frames) against the images in
@@ -76,7 +78,9 @@ void esr_eval_result_free(struct esr_eval_result *res);
  *    "emitter_iou_emo_threshold": {"iou", "k", "cameras"}: the thresholded-L_emo baseline,
  *    "emitter_radiance": [{"light", "name", "pixels", "mean_rgb", "truth_rgb", "error_pct",
  *                          "ratio"}...] (eval/emitter_radiance.h; when scored),
- *    "hdr_mse_off", "hdr_mse_on": by_mode's hdr_mse of those modes (when they have views)}
+ *    "hdr_mse_off", "hdr_mse_on": by_mode's hdr_mse of those modes (when they have views),
+ *    "light_split": {"views", "mean_iou", "lights": [{"light", "name", "esr_light", "iou",
+ *                    "true_pixels"}...]} (eval/light_split.h; when scored)}
  * (a view carries "emitter_iou" too; both only when some view has the two masks; the baseline
  * when some camera has both lightings rendered and a ground-truth mask)
  * The normal_* keys of a view and "normals" are present only when there is a ground-truth normal

@@ -114,6 +114,22 @@ static cJSON *result_json(const struct esr_dataset *ds, const struct esr_eval_re
             cJSON_AddItemToArray(arr, o);
         }
     }
+    if (res->split.views > 0) {
+        cJSON *sp = cJSON_AddObjectToObject(root, "light_split");
+        cJSON_AddNumberToObject(sp, "views", res->split.views);
+        cJSON_AddNumberToObject(sp, "mean_iou", res->split.mean_iou);
+        cJSON *arr = cJSON_AddArrayToObject(sp, "lights");
+        for (int k = 0; k < res->split.n; k++) {
+            const struct esr_light_split_row *r = &res->split.rows[k];
+            cJSON *o = cJSON_CreateObject();
+            cJSON_AddNumberToObject(o, "light", r->light);
+            cJSON_AddStringToObject(o, "name", r->name);
+            cJSON_AddNumberToObject(o, "esr_light", r->esr_light);
+            cJSON_AddNumberToObject(o, "iou", r->iou);
+            cJSON_AddNumberToObject(o, "true_pixels", (double)r->true_pixels);
+            cJSON_AddItemToArray(arr, o);
+        }
+    }
     const enum esr_light_mode modes[2] = {ESR_LIGHT_OFF, ESR_LIGHT_ON};
     const char *keys[2] = {"hdr_mse_off", "hdr_mse_on"};
     for (int i = 0; i < 2; i++)

@@ -6,6 +6,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "core/colour.h"
 #include "core/error.h"
 #include "eval/curve.h"
 #include "io/dir.h"
@@ -105,6 +106,44 @@ static void put_emitters(FILE *out, const struct esr_eval_result *res)
           "pixel), against scene.json's emitted radiance.</p>\n", out);
 }
 
+/* esr's light split against the dataset's per-light masks (when scored). */
+static void put_split(FILE *out, const struct esr_light_split *sp)
+{
+    if (sp->views == 0)
+        return;
+    fputs("<table><tr><th>dataset light</th><th>esr light</th><th>IoU</th></tr>\n", out);
+    for (int k = 0; k < sp->n; k++) {
+        const struct esr_light_split_row *r = &sp->rows[k];
+        fprintf(out, "<tr><td>%d %s</td><td>%d</td>", r->light, r->name, r->esr_light);
+        put_number(out, "%.3f", r->iou);
+        fputs("</tr>\n", out);
+    }
+    fprintf(out, "</table>\n<p>Each dataset light matched to the esr light of best IoU with its "
+                 "mask (%d views pooled; the masks are used by evaluation only).</p>\n",
+            sp->views);
+}
+
+/* The lights the model found (train/lights.h), when it has any. */
+static void put_lights(FILE *out, const struct esr_lights *L)
+{
+    if (!L || L->n == 0)
+        return;
+    fprintf(out, "<h2>Lights found (%d)</h2>\n<table><tr><th>id</th><th>centroid</th><th>area</th>"
+                 "<th>emitted radiance (linear RGB)</th><th>power</th><th>strength scale</th></tr>\n",
+            L->n);
+    for (int i = 0; i < L->n; i++) {
+        const struct esr_light *l = &L->light[i];
+        fprintf(out, "<tr><td>%d</td><td>%.2f, %.2f, %.2f</td><td>%.3g</td><td>%.3g, %.3g, %.3g</td>"
+                     "<td>%.3g</td><td>%.2f, %.2f, %.2f</td></tr>\n",
+                i, (double)l->centroid[0], (double)l->centroid[1], (double)l->centroid[2],
+                (double)l->area, (double)l->radiance[0], (double)l->radiance[1],
+                (double)l->radiance[2], (double)l->power, (double)l->scale[0],
+                (double)l->scale[1], (double)l->scale[2]);
+    }
+    fputs("</table>\n<p>Connected emitting surfaces; strength calibrated by the light each casts "
+          "on the non-emitting surfaces (<code>esr lights</code>, RUN/lights.json).</p>\n", out);
+}
+
 /* The pooled normal error, or a line saying the dataset has no ground-truth normal maps. */
 static void put_normals(FILE *out, const struct esr_eval_result *res)
 {
@@ -169,7 +208,9 @@ static void put_views(FILE *out, const struct esr_report_spec *spec)
     const int emitters = spec->res->n_emitter_views > 0;
     fprintf(out, "<h2>Views</h2>\n<table><tr><th>view</th><th>mode</th><th>ground truth</th><th>tone-mapped</th>"
                  "<th>linear</th><th>normal</th>%s%s<th>normal error (deg)</th></tr>\n",
-            emitters ? "<th>emission</th><th>emitter mask</th><th>true emitters</th>" : "",
+            emitters ? "<th>emission</th><th>emitter mask</th><th>true emitters</th>"
+                       "<th>emission's effect (on - off)</th><th>true effect</th>"
+                     : "",
             metric_header);
     for (int i = 0; i < spec->res->n_views; i++) {
         const struct esr_eval_view *v = &spec->res->views[i];
@@ -184,6 +225,12 @@ static void put_views(FILE *out, const struct esr_report_spec *spec)
             put_thumb(out, spec->render_href, v->name, "_emission.png");
             put_thumb(out, spec->render_href, v->name, "_emitter.png");
             put_thumb(out, spec->gt_href, v->name, "_emitter_true.png");
+            if (v->mode == ESR_LIGHT_ON) { /* the decomposition: off (the _off row) + effect */
+                put_thumb(out, spec->render_href, v->name, "_emo.png");
+                put_thumb(out, spec->gt_href, v->name, "_emo_true.png");
+            } else {
+                fputs("<td></td><td></td>", out);
+            }
         }
         put_metric_cells(out, v->psnr, v->ssim, v->psnr_linear, v->ssim_linear, v->hdr_mse);
         put_number(out, "%.2f", v->has_normal_gt ? v->normal.mean_deg : NAN);
@@ -209,6 +256,53 @@ static int copy_true_emitters(const struct esr_report_spec *spec, const struct e
     return status;
 }
 
+/* The true emission effect of a lights-on frame f: its EXR minus its camera's lights-off EXR
+ * (both composited on white), sRGB-encoded and clipped, as gt_dir/<name>_emo_true.png; nothing
+ * when either EXR is missing or f's name does not end in _on. */
+static int write_true_effect(const struct esr_report_spec *spec, const struct esr_phase *ph,
+                             const struct esr_frame *f)
+{
+    const size_t len = strlen(f->name);
+    if (len < 3 || strcmp(f->name + len - 3, "_on") != 0)
+        return ESR_OK;
+    char off_name[ESR_NAME_MAX];
+    snprintf(off_name, sizeof off_name, "%.*s_off", (int)(len - 3), f->name);
+    const struct esr_frame *off = NULL;
+    for (int k = 0; k < ph->n_frames && !off; k++)
+        if (!strcmp(ph->frames[k].name, off_name))
+            off = &ph->frames[k];
+    char on_path[ESR_PATH_MAX], off_path[ESR_PATH_MAX], dst[ESR_PATH_MAX];
+    esr_frame_exr_path(spec->ds, f, on_path, sizeof on_path);
+    if (!off || !esr_file_exists(on_path))
+        return ESR_OK;
+    esr_frame_exr_path(spec->ds, off, off_path, sizeof off_path);
+    if (!esr_file_exists(off_path))
+        return ESR_OK;
+    struct esr_image a = {0}, b = {0}, out = {0};
+    int status = esr_exr_read(on_path, &a);
+    if (status == ESR_OK)
+        status = esr_exr_read(off_path, &b);
+    if (status == ESR_OK && (a.width != b.width || a.height != b.height))
+        status = ESR_FAIL("%s and %s differ in size", on_path, off_path);
+    if (status == ESR_OK)
+        status = esr_image_alloc(&out, a.width, a.height, 3);
+    for (size_t p = 0; status == ESR_OK && p < (size_t)a.width * (size_t)a.height; p++)
+        for (int c = 0; c < 3; c++) { /* premultiplied RGBA on white: rgb + 1 - A */
+            const float on = a.data[p * 4 + c] + 1.0f - a.data[p * 4 + 3];
+            const float of = b.data[p * 4 + c] + 1.0f - b.data[p * 4 + 3];
+            const float e = on - of;
+            out.data[p * 3 + c] = esr_srgb_from_linear(e < 0.0f ? 0.0f : e > 1.0f ? 1.0f : e);
+        }
+    if (status == ESR_OK)
+        status = esr_view_path(dst, sizeof dst, spec->gt_dir, f->name, "_emo_true.png");
+    if (status == ESR_OK)
+        status = esr_png_write(dst, &out, 8);
+    esr_image_free(&a);
+    esr_image_free(&b);
+    esr_image_free(&out);
+    return status;
+}
+
 /* Copies of the evaluated ground-truth images, composited on white as the metrics saw them. */
 static int write_gt_copies(const struct esr_report_spec *spec)
 {
@@ -230,6 +324,8 @@ static int write_gt_copies(const struct esr_report_spec *spec)
         esr_image_free(&rgb);
         ESR_TRY(status);
         ESR_TRY(copy_true_emitters(spec, f));
+        if (spec->res->n_emitter_views > 0)
+            ESR_TRY(write_true_effect(spec, ph, f));
     }
     return ESR_OK;
 }
@@ -249,6 +345,8 @@ static int put_page(FILE *out, const struct esr_report_spec *spec)
     put_summary(out, spec->res);
     put_normals(out, spec->res);
     put_emitters(out, spec->res);
+    put_lights(out, spec->lights);
+    put_split(out, &spec->res->split);
     ESR_TRY(put_curves(out, spec->train_log));
     put_views(out, spec);
     fputs("</body></html>\n", out);

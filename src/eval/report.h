@@ -6,6 +6,7 @@
 #define ESR_EVAL_REPORT_H
 
 #include "eval/evaluate.h"
+#include "model/lights.h"
 #include "io/dataset.h"
 
 struct esr_report_spec {
@@ -19,6 +20,7 @@ struct esr_report_spec {
                               * are written for the page; created if absent */
     const char *gt_href;     /* gt_dir relative to the report */
     const char *train_log;   /* JSON-lines training log, or NULL / a missing file for none */
+    const struct esr_lights *lights; /* the lights the model found (model/lights.h), or NULL */
 };
 
 /* Writes the ground-truth copies and the page (atomically). Fails naming the file on a write

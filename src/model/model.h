@@ -114,6 +114,8 @@ struct esr_render_out {
                         lights-on renders: the emitters at their calibrated strength */
     float *material; /* [n*5] composited BRDF: base colour (3, linear), roughness, metallic (no
                         background: multiply out by opacity); lts stage on, like emission */
+    int32_t *light_id; /* [n] the light (model/lights.h) at the ray's strongest kept sample, -1
+                          where none (also for a model without lights) */
 };
 
 /* Renders n rays (origins/dirs [n*3], dirs unit length) with lights on (1) or off (0). Only

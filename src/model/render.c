@@ -105,6 +105,22 @@ static int material_rows(struct esr_trace *t, const struct esr_model *m, const f
     return ESR_OK;
 }
 
+/* Per ray the light at its strongest kept sample, or -1. */
+static void light_ids(const struct esr_march *mc, const struct esr_lights *L, int32_t *ids)
+{
+#pragma omp parallel for schedule(static)
+    for (int r = 0; r < mc->n_rays; r++) {
+        float wmax = 0.0f;
+        size_t best = 0;
+        for (size_t k = mc->kept_start[r]; k < mc->kept_start[r + 1]; k++)
+            if (mc->weight[mc->kidx[k]] > wmax) {
+                wmax = mc->weight[mc->kidx[k]];
+                best = k;
+            }
+        ids[r] = wmax > 0.0f ? esr_lights_id_at(L, mc->kpos3 + best * 3) : -1;
+    }
+}
+
 static void copy_out(float *dst, const float *src, size_t off, size_t n)
 {
     if (dst)
@@ -178,6 +194,8 @@ int esr_model_render_rays(const struct esr_model *m, const float *origins, const
                 out->linear[r0 * 3 + i] = t.fields.lin3 ? t.lin_rgb3[i]
                                                         : esr_linear_from_srgb(t.rgb3[i]);
         }
+        if (out->light_id)
+            light_ids(&t.march, &m->lights, out->light_id + r0);
         if (fields) {
             rc = material_rows(&t, m, sdf, &mf, &es, lights_on,
                                out->emission ? out->emission + r0 * 3 : NULL,

@@ -28,6 +28,9 @@ int esr_view_render(const struct esr_model *m, const struct esr_camera *cam, int
         ESR_TRY(esr_image_alloc(&out->emitted, cam->width, cam->height, 3));
         if (lights_on)
             ESR_TRY(esr_image_alloc(&out->emo, cam->width, cam->height, 3));
+        if (m->lights.n > 0 &&
+            !(out->light_id = malloc((size_t)cam->width * (size_t)cam->height * sizeof(int32_t))))
+            return ESR_FAIL("out of memory for a %dx%d light-id image", cam->width, cam->height);
         out->material = malloc((size_t)cam->width * (size_t)cam->height * 5 * sizeof(float));
         if (!out->material)
             return ESR_FAIL("out of memory for a %dx%d material image", cam->width, cam->height);
@@ -42,7 +45,8 @@ int esr_view_render(const struct esr_model *m, const struct esr_camera *cam, int
         struct esr_render_out o = {.rgb = out->rgb.data,         .linear = out->linear.data,
                                    .depth = out->depth.data,     .normal = out->normal.data,
                                    .opacity = out->opacity.data, .emission = out->emission.data,
-                                   .emitted = out->emitted.data, .material = out->material};
+                                   .emitted = out->emitted.data, .material = out->material,
+                                   .light_id = out->light_id};
         status = esr_model_render_rays(m, origins, dirs, n, lights_on, &o);
     }
     if (status == ESR_OK && out->emo.data) { /* the same view with the lights off */
@@ -70,4 +74,6 @@ void esr_view_images_free(struct esr_view_images *v)
     esr_image_free(&v->emo);
     free(v->material);
     v->material = NULL;
+    free(v->light_id);
+    v->light_id = NULL;
 }

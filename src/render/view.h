@@ -4,6 +4,8 @@
 #ifndef ESR_RENDER_VIEW_H
 #define ESR_RENDER_VIEW_H
 
+#include <stdint.h>
+
 #include "io/camera.h"
 #include "io/dataset.h"
 #include "io/image.h"
@@ -24,6 +26,8 @@ struct esr_view_images {
                                   empty */
     float *material;          /* [w*h*5]: composited base colour (3), roughness, metallic (lts
                                  stage on; else NULL) — five channels, more than an esr_image */
+    int32_t *light_id;        /* [w*h]: the light (model/lights.h) each pixel's surface lies on,
+                                 -1 for none (a model with lights; else NULL) */
     float emitter_k;          /* emitter mask: emission above this in any channel */
 };
 
@@ -50,6 +54,8 @@ void esr_view_images_free(struct esr_view_images *v);
  *   N_emitter.png  emitter mask, grey 0 or 255: any channel of the field's E above emitter_k
  *   N_emo.exr, N_emo.png  lights-on views: the emission's effect, linear on - off (float; PNG:
  *                  sRGB OETF clipped), so that off + emo = on (the illumination decomposition)
+ *   N_lights.png   a model with lights: grey, 0 off the emitter mask, else 1 + the id of the
+ *                  light the pixel's surface lies on (light K in code value K + 1)
  *   N_basecolor.png  base colour (sRGB OETF of the linear value), N_roughness.png,
  *   N_metallic.png   (grey), each divided by opacity and composited on white
  * Fails naming the file on a write error. */

@@ -99,7 +99,14 @@ static int write_emission(const char *dir, const char *name, const struct esr_vi
         const float *e = v->emission.data + 3 * i;
         grey->data[i] = fmaxf(e[0], fmaxf(e[1], e[2])) > v->emitter_k ? 1.0f : 0.0f;
     }
-    return write_png(dir, name, "_emitter.png", grey);
+    ESR_TRY(write_png(dir, name, "_emitter.png", grey));
+    if (!v->light_id)
+        return ESR_OK;
+    for (long long i = 0; i < n; i++) /* the light id on the emitter mask, as code value id + 1 */
+        grey->data[i] = grey->data[i] > 0.5f && v->light_id[i] >= 0
+                            ? (float)(v->light_id[i] + 1) / 255.0f
+                            : 0.0f;
+    return write_png(dir, name, "_lights.png", grey);
 }
 
 /* Channels [c0, c0 + n) of the composited material image divided by opacity (the surface's

@@ -4,6 +4,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "core/buffers.h"
 #include "core/error.h"
 #include "fields/grid.h"
 #include "model/trace.h"
@@ -15,15 +16,11 @@ int esr_lts_reserve_rows(struct esr_lts *l, size_t rows)
     if (rows <= l->cap_rows)
         return ESR_OK;
     const size_t cap = rows + rows / 4;
-    float **f3[] = {&l->q_pos3, &l->q_dir3, &l->d_tone3, &l->d_lin3};
-    int ok = 1;
-    for (size_t i = 0; i < sizeof f3 / sizeof f3[0]; i++) {
-        free(*f3[i]);
-        ok &= (*f3[i] = malloc(cap * 3 * sizeof(float))) != NULL;
-    }
+    float **const f3[] = {&l->q_pos3, &l->q_dir3, &l->d_tone3, &l->d_lin3};
+    l->cap_rows = 0;
+    ESR_TRY(esr_floats_realloc(f3, sizeof f3 / sizeof f3[0], cap * 3, "lts point-field rows"));
     free(l->q_on);
-    ok &= (l->q_on = malloc(cap)) != NULL;
-    if (!ok)
+    if (!(l->q_on = malloc(cap)))
         return ESR_FAIL("lts: out of memory for %zu point-field rows", cap);
     /* the tone-mapped outputs of the LTS rows get no gradient, ever */
     memset(l->d_tone3, 0, cap * 3 * sizeof(float));
@@ -36,14 +33,9 @@ static int reserve_sec(struct esr_lts *l, size_t n)
     if (n <= l->cap_sec)
         return ESR_OK;
     const size_t cap = n + n / 4;
-    float **b[] = {&l->sec_off3, &l->sec_emo3, &l->d_sec_off3, &l->d_sec_emo3};
-    int ok = 1;
-    for (size_t i = 0; i < sizeof b / sizeof b[0]; i++) {
-        free(*b[i]);
-        ok &= (*b[i] = malloc(cap * 3 * sizeof(float))) != NULL;
-    }
-    if (!ok)
-        return ESR_FAIL("lts: out of memory for %zu secondary samples", cap);
+    float **const b[] = {&l->sec_off3, &l->sec_emo3, &l->d_sec_off3, &l->d_sec_emo3};
+    l->cap_sec = 0;
+    ESR_TRY(esr_floats_realloc(b, sizeof b / sizeof b[0], cap * 3, "lts secondary samples"));
     l->cap_sec = cap;
     return ESR_OK;
 }

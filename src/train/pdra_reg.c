@@ -5,6 +5,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "core/buffers.h"
 #include "core/error.h"
 #include "core/rng.h"
 #include "fields/grid.h"
@@ -28,14 +29,9 @@ static int reserve(struct esr_pdra_reg *r, size_t n)
     if (n <= r->cap)
         return ESR_OK;
     const size_t cap = n + n / 4;
-    float **b[] = {&r->jit3, &r->d_jit3, &r->g0, &r->g1, &r->d_g};
-    int ok = 1;
-    for (size_t i = 0; i < sizeof b / sizeof b[0]; i++) {
-        free(*b[i]);
-        ok &= (*b[i] = malloc(cap * 3 * sizeof(float))) != NULL;
-    }
-    if (!ok)
-        return ESR_FAIL("pdra: out of memory for the regularisers' %zu rows", cap);
+    float **const b[] = {&r->jit3, &r->d_jit3, &r->g0, &r->g1, &r->d_g};
+    r->cap = 0;
+    ESR_TRY(esr_floats_realloc(b, sizeof b / sizeof b[0], cap * 3, "pdra regulariser rows"));
     r->cap = cap;
     return ESR_OK;
 }
