@@ -6,6 +6,7 @@
 
 #include "cli/commands.h"
 #include "core/error.h"
+#include "eval/edit_eval.h"
 #include "eval/evaluate.h"
 #include "eval/geometry.h"
 #include "eval/report.h"
@@ -37,6 +38,10 @@ const struct esr_command cmd_eval = {
     "When the dataset has a ground-truth surface (DATA/gt/mesh.ply, as `esr synth` writes), the\n"
     "model's surface is also scored by Chamfer distance (accuracy, completeness, in scene units)\n"
     "into RUN/eval/geometry.json.\n"
+    "Edit phases (test_nvi, test_nvc, test_nvic) relight each frame as its lights[] say with\n"
+    "--method (edit/relight.h; dataset lights mapped to esr's by the frames' per-light masks) into\n"
+    "RUN/render/P_METHOD, and write RUN/eval/P_METHOD.json (PSNR, SSIM per view and mean, the light\n"
+    "split) and RUN/report_P_METHOD.html (original, edit, ground truth side by side).\n"
     "\n"
     "options:\n"
     "  --phase P        phase to evaluate (default: test_nv)\n"
@@ -44,6 +49,8 @@ const struct esr_command cmd_eval = {
     "  --frames a,b,..  only these frames, by name\n"
     "  --limit N        only the first N (selected) frames\n"
     "  --rerender       render every selected frame again\n"
+    "  --method M       edit phases: direct (default; finetune is not built yet)\n"
+    "  --spp N          edit phases: light samples per pixel and light (default 16)\n"
     "  -h, --help       this text\n",
     run_eval,
 };
@@ -51,6 +58,7 @@ const struct esr_command cmd_eval = {
 struct eval_args {
     const char *run, *phase, *data, *frames;
     int limit, rerender;
+    int spp;
 };
 
 static void show_progress(void *user, const struct esr_view_progress *p)
@@ -233,6 +241,54 @@ static int evaluate(const struct eval_args *a, const struct esr_run_selection *s
     return status;
 }
 
+/* An edit phase relit by the direct method, scored, with its JSON and HTML page. */
+static int evaluate_edits(const struct eval_args *a, const struct esr_run_selection *sel)
+{
+    const char *phase = esr_phase_name(sel->phase);
+    char ckpt[ESR_PATH_MAX], dir[ESR_PATH_MAX], json[ESR_PATH_MAX], html[ESR_PATH_MAX];
+    char href[ESR_PATH_MAX], eval_dir[ESR_PATH_MAX];
+    snprintf(ckpt, sizeof ckpt, "%s/ckpt_pdra.bin", a->run);
+    snprintf(dir, sizeof dir, "%s/render/%s_direct", a->run, phase);
+    snprintf(eval_dir, sizeof eval_dir, "%s/eval", a->run);
+    snprintf(json, sizeof json, "%s/eval/%s_direct.json", a->run, phase);
+    snprintf(html, sizeof html, "%s/report_%s_direct.html", a->run, phase);
+    snprintf(href, sizeof href, "render/%s_direct", phase);
+    struct esr_model m;
+    ESR_TRY(esr_model_load(&m, ckpt));
+    int status = m.stage_done ? ESR_OK
+                              : ESR_FAIL("%s: the pdra stage has not finished (step %ld); finish "
+                                         "training first",
+                                         ckpt, m.step);
+    struct esr_edit_eval res;
+    memset(&res, 0, sizeof res);
+    if (status == ESR_OK) {
+        fprintf(stderr, "relighting %d frame(s) of %s (direct, %d light samples per pixel) into %s\n",
+                sel->n, phase, a->spp, dir);
+        status = esr_edit_eval_phase(&m, &sel->ds, sel->phase, sel->idx, sel->n, dir, a->spp, &res);
+    }
+    if (status == ESR_OK)
+        status = esr_dir_create(eval_dir);
+    if (status == ESR_OK)
+        status = esr_edit_eval_write_json(json, &res);
+    if (status == ESR_OK)
+        status = esr_edit_eval_write_html(html, a->run, &res, href, "render/test_nv");
+    if (status == ESR_OK) {
+        printf("%-16s %8s %7s %8s\n", "view", "PSNR", "SSIM", "seconds");
+        for (int i = 0; i < res.n; i++)
+            printf("%-16s %8.2f %7.4f %8.2f\n", res.views[i].name, res.views[i].psnr,
+                   res.views[i].ssim, res.views[i].seconds);
+        printf("%-16s %8.2f %7.4f %8.2f  (%s, direct, %d views)\n", "mean", res.psnr, res.ssim,
+               res.seconds, phase, res.n);
+        for (int k = 0; k < res.split.n; k++)
+            printf("light %d (%s) is esr light %d: IoU %.3f\n", res.split.rows[k].light,
+                   res.split.rows[k].name, res.split.rows[k].esr_light, res.split.rows[k].iou);
+        fprintf(stderr, "wrote %s and %s\n", json, html);
+    }
+    esr_edit_eval_free(&res);
+    esr_model_free(&m);
+    return status;
+}
+
 /* Chamfer distance of the model's surface to the dataset's ground-truth mesh, when both exist. */
 static int score_geometry(const char *run, const struct esr_dataset *ds, const struct eval_paths *p)
 {
@@ -261,7 +317,7 @@ static int run_eval(int argc, char **argv)
 {
     if (cli_wants_help(&cmd_eval, argc, argv))
         return 0;
-    struct eval_args a = {NULL, "test_nv", NULL, NULL, 0, 0};
+    struct eval_args a = {NULL, "test_nv", NULL, NULL, 0, 0, 16};
     for (int i = 1; i < argc; i++) {
         const char *s = argv[i];
         int has_value = i + 1 < argc;
@@ -273,6 +329,17 @@ static int run_eval(int argc, char **argv)
             a.frames = argv[++i];
         else if (!strcmp(s, "--rerender"))
             a.rerender = 1;
+        else if (!strcmp(s, "--method") && has_value) {
+            const char *mth = argv[++i];
+            if (!strcmp(mth, "finetune"))
+                return cli_fail(&cmd_eval, "--method finetune (radiance fine-tuning) is not built "
+                                           "yet; use --method direct");
+            if (strcmp(mth, "direct"))
+                return cli_fail(&cmd_eval, "--method: expected direct or finetune, got '%s'", mth);
+        } else if (!strcmp(s, "--spp") && has_value) {
+            if (cli_parse_int(argv[++i], 1, 4096, &a.spp))
+                return cli_fail(&cmd_eval, "--spp must be an integer in 1..4096, got '%s'", argv[i]);
+        }
         else if (!strcmp(s, "--limit") && has_value) {
             if (cli_parse_int(argv[++i], 0, 1000000, &a.limit))
                 return cli_fail(&cmd_eval, "--limit must be a non-negative integer, got '%s'", argv[i]);
@@ -291,9 +358,14 @@ static int run_eval(int argc, char **argv)
     int status = make_paths(a.run, a.phase, &paths);
     if (status == ESR_OK)
         status = esr_run_select(a.run, a.data, a.phase, a.frames, a.limit, &sel);
-    if (status == ESR_OK)
+    const int edit_phase = status == ESR_OK && (sel.phase == ESR_PHASE_TEST_NVI ||
+                                                sel.phase == ESR_PHASE_TEST_NVC ||
+                                                sel.phase == ESR_PHASE_TEST_NVIC);
+    if (status == ESR_OK && edit_phase)
+        status = evaluate_edits(&a, &sel);
+    else if (status == ESR_OK)
         status = evaluate(&a, &sel, &paths);
-    if (status == ESR_OK)
+    if (status == ESR_OK && !edit_phase)
         status = score_geometry(a.run, &sel.ds, &paths);
     esr_run_selection_free(&sel);
     return status == ESR_OK ? 0 : cli_fail_lib(&cmd_eval);

@@ -18,6 +18,7 @@ static const struct esr_command *const commands[] = {
     &cmd_eval,
     &cmd_export,
     &cmd_lights,
+    &cmd_edit,
     &cmd_bench,
 };
 #define N_COMMANDS (int)(sizeof commands / sizeof commands[0])

@@ -114,6 +114,16 @@ static int surface_points(const struct esr_model *m, uint32_t **idx_out, float *
     return ESR_OK;
 }
 
+/* The area a band point stands for. The band's points on each side of a plane tile it once: one
+ * per lattice step along the normal's dominant axis, so each stands for h^2 / max|n_a|; both
+ * sides, halved, cancel a curved surface's first-order shell growth (outside) and shrinkage
+ * (inside). */
+static float point_area(float h, const float *nrm)
+{
+    const float mx = fmaxf(fabsf(nrm[0]), fmaxf(fabsf(nrm[1]), fabsf(nrm[2])));
+    return 0.5f * h * h / fmaxf(mx, 0.577f);
+}
+
 /* E at n points, in chunks. */
 static int emission_at(const struct esr_model *m, const float *pos3, size_t n, float *emit3)
 {
@@ -255,13 +265,7 @@ int esr_lights_find(struct esr_model *m)
                 acc[id][a] += pos[i * 3 + a];
                 acc[id][3 + a] += emit[i * 3 + a];
             }
-            /* the band's points on each side of a plane tile it once: one per lattice step
-             * along the normal's dominant axis, so each stands for h^2 / max|n_a| of area; both
-             * sides, halved, cancel a curved surface's first-order shell growth (outside) and
-             * shrinkage (inside) */
-            const float *d = nrm + i * 3;
-            const float mx = fmaxf(fabsf(d[0]), fmaxf(fabsf(d[1]), fabsf(d[2])));
-            acc[id][6] += 0.5 * (double)h * h / fmax(mx, 0.577);
+            acc[id][6] += point_area(h, nrm + i * 3);
         }
         for (int j = 0; j < kept; j++) {
             struct esr_light *l = &L->light[j];
@@ -499,5 +503,52 @@ int esr_lights_calibrate(struct esr_model *m, const float *orig3, const float *d
         lt->calib_points = (float)seen[a];
     }
     free(pos), free(dir), free(grads), free(g_sdf), free(G), free(rhs);
+    return rc;
+}
+
+void esr_light_samples_free(struct esr_light_samples *s)
+{
+    free(s->pos3);
+    free(s->nrm3);
+    free(s->emit3);
+    free(s->area);
+    memset(s, 0, sizeof(*s));
+}
+
+int esr_light_samples_get(const struct esr_model *m, int id, struct esr_light_samples *out)
+{
+    memset(out, 0, sizeof(*out));
+    const struct esr_lights *L = &m->lights;
+    if (id < 0 || id >= L->n)
+        return ESR_FAIL("lights: no light %d (the model has %d)", id, L->n);
+    uint32_t *idx = NULL;
+    float *pos = NULL, *nrm = NULL;
+    size_t n = 0;
+    ESR_TRY(surface_points(m, &idx, &pos, &nrm, &n));
+    size_t k = 0;
+    for (size_t i = 0; i < n; i++) /* the light's points, compacted in place */
+        if (L->label[idx[i]] == id + 1) {
+            memmove(pos + k * 3, pos + i * 3, 3 * sizeof(float));
+            memmove(nrm + k * 3, nrm + i * 3, 3 * sizeof(float));
+            k++;
+        }
+    free(idx);
+    out->n = k;
+    out->pos3 = pos;
+    out->nrm3 = nrm;
+    out->emit3 = malloc((k ? k : 1) * 3 * sizeof(float));
+    out->area = malloc((k ? k : 1) * sizeof(float));
+    int rc = out->emit3 && out->area ? ESR_OK : ESR_FAIL("lights: out of memory for samples");
+    if (rc == ESR_OK)
+        rc = emission_at(m, pos, k, out->emit3);
+    const float h = esr_grid_voxel_size(esr_model_grid(m, ESR_COMP_SDF), 0);
+    for (size_t i = 0; rc == ESR_OK && i < k; i++) {
+        for (int c = 0; c < 3; c++)
+            out->emit3[i * 3 + c] *= L->light[id].scale[c];
+        out->area[i] = point_area(h, nrm + i * 3);
+        out->total_area += out->area[i];
+    }
+    if (rc != ESR_OK)
+        esr_light_samples_free(out);
     return rc;
 }

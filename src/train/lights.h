@@ -43,6 +43,18 @@ int esr_lights_find(struct esr_model *m);
 int esr_lights_calibrate(struct esr_model *m, const float *orig3, const float *dir3, size_t n,
                          int calib_points, uint64_t seed);
 
+/* Surface samples of one light for direct lighting (edit/relight.h): the light's labelled
+ * surface points, unit normals, calibrated emitted radiance (scale x E) and the area each stands
+ * for (as in the light's area). */
+struct esr_light_samples {
+    size_t n;
+    float *pos3, *nrm3, *emit3, *area;
+    double total_area;
+};
+
+int esr_light_samples_get(const struct esr_model *m, int id, struct esr_light_samples *out);
+void esr_light_samples_free(struct esr_light_samples *s);
+
 #ifdef __cplusplus
 }
 #endif

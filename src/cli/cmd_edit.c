@@ -1,0 +1,265 @@
+/* esr edit RUN: relight a trained scene (turn lights up, down, off, recolour them) and render it. */
+#include <math.h>
+#include <omp.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "cli/commands.h"
+#include "core/colour.h"
+#include "core/error.h"
+#include "core/vec3.h"
+#include "edit/relight.h"
+#include "eval/run_dir.h"
+#include "io/dir.h"
+#include "io/image.h"
+#include "model/model.h"
+#include "render/view.h"
+
+static int run_edit(int argc, char **argv);
+
+const struct esr_command cmd_edit = {
+    "edit",
+    "relight a trained scene: each light's intensity and colour, rendered from test or orbit views",
+    "usage: esr edit RUN --light ID|all [--intensity X] [--color H,S] [--light ...]...\n"
+    "                [--method direct|finetune] --out DIR [--views PHASE | --orbit N]\n"
+    "                [--spp N] [--data DIR]\n"
+    "\n"
+    "Edits the lights `esr lights RUN` lists (ids from 0) and renders the scene. Each --light\n"
+    "starts a group; the --intensity and --color after it apply to that light (or to every light\n"
+    "with `all`); lights not named stay as found. Intensity multiplies the light's strength (0 =\n"
+    "off); --color H,S replaces its hue and saturation, keeping its value (seed eqs. 10-15).\n"
+    "Writes per view DIR/N.png (linear through the sRGB curve, clipped) and DIR/N.exr (linear\n"
+    "RGB on white).\n"
+    "\n"
+    "methods:\n"
+    "  direct     (default) the lights-off radiance plus the direct light of every light at its\n"
+    "             edited strength and colour: area samples over each light's surface, shadow rays\n"
+    "             against the SDF, the reconstructed BRDF (edit/relight.h); any colour works\n"
+    "  finetune   the paper's radiance fine-tuning: not built yet\n"
+    "\n"
+    "options:\n"
+    "  --views PHASE  the cameras of a dataset phase (default: test_nv; its on frames' names)\n"
+    "  --orbit N      N cameras on a circle around the scene at the first test camera's distance\n"
+    "                 and height, written orbit_000 .. orbit_<N-1>\n"
+    "  --frames a,b   only these frames of the phase, by name\n"
+    "  --spp N        light samples per pixel and light (default 16)\n"
+    "  --data DIR     dataset (default: the one RUN was trained on)\n"
+    "  -h, --help     this text\n",
+    run_edit,
+};
+
+struct edit_args {
+    const char *run, *out, *views, *data, *frames;
+    int orbit, spp, n_groups, direct;
+    struct {
+        int light; /* -1 = all */
+        struct esr_light_edit e;
+        int has_intensity;
+    } g[ESR_MAX_LIGHTS * 2];
+};
+
+/* "H,S" in [0,1] each. */
+static int parse_hs(const char *text, float *h, float *s)
+{
+    char *end;
+    double a = strtod(text, &end);
+    if (end == text || *end != ',')
+        return -1;
+    const char *t2 = end + 1;
+    double b = strtod(t2, &end);
+    if (end == t2 || *end || !(a >= 0.0 && a <= 1.0) || !(b >= 0.0 && b <= 1.0))
+        return -1;
+    *h = (float)a;
+    *s = (float)b;
+    return 0;
+}
+
+static int parse(int argc, char **argv, struct edit_args *a)
+{
+    memset(a, 0, sizeof(*a));
+    a->spp = 16;
+    a->direct = 1;
+    for (int i = 1; i < argc; i++) {
+        const char *o = argv[i];
+        const int has = i + 1 < argc;
+        if (!strcmp(o, "--light") && has) {
+            if (a->n_groups == (int)(sizeof a->g / sizeof a->g[0]))
+                return cli_fail(&cmd_edit, "too many --light groups");
+            const char *v = argv[++i];
+            int id = -1;
+            if (strcmp(v, "all") && cli_parse_int(v, 0, ESR_MAX_LIGHTS - 1, &id))
+                return cli_fail(&cmd_edit, "--light: expected a light id (0..%d) or 'all', got '%s'",
+                                ESR_MAX_LIGHTS - 1, v);
+            a->g[a->n_groups].light = id;
+            a->g[a->n_groups].e.intensity = 1.0f;
+            a->n_groups++;
+        } else if ((!strcmp(o, "--intensity") || !strcmp(o, "--color")) && has) {
+            if (a->n_groups == 0)
+                return cli_fail(&cmd_edit, "%s before any --light", o);
+            const char *v = argv[++i];
+            struct esr_light_edit *e = &a->g[a->n_groups - 1].e;
+            if (!strcmp(o, "--intensity")) {
+                char *end;
+                const double x = strtod(v, &end);
+                if (end == v || *end || !isfinite(x) || x < 0.0)
+                    return cli_fail(&cmd_edit, "--intensity: expected a finite number >= 0, got '%s'", v);
+                e->intensity = (float)x;
+                a->g[a->n_groups - 1].has_intensity = 1;
+            } else {
+                if (parse_hs(v, &e->hue, &e->sat))
+                    return cli_fail(&cmd_edit, "--color: expected H,S with both in [0,1], got '%s'", v);
+                e->recolour = 1;
+            }
+        } else if (!strcmp(o, "--method") && has) {
+            const char *v = argv[++i];
+            if (!strcmp(v, "finetune"))
+                return cli_fail(&cmd_edit, "--method finetune (radiance fine-tuning) is not built "
+                                           "yet; use --method direct");
+            if (strcmp(v, "direct"))
+                return cli_fail(&cmd_edit, "--method: expected direct or finetune, got '%s'", v);
+        } else if (!strcmp(o, "--out") && has) {
+            a->out = argv[++i];
+        } else if (!strcmp(o, "--views") && has) {
+            a->views = argv[++i];
+        } else if (!strcmp(o, "--data") && has) {
+            a->data = argv[++i];
+        } else if (!strcmp(o, "--frames") && has) {
+            a->frames = argv[++i];
+        } else if (!strcmp(o, "--orbit") && has) {
+            if (cli_parse_int(argv[++i], 1, 3600, &a->orbit))
+                return cli_fail(&cmd_edit, "--orbit: expected 1..3600 views, got '%s'", argv[i]);
+        } else if (!strcmp(o, "--spp") && has) {
+            if (cli_parse_int(argv[++i], 1, 4096, &a->spp))
+                return cli_fail(&cmd_edit, "--spp: expected 1..4096, got '%s'", argv[i]);
+        } else if (o[0] == '-' && o[1]) {
+            return cli_fail(&cmd_edit, "unknown option or missing value: '%s'", o);
+        } else if (a->run) {
+            return cli_fail(&cmd_edit, "more than one RUN given ('%s', '%s')", a->run, o);
+        } else {
+            a->run = o;
+        }
+    }
+    if (!a->run)
+        return cli_fail(&cmd_edit, "missing RUN directory");
+    if (!a->out)
+        return cli_fail(&cmd_edit, "missing --out DIR");
+    if (a->n_groups == 0)
+        return cli_fail(&cmd_edit, "nothing to edit: give at least one --light ID|all");
+    if (a->views && a->orbit)
+        return cli_fail(&cmd_edit, "--views and --orbit exclude each other");
+    return 0;
+}
+
+/* The per-light edits of the groups, for a model of n lights; fails on an unknown id. */
+static int edits_of(const struct edit_args *a, int n, struct esr_light_edit *edits)
+{
+    for (int k = 0; k < n; k++)
+        edits[k] = (struct esr_light_edit){1.0f, 0, 0.0f, 0.0f};
+    for (int i = 0; i < a->n_groups; i++) {
+        if (a->g[i].light >= n)
+            return ESR_FAIL("no light %d: the run found %d light%s (ids 0..%d; `esr lights %s`)",
+                            a->g[i].light, n, n == 1 ? "" : "s", n - 1, a->run);
+        for (int k = 0; k < n; k++)
+            if (a->g[i].light < 0 || a->g[i].light == k)
+                edits[k] = a->g[i].e;
+    }
+    return ESR_OK;
+}
+
+/* Camera k of n on the circle through `first`'s position around the box centre, looking at it. */
+static struct esr_camera orbit_camera(const struct esr_camera *first, const float centre[3], int k,
+                                      int n)
+{
+    struct esr_camera c = *first;
+    const float dx = first->c2w[0][3] - centre[0], dy = first->c2w[1][3] - centre[1];
+    const float radius = sqrtf(dx * dx + dy * dy), phi = atan2f(dy, dx) + 6.2831853f * k / n;
+    const struct esr_vec3 pos = esr_v3(centre[0] + radius * cosf(phi),
+                                       centre[1] + radius * sinf(phi), first->c2w[2][3]);
+    const struct esr_vec3 f = esr_v3_normalize(esr_v3_sub(esr_v3(centre[0], centre[1], centre[2]), pos));
+    const struct esr_vec3 r = esr_v3_normalize(esr_v3_cross(f, esr_v3(0.0f, 0.0f, 1.0f)));
+    const struct esr_vec3 u = esr_v3_cross(r, f);
+    const float cols[4][3] = {{r.x, r.y, r.z}, {u.x, u.y, u.z}, {-f.x, -f.y, -f.z}, {pos.x, pos.y, pos.z}};
+    for (int i = 0; i < 3; i++)
+        for (int j = 0; j < 4; j++)
+            c.c2w[i][j] = cols[j][i];
+    return c;
+}
+
+static int write_view(const char *dir, const char *name, const struct esr_image *lin)
+{
+    char path[4200];
+    ESR_TRY(esr_view_path(path, sizeof path, dir, name, ".exr"));
+    ESR_TRY(esr_exr_write(path, lin, 0));
+    struct esr_image png;
+    ESR_TRY(esr_image_alloc(&png, lin->width, lin->height, 3));
+    for (size_t i = 0; i < esr_image_count(lin); i++)
+        png.data[i] = esr_srgb_from_linear(fminf(fmaxf(lin->data[i], 0.0f), 1.0f));
+    int rc = esr_view_path(path, sizeof path, dir, name, ".png");
+    if (rc == ESR_OK)
+        rc = esr_png_write(path, &png, 8);
+    esr_image_free(&png);
+    return rc;
+}
+
+static int edit(const struct edit_args *a)
+{
+    struct esr_run_selection sel;
+    ESR_TRY(esr_run_select(a->run, a->data, a->views ? a->views : "test_nv", a->frames, 0, &sel));
+    char ckpt[4200];
+    snprintf(ckpt, sizeof ckpt, "%s/ckpt_pdra.bin", a->run);
+    struct esr_model m;
+    memset(&m, 0, sizeof m);
+    int rc = esr_model_load(&m, ckpt);
+    if (rc == ESR_OK && !m.stage_done)
+        rc = ESR_FAIL("%s: the pdra stage has not finished (step %ld); finish training first",
+                      ckpt, m.step);
+    struct esr_light_edit edits[ESR_MAX_LIGHTS];
+    if (rc == ESR_OK)
+        rc = edits_of(a, m.lights.n, edits);
+    struct esr_relight rl;
+    memset(&rl, 0, sizeof rl);
+    if (rc == ESR_OK)
+        rc = esr_relight_init(&rl, &m, a->spp);
+    if (rc == ESR_OK)
+        rc = esr_dir_create(a->out);
+    const struct esr_phase *ph = &sel.ds.phases[sel.phase];
+    const int views = a->orbit ? a->orbit : sel.n;
+    const float centre[3] = {0.5f * (m.scene_min[0] + m.scene_max[0]),
+                             0.5f * (m.scene_min[1] + m.scene_max[1]),
+                             0.5f * (m.scene_min[2] + m.scene_max[2])};
+    for (int v = 0; rc == ESR_OK && v < views; v++) {
+        const struct esr_frame *f = &ph->frames[sel.idx[a->orbit ? 0 : v]];
+        char name[ESR_NAME_MAX];
+        struct esr_camera cam = f->camera;
+        if (a->orbit) {
+            cam = orbit_camera(&f->camera, centre, v, a->orbit);
+            snprintf(name, sizeof name, "orbit_%03d", v);
+        } else {
+            snprintf(name, sizeof name, "%s", f->name);
+        }
+        const double t0 = omp_get_wtime();
+        struct esr_image lin;
+        rc = esr_relight_view(&rl, &m, edits, &cam, (uint64_t)v, &lin);
+        const double secs = omp_get_wtime() - t0;
+        if (rc == ESR_OK)
+            rc = write_view(a->out, name, &lin);
+        esr_image_free(&lin);
+        if (rc == ESR_OK)
+            fprintf(stderr, "  %-16s %4d / %-4d  %.2f s\n", name, v + 1, views, secs);
+    }
+    esr_relight_free(&rl);
+    esr_model_free(&m);
+    esr_run_selection_free(&sel);
+    return rc;
+}
+
+static int run_edit(int argc, char **argv)
+{
+    if (cli_wants_help(&cmd_edit, argc, argv))
+        return 0;
+    struct edit_args a;
+    if (parse(argc, argv, &a))
+        return 1;
+    return edit(&a) == ESR_OK ? 0 : cli_fail_lib(&cmd_edit);
+}

@@ -1,0 +1,217 @@
+/* Relighting by direct illumination (see relight.h). */
+#include "edit/relight.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "core/brdf.h"
+#include "core/colour.h"
+#include "core/error.h"
+#include "core/rng.h"
+#include "core/vec3.h"
+#include "fields/grid.h"
+#include "volume/first_hit.h"
+
+/* a camera ray whose opacity is below this has no surface to light */
+#define SURFACE_OPACITY 0.5f
+/* shadow rays start this many voxels off the surface and stop this many short of the light */
+#define SHADOW_OFFSET_VOX 1.0f
+#define SHADOW_STOP_VOX 1.5f
+
+int esr_relight_init(struct esr_relight *r, const struct esr_model *m, int spp)
+{
+    memset(r, 0, sizeof(*r));
+    if (m->lights.n == 0)
+        return ESR_FAIL("relight: the model has no lights (the pdra stage finds them; run `esr "
+                        "lights RUN --recompute` for an older checkpoint)");
+    if (spp < 1)
+        return ESR_FAIL("relight: %d light samples per pixel (need at least 1)", spp);
+    r->spp = spp;
+    for (int k = 0; k < m->lights.n; k++) {
+        int rc = esr_light_samples_get(m, k, &r->samples[k]);
+        if (rc != ESR_OK) {
+            esr_relight_free(r);
+            return rc;
+        }
+        r->n_lights = k + 1;
+    }
+    return ESR_OK;
+}
+
+void esr_relight_free(struct esr_relight *r)
+{
+    for (int k = 0; k < r->n_lights; k++)
+        esr_light_samples_free(&r->samples[k]);
+    memset(r, 0, sizeof(*r));
+}
+
+/* The edited emission of radiance e under edit ed. */
+static void edited(const struct esr_light_edit *ed, const float *e, float out[3])
+{
+    float v[3] = {ed->intensity * e[0], ed->intensity * e[1], ed->intensity * e[2]};
+    if (ed->recolour)
+        esr_recolour_keep_value(v, ed->hue, ed->sat, out);
+    else
+        memcpy(out, v, sizeof v);
+}
+
+/* Per-pixel buffers of one view. */
+struct view_buf {
+    float *o3, *d3, *lin3, *opac, *depth, *nrm3, *mat5, *emit3;
+    int32_t *ids;
+};
+
+static void view_buf_free(struct view_buf *b)
+{
+    free(b->o3), free(b->d3), free(b->lin3), free(b->opac), free(b->depth), free(b->nrm3);
+    free(b->mat5), free(b->emit3), free(b->ids);
+}
+
+/* Shadow rays of every (surface pixel, light, sample), built then traced in one batch. */
+struct shadow {
+    size_t n;
+    float *o3, *d3, *tmax, *weight3; /* weight: E' R |n_y.wi| A N / (spp d^2), per channel */
+    uint32_t *pixel;
+    uint8_t *flags;
+};
+
+static void shadow_free(struct shadow *s)
+{
+    free(s->o3), free(s->d3), free(s->tmax), free(s->weight3), free(s->pixel), free(s->flags);
+}
+
+static int build_shadow(const struct esr_relight *r, const struct esr_model *m,
+                        const struct esr_light_edit *edits, const struct view_buf *b, size_t n_px,
+                        uint64_t seed, struct shadow *s)
+{
+    const float h = esr_grid_voxel_size(esr_model_grid(m, ESR_COMP_SDF), 0);
+    size_t cap = 0;
+    for (int k = 0; k < r->n_lights; k++)
+        if (edits[k].intensity > 0.0f && r->samples[k].n > 0)
+            cap += (size_t)r->spp;
+    cap *= n_px;
+    memset(s, 0, sizeof(*s));
+    if (cap == 0)
+        return ESR_OK;
+    s->o3 = malloc(cap * 3 * sizeof(float));
+    s->d3 = malloc(cap * 3 * sizeof(float));
+    s->tmax = malloc(cap * sizeof(float));
+    s->weight3 = malloc(cap * 3 * sizeof(float));
+    s->pixel = malloc(cap * sizeof(uint32_t));
+    s->flags = malloc(cap);
+    if (!s->o3 || !s->d3 || !s->tmax || !s->weight3 || !s->pixel || !s->flags)
+        return ESR_FAIL("relight: out of memory for %zu shadow rays", cap);
+    for (size_t p = 0; p < n_px; p++) {
+        const float a = b->opac[p];
+        if (a <= SURFACE_OPACITY)
+            continue;
+        struct esr_vec3 d = esr_v3(b->d3[p * 3], b->d3[p * 3 + 1], b->d3[p * 3 + 2]);
+        struct esr_vec3 x = esr_v3_add(esr_v3(b->o3[p * 3], b->o3[p * 3 + 1], b->o3[p * 3 + 2]),
+                                       esr_v3_scale(d, b->depth[p]));
+        struct esr_vec3 n = esr_v3(b->nrm3[p * 3], b->nrm3[p * 3 + 1], b->nrm3[p * 3 + 2]);
+        if (esr_v3_length(n) < 1e-6f)
+            continue;
+        n = esr_v3_normalize(n);
+        const struct esr_vec3 wo = esr_v3_scale(d, -1.0f);
+        struct esr_material mat;
+        for (int c = 0; c < 3; c++)
+            mat.base[c] = b->mat5[p * 5 + c] / a;
+        mat.roughness = b->mat5[p * 5 + 3] / a;
+        mat.metallic = b->mat5[p * 5 + 4] / a;
+        const struct esr_vec3 o = esr_v3_add(x, esr_v3_scale(n, SHADOW_OFFSET_VOX * h));
+        struct esr_rng rng = esr_rng_init(seed, p);
+        for (int k = 0; k < r->n_lights; k++) {
+            const struct esr_light_samples *ls = &r->samples[k];
+            if (edits[k].intensity <= 0.0f || ls->n == 0)
+                continue;
+            for (int j = 0; j < r->spp; j++) {
+                const size_t q = (size_t)(esr_rng_u32(&rng) % (uint32_t)ls->n);
+                const struct esr_vec3 y = esr_v3(ls->pos3[q * 3], ls->pos3[q * 3 + 1], ls->pos3[q * 3 + 2]);
+                const struct esr_vec3 v = esr_v3_sub(y, o);
+                const float dist = esr_v3_length(v);
+                if (dist <= SHADOW_STOP_VOX * h)
+                    continue;
+                const struct esr_vec3 wi = esr_v3_scale(v, 1.0f / dist);
+                float R[3];
+                esr_brdf_eval(&mat, n, wo, wi, R);
+                if (R[0] + R[1] + R[2] <= 0.0f)
+                    continue; /* below the surface */
+                const struct esr_vec3 ny = esr_v3(ls->nrm3[q * 3], ls->nrm3[q * 3 + 1], ls->nrm3[q * 3 + 2]);
+                const float g = fabsf(esr_v3_dot(ny, wi)) * ls->area[q] * (float)ls->n /
+                                ((float)r->spp * dist * dist);
+                float e[3];
+                edited(&edits[k], ls->emit3 + q * 3, e);
+                const size_t i = s->n++;
+                memcpy(s->o3 + i * 3, &o, 3 * sizeof(float));
+                memcpy(s->d3 + i * 3, &wi, 3 * sizeof(float));
+                s->tmax[i] = dist - SHADOW_STOP_VOX * h;
+                for (int c = 0; c < 3; c++)
+                    s->weight3[i * 3 + c] = a * e[c] * R[c] * g;
+                s->pixel[i] = (uint32_t)p;
+            }
+        }
+    }
+    return ESR_OK;
+}
+
+int esr_relight_view(const struct esr_relight *r, const struct esr_model *m,
+                     const struct esr_light_edit *edits, const struct esr_camera *cam,
+                     uint64_t seed, struct esr_image *out)
+{
+    memset(out, 0, sizeof(*out));
+    const size_t n = (size_t)cam->width * (size_t)cam->height;
+    struct view_buf b;
+    b.o3 = malloc(n * 3 * sizeof(float));
+    b.d3 = malloc(n * 3 * sizeof(float));
+    b.lin3 = malloc(n * 3 * sizeof(float));
+    b.opac = malloc(n * sizeof(float));
+    b.depth = malloc(n * sizeof(float));
+    b.nrm3 = malloc(n * 3 * sizeof(float));
+    b.mat5 = malloc(n * 5 * sizeof(float));
+    b.emit3 = malloc(n * 3 * sizeof(float));
+    b.ids = malloc(n * sizeof(int32_t));
+    int rc = b.o3 && b.d3 && b.lin3 && b.opac && b.depth && b.nrm3 && b.mat5 && b.emit3 && b.ids
+                 ? ESR_OK
+                 : ESR_FAIL("relight: out of memory for a %dx%d view", cam->width, cam->height);
+    if (rc == ESR_OK) {
+        esr_camera_pixel_rays(cam, b.o3, b.d3);
+        struct esr_render_out o = {.linear = b.lin3, .depth = b.depth, .normal = b.nrm3,
+                                   .opacity = b.opac, .emitted = b.emit3, .material = b.mat5,
+                                   .light_id = b.ids};
+        rc = esr_model_render_rays(m, b.o3, b.d3, n, 0, &o);
+    }
+    struct shadow s;
+    memset(&s, 0, sizeof s);
+    if (rc == ESR_OK)
+        rc = build_shadow(r, m, edits, &b, n, seed, &s);
+    if (rc == ESR_OK && s.n > 0) {
+        const struct esr_grid *g = esr_model_grid(m, ESR_COMP_SDF);
+        struct esr_first_hit_params hp;
+        esr_first_hit_params_init(&hp, g);
+        struct esr_first_hit_rays hr = {s.o3, s.d3, NULL, s.tmax, s.n};
+        struct esr_first_hit_out ho = {NULL, s.flags, NULL, NULL};
+        rc = esr_first_hit(g, esr_model_values(m, ESR_COMP_SDF), &hp, &hr, &ho);
+    }
+    if (rc == ESR_OK)
+        rc = esr_image_alloc(out, cam->width, cam->height, 3);
+    if (rc == ESR_OK) {
+        /* the lights-off view, the edited lights where the camera sees them, the direct light */
+        for (size_t p = 0; p < n; p++) {
+            float e[3] = {0, 0, 0};
+            if (b.ids[p] >= 0 && b.ids[p] < r->n_lights)
+                edited(&edits[b.ids[p]], b.emit3 + p * 3, e);
+            for (int c = 0; c < 3; c++)
+                out->data[p * 3 + c] = b.lin3[p * 3 + c] + e[c];
+        }
+        for (size_t i = 0; i < s.n; i++)
+            if (!(s.flags[i] & ESR_FIRST_HIT_HIT))
+                for (int c = 0; c < 3; c++)
+                    out->data[(size_t)s.pixel[i] * 3 + c] += s.weight3[i * 3 + c];
+    }
+    shadow_free(&s);
+    view_buf_free(&b);
+    if (rc != ESR_OK)
+        esr_image_free(out);
+    return rc;
+}

@@ -1,0 +1,51 @@
+/* Relighting by direct illumination (the seed's "direct" method, Tables 5 and 7; absent from the
+ * authors' code): a view with every light edited is
+ *     L(x) = L_off(x) + sum_K sum over light K's surface of E'_K(y) R(x, wo, wi) |n_y . wi| / d^2 dA
+ *            + the edited emission where the camera sees a light
+ * with L_off the lights-off radiance field, R the reconstructed BRDF (cosine included) at the
+ * camera ray's surface point x (its expected depth), y area-sampled over light K's surface
+ * samples (train/lights.h) with a shadow ray to each (first hit of the SDF before y: occluded),
+ * and E'_K = the light's calibrated emission times its intensity, recoloured to the edit's hue and
+ * saturation with V kept (seed eqs. 10-15). Light reaching x only after a bounce is left out
+ * (what the method is), so it reaches any colour, including ones never seen in training. */
+#ifndef ESR_EDIT_RELIGHT_H
+#define ESR_EDIT_RELIGHT_H
+
+#include <stdint.h>
+
+#include "io/camera.h"
+#include "io/image.h"
+#include "model/model.h"
+#include "train/lights.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* One light's edit: intensity multiplier (0 = off, 1 = as found) and an optional recolour. */
+struct esr_light_edit {
+    float intensity;
+    int recolour;       /* 1: hue and saturation replaced (V kept) */
+    float hue, sat;     /* in [0, 1] */
+};
+
+/* What a relight needs once per model: each light's surface samples. */
+struct esr_relight {
+    int n_lights;
+    struct esr_light_samples samples[ESR_MAX_LIGHTS];
+    int spp;            /* light samples per pixel and light */
+};
+
+int esr_relight_init(struct esr_relight *r, const struct esr_model *m, int spp);
+void esr_relight_free(struct esr_relight *r);
+
+/* The edited view of cam: linear RGB on white into *out (allocated, 3 channels). edits has one
+ * entry per light of m. Deterministic in seed. */
+int esr_relight_view(const struct esr_relight *r, const struct esr_model *m,
+                     const struct esr_light_edit *edits, const struct esr_camera *cam,
+                     uint64_t seed, struct esr_image *out);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

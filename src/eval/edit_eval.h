@@ -1,0 +1,46 @@
+/* Relighting evaluated on a dataset's edit phases (test_nvi, test_nvc, test_nvic; the seed's
+ * Tables 4-7): each frame's lights[] is the edit (intensity; for colour changes the new hue and
+ * saturation, value kept), rendered with the direct method (edit/relight.h). Dataset light K is
+ * mapped to esr's light of best IoU with K's masks in these frames (eval/light_split.h, from the
+ * frames' light-id renders: the masks are used by evaluation only); when two dataset lights map
+ * to one esr light, the better-overlapping one's edit wins. PSNR and SSIM of the edited render
+ * (linear through the sRGB curve, clipped) against the ground-truth PNG on white, per view and
+ * mean. Renders go to out_dir as N.png, N.exr, N_lights.png and the ground truth (on white) as
+ * N_gt.png. */
+#ifndef ESR_EVAL_EDIT_EVAL_H
+#define ESR_EVAL_EDIT_EVAL_H
+
+#include "eval/light_split.h"
+#include "io/dataset.h"
+#include "model/model.h"
+
+struct esr_edit_eval_view {
+    char name[ESR_NAME_MAX];
+    double psnr, ssim, seconds;
+};
+
+struct esr_edit_eval {
+    enum esr_phase_id phase;
+    int n;
+    struct esr_edit_eval_view *views;
+    double psnr, ssim, seconds; /* means */
+    int spp;
+    struct esr_light_split split;
+};
+
+int esr_edit_eval_phase(const struct esr_model *m, const struct esr_dataset *ds,
+                        enum esr_phase_id phase, const int *idx, int n, const char *out_dir,
+                        int spp, struct esr_edit_eval *res);
+void esr_edit_eval_free(struct esr_edit_eval *res);
+
+/* {"phase", "method": "direct", "spp", "n_views", "views": [{"name", "psnr", "ssim",
+ *  "seconds"}...], "mean": {"psnr", "ssim", "seconds"}, "light_split": {...}} */
+int esr_edit_eval_write_json(const char *path, const struct esr_edit_eval *res);
+
+/* An HTML page: per view the original (orig_href/<camera>_on.png, the test_nv render of the
+ * same camera, named by the frame name up to its first '_'), the edit and the ground truth
+ * (render_href/N.png, N_gt.png), PSNR and SSIM; the means and the light split. */
+int esr_edit_eval_write_html(const char *path, const char *title, const struct esr_edit_eval *res,
+                             const char *render_href, const char *orig_href);
+
+#endif
