@@ -16,6 +16,7 @@
 
 #include "core/error.h"
 #include "io/file.h"
+#include "io/image.h"
 #include "io/json_file.h"
 #include "test_support.h"
 #include "model/model.h"
@@ -394,6 +395,59 @@ static void test_pdra_finds_lights(void **state)
     assert_non_null(root);
     assert_int_equal(cJSON_GetArraySize(cJSON_GetObjectItem(root, "lights")), m.lights.n);
     cJSON_Delete(root);
+
+    /* esr edit refuses bad edits with a clear message and writes nothing */
+    static const struct {
+        const char *args, *message;
+    } bad[] = {
+        {"--light 15 --intensity 0", "no light 15"},
+        {"--light all --intensity -1", "--intensity: expected a finite number >= 0"},
+        {"--light all --intensity nan", "--intensity: expected a finite number >= 0"},
+        {"--light 0 --color 1.5,0.2", "--color: expected H,S with both in [0,1]"},
+        {"--light 0 --method finetune", "not built yet"},
+        {"--intensity 2", "--intensity before any --light"},
+    };
+    char edit_out[4400];
+    snprintf(edit_out, sizeof edit_out, "%s/edit_bad", test_tmpdir);
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
+        snprintf(cmd, sizeof cmd, "edit %s %s --out %s --orbit 1", run, bad[i].args, edit_out);
+        assert_int_equal(test_run_esr(cmd, out, sizeof out), 1);
+        if (!strstr(out, bad[i].message))
+            fail_msg("esr %s: expected '%s' in:\n%s", cmd, bad[i].message, out);
+        assert_false(esr_file_exists(edit_out));
+    }
+    if (m.lights.n > 0) {
+        /* every light off, and doubled: the direct part is linear in the intensity */
+        char off_dir[4400], one_dir[4400], two_dir[4400];
+        const char *dirs[3] = {off_dir, one_dir, two_dir}, *gain[3] = {"0", "1", "2"};
+        snprintf(off_dir, sizeof off_dir, "%s/edit_off", test_tmpdir);
+        snprintf(one_dir, sizeof one_dir, "%s/edit_one", test_tmpdir);
+        snprintf(two_dir, sizeof two_dir, "%s/edit_two", test_tmpdir);
+        struct esr_image img[3];
+        for (int k = 0; k < 3; k++) {
+            snprintf(cmd, sizeof cmd, "edit %s --light all --intensity %s --out %s --orbit 2",
+                     run, gain[k], dirs[k]);
+            assert_int_equal(test_run_esr(cmd, out, sizeof out), 0);
+            snprintf(cmd, sizeof cmd, "%s/orbit_001.exr", dirs[k]);
+            assert_int_equal(esr_exr_read(cmd, &img[k]), ESR_OK);
+        }
+        double worst = 0.0;
+        for (size_t p = 0; p < (size_t)img[0].width * img[0].height; p++)
+            for (int c = 0; c < 3; c++) {
+                const float base = img[0].data[p * 4 + c], a = img[1].data[p * 4 + c] - base,
+                            b = img[2].data[p * 4 + c] - base;
+                assert_true(a >= -1e-6f); /* lights only add light */
+                worst = fmax(worst, fabs(b - 2.0 * a));
+            }
+        print_message("edit: intensity 2 adds twice what intensity 1 adds (worst %.2g)\n", worst);
+        assert_true(worst < 1e-4);
+        for (int k = 0; k < 3; k++)
+            esr_image_free(&img[k]);
+    } else {
+        snprintf(cmd, sizeof cmd, "edit %s --light all --intensity 0 --out %s --orbit 1", run, edit_out);
+        assert_int_equal(test_run_esr(cmd, out, sizeof out), 1);
+        assert_non_null(strstr(out, "no lights"));
+    }
     esr_model_free(&m);
 }
 

@@ -12,9 +12,11 @@
 
 #include "cli/commands.h"
 #include "core/error.h"
+#include "edit/relight.h"
 #include "eval/bench_lts.h"
 #include "eval/bench_train.h"
 #include "eval/run_dir.h"
+#include "io/dataset.h"
 #include "io/file.h"
 #include "io/json_file.h"
 #include "nn/bench.h"
@@ -51,7 +53,8 @@ const struct esr_command cmd_bench = {
     "  --iters N     training iterations per stage instead of the preset's\n"
     "  --data DIR    dataset for the training benchmark\n"
     "  --no-train    skip the training benchmark\n"
-    "  --run RUN     also compare the LTS estimators on RUN's pdra (else lts) checkpoint\n"
+    "  --run RUN     also compare the LTS estimators on RUN's pdra (else lts) checkpoint and time\n"
+    "                a direct relight of its first test_nv view\n"
     "  -h, --help    this text\n",
     run_bench,
 };
@@ -225,6 +228,61 @@ static int lts_section(const char *run, const char *data, int repeats, cJSON *ro
     return ESR_OK;
 }
 
+/* The direct relight (edit/relight.h) of the first test_nv view of run, all lights as found:
+ * seconds per view (after a warm-up view), into root's "relight_direct". */
+static int relight_section(const char *run, const char *data, cJSON *root)
+{
+    char ckpt[4200];
+    snprintf(ckpt, sizeof ckpt, "%s/ckpt_pdra.bin", run);
+    if (!esr_file_exists(ckpt))
+        return ESR_OK;
+    struct esr_model m;
+    ESR_TRY(esr_model_load(&m, ckpt));
+    struct esr_dataset ds;
+    memset(&ds, 0, sizeof ds);
+    int rc = m.lights.n > 0 ? esr_dataset_load(data, &ds) : ESR_OK;
+    const struct esr_phase *ph = &ds.phases[ESR_PHASE_TEST_NV];
+    if (rc != ESR_OK || m.lights.n == 0 || !ph->present || ph->n_frames < 1) {
+        esr_dataset_free(&ds);
+        esr_model_free(&m);
+        return rc;
+    }
+    struct esr_relight rl;
+    struct esr_light_edit edits[ESR_MAX_LIGHTS];
+    for (int k = 0; k < ESR_MAX_LIGHTS; k++)
+        edits[k] = (struct esr_light_edit){1.0f, 0, 0.0f, 0.0f};
+    const int spp = 16, reps = 3;
+    const double t_init = omp_get_wtime();
+    rc = esr_relight_init(&rl, &m, spp);
+    const double init_s = omp_get_wtime() - t_init;
+    double secs = 0.0;
+    for (int i = 0; rc == ESR_OK && i <= reps; i++) {
+        struct esr_image img;
+        const double t0 = omp_get_wtime();
+        rc = esr_relight_view(&rl, &m, edits, &ph->frames[0].camera, (uint64_t)i, &img);
+        if (i > 0) /* the first view warms up */
+            secs += omp_get_wtime() - t0;
+        esr_image_free(&img);
+    }
+    if (rc == ESR_OK) {
+        const struct esr_camera *c = &ph->frames[0].camera;
+        cJSON *j = cJSON_AddObjectToObject(root, "relight_direct");
+        cJSON_AddNumberToObject(j, "width", c->width);
+        cJSON_AddNumberToObject(j, "height", c->height);
+        cJSON_AddNumberToObject(j, "lights", m.lights.n);
+        cJSON_AddNumberToObject(j, "spp", spp);
+        cJSON_AddNumberToObject(j, "seconds_per_view", secs / reps);
+        cJSON_AddNumberToObject(j, "setup_seconds", init_s);
+        printf("\ndirect relight (%s): %dx%d view, %d lights, %d light samples per pixel: %.3f s "
+               "per view (setup %.2f s once)\n",
+               run, c->width, c->height, m.lights.n, spp, secs / reps, init_s);
+        esr_relight_free(&rl);
+    }
+    esr_dataset_free(&ds);
+    esr_model_free(&m);
+    return rc;
+}
+
 static int remove_entry(const char *path, const struct stat *st, int flag, struct FTW *ftw)
 {
     (void)st, (void)flag, (void)ftw;
@@ -322,6 +380,8 @@ static int bench_all(const struct bench_opts *o, cJSON *root)
         sections = esr_run_data_dir(o->run, o->data, data, sizeof data);
         if (sections == ESR_OK)
             sections = lts_section(o->run, data, o->quick ? 4 : 8, root);
+        if (sections == ESR_OK)
+            sections = relight_section(o->run, data, root);
     }
     if (sections != ESR_OK) {
         cJSON_Delete(root);

@@ -11,6 +11,7 @@
 #include "core/rng.h"
 #include "core/vec3.h"
 #include "fields/grid.h"
+#include "model/render_sdf.h"
 #include "volume/first_hit.h"
 
 /* a camera ray whose opacity is below this has no surface to light */
@@ -28,6 +29,9 @@ int esr_relight_init(struct esr_relight *r, const struct esr_model *m, int spp)
     if (spp < 1)
         return ESR_FAIL("relight: %d light samples per pixel (need at least 1)", spp);
     r->spp = spp;
+    int rc0 = esr_model_normal_sdf(m, &r->normal_sdf);
+    if (rc0 != ESR_OK)
+        return rc0;
     for (int k = 0; k < m->lights.n; k++) {
         int rc = esr_light_samples_get(m, k, &r->samples[k]);
         if (rc != ESR_OK) {
@@ -43,6 +47,7 @@ void esr_relight_free(struct esr_relight *r)
 {
     for (int k = 0; k < r->n_lights; k++)
         esr_light_samples_free(&r->samples[k]);
+    free(r->normal_sdf);
     memset(r, 0, sizeof(*r));
 }
 
@@ -81,38 +86,45 @@ static void shadow_free(struct shadow *s)
     free(s->o3), free(s->d3), free(s->tmax), free(s->weight3), free(s->pixel), free(s->flags);
 }
 
+/* Pixel p's rays take the fixed slots [p * per_px, (p + 1) * per_px) (so pixels fill them in
+ * parallel); an unused slot has weight 0 and a zero-length ray. */
 static int build_shadow(const struct esr_relight *r, const struct esr_model *m,
                         const struct esr_light_edit *edits, const struct view_buf *b, size_t n_px,
                         uint64_t seed, struct shadow *s)
 {
     const float h = esr_grid_voxel_size(esr_model_grid(m, ESR_COMP_SDF), 0);
-    size_t cap = 0;
+    size_t per_px = 0;
     for (int k = 0; k < r->n_lights; k++)
         if (edits[k].intensity > 0.0f && r->samples[k].n > 0)
-            cap += (size_t)r->spp;
-    cap *= n_px;
+            per_px += (size_t)r->spp;
     memset(s, 0, sizeof(*s));
+    const size_t cap = per_px * n_px;
     if (cap == 0)
         return ESR_OK;
-    s->o3 = malloc(cap * 3 * sizeof(float));
-    s->d3 = malloc(cap * 3 * sizeof(float));
-    s->tmax = malloc(cap * sizeof(float));
-    s->weight3 = malloc(cap * 3 * sizeof(float));
+    s->o3 = calloc(cap * 3, sizeof(float));
+    s->d3 = calloc(cap * 3, sizeof(float));
+    s->tmax = calloc(cap, sizeof(float));
+    s->weight3 = calloc(cap * 3, sizeof(float));
     s->pixel = malloc(cap * sizeof(uint32_t));
     s->flags = malloc(cap);
     if (!s->o3 || !s->d3 || !s->tmax || !s->weight3 || !s->pixel || !s->flags)
         return ESR_FAIL("relight: out of memory for %zu shadow rays", cap);
+    s->n = cap;
+#pragma omp parallel for schedule(dynamic, 64)
     for (size_t p = 0; p < n_px; p++) {
+        size_t i = p * per_px;
+        for (size_t q = i; q < i + per_px; q++) {
+            s->pixel[q] = (uint32_t)p;
+            s->d3[q * 3 + 2] = 1.0f; /* a valid direction for the unused slots */
+        }
         const float a = b->opac[p];
-        if (a <= SURFACE_OPACITY)
+        struct esr_vec3 n = esr_v3(b->nrm3[p * 3], b->nrm3[p * 3 + 1], b->nrm3[p * 3 + 2]);
+        if (a <= SURFACE_OPACITY || esr_v3_length(n) < 1e-6f)
             continue;
+        n = esr_v3_normalize(n);
         struct esr_vec3 d = esr_v3(b->d3[p * 3], b->d3[p * 3 + 1], b->d3[p * 3 + 2]);
         struct esr_vec3 x = esr_v3_add(esr_v3(b->o3[p * 3], b->o3[p * 3 + 1], b->o3[p * 3 + 2]),
                                        esr_v3_scale(d, b->depth[p]));
-        struct esr_vec3 n = esr_v3(b->nrm3[p * 3], b->nrm3[p * 3 + 1], b->nrm3[p * 3 + 2]);
-        if (esr_v3_length(n) < 1e-6f)
-            continue;
-        n = esr_v3_normalize(n);
         const struct esr_vec3 wo = esr_v3_scale(d, -1.0f);
         struct esr_material mat;
         for (int c = 0; c < 3; c++)
@@ -125,7 +137,7 @@ static int build_shadow(const struct esr_relight *r, const struct esr_model *m,
             const struct esr_light_samples *ls = &r->samples[k];
             if (edits[k].intensity <= 0.0f || ls->n == 0)
                 continue;
-            for (int j = 0; j < r->spp; j++) {
+            for (int j = 0; j < r->spp; j++, i++) {
                 const size_t q = (size_t)(esr_rng_u32(&rng) % (uint32_t)ls->n);
                 const struct esr_vec3 y = esr_v3(ls->pos3[q * 3], ls->pos3[q * 3 + 1], ls->pos3[q * 3 + 2]);
                 const struct esr_vec3 v = esr_v3_sub(y, o);
@@ -142,13 +154,11 @@ static int build_shadow(const struct esr_relight *r, const struct esr_model *m,
                                 ((float)r->spp * dist * dist);
                 float e[3];
                 edited(&edits[k], ls->emit3 + q * 3, e);
-                const size_t i = s->n++;
                 memcpy(s->o3 + i * 3, &o, 3 * sizeof(float));
                 memcpy(s->d3 + i * 3, &wi, 3 * sizeof(float));
                 s->tmax[i] = dist - SHADOW_STOP_VOX * h;
                 for (int c = 0; c < 3; c++)
                     s->weight3[i * 3 + c] = a * e[c] * R[c] * g;
-                s->pixel[i] = (uint32_t)p;
             }
         }
     }
@@ -176,10 +186,25 @@ int esr_relight_view(const struct esr_relight *r, const struct esr_model *m,
                  : ESR_FAIL("relight: out of memory for a %dx%d view", cam->width, cam->height);
     if (rc == ESR_OK) {
         esr_camera_pixel_rays(cam, b.o3, b.d3);
-        struct esr_render_out o = {.linear = b.lin3, .depth = b.depth, .normal = b.nrm3,
-                                   .opacity = b.opac, .emitted = b.emit3, .material = b.mat5,
-                                   .light_id = b.ids};
+        struct esr_render_out o = {.linear = b.lin3, .depth = b.depth, .opacity = b.opac,
+                                   .emitted = b.emit3, .material = b.mat5, .light_id = b.ids};
         rc = esr_model_render_rays(m, b.o3, b.d3, n, 0, &o);
+    }
+    if (rc == ESR_OK) { /* surface points, and their normals from the smoothed SDF */
+        float *x3 = b.nrm3; /* the points first, overwritten by their normals */
+        for (size_t p = 0; p < n; p++)
+            for (int a = 0; a < 3; a++)
+                x3[p * 3 + a] = b.o3[p * 3 + a] + b.d3[p * 3 + a] * b.depth[p];
+        const struct esr_grid *g = esr_model_grid(m, ESR_COMP_SDF);
+        float *tmp = malloc(n * 3 * sizeof(float));
+        if (!tmp)
+            rc = ESR_FAIL("relight: out of memory for %zu normals", n);
+        else {
+            esr_grid_sample_dpoint(g, r->normal_sdf ? r->normal_sdf : esr_model_values(m, ESR_COMP_SDF),
+                                   0, x3, n, tmp);
+            memcpy(b.nrm3, tmp, n * 3 * sizeof(float));
+            free(tmp);
+        }
     }
     struct shadow s;
     memset(&s, 0, sizeof s);
@@ -204,8 +229,8 @@ int esr_relight_view(const struct esr_relight *r, const struct esr_model *m,
             for (int c = 0; c < 3; c++)
                 out->data[p * 3 + c] = b.lin3[p * 3 + c] + e[c];
         }
-        for (size_t i = 0; i < s.n; i++)
-            if (!(s.flags[i] & ESR_FIRST_HIT_HIT))
+        for (size_t i = 0; i < s.n; i++) /* serial: a pixel's slots add in a fixed order */
+            if (!(s.flags[i] & ESR_FIRST_HIT_HIT) && s.tmax[i] > 0.0f)
                 for (int c = 0; c < 3; c++)
                     out->data[(size_t)s.pixel[i] * 3 + c] += s.weight3[i * 3 + c];
     }

@@ -34,6 +34,7 @@ struct esr_relight {
     int n_lights;
     struct esr_light_samples samples[ESR_MAX_LIGHTS];
     int spp;            /* light samples per pixel and light */
+    float *normal_sdf;  /* the smoothed SDF the normals come from (model/render_sdf.h), once */
 };
 
 int esr_relight_init(struct esr_relight *r, const struct esr_model *m, int spp);

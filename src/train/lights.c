@@ -14,6 +14,7 @@
 #include "model/material_fields.h"
 #include "model/trace.h"
 #include "train/lts.h"
+#include "volume/first_hit.h"
 
 /* a component smaller than this share of all emitting points (or points) is noise */
 #define LIGHTS_MIN_SHARE 0.005
@@ -23,6 +24,10 @@
 /* calibration: LTS points per call, directions per point, camera rays traced per batch */
 #define CALIB_CHUNK 250
 #define CALIB_DIRS 128
+#define CALIB_LIGHT_SPP 64
+/* points whose lights-on linear radiance exceeds this in a channel are clipped in the LDR images
+ * (sRGB 0.9) and left out */
+#define CALIB_MAX_ON 0.79f
 #define CALIB_RAYS 8192
 #define CALIB_MAX_ROUNDS 64
 /* a calibration point: a ray's strongest sample of at least this weight (a surface) ... */
@@ -385,9 +390,88 @@ static void solve_ridge(int K, double *G, double *r, double *s)
     }
 }
 
-/* Adds one LTS call's points to the per-channel normal equations G[c] (K x K), rhs[c] (K). */
+/* The light each light K sends to the chunk's points, A_K(x) (lights.h), by area sampling over
+ * its surface with a shadow ray per sample: far less noisy than the hemisphere directions that
+ * happen to hit a small light (noise in A would bias its least-squares scale towards 0). Into
+ * A[(p * ESR_MAX_LIGHTS + K) * 3 + c]. The samples carry the field's E (scales 1). */
+static int light_sampled(const struct esr_model *m, const struct esr_lts *l, size_t P,
+                         const struct esr_light_samples *ls, uint64_t seed, double *A)
+{
+    const int K = m->lights.n;
+    const struct esr_grid *g = esr_model_grid(m, ESR_COMP_SDF);
+    const float h = esr_grid_voxel_size(g, 0);
+    const size_t cap = P * (size_t)K * CALIB_LIGHT_SPP;
+    float *o3 = malloc(cap * 3 * sizeof(float)), *d3 = malloc(cap * 3 * sizeof(float));
+    float *tmax = malloc(cap * sizeof(float)), *w3 = malloc(cap * 3 * sizeof(float));
+    uint32_t *slot = malloc(cap * sizeof(uint32_t));
+    uint8_t *flags = malloc(cap);
+    int rc = o3 && d3 && tmax && w3 && slot && flags
+                 ? ESR_OK
+                 : ESR_FAIL("lights: out of memory for %zu shadow rays", cap);
+    memset(A, 0, P * ESR_MAX_LIGHTS * 3 * sizeof(double));
+    size_t nr = 0;
+    for (size_t p = 0; rc == ESR_OK && p < P; p++) {
+        const struct esr_vec3 n = esr_v3(l->nrm3[p * 3], l->nrm3[p * 3 + 1], l->nrm3[p * 3 + 2]);
+        const struct esr_vec3 wo = esr_v3(l->wo3[p * 6], l->wo3[p * 6 + 1], l->wo3[p * 6 + 2]);
+        if (esr_v3_dot(n, wo) <= 0.0f)
+            continue;
+        struct esr_material mat;
+        const float *b = l->mf.brdf5 + p * ESR_BRDF_CHANNELS;
+        for (int c = 0; c < 3; c++)
+            mat.base[c] = b[c];
+        mat.roughness = b[3];
+        mat.metallic = b[4];
+        const struct esr_vec3 x = esr_v3(l->pos3[p * 3], l->pos3[p * 3 + 1], l->pos3[p * 3 + 2]);
+        const struct esr_vec3 o = esr_v3_add(x, esr_v3_scale(n, h));
+        struct esr_rng rng = esr_rng_init(seed, p);
+        for (int k = 0; k < K; k++) {
+            if (ls[k].n == 0)
+                continue;
+            for (int j = 0; j < CALIB_LIGHT_SPP; j++) {
+                const size_t q = esr_rng_u32(&rng) % (uint32_t)ls[k].n;
+                const float *yq = ls[k].pos3 + q * 3, *nq = ls[k].nrm3 + q * 3;
+                const struct esr_vec3 v = esr_v3_sub(esr_v3(yq[0], yq[1], yq[2]), o);
+                const float dist = esr_v3_length(v);
+                if (dist <= 1.5f * h)
+                    continue;
+                const struct esr_vec3 wi = esr_v3_scale(v, 1.0f / dist);
+                float R[3];
+                esr_brdf_eval(&mat, n, wo, wi, R);
+                if (R[0] + R[1] + R[2] <= 0.0f)
+                    continue;
+                const float geo = fabsf(nq[0] * wi.x + nq[1] * wi.y + nq[2] * wi.z) * ls[k].area[q] *
+                                  (float)ls[k].n / ((float)CALIB_LIGHT_SPP * dist * dist);
+                memcpy(o3 + nr * 3, &o, 3 * sizeof(float));
+                memcpy(d3 + nr * 3, &wi, 3 * sizeof(float));
+                tmax[nr] = dist - 1.5f * h;
+                for (int c = 0; c < 3; c++) /* the field's E: the scale is what is solved for */
+                    w3[nr * 3 + c] = ls[k].emit3[q * 3 + c] * R[c] * geo;
+                slot[nr] = (uint32_t)(p * ESR_MAX_LIGHTS + (size_t)k);
+                nr++;
+            }
+        }
+    }
+    if (rc == ESR_OK && nr > 0) {
+        struct esr_first_hit_params hp;
+        esr_first_hit_params_init(&hp, g);
+        struct esr_first_hit_rays hr = {o3, d3, NULL, tmax, nr};
+        struct esr_first_hit_out ho = {NULL, flags, NULL, NULL};
+        rc = esr_first_hit(g, esr_model_values(m, ESR_COMP_SDF), &hp, &hr, &ho);
+    }
+    for (size_t i = 0; rc == ESR_OK && i < nr; i++)
+        if (!(flags[i] & ESR_FIRST_HIT_HIT))
+            for (int c = 0; c < 3; c++)
+                A[(size_t)slot[i] * 3 + (size_t)c] += w3[i * 3 + c];
+    free(o3), free(d3), free(tmax), free(w3), free(slot), free(flags);
+    return rc;
+}
+
+/* Adds one LTS call's points to the per-channel normal equations G[c] (K x K), rhs[c] (K):
+ * A from light_sampled, B from the hemisphere directions (the other surfaces' emo radiance,
+ * and the lights' own reflected part L_emo - E where a direction hits one). */
 static void accumulate(const struct esr_model *m, const struct esr_lts *l, size_t P,
-                       const float *hit_emit3, double *G, double *rhs, double *seen)
+                       const float *hit_emit3, const double *Aall, double *G, double *rhs,
+                       double *seen)
 {
     const int K = m->lights.n;
     const size_t M = (size_t)l->M;
@@ -402,8 +486,12 @@ static void accumulate(const struct esr_model *m, const struct esr_lts *l, size_
             mat.base[c] = b[c];
         mat.roughness = b[3];
         mat.metallic = b[4];
-        double A[ESR_MAX_LIGHTS][3], B[3] = {0, 0, 0};
-        memset(A, 0, sizeof A);
+        /* a point the on images show clipped says only "at least this bright" */
+        const float *L_on = l->pf.lin3 + (p * 4 + 1) * 3;
+        if (fmaxf(L_on[0], fmaxf(L_on[1], L_on[2])) > CALIB_MAX_ON)
+            continue;
+        const double *A = Aall + p * ESR_MAX_LIGHTS * 3;
+        double B[3] = {0, 0, 0};
         for (size_t j = 0; j < M; j++) {
             const size_t i = p * M + j;
             if (l->hit_row[i] < 0)
@@ -411,15 +499,10 @@ static void accumulate(const struct esr_model *m, const struct esr_lts *l, size_
             float R[3];
             const float *wi = l->wi3 + i * 3;
             esr_brdf_eval(&mat, n, wo, esr_v3(wi[0], wi[1], wi[2]), R);
-            const int id = esr_lights_id_at(&m->lights, l->hit_pos3 + i * 3);
+            const int on_light = esr_lights_id_at(&m->lights, l->hit_pos3 + i * 3) >= 0;
             for (int c = 0; c < 3; c++) {
                 const double w = (double)R[c] * l->wt[i], li = l->li_emo3[i * 3 + c];
-                if (id >= 0) { /* the light's emission, and what it reflects */
-                    A[id][c] += hit_emit3[i * 3 + c] * w;
-                    B[c] += (li - hit_emit3[i * 3 + c]) * w;
-                } else {
-                    B[c] += li * w;
-                }
+                B[c] += (on_light ? li - hit_emit3[i * 3 + c] : li) * w;
             }
         }
         /* L_emo at the point for the camera direction: on row minus off row */
@@ -427,13 +510,13 @@ static void accumulate(const struct esr_model *m, const struct esr_lts *l, size_
         for (int c = 0; c < 3; c++) {
             const double y = (double)lin[(p * 4 + 1) * 3 + c] - lin[(p * 4) * 3 + c] - B[c];
             for (int a = 0; a < K; a++) {
-                rhs[c * K + a] += A[a][c] * y;
+                rhs[c * K + a] += A[a * 3 + c] * y;
                 for (int e = 0; e < K; e++)
-                    G[(c * K + a) * K + e] += A[a][c] * A[e][c];
+                    G[(c * K + a) * K + e] += A[a * 3 + c] * A[e * 3 + c];
             }
         }
         for (int a = 0; a < K; a++)
-            seen[a] += A[a][0] + A[a][1] + A[a][2] > 0.0;
+            seen[a] += A[a * 3] + A[a * 3 + 1] + A[a * 3 + 2] > 0.0;
     }
 }
 
@@ -443,15 +526,24 @@ int esr_lights_calibrate(struct esr_model *m, const float *orig3, const float *d
     const int K = m->lights.n;
     if (K == 0 || want <= 0)
         return ESR_OK;
+    /* solved from the field itself: the light samples below carry E at scale 1 */
+    for (int a = 0; a < K; a++)
+        for (int c = 0; c < 3; c++)
+            m->lights.light[a].scale[c] = 1.0f;
+    struct esr_light_samples ls[ESR_MAX_LIGHTS];
+    memset(ls, 0, sizeof ls);
+    double *Abuf = malloc((size_t)CALIB_CHUNK * ESR_MAX_LIGHTS * 3 * sizeof(double));
     float *pos = malloc((size_t)want * 3 * sizeof(float)), *dir = malloc((size_t)want * 3 * sizeof(float));
     const size_t ns = esr_grid_count(esr_model_grid(m, ESR_COMP_SDF));
     float *grads = calloc(m->params.count, sizeof(float)), *g_sdf = calloc(ns, sizeof(float));
     double *G = calloc((size_t)3 * K * K, sizeof(double)), *rhs = calloc((size_t)3 * K, sizeof(double));
     double seen[ESR_MAX_LIGHTS] = {0};
     int got = 0;
-    int rc = pos && dir && grads && g_sdf && G && rhs
+    int rc = pos && dir && grads && g_sdf && G && rhs && Abuf
                  ? ESR_OK
                  : ESR_FAIL("lights: out of memory for the calibration");
+    for (int a = 0; rc == ESR_OK && a < K; a++)
+        rc = esr_light_samples_get(m, a, &ls[a]);
     if (rc == ESR_OK)
         rc = calib_points(m, orig3, dir3, n, want, seed, pos, dir, &got);
     /* the LTS machinery at these points: its own sizes, first hit; restored below */
@@ -483,7 +575,9 @@ int esr_lights_calibrate(struct esr_model *m, const float *orig3, const float *d
         if (rc == ESR_OK)
             rc = esr_material_fields_fwd(&mf, m, sdf, l.hit_pos3, P * CALIB_DIRS);
         if (rc == ESR_OK)
-            accumulate(m, &l, P, mf.emit3, G, rhs, seen);
+            rc = light_sampled(m, &l, P, ls, seed ^ (uint64_t)(p0 + 1) * 0x9e3779b97f4a7c15ULL, Abuf);
+        if (rc == ESR_OK)
+            accumulate(m, &l, P, mf.emit3, Abuf, G, rhs, seen);
     }
     esr_material_fields_free(&mf);
     esr_lts_free(&l);
@@ -502,7 +596,9 @@ int esr_lights_calibrate(struct esr_model *m, const float *orig3, const float *d
         lt->power = esr_luminance(lt->radiance) * (float)M_PI * lt->area;
         lt->calib_points = (float)seen[a];
     }
-    free(pos), free(dir), free(grads), free(g_sdf), free(G), free(rhs);
+    for (int a = 0; a < K; a++)
+        esr_light_samples_free(&ls[a]);
+    free(pos), free(dir), free(grads), free(g_sdf), free(G), free(rhs), free(Abuf);
     return rc;
 }
 

@@ -12,13 +12,14 @@
  * emitters cast on the rest of the scene: at a non-emitting surface point x the emo radiance the
  * images show must equal what the lights and the other surfaces send there,
  *     L_emo(x, wo) = sum_K s_K . A_K(x) + B(x)   (per channel)
- *     A_K(x) = sum_j E(y_j) R(x, wo, w_j) / (M pdf_j)      over directions whose first hit y_j
- *                                                          lies on light K
- *     B(x)   = the same sum of the other incident emo radiance (other surfaces, the lights'
- *              own reflected part L_emo(y) - E(y))
- * (the LTS estimate of seed eq. 4 with the trained BRDF, lts_dirs x CALIB_DIR_FACTOR cosine
- * directions, first-hit estimator). The scales s_K come from least squares over calib_points
- * points seen by the lights-off training cameras, per channel, with a small ridge towards 1 so
+ *     A_K(x) = the light that light K's field E sends to x: area samples over K's surface (64 per
+ *              point), E(y) R(x, wo, wi) |n_y . wi| dA / d^2, a shadow ray to each
+ *     B(x)   = the other incident emo radiance (other surfaces, the lights' own reflected part
+ *              L_emo(y) - E(y)), from CALIB_DIRS cosine directions and their first hits
+ * (seed eq. 4 with the trained BRDF; sampling the lights by area, not by direction, keeps A
+ * nearly noise-free, and noise in A would bias a small light's least-squares scale towards 0).
+ * The scales s_K come from least squares over calib_points points seen by the lights-off
+ * training cameras, per channel, with a small ridge towards 1 so
  * that a light no point sees keeps its field strength. Caveat: images fix the product of albedo
  * and light, so s_K is only as right as the reconstructed base colour (see docs). */
 #ifndef ESR_TRAIN_LIGHTS_H
