@@ -1,9 +1,10 @@
 /* The source folders form layers, and an include may only point down (or within its own folder):
- *   0 core   1 io, nn   2 fields   3 volume, synth   4 model   5 train, render   6 eval   7 cli
+ *   0 core   1 io, nn   2 fields   3 volume, synth   4 model   5 train, render   6 edit
+ *   7 eval   8 cli
  * core is plain maths and data; io/nn know nothing of fields; volume holds the rendering
  * primitives (rays, samplers, NeuS, compositing, first hit, marching cubes) that know no model;
- * model assembles the fields and the trace engine; train and render use a model; eval and cli
- * sit on top. This test reads every source file under src/ and fails on an include that runs back
+ * model assembles the fields and the trace engine; train and render use a model; edit relights
+ * a trained model with the lights train found; eval and cli sit on top. This test reads every source file under src/ and fails on an include that runs back
  * up (or sideways between two folders of the same layer), naming the file and the line. */
 #include <setjmp.h>
 #include <stdarg.h>
@@ -25,7 +26,7 @@ struct layer {
 
 static const struct layer layers[] = {
     {"core", 0},  {"io", 1},    {"nn", 1},     {"fields", 2}, {"volume", 3}, {"synth", 3},
-    {"model", 4}, {"train", 5}, {"render", 5}, {"eval", 6},   {"cli", 7},
+    {"model", 4}, {"train", 5}, {"render", 5}, {"edit", 6},   {"eval", 7},   {"cli", 8},
 };
 #define N_LAYERS (sizeof layers / sizeof layers[0])
 

@@ -19,6 +19,12 @@
 /* shadow rays start this many voxels off the surface and stop this many short of the light */
 #define SHADOW_OFFSET_VOX 1.0f
 #define SHADOW_STOP_VOX 1.5f
+/* the direct light's denoiser: window radius (pixels), depth scale (voxels), normal power, and
+ * the smallest base colour the light is divided by */
+#define DENOISE_R 2
+#define DENOISE_DEPTH_VOX 2.0f
+#define DENOISE_NPOW 8
+#define DENOISE_MIN_ALBEDO 0.05f
 
 int esr_relight_init(struct esr_relight *r, const struct esr_model *m, int spp)
 {
@@ -138,7 +144,11 @@ static int build_shadow(const struct esr_relight *r, const struct esr_model *m,
             if (edits[k].intensity <= 0.0f || ls->n == 0)
                 continue;
             for (int j = 0; j < r->spp; j++, i++) {
-                const size_t q = (size_t)(esr_rng_u32(&rng) % (uint32_t)ls->n);
+                /* stratified over the light's points (stored in lattice order, so the strata
+                 * are patches of its surface) */
+                size_t q = (size_t)(((double)j + esr_rng_float(&rng)) * (double)ls->n / r->spp);
+                if (q >= ls->n)
+                    q = ls->n - 1;
                 const struct esr_vec3 y = esr_v3(ls->pos3[q * 3], ls->pos3[q * 3 + 1], ls->pos3[q * 3 + 2]);
                 const struct esr_vec3 v = esr_v3_sub(y, o);
                 const float dist = esr_v3_length(v);
@@ -162,6 +172,67 @@ static int build_shadow(const struct esr_relight *r, const struct esr_model *m,
             }
         }
     }
+    return ESR_OK;
+}
+
+/* A joint bilateral filter on the direct light (a few light samples per pixel leave speckle):
+ * over a (2 DENOISE_R + 1)^2 window of surface pixels, weighted by depth (DENOISE_DEPTH_VOX
+ * voxels) and normal agreement (cos^DENOISE_NPOW), on the light divided by the base colour so the
+ * texture is not blurred, then multiplied back. */
+static int denoise_direct(const struct view_buf *b, int w, int h, float vox, float *direct)
+{
+    const size_t n = (size_t)w * (size_t)h;
+    float *demod = malloc(n * 3 * sizeof(float)), *nrm = malloc(n * 3 * sizeof(float));
+    if (!demod || !nrm) {
+        free(demod), free(nrm);
+        return ESR_FAIL("relight: out of memory for the denoiser");
+    }
+    for (size_t p = 0; p < n; p++) {
+        const float a = b->opac[p] > 1e-4f ? b->opac[p] : 1e-4f;
+        float len = 0.0f;
+        for (int c = 0; c < 3; c++) {
+            demod[p * 3 + c] = direct[p * 3 + c] / fmaxf(b->mat5[p * 5 + c] / a, DENOISE_MIN_ALBEDO);
+            len += b->nrm3[p * 3 + c] * b->nrm3[p * 3 + c];
+        }
+        len = len > 1e-12f ? 1.0f / sqrtf(len) : 0.0f;
+        for (int c = 0; c < 3; c++)
+            nrm[p * 3 + c] = b->nrm3[p * 3 + c] * len;
+    }
+    const float inv2s2 = 1.0f / (2.0f * (DENOISE_DEPTH_VOX * vox) * (DENOISE_DEPTH_VOX * vox));
+#pragma omp parallel for schedule(static)
+    for (int y = 0; y < h; y++)
+        for (int x = 0; x < w; x++) {
+            const size_t p = (size_t)y * (size_t)w + (size_t)x;
+            if (b->opac[p] <= SURFACE_OPACITY)
+                continue;
+            double sum[3] = {0, 0, 0}, wsum = 0.0;
+            for (int dy = -DENOISE_R; dy <= DENOISE_R; dy++)
+                for (int dx = -DENOISE_R; dx <= DENOISE_R; dx++) {
+                    const int u = x + dx, v = y + dy;
+                    if (u < 0 || v < 0 || u >= w || v >= h)
+                        continue;
+                    const size_t q = (size_t)v * (size_t)w + (size_t)u;
+                    if (b->opac[q] <= SURFACE_OPACITY)
+                        continue;
+                    const float dd = b->depth[q] - b->depth[p];
+                    const float cn = nrm[p * 3] * nrm[q * 3] + nrm[p * 3 + 1] * nrm[q * 3 + 1] +
+                                     nrm[p * 3 + 2] * nrm[q * 3 + 2];
+                    if (cn <= 0.0f)
+                        continue;
+                    float wn = cn;
+                    for (int k = 1; k < DENOISE_NPOW; k++)
+                        wn *= cn;
+                    const double wq = (double)wn * exp(-(double)(dd * dd * inv2s2));
+                    for (int c = 0; c < 3; c++)
+                        sum[c] += wq * demod[q * 3 + c];
+                    wsum += wq;
+                }
+            const float a = b->opac[p];
+            for (int c = 0; c < 3; c++)
+                direct[p * 3 + c] = (float)(sum[c] / wsum) *
+                                    fmaxf(b->mat5[p * 5 + c] / a, DENOISE_MIN_ALBEDO);
+        }
+    free(demod), free(nrm);
     return ESR_OK;
 }
 
@@ -229,10 +300,20 @@ int esr_relight_view(const struct esr_relight *r, const struct esr_model *m,
             for (int c = 0; c < 3; c++)
                 out->data[p * 3 + c] = b.lin3[p * 3 + c] + e[c];
         }
-        for (size_t i = 0; i < s.n; i++) /* serial: a pixel's slots add in a fixed order */
+        float *direct = calloc(n * 3, sizeof(float));
+        if (!direct)
+            rc = ESR_FAIL("relight: out of memory for the direct light");
+        for (size_t i = 0; rc == ESR_OK && i < s.n; i++) /* a pixel's slots add in a fixed order */
             if (!(s.flags[i] & ESR_FIRST_HIT_HIT) && s.tmax[i] > 0.0f)
                 for (int c = 0; c < 3; c++)
-                    out->data[(size_t)s.pixel[i] * 3 + c] += s.weight3[i * 3 + c];
+                    direct[(size_t)s.pixel[i] * 3 + c] += s.weight3[i * 3 + c];
+        if (rc == ESR_OK)
+            rc = denoise_direct(&b, cam->width, cam->height,
+                                esr_grid_voxel_size(esr_model_grid(m, ESR_COMP_SDF), 0), direct);
+        for (size_t p = 0; rc == ESR_OK && p < n; p++)
+            for (int c = 0; c < 3; c++)
+                out->data[p * 3 + c] += direct[p * 3 + c];
+        free(direct);
     }
     shadow_free(&s);
     view_buf_free(&b);

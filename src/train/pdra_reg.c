@@ -10,6 +10,8 @@
 #include "core/rng.h"
 #include "fields/grid.h"
 
+/* emission smoothness runs on every ES_STRIDE-th kept row (from a per-step offset) */
+#define ES_STRIDE 4
 /* the entropy's transmittance is clamped this far from 0 and 1 (H' is infinite there) */
 #define ENT_EPS 1e-5f
 
@@ -78,17 +80,23 @@ int esr_pdra_reg_smooth(struct esr_pdra_reg *r, const struct esr_model *m, const
     ESR_TRY(reserve(r, n));
     const float w_es = m->cfg.pdra_w_es, w_ns = m->cfg.pdra_w_ns;
     const float scale = 1.0f / (3.0f * (float)n);
-    if (w_es > 0.0f) {
-        jitter(mc->kpos3, n, ESR_PDRA_ES_SIGMA_VOX * vox, seed, r->jit3);
-        ESR_TRY(esr_material_fields_fwd(&r->mf, m, sdf, r->jit3, n));
+    if (w_es > 0.0f) { /* on every ES_STRIDE-th kept row: the E MLP is the cost */
+        const size_t first = (size_t)(seed % ES_STRIDE), m_rows = n > first ? (n - first + ES_STRIDE - 1) / ES_STRIDE : 0;
+        for (size_t j = 0; j < m_rows; j++)
+            memcpy(r->g0 + j * 3, mc->kpos3 + (first + j * ES_STRIDE) * 3, 3 * sizeof(float));
+        jitter(r->g0, m_rows, ESR_PDRA_ES_SIGMA_VOX * vox, seed, r->jit3);
+        ESR_TRY(esr_material_fields_fwd(&r->mf, m, sdf, r->jit3, m_rows));
+        const float es_scale = 1.0f / (3.0f * (float)(m_rows ? m_rows : 1));
         double sum = 0.0;
-        for (size_t i = 0; i < n * 3; i++) {
-            const float d = emit3[i] - r->mf.emit3[i];
-            sum += fabsf(d);
-            d_emit3[i] += w_es * scale * sign(d);
-            r->d_jit3[i] = -w_es * scale * sign(d);
-        }
-        r->es_loss = w_es * scale * sum;
+        for (size_t j = 0; j < m_rows; j++)
+            for (int c = 0; c < 3; c++) {
+                const size_t k = (first + j * ES_STRIDE) * 3 + (size_t)c;
+                const float d = emit3[k] - r->mf.emit3[j * 3 + c];
+                sum += fabsf(d);
+                d_emit3[k] += w_es * es_scale * sign(d);
+                r->d_jit3[j * 3 + c] = -w_es * es_scale * sign(d);
+            }
+        r->es_loss = w_es * es_scale * sum;
         ESR_TRY(esr_material_fields_bwd(&r->mf, m, sdf, g_sdf, grads, r->d_jit3, NULL));
     }
     if (w_ns > 0.0f) {

@@ -1,5 +1,6 @@
 /* The pdra stage's regularisers (METHOD.md "Loss terms"), on the batch's kept samples x:
- *   emission smoothness  w_es mean |E(x) - E(x + N(0, s_es^2))|      (per channel, L1)
+ *   emission smoothness  w_es mean |E(x) - E(x + N(0, s_es^2))|      (per channel, L1; on a
+ *                        quarter of the kept samples, a different quarter each step)
  *   normal smoothness    w_ns mean |grad f(x) - grad f(x + N(0, s_ns^2))|  (per axis, L1; f the
  *                        SDF, the raw trilinear gradient)
  *   entropy              w_ent mean_r H(T_r), H(T) = -T ln T - (1 - T) ln(1 - T), T_r the ray's
