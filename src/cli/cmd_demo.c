@@ -6,6 +6,8 @@
 #include <time.h>
 
 #include "cli/commands.h"
+#include "io/dataset.h"
+#include "model/model.h"
 #include "core/error.h"
 #include "io/dir.h"
 
@@ -23,10 +25,12 @@ const struct esr_command cmd_demo = {
     "  3. DIR/run         training, alphamask -> coarse -> fine -> lts -> pdra (`esr train\n"
     "                     --resume`: an interrupted demo continues where it stopped)\n"
     "  4. DIR/run/lights.json  the lights found: id, place, area, emitted radiance (`esr lights`)\n"
-    "  5. DIR/run/eval    test_nv renders, PSNR/SSIM per view and lighting, emitter IoU and each\n"
+    "  5. DIR/run/edits   one edit per light on a test view: off, and recoloured blue\n"
+    "                     (`esr edit`)\n"
+    "  6. DIR/run/eval    test_nv renders, PSNR/SSIM per view and lighting, emitter IoU and each\n"
     "                     light's emitted radiance against the truth, Chamfer distance to the\n"
     "                     ground-truth surface when the scene has one, DIR/run/report.html\n"
-    "  6. DIR/mesh.ply    the reconstructed surface with normals and colours (`esr export`)\n"
+    "  7. DIR/mesh.ply    the reconstructed surface with normals and colours (`esr export`)\n"
     "\n"
     "options:\n"
     "  --out DIR          output folder (default runs/demo; created if missing)\n"
@@ -63,6 +67,41 @@ static int step(int number, const struct esr_command *cmd, int argc, char **argv
     int rc = cmd->run(argc, argv);
     fflush(stdout);
     return rc;
+}
+
+/* One edit per light of the run (off, and recoloured blue) on the first lights-on test_nv view,
+ * into RUN/edits/light<K>_off and RUN/edits/light<K>_recoloured (the report shows them). */
+static int demo_edits(const char *run, const char *data)
+{
+    char ckpt[4200];
+    snprintf(ckpt, sizeof ckpt, "%s/ckpt_pdra.bin", run);
+    struct esr_model m;
+    struct esr_dataset ds;
+    if (esr_model_load(&m, ckpt) != ESR_OK)
+        return cli_fail(&cmd_demo, "%s", esr_error_message());
+    const int n = m.lights.n;
+    esr_model_free(&m);
+    if (esr_dataset_load(data, &ds) != ESR_OK)
+        return cli_fail(&cmd_demo, "%s", esr_error_message());
+    const struct esr_phase *ph = &ds.phases[ESR_PHASE_TEST_NV];
+    char view[ESR_NAME_MAX] = "";
+    for (int i = 0; i < ph->n_frames && !view[0]; i++)
+        if (ph->frames[i].lights_on)
+            snprintf(view, sizeof view, "%s", ph->frames[i].name);
+    esr_dataset_free(&ds);
+    for (int k = 0; k < n && view[0]; k++) {
+        char id[16], out_off[4300], out_col[4300];
+        snprintf(id, sizeof id, "%d", k);
+        snprintf(out_off, sizeof out_off, "%s/edits/light%d_off", run, k);
+        snprintf(out_col, sizeof out_col, "%s/edits/light%d_recoloured", run, k);
+        char *off[] = {"edit", (char *)run, "--light", id, "--intensity", "0", "--out", out_off,
+                       "--frames", view, "--data", (char *)data};
+        char *col[] = {"edit", (char *)run, "--light", id, "--color", "0.6,1", "--out", out_col,
+                       "--frames", view, "--data", (char *)data};
+        if (step(5, &cmd_edit, 12, off) || step(5, &cmd_edit, 12, col))
+            return 1;
+    }
+    return 0;
 }
 
 static int is_file(const char *path)
@@ -149,12 +188,15 @@ static int run_demo(int argc, char **argv)
     if (is_file(probe) && step(4, &cmd_lights, 4, lights))
         return 1;
 
+    if (is_file(probe) && demo_edits(run, data))
+        return 1;
+
     char *eval[] = {"eval", run, "--data", (char *)data};
-    if (step(5, &cmd_eval, 4, eval))
+    if (step(6, &cmd_eval, 4, eval))
         return 1;
 
     char *export[] = {"export", run, "--mesh", mesh};
-    if (step(6, &cmd_export, 4, export))
+    if (step(7, &cmd_export, 4, export))
         return 1;
 
     printf("\ndemo finished in %.1f min (training %.1f min). Results in %s:\n", (now_s() - t0) / 60.0,

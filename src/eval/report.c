@@ -123,9 +123,40 @@ static void put_split(FILE *out, const struct esr_light_split *sp)
             sp->views);
 }
 
-/* The lights the model found (train/lights.h), when it has any. */
-static void put_lights(FILE *out, const struct esr_lights *L)
+/* Edits of light k next to the report (RUN/edits/light<k>_<what>/<view>.png, as `esr demo`
+ * writes them with `esr edit`), for the first lights-on view: thumbnails with captions. */
+static void put_light_edits(FILE *out, const struct esr_report_spec *spec, int k)
 {
+    const char *view = NULL;
+    for (int i = 0; i < spec->res->n_views && !view; i++)
+        if (spec->res->views[i].mode == ESR_LIGHT_ON)
+            view = spec->res->views[i].name;
+    if (!view)
+        return;
+    char dir[ESR_PATH_MAX], path[ESR_PATH_MAX * 2];
+    snprintf(dir, sizeof dir, "%s", spec->path);
+    char *slash = strrchr(dir, '/');
+    if (slash)
+        slash[1] = '\0';
+    else
+        dir[0] = '\0';
+    static const char *const what[] = {"off", "recoloured"};
+    for (int w = 0; w < 2; w++) {
+        snprintf(path, sizeof path, "%sedits/light%d_%s/%s.png", dir, k, what[w], view);
+        if (!esr_file_exists(path))
+            continue;
+        fprintf(out, "<figure style=\"display:inline-block\"><img src=\"edits/light%d_%s/", k,
+                what[w]);
+        put_escaped(out, view);
+        fprintf(out, ".png\" width=\"160\" alt=\"\"><figcaption>light %d %s</figcaption></figure>\n",
+                k, what[w]);
+    }
+}
+
+/* The lights the model found (train/lights.h), when it has any, and their edits. */
+static void put_lights(FILE *out, const struct esr_report_spec *spec)
+{
+    const struct esr_lights *L = spec->lights;
     if (!L || L->n == 0)
         return;
     fprintf(out, "<h2>Lights found (%d)</h2>\n<table><tr><th>id</th><th>centroid</th><th>area</th>"
@@ -142,6 +173,8 @@ static void put_lights(FILE *out, const struct esr_lights *L)
     }
     fputs("</table>\n<p>Connected emitting surfaces; strength calibrated by the light each casts "
           "on the non-emitting surfaces (<code>esr lights</code>, RUN/lights.json).</p>\n", out);
+    for (int i = 0; i < L->n; i++)
+        put_light_edits(out, spec, i);
 }
 
 /* The pooled normal error, or a line saying the dataset has no ground-truth normal maps. */
@@ -345,7 +378,7 @@ static int put_page(FILE *out, const struct esr_report_spec *spec)
     put_summary(out, spec->res);
     put_normals(out, spec->res);
     put_emitters(out, spec->res);
-    put_lights(out, spec->lights);
+    put_lights(out, spec);
     put_split(out, &spec->res->split);
     ESR_TRY(put_curves(out, spec->train_log));
     put_views(out, spec);
