@@ -206,14 +206,9 @@ static int edit(const struct edit_args *a)
 {
     struct esr_run_selection sel;
     ESR_TRY(esr_run_select(a->run, a->data, a->views ? a->views : "test_nv", a->frames, 0, &sel));
-    char ckpt[4200];
-    snprintf(ckpt, sizeof ckpt, "%s/ckpt_pdra.bin", a->run);
     struct esr_model m;
     memset(&m, 0, sizeof m);
-    int rc = esr_model_load(&m, ckpt);
-    if (rc == ESR_OK && !m.stage_done)
-        rc = ESR_FAIL("%s: the pdra stage has not finished (step %ld); finish training first",
-                      ckpt, m.step);
+    int rc = esr_model_load_finished_pdra(&m, a->run);
     struct esr_light_edit edits[ESR_MAX_LIGHTS];
     if (rc == ESR_OK)
         rc = edits_of(a, m.lights.n, edits);

@@ -245,20 +245,16 @@ static int evaluate(const struct eval_args *a, const struct esr_run_selection *s
 static int evaluate_edits(const struct eval_args *a, const struct esr_run_selection *sel)
 {
     const char *phase = esr_phase_name(sel->phase);
-    char ckpt[ESR_PATH_MAX], dir[ESR_PATH_MAX], json[ESR_PATH_MAX], html[ESR_PATH_MAX];
+    char dir[ESR_PATH_MAX], json[ESR_PATH_MAX], html[ESR_PATH_MAX];
     char href[ESR_PATH_MAX], eval_dir[ESR_PATH_MAX];
-    snprintf(ckpt, sizeof ckpt, "%s/ckpt_pdra.bin", a->run);
     snprintf(dir, sizeof dir, "%s/render/%s_direct", a->run, phase);
     snprintf(eval_dir, sizeof eval_dir, "%s/eval", a->run);
     snprintf(json, sizeof json, "%s/eval/%s_direct.json", a->run, phase);
     snprintf(html, sizeof html, "%s/report_%s_direct.html", a->run, phase);
     snprintf(href, sizeof href, "render/%s_direct", phase);
     struct esr_model m;
-    ESR_TRY(esr_model_load(&m, ckpt));
-    int status = m.stage_done ? ESR_OK
-                              : ESR_FAIL("%s: the pdra stage has not finished (step %ld); finish "
-                                         "training first",
-                                         ckpt, m.step);
+    ESR_TRY(esr_model_load_finished_pdra(&m, a->run));
+    int status = ESR_OK;
     struct esr_edit_eval res;
     memset(&res, 0, sizeof res);
     if (status == ESR_OK) {

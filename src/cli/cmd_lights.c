@@ -88,12 +88,9 @@ static int lights(const char *run, const char *data_override, int again)
     char ckpt[4200], data[4096], out[4200];
     snprintf(ckpt, sizeof ckpt, "%s/ckpt_pdra.bin", run);
     struct esr_model m;
-    ESR_TRY(esr_model_load(&m, ckpt));
-    int rc = m.stage_done ? ESR_OK
-                          : ESR_FAIL("%s: the pdra stage has not finished (step %ld); train it "
-                                     "to the end first",
-                                     ckpt, m.step);
-    if (rc == ESR_OK && (again || m.lights.n == 0)) {
+    ESR_TRY(esr_model_load_finished_pdra(&m, run));
+    int rc = ESR_OK;
+    if (again || m.lights.n == 0) {
         rc = esr_run_data_dir(run, data_override, data, sizeof data);
         if (rc == ESR_OK)
             rc = recompute(&m, data);

@@ -365,3 +365,17 @@ int esr_model_load(struct esr_model *m, const char *path)
     free(data);
     return rc;
 }
+
+int esr_model_load_finished_pdra(struct esr_model *m, const char *run)
+{
+    char ckpt[4200];
+    snprintf(ckpt, sizeof ckpt, "%s/ckpt_pdra.bin", run);
+    ESR_TRY(esr_model_load(m, ckpt));
+    if (m->stage_done)
+        return ESR_OK;
+    const long step = m->step;
+    esr_model_free(m);
+    return ESR_FAIL("%s: the pdra stage has not finished (step %ld); train it to the end first "
+                    "(esr train --resume)",
+                    ckpt, step);
+}

@@ -95,6 +95,9 @@ void esr_model_free(struct esr_model *m);
  * build does not know, a truncated file or a wrong version is refused naming the file and the
  * mismatch. */
 int esr_model_load(struct esr_model *m, const char *path);
+/* The model whose lights a run found: RUN/ckpt_pdra.bin, refused (model freed) when it is missing
+ * or its stage has not finished. */
+int esr_model_load_finished_pdra(struct esr_model *m, const char *run);
 /* Writes the model (options as JSON, stage, step, the component table, weights, Adam moments,
  * mask cache) atomically (temp + rename) with a format version. */
 int esr_model_save(const struct esr_model *m, const char *path);

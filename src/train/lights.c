@@ -390,6 +390,21 @@ static void solve_ridge(int K, double *G, double *r, double *s)
     }
 }
 
+/* Point p of an LTS call: its normal, camera direction and material; 0 when the camera sees it
+ * from behind (nothing to estimate). */
+static int point_frame(const struct esr_lts *l, size_t p, struct esr_vec3 *n, struct esr_vec3 *wo,
+                       struct esr_material *mat)
+{
+    *n = esr_v3(l->nrm3[p * 3], l->nrm3[p * 3 + 1], l->nrm3[p * 3 + 2]);
+    *wo = esr_v3(l->wo3[p * 6], l->wo3[p * 6 + 1], l->wo3[p * 6 + 2]);
+    const float *b = l->mf.brdf5 + p * ESR_BRDF_CHANNELS;
+    for (int c = 0; c < 3; c++)
+        mat->base[c] = b[c];
+    mat->roughness = b[3];
+    mat->metallic = b[4];
+    return esr_v3_dot(*n, *wo) > 0.0f;
+}
+
 /* The light each light K sends to the chunk's points, A_K(x) (lights.h), by area sampling over
  * its surface with a shadow ray per sample: far less noisy than the hemisphere directions that
  * happen to hit a small light (noise in A would bias its least-squares scale towards 0). Into
@@ -411,16 +426,10 @@ static int light_sampled(const struct esr_model *m, const struct esr_lts *l, siz
     memset(A, 0, P * ESR_MAX_LIGHTS * 3 * sizeof(double));
     size_t nr = 0;
     for (size_t p = 0; rc == ESR_OK && p < P; p++) {
-        const struct esr_vec3 n = esr_v3(l->nrm3[p * 3], l->nrm3[p * 3 + 1], l->nrm3[p * 3 + 2]);
-        const struct esr_vec3 wo = esr_v3(l->wo3[p * 6], l->wo3[p * 6 + 1], l->wo3[p * 6 + 2]);
-        if (esr_v3_dot(n, wo) <= 0.0f)
-            continue;
+        struct esr_vec3 n, wo;
         struct esr_material mat;
-        const float *b = l->mf.brdf5 + p * ESR_BRDF_CHANNELS;
-        for (int c = 0; c < 3; c++)
-            mat.base[c] = b[c];
-        mat.roughness = b[3];
-        mat.metallic = b[4];
+        if (!point_frame(l, p, &n, &wo, &mat))
+            continue;
         const struct esr_vec3 x = esr_v3(l->pos3[p * 3], l->pos3[p * 3 + 1], l->pos3[p * 3 + 2]);
         const struct esr_vec3 o = esr_v3_add(x, esr_v3_scale(n, h));
         struct esr_rng rng = esr_rng_init(seed, p);
@@ -476,16 +485,10 @@ static void accumulate(const struct esr_model *m, const struct esr_lts *l, size_
     const int K = m->lights.n;
     const size_t M = (size_t)l->M;
     for (size_t p = 0; p < P; p++) {
-        const struct esr_vec3 n = esr_v3(l->nrm3[p * 3], l->nrm3[p * 3 + 1], l->nrm3[p * 3 + 2]);
-        const struct esr_vec3 wo = esr_v3(l->wo3[p * 6], l->wo3[p * 6 + 1], l->wo3[p * 6 + 2]);
-        if (esr_v3_dot(n, wo) <= 0.0f)
-            continue;
+        struct esr_vec3 n, wo;
         struct esr_material mat;
-        const float *b = l->mf.brdf5 + p * ESR_BRDF_CHANNELS;
-        for (int c = 0; c < 3; c++)
-            mat.base[c] = b[c];
-        mat.roughness = b[3];
-        mat.metallic = b[4];
+        if (!point_frame(l, p, &n, &wo, &mat))
+            continue;
         /* a point the on images show clipped says only "at least this bright" */
         const float *L_on = l->pf.lin3 + (p * 4 + 1) * 3;
         if (fmaxf(L_on[0], fmaxf(L_on[1], L_on[2])) > CALIB_MAX_ON)
