@@ -416,7 +416,13 @@ static void test_pdra_finds_lights(void **state)
             fail_msg("esr %s: expected '%s' in:\n%s", cmd, bad[i].message, out);
         assert_false(esr_file_exists(edit_out));
     }
+
     if (m.lights.n > 0) {
+        /* an output folder that cannot be created */
+        snprintf(cmd, sizeof cmd, "edit %s --light all --intensity 0 --out /proc/esr_cannot --orbit 1",
+                 run);
+        assert_int_equal(test_run_esr(cmd, out, sizeof out), 1);
+        assert_non_null(strstr(out, "/proc/esr_cannot"));
         /* every light off, and doubled: the direct part is linear in the intensity */
         char off_dir[4400], one_dir[4400], two_dir[4400];
         const char *dirs[3] = {off_dir, one_dir, two_dir}, *gain[3] = {"0", "1", "2"};
