@@ -1,9 +1,11 @@
 # Set-up and entry points. `make demo` and `make test` are the two commands in the README:
 # both install missing Debian packages (as root, non-interactively), build, and leave build/esr.
-.PHONY: all deps build demo test test-release test-asan bench clean
+.PHONY: all deps test-tools build demo test test-release test-asan bench clean
 
 DEB_PACKAGES := build-essential cmake pkg-config libspng-dev libopenexr-dev libcjson-dev \
                 libcmocka-dev zlib1g-dev imagemagick libdnnl-dev libopenblas-pthread-dev
+# the Khronos glTF validator the tests check `esr export --gltf` with (npm; Node from Debian)
+GLTF_VALIDATOR := gltf-validator@2.0.0-dev.3.10
 JOBS  ?= $(shell nproc)
 DEMO_OUT ?= runs/demo
 
@@ -19,6 +21,15 @@ deps:
 	  $$SUDO apt-get update -qq && DEBIAN_FRONTEND=noninteractive $$SUDO apt-get install -y -qq --no-install-recommends $$missing; \
 	fi
 
+# Node and the glTF validator for the tests; without network the validator is skipped (said so).
+test-tools: deps
+	@command -v node >/dev/null && command -v npm >/dev/null || { \
+	  SUDO=""; [ "$$(id -u)" = 0 ] || SUDO=sudo; \
+	  $$SUDO apt-get update -qq && DEBIAN_FRONTEND=noninteractive $$SUDO apt-get install -y -qq --no-install-recommends nodejs npm; }
+	@[ -d build-tools/node_modules/gltf-validator ] || \
+	  npm install --silent --no-audit --no-fund --prefix build-tools $(GLTF_VALIDATOR) || \
+	  echo "note: $(GLTF_VALIDATOR) could not be installed; the glTF validation test will say it skipped"
+
 build: deps
 	cmake -S . -B build -DCMAKE_BUILD_TYPE=Release >/dev/null
 	cmake --build build -j $(JOBS)
@@ -26,10 +37,10 @@ build: deps
 demo: build
 	./build/esr demo --out $(DEMO_OUT)
 
-test-release: build
+test-release: build test-tools
 	cd build && ctest --output-on-failure -j $(JOBS)
 
-test-asan: deps
+test-asan: deps test-tools
 	cmake -S . -B build-asan -DCMAKE_BUILD_TYPE=RelWithDebInfo -DESR_SANITIZE=ON >/dev/null
 	cmake --build build-asan -j $(JOBS)
 	cd build-asan && ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 \
@@ -41,4 +52,4 @@ bench: build
 	./build/esr bench --out bench.json
 
 clean:
-	rm -rf build build-asan
+	rm -rf build build-asan build-tools

@@ -396,6 +396,29 @@ static void test_pdra_finds_lights(void **state)
     assert_int_equal(cJSON_GetArraySize(cJSON_GetObjectItem(root, "lights")), m.lights.n);
     cJSON_Delete(root);
 
+    /* the relightable glTF: one node per light, and valid for the Khronos validator */
+    char glb[4400];
+    snprintf(glb, sizeof glb, "%s/scene.glb", test_tmpdir);
+    snprintf(cmd, sizeof cmd, "export %s --gltf %s", run, glb);
+    assert_int_equal(test_run_esr(cmd, out, sizeof out), 0);
+    snprintf(cmd, sizeof cmd, "%d light node(s)", m.lights.n);
+    assert_non_null(strstr(out, cmd));
+    if (esr_file_exists(ESR_GLTF_VALIDATOR "/package.json")) {
+        snprintf(cmd, sizeof cmd, "node '%s/validate_gltf.js' '%s' '%s' 2>&1", ESR_TEST_SUPPORT_DIR,
+                 ESR_GLTF_VALIDATOR, glb);
+        FILE *pipe = popen(cmd, "r");
+        assert_non_null(pipe);
+        size_t got = fread(out, 1, sizeof out - 1, pipe);
+        out[got] = '\0';
+        const int status = pclose(pipe);
+        print_message("%s", out);
+        assert_int_equal(status, 0);
+        assert_non_null(strstr(out, " 0 errors"));
+    } else {
+        print_message("SKIPPED the glTF validation: %s is not installed (make test-tools)\n",
+                      ESR_GLTF_VALIDATOR);
+    }
+
     /* esr edit refuses bad edits with a clear message and writes nothing */
     static const struct {
         const char *args, *message;
