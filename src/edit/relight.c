@@ -92,6 +92,12 @@ static void shadow_free(struct shadow *s)
     free(s->o3), free(s->d3), free(s->tmax), free(s->weight3), free(s->pixel), free(s->flags);
 }
 
+/* Whether light k sends any light under its edit (on, with samples, a strength above 0). */
+static int lights_up(const struct esr_relight *r, const struct esr_light_edit *edits, int k)
+{
+    return edits[k].intensity > 0.0f && r->samples[k].n > 0 && r->samples[k].max_emit > 0.0f;
+}
+
 /* Pixel p's rays take the fixed slots [p * per_px, (p + 1) * per_px) (so pixels fill them in
  * parallel); an unused slot has weight 0 and a zero-length ray. */
 static int build_shadow(const struct esr_relight *r, const struct esr_model *m,
@@ -101,7 +107,7 @@ static int build_shadow(const struct esr_relight *r, const struct esr_model *m,
     const float h = esr_grid_voxel_size(esr_model_grid(m, ESR_COMP_SDF), 0);
     size_t per_px = 0;
     for (int k = 0; k < r->n_lights; k++)
-        if (edits[k].intensity > 0.0f && r->samples[k].n > 0)
+        if (lights_up(r, edits, k))
             per_px += (size_t)r->spp;
     memset(s, 0, sizeof(*s));
     const size_t cap = per_px * n_px;
@@ -141,7 +147,7 @@ static int build_shadow(const struct esr_relight *r, const struct esr_model *m,
         struct esr_rng rng = esr_rng_init(seed, p);
         for (int k = 0; k < r->n_lights; k++) {
             const struct esr_light_samples *ls = &r->samples[k];
-            if (edits[k].intensity <= 0.0f || ls->n == 0)
+            if (!lights_up(r, edits, k))
                 continue;
             for (int j = 0; j < r->spp; j++, i++) {
                 /* stratified over the light's points (stored in lattice order, so the strata
@@ -173,6 +179,41 @@ static int build_shadow(const struct esr_relight *r, const struct esr_model *m,
         }
     }
     return ESR_OK;
+}
+
+/* Traces the used slots of s (a compacted copy: most slots of a view are background), setting
+ * s->flags of every slot (an unused one is never read). */
+static int trace_shadow(const struct esr_model *m, struct shadow *s)
+{
+    size_t nv = 0;
+    for (size_t i = 0; i < s->n; i++)
+        nv += s->tmax[i] > 0.0f;
+    if (nv == 0)
+        return ESR_OK;
+    float *o3 = malloc(nv * 3 * sizeof(float)), *d3 = malloc(nv * 3 * sizeof(float));
+    float *tmax = malloc(nv * sizeof(float));
+    uint8_t *flags = malloc(nv);
+    int rc = o3 && d3 && tmax && flags ? ESR_OK
+                                       : ESR_FAIL("relight: out of memory for %zu shadow rays", nv);
+    for (size_t i = 0, j = 0; rc == ESR_OK && i < s->n; i++)
+        if (s->tmax[i] > 0.0f) {
+            memcpy(o3 + j * 3, s->o3 + i * 3, 3 * sizeof(float));
+            memcpy(d3 + j * 3, s->d3 + i * 3, 3 * sizeof(float));
+            tmax[j++] = s->tmax[i];
+        }
+    if (rc == ESR_OK) {
+        const struct esr_grid *g = esr_model_grid(m, ESR_COMP_SDF);
+        struct esr_first_hit_params hp;
+        esr_first_hit_params_init(&hp, g);
+        struct esr_first_hit_rays hr = {o3, d3, NULL, tmax, nv};
+        struct esr_first_hit_out ho = {NULL, flags, NULL, NULL};
+        rc = esr_first_hit(g, esr_model_values(m, ESR_COMP_SDF), &hp, &hr, &ho);
+    }
+    for (size_t i = 0, j = 0; rc == ESR_OK && i < s->n; i++)
+        if (s->tmax[i] > 0.0f)
+            s->flags[i] = flags[j++];
+    free(o3), free(d3), free(tmax), free(flags);
+    return rc;
 }
 
 /* A joint bilateral filter on the direct light (a few light samples per pixel leave speckle):
@@ -281,14 +322,8 @@ int esr_relight_view(const struct esr_relight *r, const struct esr_model *m,
     memset(&s, 0, sizeof s);
     if (rc == ESR_OK)
         rc = build_shadow(r, m, edits, &b, n, seed, &s);
-    if (rc == ESR_OK && s.n > 0) {
-        const struct esr_grid *g = esr_model_grid(m, ESR_COMP_SDF);
-        struct esr_first_hit_params hp;
-        esr_first_hit_params_init(&hp, g);
-        struct esr_first_hit_rays hr = {s.o3, s.d3, NULL, s.tmax, s.n};
-        struct esr_first_hit_out ho = {NULL, s.flags, NULL, NULL};
-        rc = esr_first_hit(g, esr_model_values(m, ESR_COMP_SDF), &hp, &hr, &ho);
-    }
+    if (rc == ESR_OK && s.n > 0)
+        rc = trace_shadow(m, &s);
     if (rc == ESR_OK)
         rc = esr_image_alloc(out, cam->width, cam->height, 3);
     if (rc == ESR_OK) {

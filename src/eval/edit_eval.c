@@ -17,6 +17,9 @@
 #include "io/json_file.h"
 #include "render/view.h"
 
+/* frames whose light ids decide the dataset -> esr light mapping */
+#define MAP_VIEWS 10
+
 void esr_edit_eval_free(struct esr_edit_eval *res)
 {
     free(res->views);
@@ -123,10 +126,15 @@ int esr_edit_eval_phase(const struct esr_model *m, const struct esr_dataset *ds,
     if (!(res->views = calloc((size_t)(n > 0 ? n : 1), sizeof *res->views)))
         return ESR_FAIL("out of memory for %d views", n);
     ESR_TRY(esr_dir_create(out_dir));
-    /* pass 1: light ids, and the dataset -> esr mapping from them */
-    for (int i = 0; i < n; i++)
-        ESR_TRY(write_light_ids(m, &ph->frames[idx[i]].camera, out_dir, ph->frames[idx[i]].name));
-    ESR_TRY(esr_light_split_eval(ds, phase, idx, n, out_dir, &res->split));
+    /* pass 1: light ids of up to MAP_VIEWS evenly spread frames, and the dataset -> esr mapping
+     * from them (the lights are 3D objects: a few views decide it) */
+    int map_idx[MAP_VIEWS], n_map = n < MAP_VIEWS ? n : MAP_VIEWS;
+    for (int i = 0; i < n_map; i++) {
+        map_idx[i] = idx[(size_t)i * (size_t)n / (size_t)n_map];
+        const struct esr_frame *f = &ph->frames[map_idx[i]];
+        ESR_TRY(write_light_ids(m, &f->camera, out_dir, f->name));
+    }
+    ESR_TRY(esr_light_split_eval(ds, phase, map_idx, n_map, out_dir, &res->split));
     struct esr_relight rl;
     ESR_TRY(esr_relight_init(&rl, m, spp));
     int rc = ESR_OK;

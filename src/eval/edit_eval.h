@@ -1,12 +1,12 @@
 /* Relighting evaluated on a dataset's edit phases (test_nvi, test_nvc, test_nvic; the seed's
  * Tables 4-7): each frame's lights[] is the edit (intensity; for colour changes the new hue and
  * saturation, value kept), rendered with the direct method (edit/relight.h). Dataset light K is
- * mapped to esr's light of best IoU with K's masks in these frames (eval/light_split.h, from the
- * frames' light-id renders: the masks are used by evaluation only); when two dataset lights map
+ * mapped to esr's light of best IoU with K's masks in up to 10 evenly spread frames of the phase
+ * (eval/light_split.h, from their light-id renders: the masks are used by evaluation only); when two dataset lights map
  * to one esr light, the better-overlapping one's edit wins. PSNR and SSIM of the edited render
  * (linear through the sRGB curve, clipped) against the ground-truth PNG on white, per view and
- * mean. Renders go to out_dir as N.png, N.exr, N_lights.png and the ground truth (on white) as
- * N_gt.png. */
+ * mean. Renders go to out_dir as N.png, N.exr, the ground truth (on white) as N_gt.png, and for
+ * the mapping's frames N_lights.png. */
 #ifndef ESR_EVAL_EDIT_EVAL_H
 #define ESR_EVAL_EDIT_EVAL_H
 

@@ -646,6 +646,8 @@ int esr_light_samples_get(const struct esr_model *m, int id, struct esr_light_sa
             out->emit3[i * 3 + c] *= L->light[id].scale[c];
         out->area[i] = point_area(h, nrm + i * 3);
         out->total_area += out->area[i];
+        for (int c = 0; c < 3; c++)
+            out->max_emit = fmaxf(out->max_emit, out->emit3[i * 3 + c]);
     }
     if (rc != ESR_OK)
         esr_light_samples_free(out);

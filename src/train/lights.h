@@ -51,6 +51,7 @@ struct esr_light_samples {
     size_t n;
     float *pos3, *nrm3, *emit3, *area;
     double total_area;
+    float max_emit;       /* largest channel of any sample's emission (0: the light is dark) */
 };
 
 int esr_light_samples_get(const struct esr_model *m, int id, struct esr_light_samples *out);
