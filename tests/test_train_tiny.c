@@ -432,6 +432,15 @@ static void test_pdra_finds_lights(void **state)
     };
     char edit_out[4400];
     snprintf(edit_out, sizeof edit_out, "%s/edit_bad", test_tmpdir);
+    /* a run whose pdra stage never ran (the full run stops after lts) */
+    snprintf(cmd, sizeof cmd, "edit %s/runs/full --light 0 --intensity 0 --out %s --orbit 1",
+             test_tmpdir, edit_out);
+    assert_int_equal(test_run_esr(cmd, out, sizeof out), 1);
+    assert_non_null(strstr(out, "ckpt_pdra.bin"));
+    assert_false(esr_file_exists(edit_out));
+    snprintf(cmd, sizeof cmd, "lights %s/runs/full", test_tmpdir);
+    assert_int_equal(test_run_esr(cmd, out, sizeof out), 1);
+    assert_non_null(strstr(out, "ckpt_pdra.bin"));
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
         snprintf(cmd, sizeof cmd, "edit %s %s --out %s --orbit 1", run, bad[i].args, edit_out);
         assert_int_equal(test_run_esr(cmd, out, sizeof out), 1);

@@ -251,7 +251,7 @@ static int relight_section(const char *run, const char *data, cJSON *root)
     struct esr_light_edit edits[ESR_MAX_LIGHTS];
     for (int k = 0; k < ESR_MAX_LIGHTS; k++)
         edits[k] = (struct esr_light_edit){1.0f, 0, 0.0f, 0.0f};
-    const int spp = 16, reps = 3;
+    const int spp = 8, reps = 3;
     const double t_init = omp_get_wtime();
     rc = esr_relight_init(&rl, &m, spp);
     const double init_s = omp_get_wtime() - t_init;

@@ -43,7 +43,7 @@ const struct esr_command cmd_edit = {
     "  --orbit N      N cameras on a circle around the scene at the first test camera's distance\n"
     "                 and height, written orbit_000 .. orbit_<N-1>\n"
     "  --frames a,b   only these frames of the phase, by name\n"
-    "  --spp N        light samples per pixel and light (default 16)\n"
+    "  --spp N        light samples per pixel and light (default 8)\n"
     "  --data DIR     dataset (default: the one RUN was trained on)\n"
     "  -h, --help     this text\n",
     run_edit,
@@ -78,7 +78,7 @@ static int parse_hs(const char *text, float *h, float *s)
 static int parse(int argc, char **argv, struct edit_args *a)
 {
     memset(a, 0, sizeof(*a));
-    a->spp = 16;
+    a->spp = 8;
     a->direct = 1;
     for (int i = 1; i < argc; i++) {
         const char *o = argv[i];

@@ -50,7 +50,7 @@ const struct esr_command cmd_eval = {
     "  --limit N        only the first N (selected) frames\n"
     "  --rerender       render every selected frame again\n"
     "  --method M       edit phases: direct (default; finetune is not built yet)\n"
-    "  --spp N          edit phases: light samples per pixel and light (default 16)\n"
+    "  --spp N          edit phases: light samples per pixel and light (default 8)\n"
     "  -h, --help       this text\n",
     run_eval,
 };
@@ -313,7 +313,7 @@ static int run_eval(int argc, char **argv)
 {
     if (cli_wants_help(&cmd_eval, argc, argv))
         return 0;
-    struct eval_args a = {NULL, "test_nv", NULL, NULL, 0, 0, 16};
+    struct eval_args a = {NULL, "test_nv", NULL, NULL, 0, 0, 8};
     for (int i = 1; i < argc; i++) {
         const char *s = argv[i];
         int has_value = i + 1 < argc;
