@@ -2,8 +2,8 @@
  * (positions, unit normals, linear per-vertex colours) and named parts, each its own mesh and
  * node with its own material (base colour factor x COLOR_0, metallic and roughness factors, an
  * emissive colour with KHR_materials_emissive_strength for linear HDR emission above 1). Written
- * atomically. Positions are in the scene's units; glTF's +Y up is not imposed (the caller's
- * frame is kept), so viewers show the scene in its own orientation. */
+ * atomically. Positions and normals are written as given: the caller puts them in glTF's frame
+ * (+Y up, metres by convention). */
 #ifndef ESR_IO_GLB_H
 #define ESR_IO_GLB_H
 

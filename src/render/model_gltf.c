@@ -95,6 +95,15 @@ int esr_model_gltf_write(const struct esr_model *m, int res, const char *path)
             }
         }
     }
+    /* glTF is +Y up: the scene's +Z (up) becomes +Y, its +Y becomes -Z */
+    for (size_t i = 0; rc == ESR_OK && i < mesh.n_vertices; i++) {
+        float *vs[2] = {mesh.pos + i * 3, mesh.normal + i * 3};
+        for (int k = 0; k < 2; k++) {
+            const float y = vs[k][1], z = vs[k][2];
+            vs[k][1] = z;
+            vs[k][2] = -y;
+        }
+    }
     if (rc == ESR_OK)
         rc = esr_glb_write(path, &mesh, parts, n_lights + 1);
     for (int k = 0; k <= n_lights; k++)

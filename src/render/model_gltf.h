@@ -5,7 +5,7 @@
  * node ("light_<id>") whose triangles emit its calibrated radiance: emissiveFactor = colour /
  * its largest channel, KHR_materials_emissive_strength = that channel (linear HDR). A triangle
  * belongs to a light when its centroid does. Any glTF viewer can then turn lights up, down or
- * off by their node. */
+ * off by their node. Coordinates are converted to glTF's +Y up (the scene's +Z up becomes +Y). */
 #ifndef ESR_RENDER_MODEL_GLTF_H
 #define ESR_RENDER_MODEL_GLTF_H
 
