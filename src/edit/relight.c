@@ -11,6 +11,7 @@
 #include "core/rng.h"
 #include "core/vec3.h"
 #include "fields/grid.h"
+#include "model/material_fields.h"
 #include "model/render_sdf.h"
 #include "volume/first_hit.h"
 
@@ -138,11 +139,7 @@ static int build_shadow(const struct esr_relight *r, const struct esr_model *m,
         struct esr_vec3 x = esr_v3_add(esr_v3(b->o3[p * 3], b->o3[p * 3 + 1], b->o3[p * 3 + 2]),
                                        esr_v3_scale(d, b->depth[p]));
         const struct esr_vec3 wo = esr_v3_scale(d, -1.0f);
-        struct esr_material mat;
-        for (int c = 0; c < 3; c++)
-            mat.base[c] = b->mat5[p * 5 + c] / a;
-        mat.roughness = b->mat5[p * 5 + 3] / a;
-        mat.metallic = b->mat5[p * 5 + 4] / a;
+        const struct esr_material mat = esr_material_of_row(b->mat5 + p * ESR_BRDF_CHANNELS, a);
         const struct esr_vec3 o = esr_v3_add(x, esr_v3_scale(n, SHADOW_OFFSET_VOX * h));
         struct esr_rng rng = esr_rng_init(seed, p);
         for (int k = 0; k < r->n_lights; k++) {

@@ -59,15 +59,8 @@ static int pick_points(const struct esr_model *m, const struct esr_dataset *ds, 
         const struct esr_march *mc = &t.march;
         size_t *best = rc == ESR_OK ? malloc((size_t)n * sizeof(size_t)) : NULL;
         int nc = 0; /* best[0..nc): the qualifying rays' strongest samples */
-        for (int r = 0; best && r < n; r++) {
-            float wmax = 0.0f;
-            for (size_t k = mc->kept_start[r]; k < mc->kept_start[r + 1]; k++)
-                if (mc->weight[mc->kidx[k]] > wmax) {
-                    wmax = mc->weight[mc->kidx[k]];
-                    best[nc] = k;
-                }
-            nc += wmax >= SURFACE_WEIGHT;
-        }
+        for (int r = 0; best && r < n; r++)
+            nc += esr_march_strongest_kept(mc, r, &best[nc]) >= SURFACE_WEIGHT;
         if (rc == ESR_OK && !best)
             rc = ESR_FAIL("bench lts: out of memory");
         else if (rc == ESR_OK && nc < POINTS)

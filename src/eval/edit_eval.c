@@ -43,10 +43,8 @@ static int write_light_ids(const struct esr_model *m, const struct esr_camera *c
     }
     if (rc == ESR_OK)
         rc = esr_image_alloc(&img, cam->width, cam->height, 1);
-    for (size_t p = 0; rc == ESR_OK && p < n; p++) {
-        const float emax = fmaxf(e[p * 3], fmaxf(e[p * 3 + 1], e[p * 3 + 2]));
-        img.data[p] = emax > m->cfg.emitter_k && ids[p] >= 0 ? (float)(ids[p] + 1) / 255.0f : 0.0f;
-    }
+    for (size_t p = 0; rc == ESR_OK && p < n; p++)
+        img.data[p] = esr_view_light_code(e + p * 3, ids[p], m->cfg.emitter_k);
     char path[ESR_PATH_MAX + 64];
     if (rc == ESR_OK)
         rc = esr_view_path(path, sizeof path, dir, name, "_lights.png");

@@ -44,10 +44,9 @@ static int add_camera(const struct esr_image *on, const struct esr_image *off,
 /* "<dir>/<name with the trailing _on replaced by _off>.exr"; 0 when name does not end in _on. */
 static int partner_path(char *out, size_t n, const char *dir, const char *name)
 {
-    size_t len = strlen(name);
-    if (len < 3 || strcmp(name + len - 3, "_on") != 0)
-        return 0;
-    return snprintf(out, n, "%s/%.*s_off.exr", dir, (int)(len - 3), name) < (int)n;
+    char off[ESR_NAME_MAX];
+    return esr_frame_off_partner(name, off, sizeof off) &&
+           snprintf(out, n, "%s/%s.exr", dir, off) < (int)n;
 }
 
 int esr_emo_baseline_eval(const struct esr_dataset *ds, enum esr_phase_id phase, const int *idx,

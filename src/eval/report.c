@@ -295,11 +295,9 @@ static int copy_true_emitters(const struct esr_report_spec *spec, const struct e
 static int write_true_effect(const struct esr_report_spec *spec, const struct esr_phase *ph,
                              const struct esr_frame *f)
 {
-    const size_t len = strlen(f->name);
-    if (len < 3 || strcmp(f->name + len - 3, "_on") != 0)
-        return ESR_OK;
     char off_name[ESR_NAME_MAX];
-    snprintf(off_name, sizeof off_name, "%.*s_off", (int)(len - 3), f->name);
+    if (!esr_frame_off_partner(f->name, off_name, sizeof off_name))
+        return ESR_OK;
     const struct esr_frame *off = NULL;
     for (int k = 0; k < ph->n_frames && !off; k++)
         if (!strcmp(ph->frames[k].name, off_name))

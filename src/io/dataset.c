@@ -558,3 +558,11 @@ int esr_dataset_check(const struct esr_dataset *ds, esr_problem_fn report, void 
     }
     return total;
 }
+
+int esr_frame_off_partner(const char *name, char *out, size_t n)
+{
+    const size_t len = strlen(name);
+    if (len < 3 || strcmp(name + len - 3, "_on") != 0)
+        return 0;
+    return snprintf(out, n, "%.*s_off", (int)(len - 3), name) < (int)n;
+}

@@ -91,6 +91,10 @@ enum esr_light_mode esr_frame_mode(const struct esr_dataset *ds, const struct es
 /* Name of the phase's transforms file as this layout spells it, e.g. "transforms_test.json". */
 const char *esr_phase_file_name(const struct esr_dataset *ds, enum esr_phase_id phase);
 
+/* The name of the lights-off frame of the camera of lights-on frame `name` ("c003_on" ->
+ * "c003_off", the layout's naming); 0 when name does not end in "_on" or out is too small. */
+int esr_frame_off_partner(const char *name, char *out, size_t n);
+
 /* Full path of a frame's image (".png" appended) / its EXR / its emission mask / light K's mask
  * ("" when the light has no mask_path). */
 void esr_frame_image_path(const struct esr_dataset *ds, const struct esr_frame *f, char *out, size_t n);

@@ -12,6 +12,7 @@
 
 #include <stddef.h>
 
+#include "core/brdf.h"
 #include "model/model.h"
 #include "nn/mlp.h"
 
@@ -21,6 +22,18 @@ extern "C" {
 
 /* Channels of a BRDF row: base colour r, g, b, roughness, metallic. */
 #define ESR_BRDF_CHANNELS 5
+
+/* The material of a BRDF row, each channel divided by `cover` (1 for a point's own row; the
+ * opacity for a row composited along a ray). */
+static inline struct esr_material esr_material_of_row(const float *row, float cover)
+{
+    struct esr_material mat;
+    for (int c = 0; c < 3; c++)
+        mat.base[c] = row[c] / cover;
+    mat.roughness = row[3] / cover;
+    mat.metallic = row[4] / cover;
+    return mat;
+}
 
 struct esr_material_fields {
     int train;            /* 1: keep the MLP contexts for backward */

@@ -110,14 +110,10 @@ static void light_ids(const struct esr_march *mc, const struct esr_lights *L, in
 {
 #pragma omp parallel for schedule(static)
     for (int r = 0; r < mc->n_rays; r++) {
-        float wmax = 0.0f;
         size_t best = 0;
-        for (size_t k = mc->kept_start[r]; k < mc->kept_start[r + 1]; k++)
-            if (mc->weight[mc->kidx[k]] > wmax) {
-                wmax = mc->weight[mc->kidx[k]];
-                best = k;
-            }
-        ids[r] = wmax > 0.0f ? esr_lights_id_at(L, mc->kpos3 + best * 3) : -1;
+        ids[r] = esr_march_strongest_kept(mc, r, &best) > 0.0f
+                     ? esr_lights_id_at(L, mc->kpos3 + best * 3)
+                     : -1;
     }
 }
 

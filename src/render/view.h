@@ -61,6 +61,10 @@ void esr_view_images_free(struct esr_view_images *v);
  * Fails naming the file on a write error. */
 int esr_view_write(const char *dir, const char *name, const struct esr_view_images *v);
 
+/* N_lights.png's code value of a pixel: 0 off the emitter mask (no channel of the field's
+ * emission e above k) or on no light, else (light id + 1) / 255. */
+float esr_view_light_code(const float e[3], int32_t light_id, float k);
+
 /* The model's environment map (lts stage on) as dir/env.exr (linear RGB) and dir/env.png (sRGB
  * OETF clipped), equirectangular 256 x 128, +Z (up) in row 0 (fields/env_sg.h); nothing for a
  * model without one. */

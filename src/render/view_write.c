@@ -102,11 +102,15 @@ static int write_emission(const char *dir, const char *name, const struct esr_vi
     ESR_TRY(write_png(dir, name, "_emitter.png", grey));
     if (!v->light_id)
         return ESR_OK;
-    for (long long i = 0; i < n; i++) /* the light id on the emitter mask, as code value id + 1 */
-        grey->data[i] = grey->data[i] > 0.5f && v->light_id[i] >= 0
-                            ? (float)(v->light_id[i] + 1) / 255.0f
-                            : 0.0f;
+    for (long long i = 0; i < n; i++)
+        grey->data[i] = esr_view_light_code(v->emission.data + 3 * i, v->light_id[i], v->emitter_k);
     return write_png(dir, name, "_lights.png", grey);
+}
+
+float esr_view_light_code(const float e[3], int32_t light_id, float k)
+{
+    return fmaxf(e[0], fmaxf(e[1], e[2])) > k && light_id >= 0 ? (float)(light_id + 1) / 255.0f
+                                                                 : 0.0f;
 }
 
 /* Channels [c0, c0 + n) of the composited material image divided by opacity (the surface's

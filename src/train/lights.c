@@ -322,13 +322,8 @@ static int calib_points(const struct esr_model *m, const float *orig3, const flo
         const struct esr_march *mc = &t.march;
         int nc = 0;
         for (int r = 0; rc == ESR_OK && r < nr; r++) {
-            float wmax = 0.0f;
             size_t best = 0;
-            for (size_t q = mc->kept_start[r]; q < mc->kept_start[r + 1]; q++)
-                if (mc->weight[mc->kidx[q]] > wmax) {
-                    wmax = mc->weight[mc->kidx[q]];
-                    best = q;
-                }
+            const float wmax = esr_march_strongest_kept(mc, r, &best);
             if (wmax < CALIB_SURFACE_WEIGHT || esr_lights_id_at(&m->lights, mc->kpos3 + best * 3) >= 0)
                 continue;
             memcpy(cand + nc * 6, mc->kpos3 + best * 3, 3 * sizeof(float));
@@ -397,11 +392,7 @@ static int point_frame(const struct esr_lts *l, size_t p, struct esr_vec3 *n, st
 {
     *n = esr_v3(l->nrm3[p * 3], l->nrm3[p * 3 + 1], l->nrm3[p * 3 + 2]);
     *wo = esr_v3(l->wo3[p * 6], l->wo3[p * 6 + 1], l->wo3[p * 6 + 2]);
-    const float *b = l->mf.brdf5 + p * ESR_BRDF_CHANNELS;
-    for (int c = 0; c < 3; c++)
-        mat->base[c] = b[c];
-    mat->roughness = b[3];
-    mat->metallic = b[4];
+    *mat = esr_material_of_row(l->mf.brdf5 + p * ESR_BRDF_CHANNELS, 1.0f);
     return esr_v3_dot(*n, *wo) > 0.0f;
 }
 

@@ -176,25 +176,13 @@ static void build_point_rows(struct esr_lts *l, size_t P)
             }
 }
 
-/* Material of point p from the BRDF rows. */
-static struct esr_material material_at(const float *brdf5, size_t p)
-{
-    struct esr_material mat;
-    const float *b = brdf5 + p * ESR_BRDF_CHANNELS;
-    for (int c = 0; c < 3; c++)
-        mat.base[c] = b[c];
-    mat.roughness = b[3];
-    mat.metallic = b[4];
-    return mat;
-}
-
 /* Estimates, loss and the gradients of everything they read, for point p. */
 static void point_loss(struct esr_lts *l, size_t p, float scale, float w_l, float w_r, int sg,
                        double *se_off, double *se_emo)
 {
     const size_t M = (size_t)l->M;
     const float *lin = l->pf.lin3, *E = l->mf.emit3 + p * 3;
-    const struct esr_material mat = material_at(l->mf.brdf5, p);
+    const struct esr_material mat = esr_material_of_row(l->mf.brdf5 + p * ESR_BRDF_CHANNELS, 1.0f);
     const struct esr_vec3 n = v3_at(l->nrm3, p);
     struct esr_material d_mat;
     memset(&d_mat, 0, sizeof d_mat);

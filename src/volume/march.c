@@ -241,6 +241,17 @@ void esr_march_bwd(struct esr_march *mc, float *g_values)
     esr_grid_sample_value_dpoint_bwd(g->grid, mc->smp.pos, n, mc->d_f, mc->d_grad3, g_values);
 }
 
+float esr_march_strongest_kept(const struct esr_march *mc, int r, size_t *row)
+{
+    float wmax = 0.0f;
+    for (size_t k = mc->kept_start[r]; k < mc->kept_start[r + 1]; k++)
+        if (mc->weight[mc->kidx[k]] > wmax) {
+            wmax = mc->weight[mc->kidx[k]];
+            *row = k;
+        }
+    return wmax;
+}
+
 void esr_march_composite_args(const struct esr_march *mc, const float *kept_values, int channels,
                               const float *bg, int bg_per_ray, struct esr_composite_args *a)
 {

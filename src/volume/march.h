@@ -88,6 +88,10 @@ void esr_march_zero_d_alpha(struct esr_march *mc);
  * of the geometry passed to the forward). */
 void esr_march_bwd(struct esr_march *mc, float *g_values);
 
+/* The kept row of ray r with the largest weight (the ray's surface sample): its weight, and the
+ * row in *row; 0 (row untouched) when the ray kept no sample. */
+float esr_march_strongest_kept(const struct esr_march *mc, int r, size_t *row);
+
 /* Composite arguments over the last forward for `channels` values per kept row, with bg NULL, a
  * constant (C floats) or one per ray (bg_per_ray). Feed them to esr_composite_fwd/bwd. */
 struct esr_composite_args;
