@@ -49,7 +49,8 @@ const struct esr_command cmd_eval = {
     "  --frames a,b,..  only these frames, by name\n"
     "  --limit N        only the first N (selected) frames\n"
     "  --rerender       render every selected frame again\n"
-    "  --method M       edit phases: direct (default; finetune is not built yet)\n"
+    "  --method M       edit phases: direct (default) or finetune (one radiance fine-tune per\n"
+    "                   distinct edit of the phase, edit/finetune.h)\n"
     "  --spp N          edit phases: light samples per pixel and light (default 8)\n"
     "  -h, --help       this text\n",
     run_eval,
@@ -59,6 +60,7 @@ struct eval_args {
     const char *run, *phase, *data, *frames;
     int limit, rerender;
     int spp;
+    enum esr_edit_method method;
 };
 
 static void show_progress(void *user, const struct esr_view_progress *p)
@@ -241,26 +243,26 @@ static int evaluate(const struct eval_args *a, const struct esr_run_selection *s
     return status;
 }
 
-/* An edit phase relit by the direct method, scored, with its JSON and HTML page. */
+/* An edit phase relit by a.method, scored, with its JSON and HTML page. */
 static int evaluate_edits(const struct eval_args *a, const struct esr_run_selection *sel)
 {
-    const char *phase = esr_phase_name(sel->phase);
+    const char *phase = esr_phase_name(sel->phase), *method = esr_edit_method_name(a->method);
     char dir[ESR_PATH_MAX], json[ESR_PATH_MAX], html[ESR_PATH_MAX];
     char href[ESR_PATH_MAX], eval_dir[ESR_PATH_MAX];
-    snprintf(dir, sizeof dir, "%s/render/%s_direct", a->run, phase);
+    snprintf(dir, sizeof dir, "%s/render/%s_%s", a->run, phase, method);
     snprintf(eval_dir, sizeof eval_dir, "%s/eval", a->run);
-    snprintf(json, sizeof json, "%s/eval/%s_direct.json", a->run, phase);
-    snprintf(html, sizeof html, "%s/report_%s_direct.html", a->run, phase);
-    snprintf(href, sizeof href, "render/%s_direct", phase);
+    snprintf(json, sizeof json, "%s/eval/%s_%s.json", a->run, phase, method);
+    snprintf(html, sizeof html, "%s/report_%s_%s.html", a->run, phase, method);
+    snprintf(href, sizeof href, "render/%s_%s", phase, method);
     struct esr_model m;
     ESR_TRY(esr_model_load_finished_pdra(&m, a->run));
     int status = ESR_OK;
     struct esr_edit_eval res;
     memset(&res, 0, sizeof res);
     if (status == ESR_OK) {
-        fprintf(stderr, "relighting %d frame(s) of %s (direct, %d light samples per pixel) into %s\n",
-                sel->n, phase, a->spp, dir);
-        status = esr_edit_eval_phase(&m, &sel->ds, sel->phase, sel->idx, sel->n, dir, a->spp, &res);
+        fprintf(stderr, "relighting %d frame(s) of %s (%s) into %s\n", sel->n, phase, method, dir);
+        status = esr_edit_eval_phase(&m, &sel->ds, sel->phase, sel->idx, sel->n, dir, a->method,
+                                     a->spp, &res);
     }
     if (status == ESR_OK)
         status = esr_dir_create(eval_dir);
@@ -273,8 +275,10 @@ static int evaluate_edits(const struct eval_args *a, const struct esr_run_select
         for (int i = 0; i < res.n; i++)
             printf("%-16s %8.2f %7.4f %8.2f\n", res.views[i].name, res.views[i].psnr,
                    res.views[i].ssim, res.views[i].seconds);
-        printf("%-16s %8.2f %7.4f %8.2f  (%s, direct, %d views)\n", "mean", res.psnr, res.ssim,
-               res.seconds, phase, res.n);
+        printf("%-16s %8.2f %7.4f %8.2f  (%s, %s, %d views)\n", "mean", res.psnr, res.ssim,
+               res.seconds, phase, method, res.n);
+        if (a->method == ESR_EDIT_FINETUNE)
+            printf("%d fine-tune(s), %.1f s each\n", res.n_edits, res.finetune_seconds);
         for (int k = 0; k < res.split.n; k++)
             printf("light %d (%s) is esr light %d: IoU %.3f\n", res.split.rows[k].light,
                    res.split.rows[k].name, res.split.rows[k].esr_light, res.split.rows[k].iou);
@@ -313,7 +317,7 @@ static int run_eval(int argc, char **argv)
 {
     if (cli_wants_help(&cmd_eval, argc, argv))
         return 0;
-    struct eval_args a = {NULL, "test_nv", NULL, NULL, 0, 0, 8};
+    struct eval_args a = {NULL, "test_nv", NULL, NULL, 0, 0, 8, ESR_EDIT_DIRECT};
     for (int i = 1; i < argc; i++) {
         const char *s = argv[i];
         int has_value = i + 1 < argc;
@@ -327,10 +331,7 @@ static int run_eval(int argc, char **argv)
             a.rerender = 1;
         else if (!strcmp(s, "--method") && has_value) {
             const char *mth = argv[++i];
-            if (!strcmp(mth, "finetune"))
-                return cli_fail(&cmd_eval, "--method finetune (radiance fine-tuning) is not built "
-                                           "yet; use --method direct");
-            if (strcmp(mth, "direct"))
+            if (esr_edit_method_from_name(mth, &a.method))
                 return cli_fail(&cmd_eval, "--method: expected direct or finetune, got '%s'", mth);
         } else if (!strcmp(s, "--spp") && has_value) {
             if (cli_parse_int(argv[++i], 1, 4096, &a.spp))

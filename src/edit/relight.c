@@ -58,16 +58,6 @@ void esr_relight_free(struct esr_relight *r)
     memset(r, 0, sizeof(*r));
 }
 
-/* The edited emission of radiance e under edit ed. */
-static void edited(const struct esr_light_edit *ed, const float *e, float out[3])
-{
-    float v[3] = {ed->intensity * e[0], ed->intensity * e[1], ed->intensity * e[2]};
-    if (ed->recolour)
-        esr_recolour_keep_value(v, ed->hue, ed->sat, out);
-    else
-        memcpy(out, v, sizeof v);
-}
-
 /* Per-pixel buffers of one view. */
 struct view_buf {
     float *o3, *d3, *lin3, *opac, *depth, *nrm3, *mat5, *emit3;
@@ -166,7 +156,7 @@ static int build_shadow(const struct esr_relight *r, const struct esr_model *m,
                 const float g = fabsf(esr_v3_dot(ny, wi)) * ls->area[q] * (float)ls->n /
                                 ((float)r->spp * dist * dist);
                 float e[3];
-                edited(&edits[k], ls->emit3 + q * 3, e);
+                esr_light_edit_apply(&edits[k], ls->emit3 + q * 3, e);
                 memcpy(s->o3 + i * 3, &o, 3 * sizeof(float));
                 memcpy(s->d3 + i * 3, &wi, 3 * sizeof(float));
                 s->tmax[i] = dist - SHADOW_STOP_VOX * h;
@@ -328,7 +318,7 @@ int esr_relight_view(const struct esr_relight *r, const struct esr_model *m,
         for (size_t p = 0; p < n; p++) {
             float e[3] = {0, 0, 0};
             if (b.ids[p] >= 0 && b.ids[p] < r->n_lights)
-                edited(&edits[b.ids[p]], b.emit3 + p * 3, e);
+                esr_light_edit_apply(&edits[b.ids[p]], b.emit3 + p * 3, e);
             for (int c = 0; c < 3; c++)
                 out->data[p * 3 + c] = b.lin3[p * 3 + c] + e[c];
         }

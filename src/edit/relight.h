@@ -22,13 +22,6 @@
 extern "C" {
 #endif
 
-/* One light's edit: intensity multiplier (0 = off, 1 = as found) and an optional recolour. */
-struct esr_light_edit {
-    float intensity;
-    int recolour;       /* 1: hue and saturation replaced (V kept) */
-    float hue, sat;     /* in [0, 1] */
-};
-
 /* What a relight needs once per model: each light's surface samples. */
 struct esr_relight {
     int n_lights;

@@ -10,7 +10,7 @@
 
 #include "core/colour.h"
 #include "core/error.h"
-#include "edit/relight.h"
+#include "edit/editor.h"
 #include "eval/metrics.h"
 #include "io/dir.h"
 #include "io/file.h"
@@ -113,12 +113,30 @@ static int score_view(const struct esr_dataset *ds, const struct esr_frame *f,
     return rc;
 }
 
-int esr_edit_eval_phase(const struct esr_model *m, const struct esr_dataset *ds,
+/* Frame order for the editor: frames with the same edit together, groups in first-seen order
+ * (each distinct edit is fine-tuned once). O(n^2) over a phase's few dozen frames. */
+static void order_by_edit(const struct esr_light_edit (*edits)[ESR_MAX_LIGHTS], int n, int n_lights,
+                          int *order)
+{
+    const size_t bytes = (size_t)n_lights * sizeof edits[0][0];
+    int k = 0;
+    for (int g = 0; g < n; g++) { /* g leads a group when no earlier frame has its edit */
+        int leads = 1;
+        for (int j = 0; j < g && leads; j++)
+            leads = memcmp(edits[g], edits[j], bytes) != 0;
+        for (int i = g; leads && i < n; i++)
+            if (i == g || !memcmp(edits[g], edits[i], bytes))
+                order[k++] = i;
+    }
+}
+
+int esr_edit_eval_phase(struct esr_model *m, const struct esr_dataset *ds,
                         enum esr_phase_id phase, const int *idx, int n, const char *out_dir,
-                        int spp, struct esr_edit_eval *res)
+                        enum esr_edit_method method, int spp, struct esr_edit_eval *res)
 {
     memset(res, 0, sizeof(*res));
     res->phase = phase;
+    res->method = method;
     res->spp = spp;
     const struct esr_phase *ph = &ds->phases[phase];
     if (!(res->views = calloc((size_t)(n > 0 ? n : 1), sizeof *res->views)))
@@ -133,34 +151,48 @@ int esr_edit_eval_phase(const struct esr_model *m, const struct esr_dataset *ds,
         ESR_TRY(write_light_ids(m, &f->camera, out_dir, f->name));
     }
     ESR_TRY(esr_light_split_eval(ds, phase, map_idx, n_map, out_dir, &res->split));
-    struct esr_relight rl;
-    ESR_TRY(esr_relight_init(&rl, m, spp));
-    int rc = ESR_OK;
-    for (int i = 0; i < n && rc == ESR_OK; i++) {
+    struct esr_light_edit (*edits)[ESR_MAX_LIGHTS] = calloc((size_t)(n > 0 ? n : 1), sizeof *edits);
+    int *order = malloc((size_t)(n > 0 ? n : 1) * sizeof(int));
+    if (!edits || !order) {
+        free(edits);
+        free(order);
+        return ESR_FAIL("out of memory for %d views", n);
+    }
+    for (int i = 0; i < n; i++)
+        frame_edits(ds, &ph->frames[idx[i]], &res->split, m->lights.n, edits[i]);
+    order_by_edit((const struct esr_light_edit(*)[ESR_MAX_LIGHTS])edits, n, m->lights.n, order);
+    struct esr_editor ed;
+    int rc = esr_editor_init(&ed, m, ds, method, spp, NULL);
+    for (int k = 0; k < n && rc == ESR_OK; k++) {
+        const int i = order[k];
         const struct esr_frame *f = &ph->frames[idx[i]];
-        struct esr_light_edit edits[ESR_MAX_LIGHTS];
-        frame_edits(ds, f, &res->split, m->lights.n, edits);
         struct esr_edit_eval_view *v = &res->views[i];
         snprintf(v->name, sizeof v->name, "%s", f->name);
+        rc = esr_editor_set(&ed, edits[i], 0x5eedULL);
         struct esr_image lin = {0};
         const double t0 = omp_get_wtime();
-        rc = esr_relight_view(&rl, m, edits, &f->camera, (uint64_t)idx[i], &lin);
+        if (rc == ESR_OK)
+            rc = esr_editor_view(&ed, &f->camera, (uint64_t)idx[i], &lin);
         v->seconds = omp_get_wtime() - t0;
         if (rc == ESR_OK)
             rc = score_view(ds, f, &lin, out_dir, v);
         esr_image_free(&lin);
-        if (rc == ESR_OK) {
-            res->n = i + 1;
-            res->psnr += v->psnr;
-            res->ssim += v->ssim;
-            res->seconds += v->seconds;
-        }
+        if (rc == ESR_OK)
+            fprintf(stderr, "  %-20s %3d / %-3d  %.2f dB%s\n", f->name, k + 1, n, v->psnr,
+                    ed.finetunes > res->n_edits ? " (after a fine-tune)" : "");
+        res->n_edits = ed.finetunes;
     }
-    esr_relight_free(&rl);
-    if (res->n > 0) {
-        res->psnr /= res->n;
-        res->ssim /= res->n;
-        res->seconds /= res->n;
+    res->finetune_seconds = ed.finetunes > 0 ? ed.finetune_seconds / ed.finetunes : 0.0;
+    esr_editor_free(&ed);
+    free(edits);
+    free(order);
+    if (rc == ESR_OK) {
+        res->n = n;
+        for (int i = 0; i < n; i++) {
+            res->psnr += res->views[i].psnr / n;
+            res->ssim += res->views[i].ssim / n;
+            res->seconds += res->views[i].seconds / n;
+        }
     }
     return rc;
 }
@@ -169,8 +201,13 @@ int esr_edit_eval_write_json(const char *path, const struct esr_edit_eval *res)
 {
     cJSON *root = cJSON_CreateObject();
     cJSON_AddStringToObject(root, "phase", esr_phase_name(res->phase));
-    cJSON_AddStringToObject(root, "method", "direct");
-    cJSON_AddNumberToObject(root, "spp", res->spp);
+    cJSON_AddStringToObject(root, "method", esr_edit_method_name(res->method));
+    if (res->method == ESR_EDIT_DIRECT)
+        cJSON_AddNumberToObject(root, "spp", res->spp);
+    else {
+        cJSON_AddNumberToObject(root, "finetunes", res->n_edits);
+        cJSON_AddNumberToObject(root, "finetune_seconds", res->finetune_seconds);
+    }
     cJSON_AddNumberToObject(root, "n_views", res->n);
     cJSON *views = cJSON_AddArrayToObject(root, "views");
     for (int i = 0; i < res->n; i++) {
@@ -209,10 +246,15 @@ int esr_edit_eval_write_html(const char *path, const char *title, const struct e
         return ESR_FAIL("out of memory for %s", path);
     fprintf(out, "<!DOCTYPE html>\n<html><head><meta charset=\"utf-8\"><title>%s %s</title>"
                  "<style>body{font-family:sans-serif}td{padding:2px 6px}</style></head><body>\n"
-                 "<h1>%s: %s, direct relighting</h1>\n<p>Mean PSNR %.2f dB, SSIM %.4f over %d views "
-                 "(%.2f s per view, %d light samples per pixel and light).</p>\n",
-            title, esr_phase_name(res->phase), title, esr_phase_name(res->phase), res->psnr,
-            res->ssim, res->n, res->seconds, res->spp);
+                 "<h1>%s: %s, %s relighting</h1>\n<p>Mean PSNR %.2f dB, SSIM %.4f over %d views "
+                 "(%.2f s per view",
+            title, esr_phase_name(res->phase), title, esr_phase_name(res->phase),
+            esr_edit_method_name(res->method), res->psnr, res->ssim, res->n, res->seconds);
+    if (res->method == ESR_EDIT_DIRECT)
+        fprintf(out, ", %d light samples per pixel and light).</p>\n", res->spp);
+    else
+        fprintf(out, ", after one fine-tune per distinct edit: %d, %.1f s each).</p>\n",
+                res->n_edits, res->finetune_seconds);
     fputs("<table><tr><th>dataset light</th><th>esr light</th><th>IoU</th></tr>\n", out);
     for (int k = 0; k < res->split.n; k++)
         fprintf(out, "<tr><td>%d %s</td><td>%d</td><td>%.3f</td></tr>\n", res->split.rows[k].light,

@@ -1,6 +1,7 @@
 /* Relighting evaluated on a dataset's edit phases (test_nvi, test_nvc, test_nvic; the seed's
  * Tables 4-7): each frame's lights[] is the edit (intensity; for colour changes the new hue and
- * saturation, value kept), rendered with the direct method (edit/relight.h). Dataset light K is
+ * saturation, value kept), rendered with the direct method (edit/relight.h) or by radiance
+ * fine-tuning (edit/finetune.h: frames grouped by edit, one fine-tune each). Dataset light K is
  * mapped to esr's light of best IoU with K's masks in up to 10 evenly spread frames of the phase
  * (eval/light_split.h, from their light-id renders: the masks are used by evaluation only); when two dataset lights map
  * to one esr light, the better-overlapping one's edit wins. PSNR and SSIM of the edited render
@@ -10,6 +11,7 @@
 #ifndef ESR_EVAL_EDIT_EVAL_H
 #define ESR_EVAL_EDIT_EVAL_H
 
+#include "edit/editor.h"
 #include "eval/light_split.h"
 #include "io/dataset.h"
 #include "model/model.h"
@@ -21,19 +23,23 @@ struct esr_edit_eval_view {
 
 struct esr_edit_eval {
     enum esr_phase_id phase;
+    enum esr_edit_method method;
     int n;
     struct esr_edit_eval_view *views;
     double psnr, ssim, seconds; /* means */
-    int spp;
+    int spp;                 /* direct: light samples per pixel and light */
+    int n_edits;             /* finetune: distinct edits fine-tuned */
+    double finetune_seconds; /* finetune: mean seconds per fine-tune */
     struct esr_light_split split;
 };
 
-int esr_edit_eval_phase(const struct esr_model *m, const struct esr_dataset *ds,
+int esr_edit_eval_phase(struct esr_model *m, const struct esr_dataset *ds,
                         enum esr_phase_id phase, const int *idx, int n, const char *out_dir,
-                        int spp, struct esr_edit_eval *res);
+                        enum esr_edit_method method, int spp, struct esr_edit_eval *res);
 void esr_edit_eval_free(struct esr_edit_eval *res);
 
-/* {"phase", "method": "direct", "spp", "n_views", "views": [{"name", "psnr", "ssim",
+/* {"phase", "method": "direct"|"finetune", "spp" (direct) | "finetunes", "finetune_seconds"
+ *  (finetune), "n_views", "views": [{"name", "psnr", "ssim",
  *  "seconds"}...], "mean": {"psnr", "ssim", "seconds"}, "light_split": {...}} */
 int esr_edit_eval_write_json(const char *path, const struct esr_edit_eval *res);
 

@@ -42,6 +42,18 @@ struct esr_lights {
 
 void esr_lights_free(struct esr_lights *L);
 
+/* One light's edit (`esr edit`, seed eqs. 10-15): intensity multiplier (0 = off, 1 = as found)
+ * and an optional recolour. */
+struct esr_light_edit {
+    float intensity;
+    int recolour;       /* 1: hue and saturation replaced (V kept) */
+    float hue, sat;     /* in [0, 1] */
+};
+
+/* The edited emission of radiance e (linear RGB) under edit ed: times the intensity, then hue and
+ * saturation replaced with V kept when ed->recolour. */
+void esr_light_edit_apply(const struct esr_light_edit *ed, const float e[3], float out[3]);
+
 /* Light id of a surface point (the label of the nearest labelled corner of its lattice cell),
  * or -1. */
 int esr_lights_id_at(const struct esr_lights *L, const float pos[3]);
@@ -49,6 +61,12 @@ int esr_lights_id_at(const struct esr_lights *L, const float pos[3]);
 /* The calibrated emission of n points: emit3 [n*3] multiplied in place by the scale of each
  * point's light (points on no light keep E). */
 void esr_lights_scale_emission(const struct esr_lights *L, const float *pos3, size_t n, float *emit3);
+
+/* The emission of n points after edits (one per light of L): a point on light K gets K's
+ * calibrated emission (scale x E) edited by edits[K]; a point on no light gets 0 (what the pdra
+ * stage decided is not an emitter emits nothing). emit3 [n*3]: E in, the edited emission out. */
+void esr_lights_edit_emission(const struct esr_lights *L, const struct esr_light_edit *edits,
+                              const float *pos3, size_t n, float *emit3);
 
 #ifdef __cplusplus
 }

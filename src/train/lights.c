@@ -13,8 +13,8 @@
 #include "fields/grid.h"
 #include "model/material_fields.h"
 #include "model/trace.h"
+#include "train/light_direct.h"
 #include "train/lts.h"
-#include "volume/first_hit.h"
 
 /* a component smaller than this share of all emitting points (or points) is noise */
 #define LIGHTS_MIN_SHARE 0.005
@@ -396,78 +396,8 @@ static int point_frame(const struct esr_lts *l, size_t p, struct esr_vec3 *n, st
     return esr_v3_dot(*n, *wo) > 0.0f;
 }
 
-/* The light each light K sends to the chunk's points, A_K(x) (lights.h), by area sampling over
- * its surface with a shadow ray per sample: far less noisy than the hemisphere directions that
- * happen to hit a small light (noise in A would bias its least-squares scale towards 0). Into
- * A[(p * ESR_MAX_LIGHTS + K) * 3 + c]. The samples carry the field's E (scales 1). */
-static int light_sampled(const struct esr_model *m, const struct esr_lts *l, size_t P,
-                         const struct esr_light_samples *ls, uint64_t seed, double *A)
-{
-    const int K = m->lights.n;
-    const struct esr_grid *g = esr_model_grid(m, ESR_COMP_SDF);
-    const float h = esr_grid_voxel_size(g, 0);
-    const size_t cap = P * (size_t)K * CALIB_LIGHT_SPP;
-    float *o3 = malloc(cap * 3 * sizeof(float)), *d3 = malloc(cap * 3 * sizeof(float));
-    float *tmax = malloc(cap * sizeof(float)), *w3 = malloc(cap * 3 * sizeof(float));
-    uint32_t *slot = malloc(cap * sizeof(uint32_t));
-    uint8_t *flags = malloc(cap);
-    int rc = o3 && d3 && tmax && w3 && slot && flags
-                 ? ESR_OK
-                 : ESR_FAIL("lights: out of memory for %zu shadow rays", cap);
-    memset(A, 0, P * ESR_MAX_LIGHTS * 3 * sizeof(double));
-    size_t nr = 0;
-    for (size_t p = 0; rc == ESR_OK && p < P; p++) {
-        struct esr_vec3 n, wo;
-        struct esr_material mat;
-        if (!point_frame(l, p, &n, &wo, &mat))
-            continue;
-        const struct esr_vec3 x = esr_v3(l->pos3[p * 3], l->pos3[p * 3 + 1], l->pos3[p * 3 + 2]);
-        const struct esr_vec3 o = esr_v3_add(x, esr_v3_scale(n, h));
-        struct esr_rng rng = esr_rng_init(seed, p);
-        for (int k = 0; k < K; k++) {
-            if (ls[k].n == 0)
-                continue;
-            for (int j = 0; j < CALIB_LIGHT_SPP; j++) {
-                const size_t q = esr_rng_u32(&rng) % (uint32_t)ls[k].n;
-                const float *yq = ls[k].pos3 + q * 3, *nq = ls[k].nrm3 + q * 3;
-                const struct esr_vec3 v = esr_v3_sub(esr_v3(yq[0], yq[1], yq[2]), o);
-                const float dist = esr_v3_length(v);
-                if (dist <= 1.5f * h)
-                    continue;
-                const struct esr_vec3 wi = esr_v3_scale(v, 1.0f / dist);
-                float R[3];
-                esr_brdf_eval(&mat, n, wo, wi, R);
-                if (R[0] + R[1] + R[2] <= 0.0f)
-                    continue;
-                const float geo = fabsf(nq[0] * wi.x + nq[1] * wi.y + nq[2] * wi.z) * ls[k].area[q] *
-                                  (float)ls[k].n / ((float)CALIB_LIGHT_SPP * dist * dist);
-                memcpy(o3 + nr * 3, &o, 3 * sizeof(float));
-                memcpy(d3 + nr * 3, &wi, 3 * sizeof(float));
-                tmax[nr] = dist - 1.5f * h;
-                for (int c = 0; c < 3; c++) /* the field's E: the scale is what is solved for */
-                    w3[nr * 3 + c] = ls[k].emit3[q * 3 + c] * R[c] * geo;
-                slot[nr] = (uint32_t)(p * ESR_MAX_LIGHTS + (size_t)k);
-                nr++;
-            }
-        }
-    }
-    if (rc == ESR_OK && nr > 0) {
-        struct esr_first_hit_params hp;
-        esr_first_hit_params_init(&hp, g);
-        struct esr_first_hit_rays hr = {o3, d3, NULL, tmax, nr};
-        struct esr_first_hit_out ho = {NULL, flags, NULL, NULL};
-        rc = esr_first_hit(g, esr_model_values(m, ESR_COMP_SDF), &hp, &hr, &ho);
-    }
-    for (size_t i = 0; rc == ESR_OK && i < nr; i++)
-        if (!(flags[i] & ESR_FIRST_HIT_HIT))
-            for (int c = 0; c < 3; c++)
-                A[(size_t)slot[i] * 3 + (size_t)c] += w3[i * 3 + c];
-    free(o3), free(d3), free(tmax), free(w3), free(slot), free(flags);
-    return rc;
-}
-
 /* Adds one LTS call's points to the per-channel normal equations G[c] (K x K), rhs[c] (K):
- * A from light_sampled, B from the hemisphere directions (the other surfaces' emo radiance,
+ * A from esr_lights_direct, B from the hemisphere directions (the other surfaces' emo radiance,
  * and the lights' own reflected part L_emo - E where a direction hits one). */
 static void accumulate(const struct esr_model *m, const struct esr_lts *l, size_t P,
                        const float *hit_emit3, const double *Aall, double *G, double *rhs,
@@ -484,7 +414,7 @@ static void accumulate(const struct esr_model *m, const struct esr_lts *l, size_
         const float *L_on = l->pf.lin3 + (p * 4 + 1) * 3;
         if (fmaxf(L_on[0], fmaxf(L_on[1], L_on[2])) > CALIB_MAX_ON)
             continue;
-        const double *A = Aall + p * ESR_MAX_LIGHTS * 3;
+        const double *A = Aall + p * 2 * ESR_MAX_LIGHTS * 3; /* the camera direction's */
         double B[3] = {0, 0, 0};
         for (size_t j = 0; j < M; j++) {
             const size_t i = p * M + j;
@@ -526,7 +456,7 @@ int esr_lights_calibrate(struct esr_model *m, const float *orig3, const float *d
             m->lights.light[a].scale[c] = 1.0f;
     struct esr_light_samples ls[ESR_MAX_LIGHTS];
     memset(ls, 0, sizeof ls);
-    double *Abuf = malloc((size_t)CALIB_CHUNK * ESR_MAX_LIGHTS * 3 * sizeof(double));
+    double *Abuf = malloc((size_t)CALIB_CHUNK * 2 * ESR_MAX_LIGHTS * 3 * sizeof(double));
     float *pos = malloc((size_t)want * 3 * sizeof(float)), *dir = malloc((size_t)want * 3 * sizeof(float));
     const size_t ns = esr_grid_count(esr_model_grid(m, ESR_COMP_SDF));
     float *grads = calloc(m->params.count, sizeof(float)), *g_sdf = calloc(ns, sizeof(float));
@@ -568,8 +498,11 @@ int esr_lights_calibrate(struct esr_model *m, const float *orig3, const float *d
         rc = esr_lts_run(&l, m, sdf, g_sdf, grads, &pts, NULL, seed + (uint64_t)p0, &st);
         if (rc == ESR_OK)
             rc = esr_material_fields_fwd(&mf, m, sdf, l.hit_pos3, P * CALIB_DIRS);
+        /* A_K: the samples carry the field's E (scales 1), the scale is what is solved for */
+        const struct esr_direct_points dp = {P, l.pos3, l.nrm3, l.mf.brdf5, l.wo3, 2};
         if (rc == ESR_OK)
-            rc = light_sampled(m, &l, P, ls, seed ^ (uint64_t)(p0 + 1) * 0x9e3779b97f4a7c15ULL, Abuf);
+            rc = esr_lights_direct(m, ls, K, NULL, &dp, CALIB_LIGHT_SPP,
+                                   seed ^ (uint64_t)(p0 + 1) * 0x9e3779b97f4a7c15ULL, Abuf);
         if (rc == ESR_OK)
             accumulate(m, &l, P, mf.emit3, Abuf, G, rhs, seen);
     }

@@ -77,6 +77,34 @@ struct esr_lts {
     size_t pick_cap;
     struct esr_point_fields pf;
     struct esr_material_fields mf;
+    /* Radiance fine-tuning (edit/finetune.h) when set, NULL in training: one edit per light of
+     * the model. The emo estimate then takes the edited emission (esr_lights_edit_emission: 0 on
+     * no light) instead of E, only the points' own L_emo is pulled towards it (the estimate is a
+     * fixed target, sg: a fixed-point iteration of the edited light transport), and the off
+     * term, E, the BRDF and the environment get no gradient. The normals are computed once (the
+     * geometry is frozen). */
+    const struct esr_light_edit *edit;
+    float *edit_emit3;         /* [P*3] the points' edited emission */
+    /* With an edit, the edited lights' direct light at the points for both outgoing directions
+     * into direct3 [P*2*3] (light sampled: train/light_direct.h); incident directions whose
+     * first hit lies on a light are then left out of the reflection (the light came in through
+     * direct3; a light's own reflected light is small). NULL: no direct term, every hit counts. */
+    int (*edit_direct)(void *user, const struct esr_lts *l, size_t P,
+                       const struct esr_light_edit *edits, float *direct3);
+    void *edit_user;
+    float *edit_direct3;       /* [P*2*3] */
+    uint8_t *on_light;         /* [P*M] with an edit_direct: the direction's first hit is on a light */
+    /* With an edit, the trained model (same components, the weights before fine-tuning) or NULL.
+     * When set the target keeps the trained model's own residual at each point,
+     *     L_emo' <- E' + D' + K L_emo' + (L_emo - E - D - K L_emo)
+     * (K: the reflection of the incident L_emo; the bracket with the trained fields, the field's
+     * E on the lights (0 elsewhere) and the unedited direct light, on the same rows and samples),
+     * so the unedited scene, emitters at their calibrated strength, is a fixed point and only
+     * the edit's change goes through the reconstructed light transport. */
+    const struct esr_model *edit_ref;
+    struct esr_point_fields pf_ref;
+    int has_pf_ref;
+    float *ref_emit3, *ref_direct3; /* [P*3], [P*2*3] */
 };
 
 int esr_lts_init(struct esr_lts *l, const struct esr_model *m);

@@ -1,0 +1,41 @@
+/* Direct light from the found lights at surface points, by area sampling: for each point x,
+ * each outgoing direction wo and each light K,
+ *     D_K(x, wo) = sum over K's surface of E_K(y) R(x, wo, wi) |n_y . wi| / d^2 dA
+ * estimated with spp area samples y (uniform over K's labelled surface points, each standing for
+ * its area) and a shadow ray to each (first hit of the SDF before y: occluded). Sampling the
+ * lights by area, not by direction, keeps D nearly noise-free even for a small bright light,
+ * which a few hemisphere directions hit only by chance. Used by the calibration of the lights'
+ * strength (train/lights.h) and by radiance fine-tuning (edit/finetune.h), which needs the
+ * edited lights' light exactly. */
+#ifndef ESR_TRAIN_LIGHT_DIRECT_H
+#define ESR_TRAIN_LIGHT_DIRECT_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "model/model.h"
+#include "train/lights.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+struct esr_direct_points {
+    size_t n;
+    const float *pos3, *nrm3; /* [n*3] surface points and their unit normals */
+    const float *brdf5;       /* [n*ESR_BRDF_CHANNELS] their BRDF rows (material fields) */
+    const float *wo3;         /* [n*n_wo*3] unit outgoing directions, away from the surface */
+    int n_wo;
+};
+
+/* out[((p * n_wo + o) * ESR_MAX_LIGHTS + K) * 3 + c] = D_K (per channel) for the n_lights lights
+ * whose surface samples ls[] are given, each sample's emission edited by edits[K] (NULL: as the
+ * samples carry it). Zero for a back-facing wo. Deterministic in seed. */
+int esr_lights_direct(const struct esr_model *m, const struct esr_light_samples *ls, int n_lights,
+                      const struct esr_light_edit *edits, const struct esr_direct_points *pts,
+                      int spp, uint64_t seed, double *out);
+
+#ifdef __cplusplus
+}
+#endif
+#endif
