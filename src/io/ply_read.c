@@ -129,7 +129,7 @@ static int ply_parse_header(struct ply_cursor *c, struct ply_element *vertex, st
         } else if (!strcmp(a, "element")) {
             char *stop;
             double count = strtod(d, &stop);
-            if (words < 3 || *stop || count < 0 || count > 1e9)
+            if (words < 3 || *stop || !(count >= 0 && count <= 1e9)) /* NaN included */
                 return ESR_FAIL("%s: malformed PLY element line '%s'", c->path, buf);
             current = !strcmp(b, "vertex") ? vertex : !strcmp(b, "face") ? face : NULL;
             if (!current)
