@@ -1,6 +1,6 @@
 # Set-up and entry points. `make demo` and `make test` are the two commands in the README:
 # both install missing Debian packages (as root, non-interactively), build, and leave build/esr.
-.PHONY: all deps test-tools build demo test test-release test-asan bench clean
+.PHONY: all deps test-tools build demo test test-release test-asan bench fuzz clean
 
 DEB_PACKAGES := build-essential cmake pkg-config libspng-dev libopenexr-dev libcjson-dev \
                 libcmocka-dev zlib1g-dev imagemagick libdnnl-dev libopenblas-pthread-dev
@@ -8,6 +8,7 @@ DEB_PACKAGES := build-essential cmake pkg-config libspng-dev libopenexr-dev libc
 GLTF_VALIDATOR := gltf-validator@2.0.0-dev.3.10
 JOBS  ?= $(shell nproc)
 DEMO_OUT ?= runs/demo
+FUZZ_TIME ?= 60
 
 all: build
 
@@ -51,5 +52,14 @@ test: test-release test-asan
 bench: build
 	./build/esr bench --out bench.json
 
+# libFuzzer harnesses (fuzz/), clang with ASan+UBSan, each run FUZZ_TIME seconds in turn on one
+# core; exit status 1 on any crash, leak, sanitizer report or memory blow-up (fuzz/run.sh).
+fuzz: deps
+	@command -v clang >/dev/null || { SUDO=""; [ "$$(id -u)" = 0 ] || SUDO=sudo; \
+	  $$SUDO apt-get update -qq && DEBIAN_FRONTEND=noninteractive $$SUDO apt-get install -y -qq --no-install-recommends clang libomp-dev; }
+	CC=clang cmake -S . -B build-fuzz -DCMAKE_BUILD_TYPE=RelWithDebInfo -DESR_FUZZ=ON -DESR_TESTS=OFF >/dev/null
+	cmake --build build-fuzz -j $(JOBS)
+	fuzz/run.sh build-fuzz $(FUZZ_TIME)
+
 clean:
-	rm -rf build build-asan build-tools
+	rm -rf build build-asan build-tools build-fuzz

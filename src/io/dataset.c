@@ -2,6 +2,7 @@
 #include "io/dataset.h"
 
 #include <cJSON.h>
+#include <float.h>
 #include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
@@ -81,7 +82,7 @@ static int json_number(const struct json_where *w, const cJSON *obj, const char 
     const cJSON *item = cJSON_GetObjectItemCaseSensitive(obj, key);
     if (!item)
         return JSON_FAIL(w, "missing key '%s'", key);
-    if (!cJSON_IsNumber(item) || !isfinite(item->valuedouble))
+    if (!cJSON_IsNumber(item) || !(fabs(item->valuedouble) <= FLT_MAX))
         return JSON_FAIL(w, "'%s' must be a finite number", key);
     *out = (float)item->valuedouble;
     return ESR_OK;
@@ -107,7 +108,7 @@ static int json_vector(const struct json_where *w, const cJSON *arr, const char 
         return JSON_FAIL(w, "'%s' must be an array of %d numbers", what, n);
     for (int i = 0; i < n; i++) {
         const cJSON *v = cJSON_GetArrayItem(arr, i);
-        if (!cJSON_IsNumber(v) || !isfinite(v->valuedouble))
+        if (!cJSON_IsNumber(v) || !(fabs(v->valuedouble) <= FLT_MAX)) /* finite as a float too */
             return JSON_FAIL(w, "'%s' has a non-finite or non-numeric entry", what);
         out[i] = (float)v->valuedouble;
     }
@@ -130,8 +131,35 @@ static int parse_matrix(const struct json_where *w, const cJSON *frame, struct e
                  (double)a[0][2] * ((double)a[1][0] * a[2][1] - (double)a[1][1] * a[2][0]);
     if (fabs(det) < 1e-6)
         return JSON_FAIL(w, "'transform_matrix' is degenerate (rotation determinant %g)", det);
+    /* Rays and projections take the 3x3 part as a rotation: a scaled, sheared or mirrored camera
+     * would silently bend every ray. Float-rounded rotations are off by ~1e-7. */
+    double off = 0.0;
+    for (int i = 0; i < 3; i++)
+        for (int j = 0; j < 3; j++) {
+            double dot = (double)a[0][i] * a[0][j] + (double)a[1][i] * a[1][j] + (double)a[2][i] * a[2][j];
+            off = fmax(off, fabs(dot - (i == j)));
+        }
+    if (!(off < 1e-3) || det < 0.0)
+        return JSON_FAIL(w, "'transform_matrix' is not a rigid camera: its 3x3 part is no rotation "
+                            "(|R^T R - I| = %.3g, determinant %.3g)", off, det);
     if (fabsf(last[0]) + fabsf(last[1]) + fabsf(last[2]) + fabsf(last[3] - 1.0f) > 1e-4f)
         return JSON_FAIL(w, "'transform_matrix' last row must be [0, 0, 0, 1]");
+    return ESR_OK;
+}
+
+/* Paths in the JSON name files inside the dataset folder: an absolute path or a ".." component
+ * could make esr read any file of the machine. */
+static int check_inside(const struct json_where *w, const char *key, const char *path)
+{
+    const char *p = path;
+    int escapes = path[0] == '/';
+    while (!escapes && *p) {
+        size_t n = strcspn(p, "/");
+        escapes = n == 2 && p[0] == '.' && p[1] == '.';
+        p += n + (p[n] == '/');
+    }
+    if (escapes)
+        return JSON_FAIL(w, "'%s' = '%s' leaves the dataset folder (absolute path or '..')", key, path);
     return ESR_OK;
 }
 
@@ -155,7 +183,7 @@ static int parse_light(const struct json_where *w, const cJSON *obj, struct esr_
     light->mask_path[0] = '\0';
     if (cJSON_GetObjectItemCaseSensitive(obj, "mask_path"))
         ESR_TRY(json_string(w, obj, "mask_path", light->mask_path, sizeof light->mask_path));
-    return ESR_OK;
+    return check_inside(w, "mask_path", light->mask_path);
 }
 
 /* Lights of an ESR frame; the first frame parsed fixes the dataset's light count. */
@@ -191,6 +219,7 @@ static int parse_frame(const struct json_where *w, const cJSON *obj, struct esr_
     ESR_TRY(json_string(w, obj, "file_path", f->file_path, sizeof f->file_path));
     if (!f->file_path[0])
         return JSON_FAIL(w, "'file_path' is empty");
+    ESR_TRY(check_inside(w, "file_path", f->file_path));
     const char *slash = strrchr(f->file_path, '/');
     const char *base = slash ? slash + 1 : f->file_path;
     if (strlen(base) >= sizeof f->name)
@@ -205,28 +234,33 @@ static int parse_frame(const struct json_where *w, const cJSON *obj, struct esr_
     return ESR_OK;
 }
 
-static cJSON *parse_json_file(const char *path)
+static cJSON *parse_json_text(const char *text, size_t size, const char *name)
 {
-    unsigned char *text;
-    size_t size;
-    if (esr_file_read_all(path, &text, &size) != ESR_OK)
-        return NULL;
-    cJSON *root = cJSON_ParseWithLength((const char *)text, size);
+    cJSON *root = cJSON_ParseWithLength(text, size);
     if (!root) {
         const char *at = cJSON_GetErrorPtr();
-        long offset = at && at >= (const char *)text && at <= (const char *)text + size ? (long)(at - (const char *)text) : -1;
-        ESR_FAIL("'%s': malformed JSON (near byte %ld)", path, offset);
+        long offset = at && at >= text && at <= text + size ? (long)(at - text) : -1;
+        ESR_FAIL("'%s': malformed JSON (near byte %ld)", name, offset);
     }
-    free(text);
     return root;
 }
 
-static int load_phase(struct esr_dataset *ds, enum esr_phase_id phase, const char *path)
+/* Two frames of a phase naming one image are a mistake in the file (a copy-paste), never two
+ * views: refused rather than trained on twice. */
+static int check_unique_frames(const struct json_where *where, const struct esr_phase *ph)
 {
-    cJSON *root = parse_json_file(path);
-    if (!root)
-        return ESR_ERR;
-    struct json_where w = {path, -1};
+    for (int i = 1; i < ph->n_frames; i++)
+        for (int j = 0; j < i; j++)
+            if (!strcmp(ph->frames[i].file_path, ph->frames[j].file_path)) {
+                struct json_where w = {where->file, i};
+                return JSON_FAIL(&w, "repeats frame %d ('file_path' '%s')", j, ph->frames[i].file_path);
+            }
+    return ESR_OK;
+}
+
+static int parse_phase(struct esr_dataset *ds, enum esr_phase_id phase, const cJSON *root, const char *name)
+{
+    struct json_where w = {name, -1};
     struct esr_phase *ph = &ds->phases[phase];
     int status = ESR_OK;
     float angle = 0.0f;
@@ -254,8 +288,30 @@ static int load_phase(struct esr_dataset *ds, enum esr_phase_id phase, const cha
             w.frame = i;
             status = parse_frame(&w, cJSON_GetArrayItem(frames, i), ds, &ph->frames[i]);
         }
+        if (status == ESR_OK)
+            status = check_unique_frames(&w, ph);
     }
+    return status;
+}
+
+int esr_dataset_parse_transforms(struct esr_dataset *ds, enum esr_phase_id phase, const char *text, size_t size,
+                                 const char *name)
+{
+    cJSON *root = parse_json_text(text, size, name);
+    if (!root)
+        return ESR_ERR;
+    int status = parse_phase(ds, phase, root, name);
     cJSON_Delete(root);
+    return status;
+}
+
+static int load_phase(struct esr_dataset *ds, enum esr_phase_id phase, const char *path)
+{
+    unsigned char *text;
+    size_t size;
+    ESR_TRY(esr_file_read_all(path, &text, &size));
+    int status = esr_dataset_parse_transforms(ds, phase, (const char *)text, size, path);
+    free(text);
     return status;
 }
 
@@ -282,7 +338,7 @@ static int load_true_lights(const struct json_where *w, const cJSON *lights, str
 }
 
 /* scene.json is ground truth and optional; when present it must parse, and its box and lights
- * are used. */
+ * are used (defaults otherwise). */
 static int load_scene_truth(struct esr_dataset *ds)
 {
     for (int k = 0; k < 3; k++) {
@@ -293,10 +349,20 @@ static int load_scene_truth(struct esr_dataset *ds)
     snprintf(path, sizeof path, "%s/scene.json", ds->root);
     if (!esr_file_exists(path))
         return ESR_OK;
-    cJSON *root = parse_json_file(path);
+    unsigned char *text;
+    size_t size;
+    ESR_TRY(esr_file_read_all(path, &text, &size));
+    int status = esr_dataset_parse_scene(ds, (const char *)text, size, path);
+    free(text);
+    return status;
+}
+
+int esr_dataset_parse_scene(struct esr_dataset *ds, const char *text, size_t size, const char *name)
+{
+    cJSON *root = parse_json_text(text, size, name);
     if (!root)
         return ESR_ERR;
-    struct json_where w = {path, -1};
+    struct json_where w = {name, -1};
     const cJSON *box = cJSON_GetObjectItemCaseSensitive(root, "bounding_box");
     int status = ESR_OK;
     if (box) {
@@ -477,11 +543,16 @@ static void add_problem(struct frame_problems *fp, const char *message)
     fp->count++;
 }
 
-static void check_image(const struct esr_dataset *ds, const char *path, int is_exr, struct frame_problems *fp)
+/* A frame's photo must be RGB(A) (training reads colour; a grey PNG is refused here rather than
+ * when training reaches it); masks are grey by design. */
+enum image_kind { IMAGE_PHOTO, IMAGE_EXR, IMAGE_MASK };
+
+static void check_image(const struct esr_dataset *ds, const char *path, enum image_kind kind,
+                        struct frame_problems *fp)
 {
     struct esr_image img;
     esr_error_clear();
-    if ((is_exr ? esr_exr_read(path, &img) : esr_png_read(path, &img)) != ESR_OK) {
+    if ((kind == IMAGE_EXR ? esr_exr_read(path, &img) : esr_png_read(path, &img)) != ESR_OK) {
         add_problem(fp, esr_error_message());
         esr_error_clear();
         return;
@@ -490,6 +561,11 @@ static void check_image(const struct esr_dataset *ds, const char *path, int is_e
         char msg[CHECK_MSG];
         snprintf(msg, sizeof msg, "'%s' is %dx%d, the dataset's images are %dx%d", path, img.width, img.height,
                  ds->width, ds->height);
+        add_problem(fp, msg);
+    }
+    if (kind == IMAGE_PHOTO && img.channels < 3) {
+        char msg[CHECK_MSG];
+        snprintf(msg, sizeof msg, "'%s' is not an RGB(A) image (%d channels)", path, img.channels);
         add_problem(fp, msg);
     }
     esr_image_free(&img);
@@ -506,19 +582,19 @@ static void check_frame(const struct esr_dataset *ds, const struct esr_frame *f,
 {
     char path[ESR_PATH_MAX * 2 + 32];
     esr_frame_image_path(ds, f, path, sizeof path);
-    check_image(ds, path, 0, fp);
+    check_image(ds, path, IMAGE_PHOTO, fp);
     if (with_exr) {
         esr_frame_exr_path(ds, f, path, sizeof path);
-        check_image(ds, path, 1, fp);
+        check_image(ds, path, IMAGE_EXR, fp);
     }
     if (with_emission) {
         esr_frame_emission_path(ds, f, path, sizeof path);
-        check_image(ds, path, 0, fp);
+        check_image(ds, path, IMAGE_MASK, fp);
     }
     for (int k = 0; k < ds->n_lights; k++) {
         esr_frame_light_mask_path(ds, f, k, path, sizeof path);
         if (path[0])
-            check_image(ds, path, 0, fp);
+            check_image(ds, path, IMAGE_MASK, fp);
     }
 }
 

@@ -86,6 +86,17 @@ struct esr_dataset {
 int esr_dataset_load(const char *dir, struct esr_dataset *ds);
 void esr_dataset_free(struct esr_dataset *ds);
 
+/* The JSON readers behind esr_dataset_load, from size bytes of text in memory (name stands for
+ * the file in messages; the fuzz harness drives them): one phase's transforms file into
+ * ds->phases[phase], for a ds prepared as the loader does (zeroed, layout and root set, n_lights
+ * -1 until a frame fixes it; free it with esr_dataset_free on success and failure), and
+ * scene.json's bounding box and true lights. Frames whose file_path or mask_path is absolute or
+ * has a ".." component, matrices that are not rigid, and a file_path repeated in a phase are
+ * refused. */
+int esr_dataset_parse_transforms(struct esr_dataset *ds, enum esr_phase_id phase, const char *text, size_t size,
+                                 const char *name);
+int esr_dataset_parse_scene(struct esr_dataset *ds, const char *text, size_t size, const char *name);
+
 /* The lighting mode of a frame: its first light's mode ("off" when the dataset has no lights). */
 enum esr_light_mode esr_frame_mode(const struct esr_dataset *ds, const struct esr_frame *f);
 /* Name of the phase's transforms file as this layout spells it, e.g. "transforms_test.json". */

@@ -10,11 +10,10 @@
 #include <string.h>
 
 #include "core/error.h"
+#include "core/limits.h"
 #include "io/file.h"
 #include "io/half.h"
 #include "io/image.h"
-
-#define EXR_MAX_PIXELS ((int64_t)1 << 28)
 
 /* OpenEXR reports details through a callback (default: print to stderr, which the library must
  * never do); keep the latest message so the failing call can quote it. */
@@ -168,8 +167,12 @@ static int exr_read_setup(struct exr_reader *r, exr_storage_t *storage, const ch
     if (rc != EXR_ERR_SUCCESS)
         return ESR_FAIL("'%s': bad EXR data window: %s", path, exr_message(rc));
     int64_t w = (int64_t)r->window.max.x - r->window.min.x + 1, h = (int64_t)r->window.max.y - r->window.min.y + 1;
-    if (w <= 0 || h <= 0 || w * h > EXR_MAX_PIXELS)
+    if (w <= 0 || h <= 0)
         return ESR_FAIL("'%s': unsupported EXR size %lldx%lld", path, (long long)w, (long long)h);
+    /* refused before anything is allocated for the claimed size */
+    if ((uint64_t)w * (uint64_t)h > esr_limits()->image_pixels)
+        return ESR_FAIL("'%s': EXR claims %lldx%lld pixels, more than the %zu esr reads", path, (long long)w,
+                        (long long)h, esr_limits()->image_pixels);
     const exr_attr_chlist_t *chlist;
     rc = exr_get_channels(r->ctx, 0, &chlist);
     if (rc != EXR_ERR_SUCCESS)
@@ -186,21 +189,24 @@ static int exr_read_setup(struct exr_reader *r, exr_storage_t *storage, const ch
     }
     if (!colour)
         return ESR_FAIL("'%s': EXR has none of the channels R, G, B or Y", path);
-    int64_t chunk_pixels;
+    /* A chunk never reaches past the data window, so a header's huge tile costs no more than
+     * the image. */
+    int64_t cw = w, ch;
     if (*storage == EXR_STORAGE_SCANLINE) {
         int32_t lines;
         if (exr_get_scanlines_per_chunk(r->ctx, 0, &lines) != EXR_ERR_SUCCESS || lines <= 0 || lines > 256)
             return ESR_FAIL("'%s': bad EXR scanlines per chunk", path);
-        chunk_pixels = w * lines;
+        ch = lines;
     } else {
         uint32_t tw, th;
         exr_tile_level_mode_t level;
         exr_tile_round_mode_t round;
-        if (exr_get_tile_descriptor(r->ctx, 0, &tw, &th, &level, &round) != EXR_ERR_SUCCESS ||
-            (int64_t)tw * th > EXR_MAX_PIXELS)
+        if (exr_get_tile_descriptor(r->ctx, 0, &tw, &th, &level, &round) != EXR_ERR_SUCCESS || !tw || !th)
             return ESR_FAIL("'%s': bad EXR tile description", path);
-        chunk_pixels = (int64_t)tw * th;
+        cw = tw < w ? tw : w;
+        ch = th;
     }
+    const int64_t chunk_pixels = cw * (ch < h ? ch : h);
     for (int c = 0; c < chlist->num_channels; c++) {
         int slot = exr_channel_slot(chlist->entries[c].name.str);
         if (slot >= 0 && !r->planes[slot] && !(r->planes[slot] = malloc((size_t)chunk_pixels * 4)))
@@ -213,26 +219,53 @@ static int exr_read_setup(struct exr_reader *r, exr_storage_t *storage, const ch
     return ESR_OK;
 }
 
-int esr_exr_read(const char *path, struct esr_image *out)
+/* The file's bytes in memory, read by OpenEXR through exr_memory_read (pread semantics). */
+struct exr_source {
+    const uint8_t *data;
+    size_t size;
+};
+
+static int64_t exr_memory_read(exr_const_context_t ctxt, void *user, void *buffer, uint64_t sz, uint64_t offset,
+                               exr_stream_error_func_ptr_t error_cb)
+{
+    (void)ctxt;
+    (void)error_cb;
+    const struct exr_source *src = user;
+    if (offset >= src->size)
+        return 0;
+    size_t n = sz < src->size - offset ? (size_t)sz : src->size - (size_t)offset;
+    memcpy(buffer, src->data + offset, n);
+    return (int64_t)n;
+}
+
+static int64_t exr_memory_size(exr_const_context_t ctxt, void *user)
+{
+    (void)ctxt;
+    return (int64_t)((const struct exr_source *)user)->size;
+}
+
+int esr_exr_decode(const void *bytes, size_t size, const char *name, struct esr_image *out)
 {
     memset(out, 0, sizeof *out);
-    if (!esr_file_exists(path))
-        return ESR_FAIL("cannot open '%s': no such file", path);
+    struct exr_source src = {bytes, size};
     struct exr_reader r;
     memset(&r, 0, sizeof r);
     r.out = out;
     exr_detail[0] = '\0';
     exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
     init.error_handler_fn = exr_on_error;
-    exr_result_t rc = exr_start_read(&r.ctx, path, &init);
+    init.user_data = &src;
+    init.read_fn = exr_memory_read;
+    init.size_fn = exr_memory_size;
+    exr_result_t rc = exr_start_read(&r.ctx, name, &init);
     int status;
     if (rc != EXR_ERR_SUCCESS) {
-        status = ESR_FAIL("'%s' is not a readable EXR: %s", path, exr_message(rc));
+        status = ESR_FAIL("'%s' is not a readable EXR: %s", name, exr_message(rc));
     } else {
         exr_storage_t storage;
-        status = exr_read_setup(&r, &storage, path);
+        status = exr_read_setup(&r, &storage, name);
         if (status == ESR_OK)
-            status = read_chunks(&r, storage, path);
+            status = read_chunks(&r, storage, name);
     }
     if (r.decoder_ready)
         exr_decoding_destroy(r.ctx, &r.decoder);
@@ -242,6 +275,17 @@ int esr_exr_read(const char *path, struct esr_image *out)
         free(r.planes[k]);
     if (status != ESR_OK)
         esr_image_free(out);
+    return status;
+}
+
+int esr_exr_read(const char *path, struct esr_image *out)
+{
+    memset(out, 0, sizeof *out);
+    unsigned char *bytes;
+    size_t size;
+    ESR_TRY(esr_file_read_all(path, &bytes, &size));
+    int status = esr_exr_decode(bytes, size, path, out);
+    free(bytes);
     return status;
 }
 

@@ -23,6 +23,9 @@ static inline size_t esr_image_count(const struct esr_image *img)
 /* PNG, 8- or 16-bit, any colour type (palette and grey are expanded; output keeps alpha if the
  * file has it: grey -> 1, grey+alpha -> 2, RGB -> 3, RGBA/palette with tRNS -> 4 channels). */
 int esr_png_read(const char *path, struct esr_image *out);
+/* The same from size bytes in memory; name stands for the file in messages. Both refuse a
+ * header that claims more than esr_limits()->image_pixels pixels before allocating. */
+int esr_png_decode(const void *bytes, size_t size, const char *name, struct esr_image *out);
 /* bits = 8 or 16; channels 1, 2, 3 or 4; values are clamped to [0,1] and rounded. Written atomically. */
 int esr_png_write(const char *path, const struct esr_image *img, int bits);
 
@@ -32,6 +35,9 @@ int esr_png_write(const char *path, const struct esr_image *img, int bits);
  * are ignored). Values are as stored: premultiplied by alpha when the file has alpha (OpenEXR
  * convention). Fails naming the file when it is missing, truncated or corrupt. */
 int esr_exr_read(const char *path, struct esr_image *out);
+/* The same from size bytes in memory (name stands for the file in messages); both refuse a data
+ * window of more than esr_limits()->image_pixels pixels before allocating. */
+int esr_exr_decode(const void *bytes, size_t size, const char *name, struct esr_image *out);
 
 enum esr_exr_pixel { ESR_EXR_HALF, ESR_EXR_FLOAT, ESR_EXR_UINT };
 enum esr_exr_compression { ESR_EXR_NONE, ESR_EXR_RLE, ESR_EXR_ZIPS, ESR_EXR_ZIP, ESR_EXR_PIZ };

@@ -11,5 +11,7 @@ int esr_ply_write(const char *path, const struct esr_mesh *m);
  * little-endian PLY; normals and colours are not read (left NULL). Clear error on malformed
  * files. The element order must be vertex then face. */
 int esr_ply_read(const char *path, struct esr_mesh *m);
+/* The same from size bytes in memory; name stands for the file in messages. */
+int esr_ply_parse(const void *bytes, size_t size, const char *name, struct esr_mesh *m);
 
 #endif

@@ -96,10 +96,12 @@ static int ply_parse_header(struct ply_cursor *c, struct ply_element *vertex, st
 {
     const char *text = (const char *)c->p;
     size_t len = (size_t)(c->end - c->p);
-    if (len < 4 || memcmp(text, "ply\n", 4) != 0)
+    /* header lines may end in CRLF (files from Windows tools); the magic line too */
+    const size_t magic = len >= 4 && !memcmp(text, "ply\n", 4) ? 4 : len >= 5 && !memcmp(text, "ply\r\n", 5) ? 5 : 0;
+    if (!magic)
         return ESR_FAIL("%s: not a PLY file (missing 'ply' magic)", c->path);
     struct ply_element *current = NULL;
-    const char *line = text + 4;
+    const char *line = text + magic;
     int format_seen = 0;
     for (;;) {
         const char *nl = memchr(line, '\n', (size_t)(text + len - line));
@@ -127,11 +129,13 @@ static int ply_parse_header(struct ply_cursor *c, struct ply_element *vertex, st
         } else if (!strcmp(a, "element")) {
             char *stop;
             double count = strtod(d, &stop);
-            if (words < 3 || *stop || count < 0 || count > 1e9)
+            if (words < 3 || *stop || !(count >= 0 && count <= 1e9)) /* NaN included */
                 return ESR_FAIL("%s: malformed PLY element line '%s'", c->path, buf);
             current = !strcmp(b, "vertex") ? vertex : !strcmp(b, "face") ? face : NULL;
             if (!current)
                 return ESR_FAIL("%s: PLY element '%s' is not supported (vertex, face)", c->path, b);
+            if (current->n_props || (current == face && !vertex->n_props))
+                return ESR_FAIL("%s: PLY elements must be one vertex element, then faces", c->path);
             current->count = (size_t)count;
         } else if (!strcmp(a, "property")) {
             if (!current || current->n_props == PLY_MAX_PROPS)
@@ -173,6 +177,8 @@ static int ply_read_vertices(struct ply_cursor *c, const struct ply_element *el,
             double v;
             ESR_TRY(ply_next(c, p->count_type != PLY_NONE ? p->count_type : p->type, &v));
             if (p->count_type != PLY_NONE) { /* a list on vertices: skip its items */
+                if (!(v >= 0 && v <= (double)(c->end - c->p)))
+                    return ESR_FAIL("%s: vertex %zu has a list of %g items", c->path, i, v);
                 for (long j = 0; j < (long)v; j++) {
                     double skip;
                     ESR_TRY(ply_next(c, p->type, &skip));
@@ -200,13 +206,15 @@ static int ply_read_faces(struct ply_cursor *c, const struct ply_element *el, si
             double count = 1.0;
             if (p->count_type != PLY_NONE)
                 ESR_TRY(ply_next(c, p->count_type, &count));
-            if (count < 0 || count > 64)
+            if (!(count >= 0 && count <= 64)) /* NaN included */
                 return ESR_FAIL("%s: face %zu has %g vertices", c->path, i, count);
             uint32_t idx[64];
             for (int j = 0; j < (int)count; j++) {
                 double v;
                 ESR_TRY(ply_next(c, p->type, &v));
-                if (p->role == 3 && (v < 0 || v >= (double)n_vertices))
+                if (p->role != 3)
+                    continue;
+                if (!(v >= 0 && v < (double)n_vertices))
                     return ESR_FAIL("%s: face %zu refers to vertex %g of %zu", c->path, i, v, n_vertices);
                 idx[j] = (uint32_t)v;
             }
@@ -228,30 +236,53 @@ static int ply_read_faces(struct ply_cursor *c, const struct ply_element *el, si
     return ESR_OK;
 }
 
-int esr_ply_read(const char *path, struct esr_mesh *m)
+/* Every value takes at least a byte in either format: a header whose counts the data cannot hold
+ * is refused before anything is allocated for them. */
+static int ply_check_counts(const struct ply_cursor *c, const struct ply_element *vertex,
+                            const struct ply_element *face)
+{
+    const double left = (double)(c->end - c->p);
+    if ((double)vertex->count * vertex->n_props > left || (double)face->count * face->n_props > left)
+        return ESR_FAIL("%s: PLY header claims %zu vertices and %zu faces, the file holds %.0f bytes of data",
+                        c->path, vertex->count, face->count, left);
+    if (face->count && !face->n_props)
+        return ESR_FAIL("%s: PLY faces have no properties", c->path);
+    return ESR_OK;
+}
+
+int esr_ply_parse(const void *bytes, size_t size, const char *name, struct esr_mesh *m)
 {
     memset(m, 0, sizeof *m);
-    unsigned char *data;
-    size_t size;
-    ESR_TRY(esr_file_read_all(path, &data, &size));
-    struct ply_cursor c = {path, data, data + size, 0};
+    struct ply_cursor c = {name, bytes, (const unsigned char *)bytes + size, 0};
     struct ply_element vertex = {0}, face = {0};
     int rc = ply_parse_header(&c, &vertex, &face);
     int has_xyz = 0;
     for (int k = 0; k < vertex.n_props; k++)
         has_xyz |= vertex.props[k].role >= 0 ? 1 << vertex.props[k].role : 0;
     if (rc == ESR_OK && has_xyz != 7)
-        rc = ESR_FAIL("%s: PLY vertices lack x, y or z", path);
+        rc = ESR_FAIL("%s: PLY vertices lack x, y or z", name);
+    if (rc == ESR_OK)
+        rc = ply_check_counts(&c, &vertex, &face);
     if (rc == ESR_OK) {
         m->n_vertices = vertex.count;
         m->pos = (float *)calloc(vertex.count * 3 + 3, sizeof(float));
-        rc = m->pos ? ply_read_vertices(&c, &vertex, m->pos) : ESR_FAIL("%s: out of memory", path);
+        rc = m->pos ? ply_read_vertices(&c, &vertex, m->pos) : ESR_FAIL("%s: out of memory", name);
     }
     /* The vertex element precedes the face element in every PLY we accept (header order). */
     if (rc == ESR_OK && face.count)
         rc = ply_read_faces(&c, &face, vertex.count, m);
-    free(data);
     if (rc != ESR_OK)
         esr_mesh_free(m);
+    return rc;
+}
+
+int esr_ply_read(const char *path, struct esr_mesh *m)
+{
+    memset(m, 0, sizeof *m);
+    unsigned char *data;
+    size_t size;
+    ESR_TRY(esr_file_read_all(path, &data, &size));
+    int rc = esr_ply_parse(data, size, path, m);
+    free(data);
     return rc;
 }

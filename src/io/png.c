@@ -7,6 +7,7 @@
 #include <string.h>
 
 #include "core/error.h"
+#include "core/limits.h"
 #include "io/file.h"
 #include "io/image.h"
 
@@ -42,6 +43,10 @@ static int png_decode(spng_ctx *ctx, const char *path, struct esr_image *out)
     int rc = spng_get_ihdr(ctx, &ihdr);
     if (rc)
         return ESR_FAIL("'%s' is not a valid PNG: %s", path, spng_strerror(rc));
+    /* refused before the decoder allocates anything for the claimed size */
+    if ((uint64_t)ihdr.width * ihdr.height > esr_limits()->image_pixels)
+        return ESR_FAIL("'%s': PNG claims %ux%u pixels, more than the %zu esr reads", path, ihdr.width,
+                        ihdr.height, esr_limits()->image_pixels);
     struct spng_trns trns;
     int has_trns = spng_get_trns(ctx, &trns) == 0;
     int channels = png_channels(&ihdr, has_trns);
@@ -76,6 +81,23 @@ static int png_decode(spng_ctx *ctx, const char *path, struct esr_image *out)
     return ESR_OK;
 }
 
+int esr_png_decode(const void *bytes, size_t size, const char *name, struct esr_image *out)
+{
+    out->data = NULL;
+    out->width = out->height = out->channels = 0;
+    spng_ctx *ctx = spng_ctx_new(0);
+    if (!ctx)
+        return ESR_FAIL("out of memory opening '%s'", name);
+    /* The PNG maximum per side: what a header may claim is capped by png_decode's pixel count
+     * (esr_limits), which says so in its message, before anything is allocated. */
+    spng_set_image_limits(ctx, 0x7fffffffu, 0x7fffffffu);
+    spng_set_chunk_limits(ctx, 64u << 20, 64u << 20);
+    int rc = spng_set_png_buffer(ctx, bytes, size);
+    int status = rc ? ESR_FAIL("'%s': cannot read PNG: %s", name, spng_strerror(rc)) : png_decode(ctx, name, out);
+    spng_ctx_free(ctx);
+    return status;
+}
+
 int esr_png_read(const char *path, struct esr_image *out)
 {
     out->data = NULL;
@@ -83,17 +105,7 @@ int esr_png_read(const char *path, struct esr_image *out)
     unsigned char *bytes;
     size_t size;
     ESR_TRY(esr_file_read_all(path, &bytes, &size));
-    spng_ctx *ctx = spng_ctx_new(0);
-    if (!ctx) {
-        free(bytes);
-        return ESR_FAIL("out of memory opening '%s'", path);
-    }
-    /* Dataset images are small; cap what a corrupt header can make us allocate. */
-    spng_set_image_limits(ctx, 1 << 15, 1 << 15);
-    spng_set_chunk_limits(ctx, 64u << 20, 64u << 20);
-    int rc = spng_set_png_buffer(ctx, bytes, size);
-    int status = rc ? ESR_FAIL("'%s': cannot read PNG: %s", path, spng_strerror(rc)) : png_decode(ctx, path, out);
-    spng_ctx_free(ctx);
+    int status = esr_png_decode(bytes, size, path, out);
     free(bytes);
     return status;
 }

@@ -133,6 +133,16 @@ static int get(struct rbuf *b, void *dst, size_t n)
     return ESR_OK;
 }
 
+/* A lattice read from the header may claim up to 4096^3 voxels: the file must hold them before
+ * anything is allocated for them. */
+static int has_bytes(const struct rbuf *b, size_t n, const char *what)
+{
+    if (n > b->n - b->at)
+        return ESR_FAIL("checkpoint %s: truncated (%zu bytes; the %s takes %zu, %zu are left)", b->path, b->n,
+                        what, n, b->n - b->at);
+    return ESR_OK;
+}
+
 static int json_floats(const cJSON *h, const char *key, float *out, int n, const char *path)
 {
     const cJSON *a = cJSON_GetObjectItemCaseSensitive(h, key);
@@ -246,6 +256,7 @@ static int read_mask(struct esr_model *m, const cJSON *h, struct rbuf *b)
         return ESR_OK;
     struct esr_grid lat;
     ESR_TRY(read_lattice(k, "mask cache", &lat, b->path));
+    ESR_TRY(has_bytes(b, esr_grid_voxels(&lat), "mask cache"));
     ESR_TRY(esr_mask_alloc(&m->mask, &lat));
     m->has_mask = 1;
     return get(b, m->mask.occ, esr_grid_voxels(&lat));
@@ -283,6 +294,7 @@ static int read_lights(struct esr_model *m, const cJSON *h, struct rbuf *b)
         }
     }
     const size_t nl = esr_grid_voxels(&L->grid);
+    ESR_TRY(has_bytes(b, nl, "light labels"));
     if (!(L->label = malloc(nl)))
         return ESR_FAIL("checkpoint %s: out of memory for the light labels", b->path);
     L->n = n;
@@ -346,6 +358,13 @@ static int pick_in_dir(const char *dir, char *out, size_t n)
     return ESR_FAIL("run directory %s: no checkpoint (ckpt_<stage>.bin) in it", dir);
 }
 
+int esr_model_load_buffer(struct esr_model *m, const void *data, size_t size, const char *name)
+{
+    memset(m, 0, sizeof(*m));
+    struct rbuf b = {data, size, 0, name};
+    return deserialise(m, &b);
+}
+
 int esr_model_load(struct esr_model *m, const char *path)
 {
     memset(m, 0, sizeof(*m));
@@ -360,8 +379,7 @@ int esr_model_load(struct esr_model *m, const char *path)
     unsigned char *data;
     size_t size;
     ESR_TRY(esr_file_read_all(file, &data, &size));
-    struct rbuf b = {data, size, 0, file};
-    int rc = deserialise(m, &b);
+    int rc = esr_model_load_buffer(m, data, size, file);
     free(data);
     return rc;
 }

@@ -345,17 +345,23 @@ int esr_config_from_json(struct esr_train_config *c, const cJSON *obj, const cha
     return json_apply_object(c, obj, source, 1, n_missing);
 }
 
+int esr_config_parse_json(struct esr_train_config *c, const char *text, size_t size, const char *name)
+{
+    cJSON *root = cJSON_ParseWithLength(text, size);
+    char source[1200];
+    snprintf(source, sizeof source, "config file %s", name);
+    int rc = json_apply_object(c, root, source, 0, NULL);
+    cJSON_Delete(root);
+    return rc;
+}
+
 int esr_config_load_json(struct esr_train_config *c, const char *path)
 {
     unsigned char *text;
     size_t size;
     ESR_TRY(esr_file_read_all(path, &text, &size));
-    cJSON *root = cJSON_Parse((const char *)text);
+    int rc = esr_config_parse_json(c, (const char *)text, size, path);
     free(text);
-    char source[1200];
-    snprintf(source, sizeof source, "config file %s", path);
-    int rc = json_apply_object(c, root, source, 0, NULL);
-    cJSON_Delete(root);
     return rc;
 }
 

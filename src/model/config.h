@@ -92,6 +92,8 @@ int esr_config_set(struct esr_train_config *c, const char *assignment);
  * "fine": {"iters": 200}), plus an optional "preset" key applied first. Unknown keys or values
  * out of range are refused with a message naming the file and key. */
 int esr_config_load_json(struct esr_train_config *c, const char *path);
+/* The same from size bytes of JSON text in memory; name stands for the file in messages. */
+int esr_config_parse_json(struct esr_train_config *c, const char *text, size_t size, const char *name);
 /* Writes esr_config_to_json(c) to path, atomically. */
 int esr_config_write_json(const struct esr_train_config *c, const char *path);
 /* Every option as a flat JSON object ("fine.iters": 200, ...) plus "preset": the form checkpoints

@@ -5,6 +5,7 @@
 #include <string.h>
 
 #include "core/error.h"
+#include "core/limits.h"
 #include "core/rng.h"
 #include "fields/density.h"
 #include "fields/env_sg.h"
@@ -127,6 +128,28 @@ static int inherit_mask(struct esr_model *m, const struct esr_model *prev)
     return ESR_OK;
 }
 
+/* Refuses a model that would not fit in memory before any of it is allocated: a layout pass that
+ * only counts, then 16 bytes per parameter (values, gradients, both Adam moments). A wrong option
+ * or a corrupt checkpoint then fails with a message instead of being killed by the system. */
+static int check_memory(const struct esr_model *m)
+{
+    struct esr_model dry;
+    memset(&dry, 0, sizeof dry);
+    dry.cfg = m->cfg;
+    dry.stage = m->stage;
+    memcpy(dry.scene_min, m->scene_min, sizeof dry.scene_min);
+    memcpy(dry.scene_max, m->scene_max, sizeof dry.scene_max);
+    dry.params.count_only = 1;
+    ESR_TRY(layout(&dry));
+    const double need = (double)dry.params.count * 4.0 * sizeof(float);
+    const size_t have = esr_limits_memory();
+    if (need > (double)have)
+        return ESR_FAIL("model: the %s stage with these options needs %.2f GiB (%zu parameters), more than the "
+                        "%.2f GiB of memory available",
+                        esr_stage_name((enum esr_stage)m->stage), need / (1 << 30), dry.params.count, (double)have / (1 << 30));
+    return ESR_OK;
+}
+
 int esr_model_init(struct esr_model *m, const struct esr_train_config *cfg, enum esr_stage stage,
                    const struct esr_model *prev, const float scene_min[3], const float scene_max[3])
 {
@@ -140,7 +163,9 @@ int esr_model_init(struct esr_model *m, const struct esr_train_config *cfg, enum
         m->scene_min[a] = scene_min[a];
         m->scene_max[a] = scene_max[a];
     }
-    int rc = esr_nn_params_init(&m->params, 0);
+    int rc = check_memory(m);
+    if (rc == ESR_OK)
+        rc = esr_nn_params_init(&m->params, 0);
     if (rc == ESR_OK)
         rc = layout(m);
     if (rc == ESR_OK)

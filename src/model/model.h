@@ -95,6 +95,8 @@ void esr_model_free(struct esr_model *m);
  * build does not know, a truncated file or a wrong version is refused naming the file and the
  * mismatch. */
 int esr_model_load(struct esr_model *m, const char *path);
+/* The same from a checkpoint's size bytes in memory; name stands for the file in messages. */
+int esr_model_load_buffer(struct esr_model *m, const void *data, size_t size, const char *name);
 /* The model whose lights a run found: RUN/ckpt_pdra.bin, refused (model freed) when it is missing
  * or its stage has not finished. */
 int esr_model_load_finished_pdra(struct esr_model *m, const char *run);

@@ -58,7 +58,7 @@ int esr_nn_params_take(struct esr_nn_params *p, size_t n, size_t *offset)
     size_t end = start + n;
     if (end < start)
         return ESR_FAIL("parameter count overflow (%zu + %zu)", start, n);
-    if (end > p->capacity) {
+    if (end > p->capacity && !p->count_only) {
         size_t cap = p->capacity * 2 > end ? p->capacity * 2 : end;
         ESR_TRY(params_grow(p, round_up(cap, ESR_NN_PARAM_ALIGN)));
     }

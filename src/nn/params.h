@@ -20,6 +20,7 @@ struct esr_nn_params {
     float *g;        /* gradients, same layout as w */
     size_t count;    /* floats handed out so far (including alignment padding) */
     size_t capacity; /* floats allocated */
+    int count_only;  /* 1: take() hands out offsets and allocates nothing (memory estimates) */
 };
 
 /* Empty store; `reserve` floats are allocated up front (0 allowed). Free with esr_nn_params_free. */
