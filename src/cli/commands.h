@@ -22,6 +22,7 @@ int cli_parse_int(const char *text, long lo, long hi, int *out);
 /* Add `extern const struct esr_command cmd_<name>;` here and a row in main.c's table. */
 extern const struct esr_command cmd_metrics;
 extern const struct esr_command cmd_info;
+extern const struct esr_command cmd_import;
 extern const struct esr_command cmd_synth;
 extern const struct esr_command cmd_train;
 extern const struct esr_command cmd_render;

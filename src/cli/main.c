@@ -11,6 +11,7 @@ static const struct esr_command *const commands[] = {
     NULL, /* keeps the table non-empty; skipped */
     &cmd_demo,
     &cmd_info,
+    &cmd_import,
     &cmd_metrics,
     &cmd_synth,
     &cmd_train,

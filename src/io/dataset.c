@@ -212,6 +212,19 @@ static int parse_lights(const struct json_where *w, const cJSON *frame, struct e
     return ESR_OK;
 }
 
+/* Length of the image extension a file_path may carry (".png", ".jpg", ".jpeg"), else 0. */
+static size_t frame_image_extension(const char *file_path)
+{
+    static const char *const exts[] = {".png", ".jpg", ".jpeg"};
+    size_t len = strlen(file_path);
+    for (size_t i = 0; i < sizeof exts / sizeof exts[0]; i++) {
+        size_t m = strlen(exts[i]);
+        if (len > m && !strcmp(file_path + len - m, exts[i]))
+            return m;
+    }
+    return 0;
+}
+
 static int parse_frame(const struct json_where *w, const cJSON *obj, struct esr_dataset *ds, struct esr_frame *f)
 {
     if (!cJSON_IsObject(obj))
@@ -225,9 +238,7 @@ static int parse_frame(const struct json_where *w, const cJSON *obj, struct esr_
     if (strlen(base) >= sizeof f->name)
         return JSON_FAIL(w, "'file_path' name is too long");
     strcpy(f->name, base);
-    char *dot = strrchr(f->name, '.');
-    if (dot && !strcmp(dot, ".png"))
-        *dot = '\0';
+    f->name[strlen(f->name) - frame_image_extension(f->name)] = '\0';
     ESR_TRY(parse_matrix(w, obj, &f->camera));
     if (ds->layout == ESR_LAYOUT_ESR)
         ESR_TRY(parse_lights(w, obj, ds, f));
@@ -387,7 +398,7 @@ static int load_size(struct esr_dataset *ds)
     char path[ESR_PATH_MAX * 2 + 8];
     esr_frame_image_path(ds, first, path, sizeof path);
     struct esr_image img;
-    ESR_TRY(esr_png_read(path, &img));
+    ESR_TRY(esr_image_read(path, &img));
     ds->width = img.width;
     ds->height = img.height;
     esr_image_free(&img);
@@ -462,9 +473,7 @@ void esr_dataset_free(struct esr_dataset *ds)
 
 void esr_frame_image_path(const struct esr_dataset *ds, const struct esr_frame *f, char *out, size_t n)
 {
-    size_t len = strlen(f->file_path);
-    int has_ext = len > 4 && !strcmp(f->file_path + len - 4, ".png");
-    snprintf(out, n, "%s/%s%s", ds->root, f->file_path, has_ext ? "" : ".png");
+    snprintf(out, n, "%s/%s%s", ds->root, f->file_path, frame_image_extension(f->file_path) ? "" : ".png");
 }
 
 /* "<root>/<dir of file_path>/<sub>/<name><ext>" */
@@ -503,7 +512,7 @@ int esr_frame_load_rgb(const struct esr_dataset *ds, const struct esr_frame *f, 
     char path[ESR_PATH_MAX * 2 + 8];
     esr_frame_image_path(ds, f, path, sizeof path);
     struct esr_image img;
-    ESR_TRY(esr_png_read(path, &img));
+    ESR_TRY(esr_image_read(path, &img));
     int status = ESR_OK;
     if (img.width != ds->width || img.height != ds->height)
         status = ESR_FAIL("'%s' is %dx%d, the dataset's images are %dx%d", path, img.width, img.height, ds->width,
@@ -543,16 +552,17 @@ static void add_problem(struct frame_problems *fp, const char *message)
     fp->count++;
 }
 
-/* A frame's photo must be RGB(A) (training reads colour; a grey PNG is refused here rather than
- * when training reaches it); masks are grey by design. */
-enum image_kind { IMAGE_PHOTO, IMAGE_EXR, IMAGE_MASK };
+/* Any image the dataset names (PNG, JPEG or EXR by its extension) must decode at the dataset's
+ * size; a frame's photo must also be RGB(A) (training reads colour; a grey photo is refused here
+ * rather than when training reaches it); masks are grey by design. */
+enum image_kind { IMAGE_PHOTO, IMAGE_OTHER };
 
 static void check_image(const struct esr_dataset *ds, const char *path, enum image_kind kind,
                         struct frame_problems *fp)
 {
     struct esr_image img;
     esr_error_clear();
-    if ((kind == IMAGE_EXR ? esr_exr_read(path, &img) : esr_png_read(path, &img)) != ESR_OK) {
+    if (esr_image_read(path, &img) != ESR_OK) {
         add_problem(fp, esr_error_message());
         esr_error_clear();
         return;
@@ -585,16 +595,16 @@ static void check_frame(const struct esr_dataset *ds, const struct esr_frame *f,
     check_image(ds, path, IMAGE_PHOTO, fp);
     if (with_exr) {
         esr_frame_exr_path(ds, f, path, sizeof path);
-        check_image(ds, path, IMAGE_EXR, fp);
+        check_image(ds, path, IMAGE_OTHER, fp);
     }
     if (with_emission) {
         esr_frame_emission_path(ds, f, path, sizeof path);
-        check_image(ds, path, IMAGE_MASK, fp);
+        check_image(ds, path, IMAGE_OTHER, fp);
     }
     for (int k = 0; k < ds->n_lights; k++) {
         esr_frame_light_mask_path(ds, f, k, path, sizeof path);
         if (path[0])
-            check_image(ds, path, IMAGE_MASK, fp);
+            check_image(ds, path, IMAGE_OTHER, fp);
     }
 }
 

@@ -106,7 +106,7 @@ const char *esr_phase_file_name(const struct esr_dataset *ds, enum esr_phase_id 
  * "c003_off", the layout's naming); 0 when name does not end in "_on" or out is too small. */
 int esr_frame_off_partner(const char *name, char *out, size_t n);
 
-/* Full path of a frame's image (".png" appended) / its EXR / its emission mask / light K's mask
+/* Full path of a frame's image (".png" appended unless file_path ends in .png, .jpg or .jpeg) / its EXR / its emission mask / light K's mask
  * ("" when the light has no mask_path). */
 void esr_frame_image_path(const struct esr_dataset *ds, const struct esr_frame *f, char *out, size_t n);
 void esr_frame_exr_path(const struct esr_dataset *ds, const struct esr_frame *f, char *out, size_t n);
@@ -114,7 +114,7 @@ void esr_frame_emission_path(const struct esr_dataset *ds, const struct esr_fram
 void esr_frame_light_mask_path(const struct esr_dataset *ds, const struct esr_frame *f, int light, char *out,
                                size_t n);
 
-/* Loads a frame's PNG composited on white as RGB (the authors' loader: rgb*a + (1-a)), also
+/* Loads a frame's image (PNG, or JPEG when file_path names one) composited on white as RGB (the authors' loader: rgb*a + (1-a)), also
  * returning alpha when `alpha` is non-NULL (1 channel). Checks the size against the dataset. */
 int esr_frame_load_rgb(const struct esr_dataset *ds, const struct esr_frame *f, struct esr_image *rgb,
                        struct esr_image *alpha);

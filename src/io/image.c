@@ -49,7 +49,9 @@ int esr_image_read(const char *path, struct esr_image *out)
         return esr_png_read(path, out);
     if (has_extension(path, ".exr"))
         return esr_exr_read(path, out);
-    return ESR_FAIL("'%s': unknown image extension (expected .png or .exr)", path);
+    if (has_extension(path, ".jpg") || has_extension(path, ".jpeg"))
+        return esr_jpeg_read(path, out);
+    return ESR_FAIL("'%s': unknown image extension (expected .png, .exr, .jpg or .jpeg)", path);
 }
 
 /* Both compositing rules share one loop: c = rgb * rgb_scale + bg * (1 - a), where rgb_scale is

@@ -1,4 +1,4 @@
-/* In-memory images and PNG / EXR files.
+/* In-memory images and PNG / EXR / JPEG files.
  * Pixels are float, interleaved, rows top-first (PNG/EXR order), pixel (0,0) top-left.
  * PNG values are the stored code values scaled to [0,1] (no colour conversion);
  * EXR values are linear as stored. */
@@ -48,7 +48,15 @@ int esr_exr_write_as(const char *path, const struct esr_image *img, enum esr_exr
 /* Shorthand: half = 1 for 16-bit floats, else 32-bit float; ZIP compression. */
 int esr_exr_write(const char *path, const struct esr_image *img, int half);
 
-/* Dispatch on the extension (.png / .exr, case-insensitive). */
+/* JPEG (libjpeg-turbo), 8-bit grey (1 channel) or colour (3 channels, RGB), values the code
+ * values / 255. esr_jpeg_read turns the pixels upright by the EXIF orientation tag (a portrait
+ * photo stored sideways comes out portrait); esr_jpeg_read_stored keeps them as stored, which is
+ * what COLMAP's cameras describe (COLMAP ignores the tag). Fails naming the file when it is not a
+ * JPEG, is truncated or corrupt, or is CMYK. */
+int esr_jpeg_read(const char *path, struct esr_image *out);
+int esr_jpeg_read_stored(const char *path, struct esr_image *out);
+
+/* Dispatch on the extension (.png / .exr / .jpg / .jpeg, case-insensitive). */
 int esr_image_read(const char *path, struct esr_image *out);
 
 /* Straight-alpha RGBA (as in the dataset PNGs) -> RGB on background bg: c = rgb*a + bg*(1-a).

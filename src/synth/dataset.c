@@ -9,9 +9,9 @@
 #include "core/colour.h"
 #include "core/error.h"
 #include "io/ply.h"
+#include "io/staging.h"
 #include "synth/json.h"
 #include "synth/plan.h"
-#include "synth/staging.h"
 #include "synth/synth.h"
 #include "synth/trace.h"
 
@@ -220,7 +220,7 @@ int esr_synth_write_dataset(const char *out_dir, const struct esr_synth_options 
     j.opt = opt;
     j.res = set.res;
     j.spp = set.spp;
-    int rc = esr_synth_staging_begin(out_dir, opt->force, staging, sizeof staging);
+    int rc = esr_staging_begin(out_dir, opt->force, staging, sizeof staging);
     if (rc == ESR_OK) {
         rc = esr_image_alloc(&j.png, set.res, set.res, 4);
         if (rc == ESR_OK)
@@ -228,9 +228,9 @@ int esr_synth_write_dataset(const char *out_dir, const struct esr_synth_options 
         if (rc == ESR_OK)
             rc = write_all(&j, &set);
         if (rc == ESR_OK)
-            rc = esr_synth_staging_commit(staging, out_dir);
+            rc = esr_staging_commit(staging, out_dir);
         if (rc != ESR_OK)
-            esr_synth_remove_tree(staging); /* keeps the first (real) error message */
+            esr_remove_tree(staging); /* keeps the first (real) error message */
     }
     esr_image_free(&j.png);
     esr_image_free(&j.mask);

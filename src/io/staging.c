@@ -1,5 +1,5 @@
 #define _XOPEN_SOURCE 700
-#include "synth/staging.h"
+#include "io/staging.h"
 
 #include <dirent.h>
 #include <errno.h>
@@ -58,7 +58,7 @@ static int make_parent(const char *path)
     return esr_dir_create(parent);
 }
 
-int esr_synth_staging_begin(const char *out_dir, int force, char *staging, size_t n)
+int esr_staging_begin(const char *out_dir, int force, char *staging, size_t n)
 {
     struct stat st;
     if (stat(out_dir, &st) == 0) {
@@ -76,7 +76,7 @@ int esr_synth_staging_begin(const char *out_dir, int force, char *staging, size_
     return ESR_OK;
 }
 
-int esr_synth_staging_commit(const char *staging, const char *out_dir)
+int esr_staging_commit(const char *staging, const char *out_dir)
 {
     /* rename() replaces an empty directory; a non-empty one is first moved aside. */
     if (rename(staging, out_dir) == 0)
@@ -96,7 +96,7 @@ int esr_synth_staging_commit(const char *staging, const char *out_dir)
         rename(old, out_dir); /* put the old dataset back */
         return ESR_FAIL("cannot move '%s' to '%s': %s", staging, out_dir, strerror(err));
     }
-    return esr_synth_remove_tree(old);
+    return esr_remove_tree(old);
 }
 
 static int remove_entry(const char *path, const struct stat *st, int flag, struct FTW *ftw)
@@ -105,7 +105,7 @@ static int remove_entry(const char *path, const struct stat *st, int flag, struc
     return remove(path) == 0 ? 0 : -1;
 }
 
-int esr_synth_remove_tree(const char *dir)
+int esr_remove_tree(const char *dir)
 {
     if (nftw(dir, remove_entry, 16, FTW_DEPTH | FTW_PHYS) != 0)
         return ESR_FAIL("cannot remove '%s': %s", dir, strerror(errno));

@@ -1,0 +1,223 @@
+/* COLMAP's binary model files (little-endian, as COLMAP's reconstruction_io writes them):
+ *   cameras.bin   u64 count; per camera: u32 id, i32 model, u64 width, u64 height, f64 params[]
+ *   images.bin    u64 count; per image: u32 id, f64 qw qx qy qz, f64 tx ty tz, u32 camera id,
+ *                 name bytes up to a NUL, u64 n_points2D, n x (f64 x, f64 y, i64 point3D id)
+ *   points3D.bin  u64 count; per point: u64 id, f64 x y z, u8 r g b, f64 error, u64 track
+ *                 length, length x (u32 image id, u32 point2D index)
+ * Every count is checked against the bytes left before anything is allocated or skipped, so a
+ * truncated or corrupt file is an error naming it, never a crash or a huge allocation. */
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "core/error.h"
+#include "io/colmap.h"
+#include "io/file.h"
+
+struct reader {
+    const unsigned char *p, *end;
+    const char *path;
+};
+
+static int need(struct reader *r, size_t n, const char *what)
+{
+    if ((size_t)(r->end - r->p) < n)
+        return ESR_FAIL("'%s' is truncated or corrupt (ends inside %s)", r->path, what);
+    return ESR_OK;
+}
+
+/* Little-endian loads byte by byte: correct on any host and for unaligned data. */
+static uint64_t load_le(const unsigned char *p, int bytes)
+{
+    uint64_t v = 0;
+    for (int i = bytes - 1; i >= 0; i--)
+        v = v << 8 | p[i];
+    return v;
+}
+
+static int read_u64(struct reader *r, const char *what, uint64_t *v)
+{
+    ESR_TRY(need(r, 8, what));
+    *v = load_le(r->p, 8);
+    r->p += 8;
+    return ESR_OK;
+}
+
+static int read_u32(struct reader *r, const char *what, uint32_t *v)
+{
+    ESR_TRY(need(r, 4, what));
+    *v = (uint32_t)load_le(r->p, 4);
+    r->p += 4;
+    return ESR_OK;
+}
+
+static int read_f64s(struct reader *r, const char *what, double *v, int n)
+{
+    ESR_TRY(need(r, 8 * (size_t)n, what));
+    for (int i = 0; i < n; i++) {
+        uint64_t bits = load_le(r->p, 8);
+        memcpy(&v[i], &bits, sizeof bits);
+        r->p += 8;
+    }
+    return ESR_OK;
+}
+
+static int skip(struct reader *r, uint64_t count, size_t each, const char *what)
+{
+    if (count > (uint64_t)(r->end - r->p) / each)
+        return ESR_FAIL("'%s' is truncated or corrupt (%llu %s do not fit in the file)", r->path,
+                        (unsigned long long)count, what);
+    r->p += count * each;
+    return ESR_OK;
+}
+
+/* The leading record count, refused when `min_record` bytes each cannot fit in what is left or
+ * the count exceeds `max`. */
+static int read_count(struct reader *r, size_t min_record, uint64_t max, const char *what, uint64_t *n)
+{
+    ESR_TRY(read_u64(r, "the record count", n));
+    if (*n > max || *n > (uint64_t)(r->end - r->p) / min_record)
+        return ESR_FAIL("'%s' is truncated or corrupt (claims %llu %s)", r->path, (unsigned long long)*n, what);
+    return ESR_OK;
+}
+
+static int finish(struct reader *r)
+{
+    if (r->p != r->end)
+        return ESR_FAIL("'%s' is corrupt (%zu bytes after the last record)", r->path, (size_t)(r->end - r->p));
+    return ESR_OK;
+}
+
+static int read_camera(struct reader *r, struct esr_colmap_camera *c)
+{
+    uint32_t model;
+    uint64_t w, h;
+    ESR_TRY(read_u32(r, "a camera", &c->id));
+    ESR_TRY(read_u32(r, "a camera", &model));
+    ESR_TRY(read_u64(r, "a camera", &w));
+    ESR_TRY(read_u64(r, "a camera", &h));
+    if (model >= ESR_COLMAP_MODEL_COUNT)
+        return ESR_FAIL("'%s': camera %u has camera model %d, which esr does not support (supported: "
+                        "SIMPLE_PINHOLE 0, PINHOLE 1, SIMPLE_RADIAL 2, RADIAL 3, OPENCV 4)",
+                        r->path, c->id, (int32_t)model);
+    if (w == 0 || h == 0 || w > 1u << 16 || h > 1u << 16)
+        return ESR_FAIL("'%s': camera %u has an implausible size %llux%llu", r->path, c->id, (unsigned long long)w,
+                        (unsigned long long)h);
+    c->model = (enum esr_colmap_model_id)model;
+    c->width = (int)w;
+    c->height = (int)h;
+    return read_f64s(r, "camera parameters", c->params, esr_colmap_model_n_params(c->model));
+}
+
+static int read_image(struct reader *r, struct esr_colmap_image *im)
+{
+    ESR_TRY(read_u32(r, "an image", &im->id));
+    ESR_TRY(read_f64s(r, "an image pose", im->q, 4));
+    ESR_TRY(read_f64s(r, "an image pose", im->t, 3));
+    ESR_TRY(read_u32(r, "an image", &im->camera_id));
+    const unsigned char *nul = memchr(r->p, '\0', (size_t)(r->end - r->p));
+    if (!nul)
+        return ESR_FAIL("'%s' is truncated or corrupt (image %u's name has no end)", r->path, im->id);
+    size_t len = (size_t)(nul - r->p);
+    if (len >= sizeof im->name)
+        return ESR_FAIL("'%s': image %u's name is longer than %d bytes", r->path, im->id, ESR_COLMAP_NAME_MAX - 1);
+    memcpy(im->name, r->p, len);
+    im->name[len] = '\0';
+    r->p = nul + 1;
+    uint64_t n2d;
+    ESR_TRY(read_u64(r, "an image's keypoint count", &n2d));
+    return skip(r, n2d, 24, "keypoints");
+}
+
+static int read_point(struct reader *r, double xyz[3])
+{
+    uint64_t id, track;
+    double error;
+    ESR_TRY(read_u64(r, "a 3D point", &id));
+    ESR_TRY(read_f64s(r, "a 3D point", xyz, 3));
+    ESR_TRY(skip(r, 3, 1, "colour bytes"));
+    ESR_TRY(read_f64s(r, "a 3D point", &error, 1));
+    ESR_TRY(read_u64(r, "a 3D point's track length", &track));
+    return skip(r, track, 8, "track entries");
+}
+
+/* Opens DIR/NAME into a reader over its bytes (*bytes owned by the caller). */
+static int open_file(const char *dir, const char *name, char *path, size_t n, unsigned char **bytes,
+                     struct reader *r)
+{
+    snprintf(path, n, "%s/%s", dir, name);
+    size_t size;
+    ESR_TRY(esr_file_read_all(path, bytes, &size));
+    r->p = *bytes;
+    r->end = *bytes + size;
+    r->path = path;
+    return ESR_OK;
+}
+
+static int read_cameras(const char *dir, char *path, size_t n, struct esr_colmap_model *m)
+{
+    unsigned char *bytes;
+    struct reader r;
+    ESR_TRY(open_file(dir, "cameras.bin", path, n, &bytes, &r));
+    uint64_t count;
+    int status = read_count(&r, 24, 1u << 20, "cameras", &count);
+    if (status == ESR_OK && !(m->cameras = calloc(count ? count : 1, sizeof *m->cameras)))
+        status = ESR_FAIL("out of memory reading '%s'", path);
+    for (uint64_t i = 0; i < count && status == ESR_OK; i++, m->n_cameras++)
+        status = read_camera(&r, &m->cameras[i]);
+    if (status == ESR_OK)
+        status = finish(&r);
+    free(bytes);
+    return status;
+}
+
+static int read_images(const char *dir, char *path, size_t n, struct esr_colmap_model *m)
+{
+    unsigned char *bytes;
+    struct reader r;
+    ESR_TRY(open_file(dir, "images.bin", path, n, &bytes, &r));
+    uint64_t count;
+    int status = read_count(&r, 73, 1u << 24, "images", &count);
+    if (status == ESR_OK && !(m->images = calloc(count ? count : 1, sizeof *m->images)))
+        status = ESR_FAIL("out of memory reading '%s'", path);
+    for (uint64_t i = 0; i < count && status == ESR_OK; i++, m->n_images++)
+        status = read_image(&r, &m->images[i]);
+    if (status == ESR_OK)
+        status = finish(&r);
+    free(bytes);
+    return status;
+}
+
+static int read_points(const char *dir, char *path, size_t n, struct esr_colmap_model *m)
+{
+    unsigned char *bytes;
+    struct reader r;
+    ESR_TRY(open_file(dir, "points3D.bin", path, n, &bytes, &r));
+    uint64_t count;
+    int status = read_count(&r, 51, 1u << 30, "3D points", &count);
+    if (status == ESR_OK && !(m->points = malloc((count ? count : 1) * 3 * sizeof *m->points)))
+        status = ESR_FAIL("out of memory reading '%s'", path);
+    for (uint64_t i = 0; i < count && status == ESR_OK; i++, m->n_points++)
+        status = read_point(&r, m->points + 3 * i);
+    if (status == ESR_OK)
+        status = finish(&r);
+    free(bytes);
+    return status;
+}
+
+int esr_colmap_model_read_binary(const char *dir, struct esr_colmap_model *m)
+{
+    memset(m, 0, sizeof *m);
+    m->format = "binary";
+    char cameras[ESR_COLMAP_NAME_MAX * 2], images[ESR_COLMAP_NAME_MAX * 2], points[ESR_COLMAP_NAME_MAX * 2];
+    int status = read_cameras(dir, cameras, sizeof cameras, m);
+    if (status == ESR_OK)
+        status = read_images(dir, images, sizeof images, m);
+    if (status == ESR_OK)
+        status = read_points(dir, points, sizeof points, m);
+    if (status == ESR_OK)
+        status = esr_colmap_model_validate(m, cameras, images);
+    if (status != ESR_OK)
+        esr_colmap_model_free(m);
+    return status;
+}

@@ -1,0 +1,311 @@
+/* `esr import colmap`: plan the frames, choose the shared pinhole view and the scene's place,
+ * then undistort every photo into a staging folder and write the JSON (see colmap_import.h). */
+#include "io/colmap_import.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "core/error.h"
+#include "io/colmap_camera.h"
+#include "io/colmap_undistort.h"
+#include "io/dataset.h"
+#include "io/dir.h"
+#include "io/file.h"
+#include "io/json_file.h"
+#include "io/staging.h"
+
+/* A path inside the staging folder (at most ESR_PATH_MAX long): a file name or two more. */
+#define STAGED_PATH (ESR_PATH_MAX + ESR_NAME_MAX + 64)
+
+/* One registered photo and what it becomes. */
+struct frame_plan {
+    const struct esr_colmap_image *image;
+    int lights_on;
+    int jpeg;                     /* else PNG */
+    char out_name[ESR_NAME_MAX];  /* "<stem>_<off|on>" */
+    char src_path[ESR_PATH_MAX];  /* IMAGES/<name> */
+};
+
+static int compare_plans(const void *a, const void *b)
+{
+    return strcmp(((const struct frame_plan *)a)->image->name, ((const struct frame_plan *)b)->image->name);
+}
+
+static int ends_with(const char *s, const char *suffix)
+{
+    size_t n = strlen(s), m = strlen(suffix);
+    if (n < m)
+        return 0;
+    for (size_t i = 0; i < m; i++)
+        if ((s[n - m + i] | 0x20) != suffix[i]) /* ASCII case-insensitive for letters */
+            return 0;
+    return 1;
+}
+
+/* Lighting (from the first folder of the name), photo type, output name and source path. */
+static int plan_frame(const struct esr_colmap_import_opts *o, const char *model_file,
+                      const struct esr_colmap_image *im, struct frame_plan *p)
+{
+    p->image = im;
+    if (!strncmp(im->name, "off/", 4))
+        p->lights_on = 0;
+    else if (!strncmp(im->name, "on/", 3))
+        p->lights_on = 1;
+    else
+        return ESR_FAIL("'%s': image %u '%s' is in neither off/ nor on/ (photos with the lights off go in "
+                        "IMAGES/off/, with the lights on in IMAGES/on/)", model_file, im->id, im->name);
+    const char *slash = strrchr(im->name, '/'), *base = slash + 1, *dot = strrchr(base, '.');
+    p->jpeg = ends_with(im->name, ".jpg") || ends_with(im->name, ".jpeg");
+    if (!p->jpeg && !ends_with(im->name, ".png"))
+        return ESR_FAIL("'%s': image '%s' is neither JPEG (.jpg, .jpeg) nor PNG", model_file, im->name);
+    int stem = (int)(dot - base);
+    if (snprintf(p->out_name, sizeof p->out_name, "%.*s_%s", stem, base, p->lights_on ? "on" : "off") >=
+            (int)sizeof p->out_name ||
+        snprintf(p->src_path, sizeof p->src_path, "%s/%s", o->images_dir, im->name) >= (int)sizeof p->src_path)
+        return ESR_FAIL("'%s': image name '%s' is too long", model_file, im->name);
+    if (!esr_file_exists(p->src_path))
+        return ESR_FAIL("'%s' is missing (image %u of the COLMAP model in '%s')", p->src_path, im->id, o->model_dir);
+    return ESR_OK;
+}
+
+/* The frames sorted by name, every output name unique. */
+static int plan_frames(const struct esr_colmap_import_opts *o, const struct esr_colmap_model *m,
+                       struct frame_plan **out)
+{
+    char model_file[ESR_PATH_MAX];
+    snprintf(model_file, sizeof model_file, "%s/images.%s", o->model_dir, !strcmp(m->format, "text") ? "txt" : "bin");
+    if (m->n_images < 3)
+        return ESR_FAIL("'%s' has %d registered images; esr needs at least 3", model_file, m->n_images);
+    struct frame_plan *p = calloc((size_t)m->n_images, sizeof *p);
+    if (!p)
+        return ESR_FAIL("out of memory planning the import");
+    int status = ESR_OK;
+    for (int i = 0; i < m->n_images && status == ESR_OK; i++)
+        status = plan_frame(o, model_file, &m->images[i], &p[i]);
+    if (status == ESR_OK)
+        qsort(p, (size_t)m->n_images, sizeof *p, compare_plans);
+    for (int i = 0; i < m->n_images && status == ESR_OK; i++)
+        for (int j = i + 1; j < m->n_images && status == ESR_OK; j++)
+            if (!strcmp(p[i].out_name, p[j].out_name))
+                status = ESR_FAIL("'%s': images '%s' and '%s' would both be written as '%s'; give them different "
+                                  "file names", model_file, p[i].image->name, p[j].image->name, p[i].out_name);
+    if (status != ESR_OK)
+        free(p);
+    else
+        *out = p;
+    return status;
+}
+
+/* The one pinhole view every frame is written in: the field of view all cameras cover, the
+ * longer side `size` pixels. */
+static int choose_view(const struct esr_colmap_model *m, int size, struct esr_pinhole_view *v)
+{
+    double hx = INFINITY, hy = INFINITY;
+    for (int i = 0; i < m->n_images; i++) {
+        double cx, cy;
+        ESR_TRY(esr_colmap_valid_extent(esr_colmap_find_camera(m, m->images[i].camera_id), &cx, &cy));
+        hx = fmin(hx, cx);
+        hy = fmin(hy, cy);
+    }
+    if (hx >= hy) {
+        v->width = size;
+        v->focal = size / (2.0 * hx);
+        v->height = (int)floor(2.0 * hy * v->focal);
+    } else {
+        v->height = size;
+        v->focal = size / (2.0 * hy);
+        v->width = (int)floor(2.0 * hx * v->focal);
+    }
+    if (v->width < 1 || v->height < 1)
+        return ESR_FAIL("the cameras' common view is too narrow for %d pixels", size);
+    return ESR_OK;
+}
+
+/* A photo as RGB on white (grey expanded, alpha composited like the dataset loader does). */
+static int photo_rgb(struct esr_image *img)
+{
+    static const float white[3] = {1.0f, 1.0f, 1.0f};
+    struct esr_image rgb;
+    if (img->channels >= 3) {
+        ESR_TRY(esr_image_composite(img, white, &rgb));
+    } else {
+        ESR_TRY(esr_image_alloc(&rgb, img->width, img->height, 3));
+        size_t n = (size_t)img->width * (size_t)img->height;
+        for (size_t p = 0; p < n; p++) {
+            const float *s = img->data + p * (size_t)img->channels;
+            float a = img->channels == 2 ? s[1] : 1.0f;
+            for (int k = 0; k < 3; k++)
+                rgb.data[p * 3 + (size_t)k] = s[0] * a + 1.0f - a;
+        }
+    }
+    esr_image_free(img);
+    *img = rgb;
+    return ESR_OK;
+}
+
+static int write_frame_image(const struct esr_colmap_model *m, const struct frame_plan *p,
+                             const struct esr_pinhole_view *view, const char *staging)
+{
+    const struct esr_colmap_camera *cam = esr_colmap_find_camera(m, p->image->camera_id);
+    struct esr_image photo, out;
+    /* as stored: COLMAP ignores the EXIF orientation, so its cameras describe these pixels */
+    ESR_TRY(p->jpeg ? esr_jpeg_read_stored(p->src_path, &photo) : esr_png_read(p->src_path, &photo));
+    int status = ESR_OK;
+    if (photo.width != cam->width || photo.height != cam->height)
+        status = ESR_FAIL("'%s' is %dx%d but its COLMAP camera %u is %dx%d", p->src_path, photo.width, photo.height,
+                          cam->id, cam->width, cam->height);
+    if (status == ESR_OK)
+        status = photo_rgb(&photo);
+    if (status == ESR_OK)
+        status = esr_colmap_undistort_image(cam, &photo, view, &out);
+    esr_image_free(&photo);
+    if (status != ESR_OK)
+        return status;
+    char path[STAGED_PATH];
+    snprintf(path, sizeof path, "%s/train/%s.png", staging, p->out_name);
+    status = esr_png_write(path, &out, 8);
+    esr_image_free(&out);
+    return status;
+}
+
+static cJSON *matrix_json(const double c2w[3][4])
+{
+    cJSON *rows = cJSON_CreateArray();
+    for (int r = 0; r < 4; r++) {
+        float row[4] = {0.0f, 0.0f, 0.0f, 1.0f};
+        for (int c = 0; r < 3 && c < 4; c++)
+            row[c] = (float)c2w[r][c];
+        cJSON_AddItemToArray(rows, esr_json_float_array(row, 4));
+    }
+    return rows;
+}
+
+static cJSON *frame_json(const struct frame_plan *p, const double c2w[3][4])
+{
+    cJSON *f = cJSON_CreateObject(), *lights = cJSON_CreateArray(), *light = cJSON_CreateObject();
+    static const float original_colour[3] = {0.0f, 0.0f, 1.0f};
+    char file_path[ESR_NAME_MAX + 8];
+    snprintf(file_path, sizeof file_path, "train/%s", p->out_name);
+    cJSON_AddStringToObject(f, "file_path", file_path);
+    cJSON_AddItemToObject(f, "transform_matrix", matrix_json(c2w));
+    cJSON_AddStringToObject(light, "mode", p->lights_on ? "on" : "off");
+    cJSON_AddNumberToObject(light, "intensity", p->lights_on ? 1.0 : 0.0);
+    cJSON_AddItemToObject(light, "color", esr_json_float_array(original_colour, 3));
+    cJSON_AddStringToObject(light, "mask_path", "");
+    cJSON_AddItemToArray(lights, light);
+    cJSON_AddItemToObject(f, "lights", lights);
+    cJSON_AddStringToObject(f, "colmap_image", p->image->name);
+    return f;
+}
+
+/* transforms_train.json, and the per-camera distances the result reports. */
+static int write_transforms(const struct frame_plan *plans, int n, const char *staging,
+                            struct esr_colmap_import_result *r)
+{
+    cJSON *root = cJSON_CreateObject(), *frames = cJSON_CreateArray();
+    cJSON_AddNumberToObject(root, "camera_angle_x", r->camera_angle_x);
+    r->cam_dist_min = INFINITY;
+    r->cam_dist_max = 0.0;
+    for (int i = 0; i < n; i++) {
+        double c2w[3][4], placed[3][4];
+        esr_colmap_camera_to_world(plans[i].image, c2w);
+        esr_scene_frame_apply(&r->frame, c2w, placed);
+        double d = sqrt(placed[0][3] * placed[0][3] + placed[1][3] * placed[1][3] + placed[2][3] * placed[2][3]);
+        r->cam_dist_min = fmin(r->cam_dist_min, d);
+        r->cam_dist_max = fmax(r->cam_dist_max, d);
+        r->n_cameras_near += d < 3.0;
+        cJSON_AddItemToArray(frames, frame_json(&plans[i], placed));
+    }
+    cJSON_AddItemToObject(root, "frames", frames);
+    char path[STAGED_PATH];
+    snprintf(path, sizeof path, "%s/transforms/transforms_train.json", staging);
+    return esr_json_write_atomic(path, root);
+}
+
+/* import.json: where the COLMAP world went, so poses can be mapped back. */
+static int write_record(const struct esr_colmap_import_opts *o, const struct esr_colmap_import_result *r,
+                        const char *staging)
+{
+    cJSON *root = cJSON_CreateObject(), *rot = cJSON_CreateArray();
+    cJSON_AddStringToObject(root, "source", "colmap");
+    cJSON_AddStringToObject(root, "model", o->model_dir);
+    cJSON_AddStringToObject(root, "model_format", r->format);
+    cJSON_AddStringToObject(root, "images", o->images_dir);
+    cJSON_AddStringToObject(root, "mapping", "esr = scale * rotation * (colmap - centre)");
+    double centre[3] = {r->frame.centre[0], r->frame.centre[1], r->frame.centre[2]};
+    cJSON_AddItemToObject(root, "centre", cJSON_CreateDoubleArray(centre, 3));
+    for (int i = 0; i < 3; i++)
+        cJSON_AddItemToArray(rot, cJSON_CreateDoubleArray(r->frame.rotation[i], 3));
+    cJSON_AddItemToObject(root, "rotation", rot);
+    cJSON_AddNumberToObject(root, "scale", r->frame.scale);
+    cJSON_AddBoolToObject(root, "placed_by_points", r->frame.from_points);
+    cJSON_AddNumberToObject(root, "focal", r->focal);
+    char path[STAGED_PATH];
+    snprintf(path, sizeof path, "%s/import.json", staging);
+    return esr_json_write_atomic(path, root);
+}
+
+/* Everything written into staging. */
+static int write_dataset(const struct esr_colmap_import_opts *o, const struct esr_colmap_model *m,
+                         const struct frame_plan *plans, const struct esr_pinhole_view *view,
+                         struct esr_colmap_import_result *r, const char *staging)
+{
+    char path[STAGED_PATH];
+    snprintf(path, sizeof path, "%s/train", staging);
+    ESR_TRY(esr_dir_create(path));
+    snprintf(path, sizeof path, "%s/transforms", staging);
+    ESR_TRY(esr_dir_create(path));
+    for (int i = 0; i < m->n_images; i++) {
+        ESR_TRY(write_frame_image(m, &plans[i], view, staging));
+        if (o->progress)
+            o->progress(o->user, i + 1, m->n_images);
+    }
+    ESR_TRY(write_transforms(plans, m->n_images, staging, r));
+    return write_record(o, r, staging);
+}
+
+static int import_model(const struct esr_colmap_import_opts *o, const struct esr_colmap_model *m,
+                        struct esr_colmap_import_result *r)
+{
+    struct frame_plan *plans = NULL;
+    struct esr_pinhole_view view;
+    ESR_TRY(plan_frames(o, m, &plans));
+    int status = choose_view(m, o->size, &view);
+    if (status == ESR_OK)
+        status = esr_colmap_scene_frame(m, &r->frame);
+    char staging[ESR_PATH_MAX];
+    if (status == ESR_OK)
+        status = esr_staging_begin(o->out_dir, o->force, staging, sizeof staging);
+    if (status == ESR_OK) {
+        r->format = m->format;
+        r->n_frames = m->n_images;
+        for (int i = 0; i < m->n_images; i++)
+            r->n_on += plans[i].lights_on;
+        r->n_off = r->n_frames - r->n_on;
+        r->width = view.width;
+        r->height = view.height;
+        r->focal = view.focal;
+        r->camera_angle_x = 2.0 * atan(0.5 * view.width / view.focal);
+        status = write_dataset(o, m, plans, &view, r, staging);
+        if (status == ESR_OK)
+            status = esr_staging_commit(staging, o->out_dir);
+        if (status != ESR_OK)
+            esr_remove_tree(staging); /* keeps the first (real) error message */
+    }
+    free(plans);
+    return status;
+}
+
+int esr_colmap_import(const struct esr_colmap_import_opts *o, struct esr_colmap_import_result *r)
+{
+    memset(r, 0, sizeof *r);
+    if (o->size < 8 || o->size > 16384)
+        return ESR_FAIL("output size %d is outside 8..16384 pixels", o->size);
+    struct esr_colmap_model m;
+    ESR_TRY(esr_colmap_model_read(o->model_dir, &m));
+    int status = import_model(o, &m, r);
+    esr_colmap_model_free(&m);
+    return status;
+}

@@ -1,0 +1,103 @@
+/* The COLMAP model container shared by the text and binary readers (see colmap.h). */
+#include "io/colmap.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "core/error.h"
+#include "io/colmap_camera.h"
+#include "io/file.h"
+
+static const struct {
+    const char *name;
+    int n_params;
+} model_table[ESR_COLMAP_MODEL_COUNT] = {
+    [ESR_COLMAP_SIMPLE_PINHOLE] = {"SIMPLE_PINHOLE", 3}, [ESR_COLMAP_PINHOLE] = {"PINHOLE", 4},
+    [ESR_COLMAP_SIMPLE_RADIAL] = {"SIMPLE_RADIAL", 4},   [ESR_COLMAP_RADIAL] = {"RADIAL", 5},
+    [ESR_COLMAP_OPENCV] = {"OPENCV", 8},
+};
+
+const char *esr_colmap_model_name(enum esr_colmap_model_id model)
+{
+    return (unsigned)model < ESR_COLMAP_MODEL_COUNT ? model_table[model].name : "?";
+}
+
+int esr_colmap_model_from_name(const char *name)
+{
+    for (int i = 0; i < ESR_COLMAP_MODEL_COUNT; i++)
+        if (!strcmp(name, model_table[i].name))
+            return i;
+    return -1;
+}
+
+int esr_colmap_model_n_params(enum esr_colmap_model_id model)
+{
+    return (unsigned)model < ESR_COLMAP_MODEL_COUNT ? model_table[model].n_params : 0;
+}
+
+const struct esr_colmap_camera *esr_colmap_find_camera(const struct esr_colmap_model *m, uint32_t id)
+{
+    for (int i = 0; i < m->n_cameras; i++)
+        if (m->cameras[i].id == id)
+            return &m->cameras[i];
+    return NULL;
+}
+
+void esr_colmap_model_free(struct esr_colmap_model *m)
+{
+    free(m->cameras);
+    free(m->images);
+    free(m->points);
+    memset(m, 0, sizeof *m);
+}
+
+static int all_finite(const double *v, int n)
+{
+    for (int i = 0; i < n; i++)
+        if (!isfinite(v[i]))
+            return 0;
+    return 1;
+}
+
+int esr_colmap_model_validate(const struct esr_colmap_model *m, const char *cameras_file, const char *images_file)
+{
+    for (int i = 0; i < m->n_cameras; i++) {
+        const struct esr_colmap_camera *c = &m->cameras[i];
+        if (c->width <= 0 || c->height <= 0)
+            return ESR_FAIL("'%s': camera %u has size %dx%d", cameras_file, c->id, c->width, c->height);
+        struct esr_colmap_intrinsics k;
+        esr_colmap_intrinsics_of(c, &k);
+        if (!all_finite(c->params, ESR_COLMAP_MAX_PARAMS) || !(k.fx > 0.0) || !(k.fy > 0.0))
+            return ESR_FAIL("'%s': camera %u has a non-positive focal length or a non-finite parameter",
+                            cameras_file, c->id);
+        if (esr_colmap_find_camera(m, c->id) != c)
+            return ESR_FAIL("'%s': camera id %u appears twice", cameras_file, c->id);
+    }
+    for (int i = 0; i < m->n_images; i++) {
+        const struct esr_colmap_image *im = &m->images[i];
+        double qn = im->q[0] * im->q[0] + im->q[1] * im->q[1] + im->q[2] * im->q[2] + im->q[3] * im->q[3];
+        if (!all_finite(im->q, 4) || !all_finite(im->t, 3) || !(qn > 1e-12))
+            return ESR_FAIL("'%s': image %u ('%s') has a non-finite or zero pose", images_file, im->id, im->name);
+        if (!im->name[0])
+            return ESR_FAIL("'%s': image %u has an empty name", images_file, im->id);
+        if (!esr_colmap_find_camera(m, im->camera_id))
+            return ESR_FAIL("'%s': image %u ('%s') refers to camera %u, which is not in '%s'", images_file, im->id,
+                            im->name, im->camera_id, cameras_file);
+    }
+    return ESR_OK;
+}
+
+int esr_colmap_model_read(const char *dir, struct esr_colmap_model *m)
+{
+    char path[ESR_COLMAP_NAME_MAX * 2];
+    snprintf(path, sizeof path, "%s/cameras.bin", dir);
+    if (esr_file_exists(path))
+        return esr_colmap_model_read_binary(dir, m);
+    snprintf(path, sizeof path, "%s/cameras.txt", dir);
+    if (esr_file_exists(path))
+        return esr_colmap_model_read_text(dir, m);
+    memset(m, 0, sizeof *m);
+    return ESR_FAIL("'%s' is not a COLMAP sparse model: neither cameras.bin nor cameras.txt exists", dir);
+}

@@ -1,0 +1,141 @@
+/* The imported scene's placement in esr's world (see colmap_scene.h). */
+#include "io/colmap_scene.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "core/error.h"
+#include "io/colmap_camera.h"
+
+static int compare_double(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return (x > y) - (x < y);
+}
+
+/* The q-quantile (0..1, nearest rank) of v[0..n-1], n > 0; v is sorted in place. */
+static double quantile(double *v, long n, double q)
+{
+    qsort(v, (size_t)n, sizeof *v, compare_double);
+    long i = (long)floor(q * (double)(n - 1) + 0.5);
+    return v[i];
+}
+
+/* The q-quantile of the distances of n points (stride 3) from c. */
+static int distance_quantile(const double *pts, long n, const double c[3], double q, double *out)
+{
+    double *d = malloc((size_t)n * sizeof *d);
+    if (!d)
+        return ESR_FAIL("out of memory placing the scene (%ld points)", n);
+    for (long i = 0; i < n; i++)
+        d[i] = sqrt(pow(pts[3 * i] - c[0], 2) + pow(pts[3 * i + 1] - c[1], 2) + pow(pts[3 * i + 2] - c[2], 2));
+    *out = quantile(d, n, q);
+    free(d);
+    return ESR_OK;
+}
+
+/* Per-axis median of n points (stride 3). */
+static int median_point(const double *pts, long n, double centre[3])
+{
+    double *v = malloc((size_t)n * sizeof *v);
+    if (!v)
+        return ESR_FAIL("out of memory placing the scene (%ld points)", n);
+    for (int a = 0; a < 3; a++) {
+        for (long i = 0; i < n; i++)
+            v[i] = pts[3 * i + a];
+        centre[a] = quantile(v, n, 0.5);
+    }
+    free(v);
+    return ESR_OK;
+}
+
+/* Rotation taking the unit vector a onto +Z (Rodrigues about a x z); identity when a is +Z,
+ * a half turn about X when a is -Z. */
+static void rotation_to_z(const double a[3], double r[3][3])
+{
+    double c = a[2], axis[3] = {a[1], -a[0], 0.0}; /* a x (0, 0, 1) */
+    double s = sqrt(axis[0] * axis[0] + axis[1] * axis[1]);
+    memset(r, 0, 9 * sizeof(double));
+    if (s < 1e-12) {
+        r[0][0] = 1.0;
+        r[1][1] = r[2][2] = c > 0.0 ? 1.0 : -1.0;
+        return;
+    }
+    double k[3] = {axis[0] / s, axis[1] / s, 0.0}, t = 1.0 - c;
+    for (int i = 0; i < 3; i++)
+        for (int j = 0; j < 3; j++)
+            r[i][j] = t * k[i] * k[j] + (i == j ? c : 0.0);
+    r[0][1] -= s * k[2];
+    r[1][0] += s * k[2];
+    r[0][2] += s * k[1];
+    r[2][0] -= s * k[1];
+    r[1][2] -= s * k[0];
+    r[2][1] += s * k[0];
+}
+
+/* Mean image-up direction of the cameras (the world direction of COLMAP's -Y camera axis, the
+ * c2w matrix's second column) when the cameras agree on it; +Z (no rotation) otherwise. */
+static void mean_up(const struct esr_colmap_model *m, double up[3])
+{
+    double sum[3] = {0.0, 0.0, 0.0};
+    for (int i = 0; i < m->n_images; i++) {
+        double c2w[3][4];
+        esr_colmap_camera_to_world(&m->images[i], c2w);
+        for (int a = 0; a < 3; a++)
+            sum[a] += c2w[a][1];
+    }
+    double n = sqrt(sum[0] * sum[0] + sum[1] * sum[1] + sum[2] * sum[2]);
+    int agree = n > 0.3 * m->n_images;
+    for (int a = 0; a < 3; a++)
+        up[a] = agree ? sum[a] / n : (a == 2);
+}
+
+int esr_colmap_scene_frame(const struct esr_colmap_model *m, struct esr_scene_frame *f)
+{
+    if (m->n_images < 1)
+        return ESR_FAIL("the COLMAP model has no registered images to place the scene by");
+    double *centres = malloc((size_t)m->n_images * 3 * sizeof *centres);
+    if (!centres)
+        return ESR_FAIL("out of memory placing the scene");
+    for (int i = 0; i < m->n_images; i++) {
+        double c2w[3][4];
+        esr_colmap_camera_to_world(&m->images[i], c2w);
+        for (int a = 0; a < 3; a++)
+            centres[3 * i + a] = c2w[a][3];
+    }
+    /* the bulk of the points, or without them the camera centres at 4 units, as in esr's datasets */
+    f->from_points = m->n_points >= 10;
+    const double *pts = f->from_points ? m->points : centres;
+    const long n = f->from_points ? m->n_points : m->n_images;
+    double cam_dist = 0.0;
+    int status = median_point(pts, n, f->centre);
+    if (status == ESR_OK)
+        status = distance_quantile(pts, n, f->centre, f->from_points ? 0.9 : 0.5, &f->radius);
+    if (status == ESR_OK)
+        status = distance_quantile(centres, m->n_images, f->centre, 0.5, &cam_dist);
+    free(centres);
+    ESR_TRY(status);
+    if (!f->from_points)
+        f->radius *= 0.25;
+    if (!(f->radius > 0.0) || !isfinite(f->radius))
+        return ESR_FAIL("the COLMAP model's points and cameras all coincide; cannot scale the scene");
+    f->scale = 1.0 / f->radius;
+    if (cam_dist > 0.0 && 4.0 / cam_dist < f->scale)
+        f->scale = 4.0 / cam_dist;
+    double up[3];
+    mean_up(m, up);
+    rotation_to_z(up, f->rotation);
+    return ESR_OK;
+}
+
+void esr_scene_frame_apply(const struct esr_scene_frame *f, const double c2w[3][4], double out[3][4])
+{
+    for (int r = 0; r < 3; r++) {
+        for (int c = 0; c < 3; c++)
+            out[r][c] = f->rotation[r][0] * c2w[0][c] + f->rotation[r][1] * c2w[1][c] + f->rotation[r][2] * c2w[2][c];
+        out[r][3] = f->scale * (f->rotation[r][0] * (c2w[0][3] - f->centre[0]) +
+                                f->rotation[r][1] * (c2w[1][3] - f->centre[1]) +
+                                f->rotation[r][2] * (c2w[2][3] - f->centre[2]));
+    }
+}
