@@ -23,6 +23,8 @@
 #include "eval/evaluate.h"
 #include "eval/quick_eval.h"
 #include "eval/select.h"
+#include "edit/finetune.h"
+#include "io/dataset.h"
 #include "render/view.h"
 #include "train/trainer.h"
 
@@ -427,7 +429,8 @@ static void test_pdra_finds_lights(void **state)
         {"--light all --intensity -1", "--intensity: expected a finite number >= 0"},
         {"--light all --intensity nan", "--intensity: expected a finite number >= 0"},
         {"--light 0 --color 1.5,0.2", "--color: expected H,S with both in [0,1]"},
-        {"--light 0 --method finetune", "not built yet"},
+        {"--light 0 --method relit", "--method: expected direct or finetune"},
+        {"--light 0 --method finetune --iters 0", "--iters: expected 1..1000000"},
         {"--intensity 2", "--intensity before any --light"},
     };
     char edit_out[4400];
@@ -489,6 +492,89 @@ static void test_pdra_finds_lights(void **state)
     esr_model_free(&m);
 }
 
+/* Lights-on (on 1) or lights-off linear render of cam into lin [w*h*3]. */
+static void render_linear(const struct esr_model *m, const struct esr_camera *cam, int on, float *lin)
+{
+    const size_t n = (size_t)cam->width * (size_t)cam->height;
+    float *o = malloc(n * 3 * sizeof(float)), *d = malloc(n * 3 * sizeof(float));
+    assert_non_null(o);
+    assert_non_null(d);
+    esr_camera_pixel_rays(cam, o, d);
+    struct esr_render_out r = {.linear = lin};
+    assert_int_equal(esr_model_render_rays(m, o, d, n, on, &r), ESR_OK);
+    free(o);
+    free(d);
+}
+
+static double mean_abs_diff(const float *a, const float *b, size_t n)
+{
+    double s = 0.0;
+    for (size_t i = 0; i < n; i++)
+        s += fabs((double)a[i] - b[i]);
+    return s / (double)n;
+}
+
+/* Radiance fine-tuning (edit/finetune.h) on the pdra run: an edit that changes nothing leaves
+ * the lights-on render as it was (the trained model's residual is kept), every light off brings
+ * it most of the way to the lights-off render, and restoring gives the trained model back
+ * bit for bit. */
+static void test_finetune_edits(void **state)
+{
+    (void)state;
+    char path[4400];
+    snprintf(path, sizeof path, "%s/run_pdra/ckpt_pdra.bin", test_tmpdir);
+    struct esr_model m;
+    assert_int_equal(esr_model_load(&m, path), ESR_OK);
+    assert_true(m.lights.n > 0); /* the tiny scene's pdra run finds its lights (see above) */
+    struct esr_dataset ds;
+    assert_int_equal(esr_dataset_load(data_dir, &ds), ESR_OK);
+    const struct esr_camera *cam = &ds.phases[ESR_PHASE_TEST_NV].frames[0].camera;
+    const size_t n = (size_t)cam->width * (size_t)cam->height * 3;
+    float *before = malloc(n * sizeof(float)), *off = malloc(n * sizeof(float));
+    float *after = malloc(n * sizeof(float));
+    assert_non_null(before);
+    assert_non_null(off);
+    assert_non_null(after);
+    render_linear(&m, cam, 1, before);
+    render_linear(&m, cam, 0, off);
+
+    struct esr_finetune_opts o;
+    esr_finetune_default_opts(&o);
+    o.iters = 40;
+    o.rays = 128;
+    o.points = 256;
+    o.dirs = 8;
+    o.light_spp = 4;
+    struct esr_finetune f;
+    if (esr_finetune_init(&f, &m, &ds, &o) != ESR_OK)
+        fail_msg("%s", esr_error_message());
+    struct esr_light_edit same[ESR_MAX_LIGHTS], dark[ESR_MAX_LIGHTS];
+    for (int k = 0; k < ESR_MAX_LIGHTS; k++) {
+        same[k] = (struct esr_light_edit){1.0f, 0, 0.0f, 0.0f};
+        dark[k] = (struct esr_light_edit){0.0f, 0, 0.0f, 0.0f};
+    }
+    struct esr_finetune_stats st;
+    assert_int_equal(esr_finetune_apply(&f, &m, same, 7, &st), ESR_OK);
+    assert_int_equal(st.iters, o.iters);
+    render_linear(&m, cam, 1, after);
+    const double effect = mean_abs_diff(before, off, n), drift = mean_abs_diff(after, before, n);
+    assert_int_equal(esr_finetune_apply(&f, &m, dark, 7, &st), ESR_OK);
+    render_linear(&m, cam, 1, after);
+    const double left = mean_abs_diff(after, off, n);
+    print_message("finetune: lights' effect %.4f; unchanged edit drifts %.4f; all off leaves %.4f "
+                  "(LTS MSE %.3g -> %.3g)\n", effect, drift, left, st.mse_first, st.mse_last);
+    assert_true(effect > 0.0);
+    assert_true(drift < 0.1 * effect);
+    assert_true(left < 0.5 * effect);
+    esr_finetune_restore(&f, &m);
+    render_linear(&m, cam, 1, after);
+    assert_memory_equal(after, before, n * sizeof(float));
+    esr_finetune_free(&f);
+    esr_dataset_free(&ds);
+    free(before), free(off), free(after);
+    esr_model_free(&m);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -499,6 +585,7 @@ int main(void)
         cmocka_unit_test(test_empty_mask_cache_is_refused),
         cmocka_unit_test(test_emitter_stages_need_both_lightings),
         cmocka_unit_test(test_pdra_finds_lights),
+        cmocka_unit_test(test_finetune_edits),
     };
     return cmocka_run_group_tests(tests, group_setup, test_teardown_tmpdir);
 }

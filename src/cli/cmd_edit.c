@@ -45,7 +45,8 @@ const struct esr_command cmd_edit = {
     "  --orbit N      N cameras on a circle around the scene at the first test camera's distance\n"
     "                 and height, written orbit_000 .. orbit_<N-1>\n"
     "  --frames a,b   only these frames of the phase, by name\n"
-    "  --spp N        light samples per pixel and light (default 8)\n"
+    "  --spp N        direct: light samples per pixel and light (default 8)\n"
+    "  --iters N      finetune: steps of the fine-tune (default 300)\n"
     "  --data DIR     dataset (default: the one RUN was trained on)\n"
     "  -h, --help     this text\n",
     run_edit,
@@ -53,7 +54,7 @@ const struct esr_command cmd_edit = {
 
 struct edit_args {
     const char *run, *out, *views, *data, *frames;
-    int orbit, spp, n_groups;
+    int orbit, spp, n_groups, iters;
     enum esr_edit_method method;
     struct {
         int light; /* -1 = all */
@@ -129,6 +130,9 @@ static int parse(int argc, char **argv, struct edit_args *a)
         } else if (!strcmp(o, "--orbit") && has) {
             if (cli_parse_int(argv[++i], 1, 3600, &a->orbit))
                 return cli_fail(&cmd_edit, "--orbit: expected 1..3600 views, got '%s'", argv[i]);
+        } else if (!strcmp(o, "--iters") && has) {
+            if (cli_parse_int(argv[++i], 1, 1000000, &a->iters))
+                return cli_fail(&cmd_edit, "--iters: expected 1..1000000, got '%s'", argv[i]);
         } else if (!strcmp(o, "--spp") && has) {
             if (cli_parse_int(argv[++i], 1, 4096, &a->spp))
                 return cli_fail(&cmd_edit, "--spp: expected 1..4096, got '%s'", argv[i]);
@@ -214,10 +218,14 @@ static int edit(const struct edit_args *a)
         rc = edits_of(a, m.lights.n, edits);
     struct esr_editor ed;
     memset(&ed, 0, sizeof ed);
+    struct esr_finetune_opts ft;
+    esr_finetune_default_opts(&ft);
+    if (a->iters)
+        ft.iters = a->iters;
     if (rc == ESR_OK)
         rc = esr_dir_create(a->out);
     if (rc == ESR_OK)
-        rc = esr_editor_init(&ed, &m, &sel.ds, a->method, a->spp, NULL);
+        rc = esr_editor_init(&ed, &m, &sel.ds, a->method, a->spp, &ft);
     if (rc == ESR_OK && a->method == ESR_EDIT_FINETUNE)
         fprintf(stderr, "fine-tuning the lights-on radiance for the edit (%d steps)\n",
                 ed.ft.o.iters);

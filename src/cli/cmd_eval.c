@@ -51,7 +51,8 @@ const struct esr_command cmd_eval = {
     "  --rerender       render every selected frame again\n"
     "  --method M       edit phases: direct (default) or finetune (one radiance fine-tune per\n"
     "                   distinct edit of the phase, edit/finetune.h)\n"
-    "  --spp N          edit phases: light samples per pixel and light (default 8)\n"
+    "  --spp N          edit phases, direct: light samples per pixel and light (default 8)\n"
+    "  --iters N        edit phases, finetune: steps per fine-tune (default 300)\n"
     "  -h, --help       this text\n",
     run_eval,
 };
@@ -59,7 +60,7 @@ const struct esr_command cmd_eval = {
 struct eval_args {
     const char *run, *phase, *data, *frames;
     int limit, rerender;
-    int spp;
+    int spp, iters;
     enum esr_edit_method method;
 };
 
@@ -261,8 +262,12 @@ static int evaluate_edits(const struct eval_args *a, const struct esr_run_select
     memset(&res, 0, sizeof res);
     if (status == ESR_OK) {
         fprintf(stderr, "relighting %d frame(s) of %s (%s) into %s\n", sel->n, phase, method, dir);
+        struct esr_finetune_opts ft;
+        esr_finetune_default_opts(&ft);
+        if (a->iters)
+            ft.iters = a->iters;
         status = esr_edit_eval_phase(&m, &sel->ds, sel->phase, sel->idx, sel->n, dir, a->method,
-                                     a->spp, &res);
+                                     a->spp, &ft, &res);
     }
     if (status == ESR_OK)
         status = esr_dir_create(eval_dir);
@@ -317,7 +322,7 @@ static int run_eval(int argc, char **argv)
 {
     if (cli_wants_help(&cmd_eval, argc, argv))
         return 0;
-    struct eval_args a = {NULL, "test_nv", NULL, NULL, 0, 0, 8, ESR_EDIT_DIRECT};
+    struct eval_args a = {NULL, "test_nv", NULL, NULL, 0, 0, 8, 0, ESR_EDIT_DIRECT};
     for (int i = 1; i < argc; i++) {
         const char *s = argv[i];
         int has_value = i + 1 < argc;
@@ -333,6 +338,9 @@ static int run_eval(int argc, char **argv)
             const char *mth = argv[++i];
             if (esr_edit_method_from_name(mth, &a.method))
                 return cli_fail(&cmd_eval, "--method: expected direct or finetune, got '%s'", mth);
+        } else if (!strcmp(s, "--iters") && has_value) {
+            if (cli_parse_int(argv[++i], 1, 1000000, &a.iters))
+                return cli_fail(&cmd_eval, "--iters must be an integer in 1..1000000, got '%s'", argv[i]);
         } else if (!strcmp(s, "--spp") && has_value) {
             if (cli_parse_int(argv[++i], 1, 4096, &a.spp))
                 return cli_fail(&cmd_eval, "--spp must be an integer in 1..4096, got '%s'", argv[i]);

@@ -83,8 +83,6 @@ int esr_finetune_init(struct esr_finetune *f, struct esr_model *m, const struct 
         f->trained = *m; /* shares m's description, read only */
         f->trained.params.w = f->trained_w;
     }
-    for (int k = 0; k < m->lights.n; k++)
-        memcpy(f->saved_scale[k], m->lights.light[k].scale, sizeof f->saved_scale[k]);
     for (int k = 0; rc == ESR_OK && k < m->lights.n; k++)
         rc = esr_light_samples_get(m, k, &f->samples[k]);
     if (rc == ESR_OK &&
@@ -127,8 +125,7 @@ void esr_finetune_restore(struct esr_finetune *f, struct esr_model *m)
         const struct esr_part *p = &m->part[TUNED[i]];
         memcpy(m->params.w + p->off, f->trained_w + p->off, p->count * sizeof(float));
     }
-    for (int k = 0; k < m->lights.n; k++)
-        memcpy(m->lights.light[k].scale, f->saved_scale[k], sizeof f->saved_scale[k]);
+    m->lights.edited = 0;
     f->applied = 0;
 }
 
@@ -188,9 +185,8 @@ int esr_finetune_apply(struct esr_finetune *f, struct esr_model *m,
         esr_finetune_restore(f, m);
         return rc;
     }
-    for (int k = 0; k < m->lights.n; k++)
-        for (int c = 0; c < 3; c++)
-            m->lights.light[k].scale[c] = 1.0f;
+    memcpy(m->lights.edit, edits, (size_t)m->lights.n * sizeof *edits);
+    m->lights.edited = 1;
     st->seconds = omp_get_wtime() - t0;
     return ESR_OK;
 }

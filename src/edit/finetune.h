@@ -1,35 +1,28 @@
 /* Relighting by radiance fine-tuning (the paper's main method, METHOD.md "Scene editing", the
  * seed's Tables 4 and 6): for one edit of the lights, everything but the emo feature grid and the
- * emo radiance MLP is frozen, and L_emo is trained towards the LTS estimate with the edited
- * emission,
- *     L_emo(x, wo) <- E'(x) + sum_j L_emo(y_j, -w_j) R(x, wo, w_j) / (M pdf_j)
- * (train/lts.h with an edit set: E'(x) = the calibrated emission of x's light, edited; 0 on no
- * light). The lights-on render L_off + L_emo then shows the edited scene, reflections and
- * interreflections included, at the data-fitted L_emo's detail.
+ * emo radiance MLP is frozen and L_emo is trained towards the LTS estimate of the edited scene
+ * (train/lts.h, edit), so the lights-on render L_off + L_emo shows the edit with its reflections
+ * and interreflections at the data-fitted L_emo's detail.
  *
  * Choices, each for a user who edits several lights and views:
+ * - The edited emission itself is rendered analytically (the model's lights carry the edit while
+ *   it is in place, model/lights.h), and the fields learn only the change of the reflected light.
+ * - The edited lights' light comes in by light sampling (train/light_direct.h: area samples and
+ *   shadow rays with exactly the edited emission); interreflections from the fields along
+ *   first-hit incident directions that do not end on a light. A small bright light is thus not
+ *   left to the few hemisphere directions that happen to hit it (blotchy, dark results).
+ * - The target keeps the trained model's residual: the trained L_emo is not exactly a fixed point
+ *   of the reconstructed transport (BRDF, normal and geometry errors), and fine-tuning towards
+ *   the plain estimate first drifts to that transport's own solution (lamp, an edit that changes
+ *   nothing: 19.6 dB against the model's own render, darker and blotchy). With the residual
+ *   kept, an edit that changes nothing changes nothing.
  * - Points: surface samples of the training cameras' rays, all of them, not only those on the
  *   edited light (the authors' rays on the edited light's mask): the light the edit changes
  *   falls on every surface, and a point whose L_emo is not trained keeps the old lighting.
- * - The estimate is a fixed target each step (a fixed-point iteration of the edited transport);
- *   training both sides lets L_emo shrink towards whatever satisfies the equation cheapest.
- * - The target keeps the trained model's residual (train/lts.h, edit_ref): the trained L_emo is
- *   not exactly a fixed point of the reconstructed transport (BRDF, normals, geometry errors),
- *   and fine-tuning towards the plain estimate first drifts to that transport's own solution
- *   (lamp, an edit that changes nothing: 19.6 dB against the model's own render, darker and
- *   blotchy) before it applies the edit. With the residual kept, an edit that changes nothing
- *   changes nothing, and the edit's change alone goes through the light transport.
- * - The edited lights' own light comes in by light sampling (train/light_direct.h: area samples
- *   and shadow rays with exactly the edited emission), the rest (interreflections) from the
- *   fields along first-hit incident directions that do not end on a light: the light's effect is
- *   right from the first step instead of waiting for L_emo on the light to learn E', and a small
- *   bright light is not left to the few directions that happen to hit it (blotchy, dark results).
- * - First-hit incident radiance (train/lts_incident.h) with few stratified cosine directions,
- *   many points per step, a few hundred steps: one fine-tune per distinct edit, reused by every
- *   view that shows it (the authors fine-tune 20,000 iterations per test image).
- * - The fine-tuned L_emo carries the lights' calibrated emission itself, so the model's light
- *   scales are set to 1 while it is in place (no emission added on top in lights-on renders);
- *   esr_finetune_restore puts the trained model back. */
+ * - The estimate is a fixed target each step (a fixed-point iteration of the edited transport).
+ * - Many points per step and a few hundred steps: one fine-tune per distinct edit, reused by
+ *   every view that shows it (the authors fine-tune 20,000 iterations per test image).
+ * esr_finetune_restore puts the trained model back. */
 #ifndef ESR_EDIT_FINETUNE_H
 #define ESR_EDIT_FINETUNE_H
 
@@ -71,7 +64,6 @@ struct esr_finetune {
     struct esr_ray_set rays;       /* the training cameras' rays */
     float *trained_w;              /* every weight of the trained model (a copy) */
     struct esr_model trained;      /* the trained model: m's description with trained_w */
-    float saved_scale[ESR_MAX_LIGHTS][3];
     struct esr_march march;
     struct esr_lts lts;
     struct esr_light_samples samples[ESR_MAX_LIGHTS]; /* calibrated emission */
@@ -91,8 +83,8 @@ int esr_finetune_init(struct esr_finetune *f, struct esr_model *m, const struct 
                       const struct esr_finetune_opts *o);
 void esr_finetune_free(struct esr_finetune *f);
 
-/* Puts the trained model back, then fine-tunes its L_emo for edits (one per light of m) and sets
- * its light scales to 1: lights-on renders of m now show the edit. Deterministic in seed for a
+/* Puts the trained model back, then fine-tunes its L_emo for edits (one per light of m) and puts
+ * the edit in m's lights: lights-on renders of m now show the edit. Deterministic in seed for a
  * fixed thread count. */
 int esr_finetune_apply(struct esr_finetune *f, struct esr_model *m,
                        const struct esr_light_edit *edits, uint64_t seed,

@@ -132,7 +132,8 @@ static void order_by_edit(const struct esr_light_edit (*edits)[ESR_MAX_LIGHTS], 
 
 int esr_edit_eval_phase(struct esr_model *m, const struct esr_dataset *ds,
                         enum esr_phase_id phase, const int *idx, int n, const char *out_dir,
-                        enum esr_edit_method method, int spp, struct esr_edit_eval *res)
+                        enum esr_edit_method method, int spp, const struct esr_finetune_opts *ft,
+                        struct esr_edit_eval *res)
 {
     memset(res, 0, sizeof(*res));
     res->phase = phase;
@@ -162,7 +163,7 @@ int esr_edit_eval_phase(struct esr_model *m, const struct esr_dataset *ds,
         frame_edits(ds, &ph->frames[idx[i]], &res->split, m->lights.n, edits[i]);
     order_by_edit((const struct esr_light_edit(*)[ESR_MAX_LIGHTS])edits, n, m->lights.n, order);
     struct esr_editor ed;
-    int rc = esr_editor_init(&ed, m, ds, method, spp, NULL);
+    int rc = esr_editor_init(&ed, m, ds, method, spp, ft);
     for (int k = 0; k < n && rc == ESR_OK; k++) {
         const int i = order[k];
         const struct esr_frame *f = &ph->frames[idx[i]];

@@ -33,9 +33,11 @@ struct esr_edit_eval {
     struct esr_light_split split;
 };
 
+/* ft: fine-tuning options (NULL: the defaults). */
 int esr_edit_eval_phase(struct esr_model *m, const struct esr_dataset *ds,
                         enum esr_phase_id phase, const int *idx, int n, const char *out_dir,
-                        enum esr_edit_method method, int spp, struct esr_edit_eval *res);
+                        enum esr_edit_method method, int spp, const struct esr_finetune_opts *ft,
+                        struct esr_edit_eval *res);
 void esr_edit_eval_free(struct esr_edit_eval *res);
 
 /* {"phase", "method": "direct"|"finetune", "spp" (direct) | "finetunes", "finetune_seconds"

@@ -57,9 +57,14 @@ void esr_lights_scale_emission(const struct esr_lights *L, const float *pos3, si
 #pragma omp parallel for schedule(static)
     for (size_t i = 0; i < n; i++) {
         const int id = esr_lights_id_at(L, pos3 + i * 3);
-        if (id >= 0)
-            for (int c = 0; c < 3; c++)
-                emit3[i * 3 + c] *= L->light[id].scale[c];
+        if (id < 0)
+            continue;
+        for (int c = 0; c < 3; c++)
+            emit3[i * 3 + c] *= L->light[id].scale[c];
+        if (L->edited) {
+            const float e[3] = {emit3[i * 3], emit3[i * 3 + 1], emit3[i * 3 + 2]};
+            esr_light_edit_apply(&L->edit[id], e, emit3 + i * 3);
+        }
     }
 }
 
@@ -70,21 +75,4 @@ void esr_light_edit_apply(const struct esr_light_edit *ed, const float e[3], flo
         esr_recolour_keep_value(v, ed->hue, ed->sat, out);
     else
         memcpy(out, v, sizeof v);
-}
-
-void esr_lights_edit_emission(const struct esr_lights *L, const struct esr_light_edit *edits,
-                              const float *pos3, size_t n, float *emit3)
-{
-#pragma omp parallel for schedule(static)
-    for (size_t i = 0; i < n; i++) {
-        const int id = esr_lights_id_at(L, pos3 + i * 3);
-        float *e = emit3 + i * 3;
-        if (id < 0) {
-            e[0] = e[1] = e[2] = 0.0f;
-            continue;
-        }
-        const float cal[3] = {e[0] * L->light[id].scale[0], e[1] * L->light[id].scale[1],
-                              e[2] * L->light[id].scale[2]};
-        esr_light_edit_apply(&edits[id], cal, e);
-    }
 }

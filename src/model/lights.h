@@ -21,6 +21,14 @@ extern "C" {
 
 #define ESR_MAX_LIGHTS 16
 
+/* One light's edit (`esr edit`, seed eqs. 10-15): intensity multiplier (0 = off, 1 = as found)
+ * and an optional recolour. */
+struct esr_light_edit {
+    float intensity;
+    int recolour;       /* 1: hue and saturation replaced (V kept) */
+    float hue, sat;     /* in [0, 1] */
+};
+
 struct esr_light {
     float centroid[3];    /* world position, mean of the light's surface points */
     float area;           /* surface area, world units^2 (surface points x voxel face area) */
@@ -38,17 +46,13 @@ struct esr_lights {
     struct esr_light light[ESR_MAX_LIGHTS];
     struct esr_grid grid; /* the lattice the labels live on (the SDF grid's) */
     uint8_t *label;       /* [nx*ny*nz] 0 or id + 1; NULL when n == 0 */
+    /* an edit in place (edit/finetune.h; not saved): emitted radiance is each light's calibrated
+     * emission edited by edit[K]; edited 0: as found */
+    int edited;
+    struct esr_light_edit edit[ESR_MAX_LIGHTS];
 };
 
 void esr_lights_free(struct esr_lights *L);
-
-/* One light's edit (`esr edit`, seed eqs. 10-15): intensity multiplier (0 = off, 1 = as found)
- * and an optional recolour. */
-struct esr_light_edit {
-    float intensity;
-    int recolour;       /* 1: hue and saturation replaced (V kept) */
-    float hue, sat;     /* in [0, 1] */
-};
 
 /* The edited emission of radiance e (linear RGB) under edit ed: times the intensity, then hue and
  * saturation replaced with V kept when ed->recolour. */
@@ -59,14 +63,8 @@ void esr_light_edit_apply(const struct esr_light_edit *ed, const float e[3], flo
 int esr_lights_id_at(const struct esr_lights *L, const float pos[3]);
 
 /* The calibrated emission of n points: emit3 [n*3] multiplied in place by the scale of each
- * point's light (points on no light keep E). */
+ * point's light, then edited by its edit when one is in place (points on no light keep E). */
 void esr_lights_scale_emission(const struct esr_lights *L, const float *pos3, size_t n, float *emit3);
-
-/* The emission of n points after edits (one per light of L): a point on light K gets K's
- * calibrated emission (scale x E) edited by edits[K]; a point on no light gets 0 (what the pdra
- * stage decided is not an emitter emits nothing). emit3 [n*3]: E in, the edited emission out. */
-void esr_lights_edit_emission(const struct esr_lights *L, const struct esr_light_edit *edits,
-                              const float *pos3, size_t n, float *emit3);
 
 #ifdef __cplusplus
 }

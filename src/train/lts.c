@@ -27,7 +27,7 @@ void esr_lts_free(struct esr_lts *l)
                      l->d_li_off3,  l->d_li_emo3, l->orig3,   l->hit_t,     l->hit_pos3,
                      l->q_pos3,     l->q_dir3,   l->d_tone3,  l->d_lin3,    l->d_emit3,
                      l->d_brdf5,    l->hat3,     l->sec_off3, l->sec_emo3, l->d_sec_off3, l->d_sec_emo3,
-                     l->edit_emit3, l->edit_direct3, l->ref_emit3, l->ref_direct3};
+                     l->edit_direct3, l->ref_direct3};
     for (size_t i = 0; i < sizeof bufs / sizeof bufs[0]; i++)
         free(bufs[i]);
     free(l->hit_flags);
@@ -60,8 +60,7 @@ int esr_lts_init(struct esr_lts *l, const struct esr_model *m)
               {&l->d_li_off3, PM * 3}, {&l->d_li_emo3, PM * 3}, {&l->orig3, PM * 3},
               {&l->R3, PM * 3},        {&l->hit_t, PM},         {&l->hit_pos3, PM * 3},
               {&l->d_emit3, P * 3},    {&l->d_brdf5, P * ESR_BRDF_CHANNELS},
-              {&l->hat3, P * 12},      {&l->edit_emit3, P * 3},  {&l->edit_direct3, P * 6},
-              {&l->ref_emit3, P * 3},  {&l->ref_direct3, P * 6}};
+              {&l->hat3, P * 12},      {&l->edit_direct3, P * 6}, {&l->ref_direct3, P * 6}};
     int ok = 1;
     for (size_t i = 0; i < sizeof fl / sizeof fl[0]; i++)
         ok &= (*fl[i].p = malloc(fl[i].n * sizeof(float))) != NULL;
@@ -275,14 +274,11 @@ static void reflected_emo(const struct esr_lts *l, const float *lin, const uint8
     }
 }
 
-/* Fine-tuning's loss at point p (l->edit set): L_emo towards sg(E' + D' + reflection of the
- * incident L_emo [+ the trained model's residual]), for both outgoing directions; only the
- * points' L_emo rows get a gradient. skip[i]: direction i's hit is on a light. */
-static void point_loss_edit(struct esr_lts *l, const uint8_t *skip, size_t p, float scale,
-                            double *se_emo)
+/* Fine-tuning's loss at point p (lts.h, edit): L_emo' towards sg(L_emo + D' - D + K (L_emo' -
+ * L_emo)) for both outgoing directions; only the points' L_emo' rows get a gradient. */
+static void point_loss_edit(struct esr_lts *l, size_t p, float scale, double *se_emo)
 {
-    const float *lin = l->pf.lin3, *E = l->edit_emit3 + p * 3;
-    const float *ref = l->edit_ref ? l->pf_ref.lin3 : NULL;
+    const float *lin = l->pf.lin3, *ref = l->pf_ref.lin3;
     const struct esr_material mat = esr_material_of_row(l->mf.brdf5 + p * ESR_BRDF_CHANNELS, 1.0f);
     const struct esr_vec3 n = v3_at(l->nrm3, p);
     for (int o = 0; o < 2; o++) {
@@ -290,19 +286,15 @@ static void point_loss_edit(struct esr_lts *l, const uint8_t *skip, size_t p, fl
         if (esr_v3_dot(n, wo) <= 0.0f)
             continue;
         const size_t po = p * 2 + (size_t)o, row_off = p * 4 + (size_t)o * 2, row_on = row_off + 1;
-        const float *D = l->edit_direct3 + po * 3;
-        float refl[3], hat[3];
-        reflected_emo(l, lin, skip, p, &mat, n, wo, refl);
-        for (int c = 0; c < 3; c++)
-            hat[c] = E[c] + D[c] + refl[c];
-        if (ref) { /* + L_emo - (E + D + K L_emo) of the trained model */
-            const float *E0 = l->ref_emit3 + p * 3, *D0 = l->ref_direct3 + po * 3;
-            reflected_emo(l, ref, skip, p, &mat, n, wo, refl);
-            for (int c = 0; c < 3; c++)
-                hat[c] += ref[row_on * 3 + c] - ref[row_off * 3 + c] - (E0[c] + D0[c] + refl[c]);
-        }
+        float refl[3], refl_ref[3];
+        reflected_emo(l, lin, l->on_light, p, &mat, n, wo, refl);
+        reflected_emo(l, ref, l->on_light, p, &mat, n, wo, refl_ref);
         for (int c = 0; c < 3; c++) {
-            const float e = lin[row_on * 3 + c] - lin[row_off * 3 + c] - hat[c];
+            const float L = lin[row_on * 3 + c] - lin[row_off * 3 + c];
+            const float L_ref = ref[row_on * 3 + c] - ref[row_off * 3 + c];
+            const float hat = L_ref + l->edit_direct3[po * 3 + c] - l->ref_direct3[po * 3 + c] +
+                              refl[c] - refl_ref[c];
+            const float e = L - hat;
             *se_emo += (double)e * e;
             l->d_lin3[row_on * 3 + c] += 2.0f * scale * e;
         }
@@ -314,6 +306,8 @@ int esr_lts_run(struct esr_lts *l, const struct esr_model *m, const float *sdf, 
                 uint64_t seed, struct esr_lts_stats *out)
 {
     memset(out, 0, sizeof(*out));
+    if (l->edit && (!l->edit_ref || !l->edit_direct))
+        return ESR_FAIL("lts: an edit needs the trained model and the direct-light hook");
     if (mc->n_kept == 0)
         return ESR_OK;
     if (!l->normal_sdf || (!l->edit && m->step % NORMAL_REFRESH == 0)) {
@@ -357,39 +351,23 @@ int esr_lts_run(struct esr_lts *l, const struct esr_model *m, const float *sdf, 
     const float w_l = pair ? m->cfg.pdra_w_l : 1.0f, w_r = pair ? m->cfg.pdra_w_r : 1.0f;
     double se_off = 0.0, se_emo = 0.0;
     if (l->edit) {
-        memcpy(l->edit_emit3, l->mf.emit3, P * 3 * sizeof(float));
-        esr_lights_edit_emission(&m->lights, l->edit, l->pos3, P, l->edit_emit3);
-        memset(l->edit_direct3, 0, P * 6 * sizeof(float));
-        if (l->edit_direct)
-            ESR_TRY(l->edit_direct(l->edit_user, l, P, l->edit, l->edit_direct3));
-        if (l->edit_ref) { /* the trained model's estimate on the same rows and light samples */
-            struct esr_light_edit as_found[ESR_MAX_LIGHTS];
-            for (int k = 0; k < ESR_MAX_LIGHTS; k++)
-                as_found[k] = (struct esr_light_edit){1.0f, 0, 0.0f, 0.0f};
-            /* the trained fields' own emission: E on the lights (lights-on renders add the
-             * calibration on top of L_emo, so the residual is the field's), none elsewhere */
-#pragma omp parallel for schedule(static)
-            for (size_t p = 0; p < P; p++) {
-                const int on = esr_lights_id_at(&m->lights, l->pos3 + p * 3) >= 0;
-                for (int c = 0; c < 3; c++)
-                    l->ref_emit3[p * 3 + c] = on ? l->mf.emit3[p * 3 + c] : 0.0f;
-            }
-            memset(l->ref_direct3, 0, P * 6 * sizeof(float));
-            if (l->edit_direct)
-                ESR_TRY(l->edit_direct(l->edit_user, l, P, as_found, l->ref_direct3));
-            if (!l->has_pf_ref) {
-                ESR_TRY(esr_point_fields_init(&l->pf_ref, l->edit_ref, rows, 0));
-                l->has_pf_ref = 1;
-            }
-            ESR_TRY(esr_point_fields_fwd(&l->pf_ref, l->edit_ref, sdf, &q));
+        struct esr_light_edit as_found[ESR_MAX_LIGHTS];
+        for (int k = 0; k < ESR_MAX_LIGHTS; k++)
+            as_found[k] = (struct esr_light_edit){1.0f, 0, 0.0f, 0.0f};
+        ESR_TRY(l->edit_direct(l->edit_user, l, P, l->edit, l->edit_direct3));
+        ESR_TRY(l->edit_direct(l->edit_user, l, P, as_found, l->ref_direct3));
+        if (!l->has_pf_ref) {
+            ESR_TRY(esr_point_fields_init(&l->pf_ref, l->edit_ref, rows, 0));
+            l->has_pf_ref = 1;
         }
+        ESR_TRY(esr_point_fields_fwd(&l->pf_ref, l->edit_ref, sdf, &q));
 #pragma omp parallel for schedule(static)
         for (size_t i = 0; i < PM; i++)
-            l->on_light[i] = l->edit_direct && l->hit_row[i] >= 0 &&
-                              esr_lights_id_at(&m->lights, l->hit_pos3 + i * 3) >= 0;
+            l->on_light[i] = l->hit_row[i] >= 0 &&
+                             esr_lights_id_at(&m->lights, l->hit_pos3 + i * 3) >= 0;
 #pragma omp parallel for schedule(dynamic, 4) reduction(+ : se_emo)
         for (size_t p = 0; p < P; p++)
-            point_loss_edit(l, l->on_light, p, scale, &se_emo);
+            point_loss_edit(l, p, scale, &se_emo);
     } else {
         /* each point writes only its own rows and directions */
 #pragma omp parallel for schedule(dynamic, 4) reduction(+ : se_off, se_emo)

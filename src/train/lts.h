@@ -77,34 +77,27 @@ struct esr_lts {
     size_t pick_cap;
     struct esr_point_fields pf;
     struct esr_material_fields mf;
-    /* Radiance fine-tuning (edit/finetune.h) when set, NULL in training: one edit per light of
-     * the model. The emo estimate then takes the edited emission (esr_lights_edit_emission: 0 on
-     * no light) instead of E, only the points' own L_emo is pulled towards it (the estimate is a
-     * fixed target, sg: a fixed-point iteration of the edited light transport), and the off
-     * term, E, the BRDF and the environment get no gradient. The normals are computed once (the
-     * geometry is frozen). */
+    /* Radiance fine-tuning (edit/finetune.h) when edit is set (NULL in training): one edit per
+     * light of the model, and edit_ref, the trained model (the same components with the weights
+     * before fine-tuning). Lights-on renders show each light's edited emission analytically
+     * (model/lights.h, edited), so the fields learn only how the reflected light changes:
+     *     L_emo'(x) <- L_emo(x) + D'(x) - D(x) + sum over hits not on a light (L_emo'(y) - L_emo(y)) R w
+     * (D, D': the lights' direct light at x as found and edited, from edit_direct with the same
+     * samples; L_emo: the trained model on the same rows). This is the LTS estimate with the
+     * edited emission, E' + D' + K L_emo', plus the trained model's residual at x: the trained
+     * L_emo is not exactly a fixed point of the reconstructed transport, and without the residual
+     * an edit that changes nothing would first drift to that transport's own solution. The target
+     * is fixed each step (a fixed-point iteration); only the points' L_emo rows get a gradient,
+     * nothing else; the normals are computed once (the geometry is frozen). */
     const struct esr_light_edit *edit;
-    float *edit_emit3;         /* [P*3] the points' edited emission */
-    /* With an edit, the edited lights' direct light at the points for both outgoing directions
-     * into direct3 [P*2*3] (light sampled: train/light_direct.h); incident directions whose
-     * first hit lies on a light are then left out of the reflection (the light came in through
-     * direct3; a light's own reflected light is small). NULL: no direct term, every hit counts. */
+    const struct esr_model *edit_ref;
     int (*edit_direct)(void *user, const struct esr_lts *l, size_t P,
                        const struct esr_light_edit *edits, float *direct3);
     void *edit_user;
-    float *edit_direct3;       /* [P*2*3] */
-    uint8_t *on_light;         /* [P*M] with an edit_direct: the direction's first hit is on a light */
-    /* With an edit, the trained model (same components, the weights before fine-tuning) or NULL.
-     * When set the target keeps the trained model's own residual at each point,
-     *     L_emo' <- E' + D' + K L_emo' + (L_emo - E - D - K L_emo)
-     * (K: the reflection of the incident L_emo; the bracket with the trained fields, the field's
-     * E on the lights (0 elsewhere) and the unedited direct light, on the same rows and samples),
-     * so the unedited scene, emitters at their calibrated strength, is a fixed point and only
-     * the edit's change goes through the reconstructed light transport. */
-    const struct esr_model *edit_ref;
-    struct esr_point_fields pf_ref;
+    float *edit_direct3, *ref_direct3; /* [P*2*3] D' and D per point and outgoing direction */
+    uint8_t *on_light;         /* [P*M] the direction's first hit is on a light */
+    struct esr_point_fields pf_ref; /* the trained model's rows */
     int has_pf_ref;
-    float *ref_emit3, *ref_direct3; /* [P*3], [P*2*3] */
 };
 
 int esr_lts_init(struct esr_lts *l, const struct esr_model *m);
