@@ -12,7 +12,7 @@
 
 #include "cli/commands.h"
 #include "core/error.h"
-#include "edit/relight.h"
+#include "edit/editor.h"
 #include "eval/bench_lts.h"
 #include "eval/bench_train.h"
 #include "eval/run_dir.h"
@@ -228,6 +228,44 @@ static int lts_section(const char *run, const char *data, int repeats, cJSON *ro
     return ESR_OK;
 }
 
+/* One radiance fine-tune (edit/finetune.h: every light at half strength, default options) and
+ * one lights-on view of the result, into root's "relight_finetune". */
+static int finetune_timing(struct esr_model *m, const struct esr_dataset *ds, cJSON *root)
+{
+    struct esr_finetune_opts o;
+    esr_finetune_default_opts(&o);
+    struct esr_editor ed;
+    ESR_TRY(esr_editor_init(&ed, m, ds, ESR_EDIT_FINETUNE, 1, &o));
+    struct esr_light_edit half[ESR_MAX_LIGHTS];
+    for (int k = 0; k < ESR_MAX_LIGHTS; k++)
+        half[k] = (struct esr_light_edit){0.5f, 0, 0.0f, 0.0f};
+    int rc = esr_editor_set(&ed, half, 1);
+    struct esr_image img = {0};
+    const struct esr_camera *c = &ds->phases[ESR_PHASE_TEST_NV].frames[0].camera;
+    const double t0 = omp_get_wtime();
+    if (rc == ESR_OK)
+        rc = esr_editor_view(&ed, c, 0, &img);
+    const double view_s = omp_get_wtime() - t0;
+    esr_image_free(&img);
+    if (rc == ESR_OK) {
+        const double secs = ed.finetune_seconds;
+        cJSON *j = cJSON_AddObjectToObject(root, "relight_finetune");
+        cJSON_AddNumberToObject(j, "steps", o.iters);
+        cJSON_AddNumberToObject(j, "points", o.points);
+        cJSON_AddNumberToObject(j, "dirs", o.dirs);
+        cJSON_AddNumberToObject(j, "light_spp", o.light_spp);
+        cJSON_AddNumberToObject(j, "seconds_per_edit", secs);
+        cJSON_AddNumberToObject(j, "secondary_rays_per_s",
+                                secs > 0 ? (double)o.iters * o.points * o.dirs / secs : 0.0);
+        cJSON_AddNumberToObject(j, "seconds_per_view", view_s);
+        printf("finetune relight: %.1f s per distinct edit (%d steps of %d points x %d directions, "
+               "%d light samples), then %.3f s per %dx%d view\n",
+               secs, o.iters, o.points, o.dirs, o.light_spp, view_s, c->width, c->height);
+    }
+    esr_editor_free(&ed);
+    return rc;
+}
+
 /* The direct relight (edit/relight.h) of the first test_nv view of run, all lights as found:
  * seconds per view (after a warm-up view), into root's "relight_direct". */
 static int relight_section(const char *run, const char *data, cJSON *root)
@@ -278,6 +316,8 @@ static int relight_section(const char *run, const char *data, cJSON *root)
                run, c->width, c->height, m.lights.n, spp, secs / reps, init_s);
         esr_relight_free(&rl);
     }
+    if (rc == ESR_OK)
+        rc = finetune_timing(&m, &ds, root);
     esr_dataset_free(&ds);
     esr_model_free(&m);
     return rc;

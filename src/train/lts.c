@@ -275,9 +275,15 @@ static void reflected_emo(const struct esr_lts *l, const float *lin, const uint8
 }
 
 /* Fine-tuning's loss at point p (lts.h, edit): L_emo' towards sg(L_emo + D' - D + K (L_emo' -
- * L_emo)) for both outgoing directions; only the points' L_emo' rows get a gradient. */
-static void point_loss_edit(struct esr_lts *l, size_t p, float scale, double *se_emo)
+ * L_emo)) for both outgoing directions; only the points' L_emo' rows get a gradient. A point on
+ * a light is left out: its trained L_emo is the saturated emitter, not a measured reflection
+ * (the editor renders lights from their emission, edit/editor.h), and hits on lights do not
+ * read it. */
+static void point_loss_edit(struct esr_lts *l, const struct esr_lights *lights, size_t p,
+                            float scale, double *se_emo)
 {
+    if (esr_lights_id_at(lights, l->pos3 + p * 3) >= 0)
+        return;
     const float *lin = l->pf.lin3, *ref = l->pf_ref.lin3;
     const struct esr_material mat = esr_material_of_row(l->mf.brdf5 + p * ESR_BRDF_CHANNELS, 1.0f);
     const struct esr_vec3 n = v3_at(l->nrm3, p);
@@ -367,7 +373,7 @@ int esr_lts_run(struct esr_lts *l, const struct esr_model *m, const float *sdf, 
                              esr_lights_id_at(&m->lights, l->hit_pos3 + i * 3) >= 0;
 #pragma omp parallel for schedule(dynamic, 4) reduction(+ : se_emo)
         for (size_t p = 0; p < P; p++)
-            point_loss_edit(l, p, scale, &se_emo);
+            point_loss_edit(l, &m->lights, p, scale, &se_emo);
     } else {
         /* each point writes only its own rows and directions */
 #pragma omp parallel for schedule(dynamic, 4) reduction(+ : se_off, se_emo)

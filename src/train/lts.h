@@ -88,7 +88,8 @@ struct esr_lts {
      * L_emo is not exactly a fixed point of the reconstructed transport, and without the residual
      * an edit that changes nothing would first drift to that transport's own solution. The target
      * is fixed each step (a fixed-point iteration); only the points' L_emo rows get a gradient,
-     * nothing else; the normals are computed once (the geometry is frozen). */
+     * nothing else; points on a light are left out (their L_emo is the saturated emitter);
+     * the normals are computed once (the geometry is frozen). */
     const struct esr_light_edit *edit;
     const struct esr_model *edit_ref;
     int (*edit_direct)(void *user, const struct esr_lts *l, size_t P,
