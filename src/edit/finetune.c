@@ -28,21 +28,26 @@ void esr_finetune_default_opts(struct esr_finetune_opts *o)
     o->lr_final = 0.1f;
 }
 
-/* The LTS hook: the edited lights' direct light at the step's points, summed over lights. */
+/* The LTS hook: the lights' direct light at the step's points, edited and as found (the same
+ * samples), each summed over lights. */
 static int direct_light(void *user, const struct esr_lts *l, size_t P,
-                        const struct esr_light_edit *edits, float *direct3)
+                        const struct esr_light_edit *edits, float *direct3, float *found3)
 {
     struct esr_finetune *f = user;
     const struct esr_direct_points dp = {P, l->pos3, l->nrm3, l->mf.brdf5, l->wo3, 2};
     ESR_TRY(esr_lights_direct(f->m, f->samples, f->m->lights.n, edits, &dp, f->o.light_spp,
-                              f->seed ^ (uint64_t)(f->step + 1) * 0x9e3779b97f4a7c15ULL, f->direct));
-    for (size_t i = 0; i < P * 2; i++)
-        for (int c = 0; c < 3; c++) {
-            double sum = 0.0;
-            for (int k = 0; k < f->m->lights.n; k++)
-                sum += f->direct[(i * ESR_MAX_LIGHTS + (size_t)k) * 3 + (size_t)c];
-            direct3[i * 3 + (size_t)c] = (float)sum;
-        }
+                              f->seed ^ (uint64_t)(f->step + 1) * 0x9e3779b97f4a7c15ULL, f->direct,
+                              f->found));
+    const double *src[2] = {f->direct, f->found};
+    float *dst[2] = {direct3, found3};
+    for (int v = 0; v < 2; v++)
+        for (size_t i = 0; i < P * 2; i++)
+            for (int c = 0; c < 3; c++) {
+                double sum = 0.0;
+                for (int k = 0; k < f->m->lights.n; k++)
+                    sum += src[v][(i * ESR_MAX_LIGHTS + (size_t)k) * 3 + (size_t)c];
+                dst[v][i * 3 + (size_t)c] = (float)sum;
+            }
     return ESR_OK;
 }
 
@@ -55,6 +60,7 @@ void esr_finetune_free(struct esr_finetune *f)
     for (int k = 0; k < ESR_MAX_LIGHTS; k++)
         esr_light_samples_free(&f->samples[k]);
     free(f->direct);
+    free(f->found);
     free(f->g_sdf);
     free(f->orig3);
     free(f->dir3);
@@ -85,8 +91,9 @@ int esr_finetune_init(struct esr_finetune *f, struct esr_model *m, const struct 
     }
     for (int k = 0; rc == ESR_OK && k < m->lights.n; k++)
         rc = esr_light_samples_get(m, k, &f->samples[k]);
-    if (rc == ESR_OK &&
-        !(f->direct = malloc((size_t)o->points * 2 * ESR_MAX_LIGHTS * 3 * sizeof(double))))
+    const size_t nd = (size_t)o->points * 2 * ESR_MAX_LIGHTS * 3;
+    if (rc == ESR_OK && (!(f->direct = malloc(nd * sizeof(double))) ||
+                         !(f->found = malloc(nd * sizeof(double)))))
         rc = ESR_FAIL("finetune: out of memory for the direct light of %d points", o->points);
     f->m = m;
     const size_t R = (size_t)o->rays;

@@ -11,11 +11,9 @@
  *   shadow rays with exactly the edited emission); interreflections from the fields along
  *   first-hit incident directions that do not end on a light. A small bright light is thus not
  *   left to the few hemisphere directions that happen to hit it (blotchy, dark results).
- * - The target keeps the trained model's residual: the trained L_emo is not exactly a fixed point
- *   of the reconstructed transport (BRDF, normal and geometry errors), and fine-tuning towards
- *   the plain estimate first drifts to that transport's own solution (lamp, an edit that changes
- *   nothing: 19.6 dB against the model's own render, darker and blotchy). With the residual
- *   kept, an edit that changes nothing changes nothing.
+ * - The target is the trained L_emo scaled by the ratio of the transport's estimates with and
+ *   without the edit (train/lts.h says why): an edit that changes nothing changes nothing, and
+ *   the light the reconstruction cannot attribute follows the lights in proportion.
  * - Points: surface samples of the training cameras' rays, all of them, not only those on the
  *   edited light (the authors' rays on the edited light's mask): the light the edit changes
  *   falls on every surface, and a point whose L_emo is not trained keeps the old lighting.
@@ -67,7 +65,7 @@ struct esr_finetune {
     struct esr_march march;
     struct esr_lts lts;
     struct esr_light_samples samples[ESR_MAX_LIGHTS]; /* calibrated emission */
-    double *direct;                /* [points * 2 * ESR_MAX_LIGHTS * 3] */
+    double *direct, *found;        /* [points * 2 * ESR_MAX_LIGHTS * 3] edited, as found */
     const struct esr_model *m;     /* for the LTS hook */
     uint64_t seed;
     long step;                     /* the light samples are a function of (seed, step) */

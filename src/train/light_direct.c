@@ -20,21 +20,25 @@ static struct esr_vec3 v3_at(const float *a, size_t i)
 
 int esr_lights_direct(const struct esr_model *m, const struct esr_light_samples *ls, int n_lights,
                       const struct esr_light_edit *edits, const struct esr_direct_points *pts,
-                      int spp, uint64_t seed, double *out)
+                      int spp, uint64_t seed, double *out, double *out_found)
 {
     const size_t P = pts->n, W = (size_t)pts->n_wo, K = (size_t)n_lights;
     memset(out, 0, P * W * ESR_MAX_LIGHTS * 3 * sizeof(double));
+    if (out_found)
+        memset(out_found, 0, P * W * ESR_MAX_LIGHTS * 3 * sizeof(double));
     const struct esr_grid *g = esr_model_grid(m, ESR_COMP_SDF);
     const float h = esr_grid_voxel_size(g, 0);
     const size_t cap = P * K * (size_t)spp;
     if (cap == 0)
         return ESR_OK;
-    /* per shadow ray: origin, direction, length, and per outgoing direction its weight */
+    /* per shadow ray: origin, direction, length, and per outgoing direction its weight (and
+     * its weight for the emission as found: G, the geometry and BRDF alone, times that) */
     float *o3 = malloc(cap * 3 * sizeof(float)), *d3 = malloc(cap * 3 * sizeof(float));
     float *tmax = malloc(cap * sizeof(float)), *w3 = malloc(cap * W * 3 * sizeof(float));
+    float *wf3 = out_found ? malloc(cap * W * 3 * sizeof(float)) : NULL;
     uint8_t *flags = malloc(cap);
-    if (!o3 || !d3 || !tmax || !w3 || !flags) {
-        free(o3), free(d3), free(tmax), free(w3), free(flags);
+    if (!o3 || !d3 || !tmax || !w3 || !flags || (out_found && !wf3)) {
+        free(o3), free(d3), free(tmax), free(w3), free(wf3), free(flags);
         return ESR_FAIL("lights: out of memory for %zu shadow rays", cap);
     }
     /* slot (p, K, j) is fixed, so no compaction: a skipped sample gets tmax 0 and weight 0 */
@@ -51,6 +55,8 @@ int esr_lights_direct(const struct esr_model *m, const struct esr_light_samples 
                 memcpy(d3 + s * 3, &n, 3 * sizeof(float));
                 tmax[s] = 0.0f;
                 memset(w3 + s * W * 3, 0, W * 3 * sizeof(float));
+                if (wf3)
+                    memset(wf3 + s * W * 3, 0, W * 3 * sizeof(float));
                 const uint32_t u = esr_rng_u32(&rng);
                 if (ls[k].n == 0)
                     continue;
@@ -61,11 +67,12 @@ int esr_lights_direct(const struct esr_model *m, const struct esr_light_samples 
                     continue;
                 const struct esr_vec3 wi = esr_v3_scale(v, 1.0f / dist);
                 memcpy(d3 + s * 3, &wi, 3 * sizeof(float));
+                const float *found = ls[k].emit3 + q * 3;
                 float e[3];
                 if (edits)
-                    esr_light_edit_apply(&edits[k], ls[k].emit3 + q * 3, e);
+                    esr_light_edit_apply(&edits[k], found, e);
                 else
-                    memcpy(e, ls[k].emit3 + q * 3, sizeof e);
+                    memcpy(e, found, sizeof e);
                 const struct esr_vec3 ny = v3_at(ls[k].nrm3, q);
                 const float geo = fabsf(esr_v3_dot(ny, wi)) * ls[k].area[q] * (float)ls[k].n /
                                   ((float)spp * dist * dist);
@@ -78,7 +85,9 @@ int esr_lights_direct(const struct esr_model *m, const struct esr_light_samples 
                     esr_brdf_eval(&mat, n, wo, wi, R);
                     for (int c = 0; c < 3; c++) {
                         w3[(s * W + w) * 3 + c] = e[c] * R[c] * geo;
-                        any |= w3[(s * W + w) * 3 + c] > 0.0f;
+                        if (wf3)
+                            wf3[(s * W + w) * 3 + c] = found[c] * R[c] * geo;
+                        any |= R[c] > 0.0f;
                     }
                 }
                 if (any)
@@ -99,10 +108,13 @@ int esr_lights_direct(const struct esr_model *m, const struct esr_light_samples 
                 if (tmax[s] <= 0.0f || (flags[s] & ESR_FIRST_HIT_HIT))
                     continue;
                 for (size_t w = 0; w < W; w++)
-                    for (int c = 0; c < 3; c++)
-                        out[((p * W + w) * ESR_MAX_LIGHTS + k) * 3 + (size_t)c] +=
-                            w3[(s * W + w) * 3 + c];
+                    for (int c = 0; c < 3; c++) {
+                        const size_t at = ((p * W + w) * ESR_MAX_LIGHTS + k) * 3 + (size_t)c;
+                        out[at] += w3[(s * W + w) * 3 + c];
+                        if (out_found)
+                            out_found[at] += wf3[(s * W + w) * 3 + c];
+                    }
             }
-    free(o3), free(d3), free(tmax), free(w3), free(flags);
+    free(o3), free(d3), free(tmax), free(w3), free(wf3), free(flags);
     return rc;
 }

@@ -30,10 +30,12 @@ struct esr_direct_points {
 
 /* out[((p * n_wo + o) * ESR_MAX_LIGHTS + K) * 3 + c] = D_K (per channel) for the n_lights lights
  * whose surface samples ls[] are given, each sample's emission edited by edits[K] (NULL: as the
- * samples carry it). Zero for a back-facing wo. Deterministic in seed. */
+ * samples carry it); out_found (or NULL), the same for the emission as found, from the same
+ * samples and shadow rays (what fine-tuning compares). Zero for a back-facing wo.
+ * Deterministic in seed. */
 int esr_lights_direct(const struct esr_model *m, const struct esr_light_samples *ls, int n_lights,
                       const struct esr_light_edit *edits, const struct esr_direct_points *pts,
-                      int spp, uint64_t seed, double *out);
+                      int spp, uint64_t seed, double *out, double *out_found);
 
 #ifdef __cplusplus
 }

@@ -502,7 +502,7 @@ int esr_lights_calibrate(struct esr_model *m, const float *orig3, const float *d
         const struct esr_direct_points dp = {P, l.pos3, l.nrm3, l.mf.brdf5, l.wo3, 2};
         if (rc == ESR_OK)
             rc = esr_lights_direct(m, ls, K, NULL, &dp, CALIB_LIGHT_SPP,
-                                   seed ^ (uint64_t)(p0 + 1) * 0x9e3779b97f4a7c15ULL, Abuf);
+                                   seed ^ (uint64_t)(p0 + 1) * 0x9e3779b97f4a7c15ULL, Abuf, NULL);
         if (rc == ESR_OK)
             accumulate(m, &l, P, mf.emit3, Abuf, G, rhs, seen);
     }

@@ -19,6 +19,10 @@
 #define NORMAL_REFRESH 50
 /* Secondary rays start this many voxels off the surface point along the normal. */
 #define SECONDARY_OFFSET_VOX 1.0f
+/* Fine-tuning's ratio of estimates: a floor (linear radiance) that keeps points no light
+ * reaches from dividing noise by noise, and a cap on how far one step's target may scale. */
+#define EDIT_EPS 1e-3f
+#define EDIT_MAX_RATIO 16.0f
 
 void esr_lts_free(struct esr_lts *l)
 {
@@ -27,7 +31,7 @@ void esr_lts_free(struct esr_lts *l)
                      l->d_li_off3,  l->d_li_emo3, l->orig3,   l->hit_t,     l->hit_pos3,
                      l->q_pos3,     l->q_dir3,   l->d_tone3,  l->d_lin3,    l->d_emit3,
                      l->d_brdf5,    l->hat3,     l->sec_off3, l->sec_emo3, l->d_sec_off3, l->d_sec_emo3,
-                     l->edit_direct3, l->ref_direct3};
+                     l->edit_direct3, l->found_direct3};
     for (size_t i = 0; i < sizeof bufs / sizeof bufs[0]; i++)
         free(bufs[i]);
     free(l->hit_flags);
@@ -60,7 +64,7 @@ int esr_lts_init(struct esr_lts *l, const struct esr_model *m)
               {&l->d_li_off3, PM * 3}, {&l->d_li_emo3, PM * 3}, {&l->orig3, PM * 3},
               {&l->R3, PM * 3},        {&l->hit_t, PM},         {&l->hit_pos3, PM * 3},
               {&l->d_emit3, P * 3},    {&l->d_brdf5, P * ESR_BRDF_CHANNELS},
-              {&l->hat3, P * 12},      {&l->edit_direct3, P * 6}, {&l->ref_direct3, P * 6}};
+              {&l->hat3, P * 12},      {&l->edit_direct3, P * 6}, {&l->found_direct3, P * 6}};
     int ok = 1;
     for (size_t i = 0; i < sizeof fl / sizeof fl[0]; i++)
         ok &= (*fl[i].p = malloc(fl[i].n * sizeof(float))) != NULL;
@@ -274,11 +278,11 @@ static void reflected_emo(const struct esr_lts *l, const float *lin, const uint8
     }
 }
 
-/* Fine-tuning's loss at point p (lts.h, edit): L_emo' towards sg(L_emo + D' - D + K (L_emo' -
- * L_emo)) for both outgoing directions; only the points' L_emo' rows get a gradient. A point on
- * a light is left out: its trained L_emo is the saturated emitter, not a measured reflection
- * (the editor renders lights from their emission, edit/editor.h), and hits on lights do not
- * read it. */
+/* Fine-tuning's loss at point p (lts.h, edit): L_emo' towards sg(L_emo (D' + K L_emo') /
+ * (D + K L_emo)) for both outgoing directions; only the points' L_emo' rows get a gradient. A
+ * point on a light is left out: its trained L_emo is the saturated emitter, not a measured
+ * reflection (the editor renders lights from their emission, edit/editor.h), and hits on lights
+ * do not read it. */
 static void point_loss_edit(struct esr_lts *l, const struct esr_lights *lights, size_t p,
                             float scale, double *se_emo)
 {
@@ -298,9 +302,11 @@ static void point_loss_edit(struct esr_lts *l, const struct esr_lights *lights, 
         for (int c = 0; c < 3; c++) {
             const float L = lin[row_on * 3 + c] - lin[row_off * 3 + c];
             const float L_ref = ref[row_on * 3 + c] - ref[row_off * 3 + c];
-            const float hat = L_ref + l->edit_direct3[po * 3 + c] - l->ref_direct3[po * 3 + c] +
-                              refl[c] - refl_ref[c];
-            const float e = L - hat;
+            const float now = l->edit_direct3[po * 3 + c] + refl[c];
+            const float was = l->found_direct3[po * 3 + c] + refl_ref[c];
+            const float ratio = fminf((fmaxf(now, 0.0f) + EDIT_EPS) / (fmaxf(was, 0.0f) + EDIT_EPS),
+                                      EDIT_MAX_RATIO);
+            const float e = L - L_ref * ratio;
             *se_emo += (double)e * e;
             l->d_lin3[row_on * 3 + c] += 2.0f * scale * e;
         }
@@ -357,11 +363,7 @@ int esr_lts_run(struct esr_lts *l, const struct esr_model *m, const float *sdf, 
     const float w_l = pair ? m->cfg.pdra_w_l : 1.0f, w_r = pair ? m->cfg.pdra_w_r : 1.0f;
     double se_off = 0.0, se_emo = 0.0;
     if (l->edit) {
-        struct esr_light_edit as_found[ESR_MAX_LIGHTS];
-        for (int k = 0; k < ESR_MAX_LIGHTS; k++)
-            as_found[k] = (struct esr_light_edit){1.0f, 0, 0.0f, 0.0f};
-        ESR_TRY(l->edit_direct(l->edit_user, l, P, l->edit, l->edit_direct3));
-        ESR_TRY(l->edit_direct(l->edit_user, l, P, as_found, l->ref_direct3));
+        ESR_TRY(l->edit_direct(l->edit_user, l, P, l->edit, l->edit_direct3, l->found_direct3));
         if (!l->has_pf_ref) {
             ESR_TRY(esr_point_fields_init(&l->pf_ref, l->edit_ref, rows, 0));
             l->has_pf_ref = 1;

@@ -80,22 +80,26 @@ struct esr_lts {
     /* Radiance fine-tuning (edit/finetune.h) when edit is set (NULL in training): one edit per
      * light of the model, and edit_ref, the trained model (the same components with the weights
      * before fine-tuning). Lights-on renders show each light's edited emission analytically
-     * (model/lights.h, edited), so the fields learn only how the reflected light changes:
-     *     L_emo'(x) <- L_emo(x) + D'(x) - D(x) + sum over hits not on a light (L_emo'(y) - L_emo(y)) R w
-     * (D, D': the lights' direct light at x as found and edited, from edit_direct with the same
-     * samples; L_emo: the trained model on the same rows). This is the LTS estimate with the
-     * edited emission, E' + D' + K L_emo', plus the trained model's residual at x: the trained
-     * L_emo is not exactly a fixed point of the reconstructed transport, and without the residual
-     * an edit that changes nothing would first drift to that transport's own solution. The target
-     * is fixed each step (a fixed-point iteration); only the points' L_emo rows get a gradient,
-     * nothing else; points on a light are left out (their L_emo is the saturated emitter);
-     * the normals are computed once (the geometry is frozen). */
+     * (model/lights.h, edited), so the fields learn only how the reflected light changes, as the
+     * ratio of the reconstructed transport's estimates with and without the edit:
+     *     L_emo'(x) <- L_emo(x) (D'(x) + K L_emo'(x)) / (D(x) + K L_emo(x))      (per channel)
+     * D, D': the lights' direct light at x as found and edited (edit_direct, one set of samples);
+     * K L: the reflection of the incident L_emo over hits not on a light; L_emo: the trained
+     * model on the same rows. The trained L_emo is not exactly a fixed point of the reconstructed
+     * transport (calibration, BRDF, normals): fine-tuning towards the plain estimate first drifts
+     * to that transport's own solution (lamp, an edit that changes nothing: 19.6 dB against the
+     * model's own render), and keeping the unexplained rest as an added residual keeps it in the
+     * old colour (lamp test_nvc 26.0 dB: a warm floor under a red lamp). As a ratio, an edit that
+     * changes nothing is a fixed point and all of L_emo follows the lights. The target is fixed
+     * each step (a fixed-point iteration); only the points' L_emo rows get a gradient, nothing
+     * else; points on a light are left out (their L_emo is the saturated emitter); the normals
+     * are computed once (the geometry is frozen). */
     const struct esr_light_edit *edit;
     const struct esr_model *edit_ref;
     int (*edit_direct)(void *user, const struct esr_lts *l, size_t P,
-                       const struct esr_light_edit *edits, float *direct3);
+                       const struct esr_light_edit *edits, float *direct3, float *found3);
     void *edit_user;
-    float *edit_direct3, *ref_direct3; /* [P*2*3] D' and D per point and outgoing direction */
+    float *edit_direct3, *found_direct3; /* [P*2*3] D' and D per point and outgoing direction */
     uint8_t *on_light;         /* [P*M] the direction's first hit is on a light */
     struct esr_point_fields pf_ref; /* the trained model's rows */
     int has_pf_ref;
