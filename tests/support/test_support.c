@@ -57,8 +57,13 @@ int test_teardown_tmpdir(void **state)
 
 int test_run_esr(const char *args, char *out, size_t n)
 {
-    char cmd[4096];
-    snprintf(cmd, sizeof cmd, "'%s' %s 2>&1", ESR_BINARY, args);
+    return test_run_esr_after("", args, out, n);
+}
+
+int test_run_esr_after(const char *shell, const char *args, char *out, size_t n)
+{
+    char cmd[12288];
+    snprintf(cmd, sizeof cmd, "%s'%s' %s 2>&1", shell, ESR_BINARY, args);
     FILE *p = popen(cmd, "r");
     if (!p)
         return -1;

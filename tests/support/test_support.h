@@ -16,6 +16,8 @@ int test_teardown_tmpdir(void **state);
 /* Runs the esr binary with the given argument string through the shell; captures stdout+stderr
  * into `out` (truncated to n). Returns the exit code. */
 int test_run_esr(const char *args, char *out, size_t n);
+/* The same after shell commands `shell` (for example limits: "ulimit -f 8; "), in one sh -c. */
+int test_run_esr_after(const char *shell, const char *args, char *out, size_t n);
 /* Writes `text` to path; returns 0 on success. */
 int test_write_file(const char *path, const char *text);
 /* The JSON document in path, or NULL when it cannot be read or parsed; cJSON_Delete it. */
