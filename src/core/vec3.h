@@ -3,6 +3,7 @@
 #define ESR_CORE_VEC3_H
 
 #include <math.h>
+#include <stddef.h>
 
 #include "core/simd.h"
 
@@ -17,6 +18,12 @@ ESR_INLINE struct esr_vec3 esr_v3(float x, float y, float z)
     v.y = y;
     v.z = z;
     return v;
+}
+
+/* Element i of a flat xyz array (a[i*3 .. i*3+2]). */
+ESR_INLINE struct esr_vec3 esr_v3_at(const float *a, size_t i)
+{
+    return esr_v3(a[i * 3], a[i * 3 + 1], a[i * 3 + 2]);
 }
 ESR_INLINE struct esr_vec3 esr_v3_add(struct esr_vec3 a, struct esr_vec3 b) { return esr_v3(a.x + b.x, a.y + b.y, a.z + b.z); }
 ESR_INLINE struct esr_vec3 esr_v3_sub(struct esr_vec3 a, struct esr_vec3 b) { return esr_v3(a.x - b.x, a.y - b.y, a.z - b.z); }

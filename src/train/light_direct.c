@@ -13,11 +13,6 @@
 #include "model/material_fields.h"
 #include "volume/first_hit.h"
 
-static struct esr_vec3 v3_at(const float *a, size_t i)
-{
-    return esr_v3(a[i * 3], a[i * 3 + 1], a[i * 3 + 2]);
-}
-
 int esr_lights_direct(const struct esr_model *m, const struct esr_light_samples *ls, int n_lights,
                       const struct esr_light_edit *edits, const struct esr_direct_points *pts,
                       int spp, uint64_t seed, double *out, double *out_found)
@@ -44,7 +39,7 @@ int esr_lights_direct(const struct esr_model *m, const struct esr_light_samples 
     /* slot (p, K, j) is fixed, so no compaction: a skipped sample gets tmax 0 and weight 0 */
 #pragma omp parallel for schedule(dynamic, 16)
     for (size_t p = 0; p < P; p++) {
-        const struct esr_vec3 x = v3_at(pts->pos3, p), n = v3_at(pts->nrm3, p);
+        const struct esr_vec3 x = esr_v3_at(pts->pos3, p), n = esr_v3_at(pts->nrm3, p);
         const struct esr_material mat = esr_material_of_row(pts->brdf5 + p * ESR_BRDF_CHANNELS, 1.0f);
         const struct esr_vec3 o = esr_v3_add(x, esr_v3_scale(n, h));
         struct esr_rng rng = esr_rng_init(seed, p);
@@ -61,7 +56,7 @@ int esr_lights_direct(const struct esr_model *m, const struct esr_light_samples 
                 if (ls[k].n == 0)
                     continue;
                 const size_t q = u % (uint32_t)ls[k].n;
-                const struct esr_vec3 v = esr_v3_sub(v3_at(ls[k].pos3, q), o);
+                const struct esr_vec3 v = esr_v3_sub(esr_v3_at(ls[k].pos3, q), o);
                 const float dist = esr_v3_length(v);
                 if (dist <= 1.5f * h)
                     continue;
@@ -73,12 +68,12 @@ int esr_lights_direct(const struct esr_model *m, const struct esr_light_samples 
                     esr_light_edit_apply(&edits[k], found, e);
                 else
                     memcpy(e, found, sizeof e);
-                const struct esr_vec3 ny = v3_at(ls[k].nrm3, q);
+                const struct esr_vec3 ny = esr_v3_at(ls[k].nrm3, q);
                 const float geo = fabsf(esr_v3_dot(ny, wi)) * ls[k].area[q] * (float)ls[k].n /
                                   ((float)spp * dist * dist);
                 int any = 0;
                 for (size_t w = 0; w < W; w++) {
-                    const struct esr_vec3 wo = v3_at(pts->wo3, p * W + w);
+                    const struct esr_vec3 wo = esr_v3_at(pts->wo3, p * W + w);
                     if (esr_v3_dot(n, wo) <= 0.0f)
                         continue;
                     float R[3];

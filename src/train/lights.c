@@ -390,8 +390,8 @@ static void solve_ridge(int K, double *G, double *r, double *s)
 static int point_frame(const struct esr_lts *l, size_t p, struct esr_vec3 *n, struct esr_vec3 *wo,
                        struct esr_material *mat)
 {
-    *n = esr_v3(l->nrm3[p * 3], l->nrm3[p * 3 + 1], l->nrm3[p * 3 + 2]);
-    *wo = esr_v3(l->wo3[p * 6], l->wo3[p * 6 + 1], l->wo3[p * 6 + 2]);
+    *n = esr_v3_at(l->nrm3, p);
+    *wo = esr_v3_at(l->wo3, 2 * p); /* the camera direction */
     *mat = esr_material_of_row(l->mf.brdf5 + p * ESR_BRDF_CHANNELS, 1.0f);
     return esr_v3_dot(*n, *wo) > 0.0f;
 }

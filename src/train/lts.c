@@ -87,11 +87,6 @@ int esr_lts_init(struct esr_lts *l, const struct esr_model *m)
     return rc;
 }
 
-static struct esr_vec3 v3_at(const float *a, size_t i)
-{
-    return esr_v3(a[i * 3], a[i * 3 + 1], a[i * 3 + 2]);
-}
-
 static void v3_put(float *a, size_t i, struct esr_vec3 v)
 {
     a[i * 3] = v.x;
@@ -139,7 +134,7 @@ static size_t setup_points(struct esr_lts *l, const struct esr_model *m, const s
 #pragma omp parallel for schedule(static)
     for (size_t p = 0; p < P; p++) {
         struct esr_rng r = esr_rng_init(seed ^ 0x5bd1e995ULL, p);
-        struct esr_vec3 d = v3_at(l->wo3, 2 * p), n = v3_at(l->nrm3, p);
+        struct esr_vec3 d = esr_v3_at(l->wo3, 2 * p), n = esr_v3_at(l->nrm3, p);
         struct esr_vec3 wo = esr_v3_scale(d, -1.0f);
         n = esr_v3_length(n) > 1e-12f ? esr_v3_normalize(n) : wo;
         v3_put(l->nrm3, p, n);
@@ -148,7 +143,7 @@ static size_t setup_points(struct esr_lts *l, const struct esr_model *m, const s
         float u1 = esr_rng_float(&r), u2 = esr_rng_float(&r);
         v3_put(l->wo3, 2 * p, wo);
         v3_put(l->wo3, 2 * p + 1, esr_v3_from_local(esr_sample_hemisphere_uniform(u1, u2), t, b, n));
-        struct esr_vec3 o = esr_v3_add(v3_at(l->pos3, p), esr_v3_scale(n, off));
+        struct esr_vec3 o = esr_v3_add(esr_v3_at(l->pos3, p), esr_v3_scale(n, off));
         for (size_t j = 0; j < M; j++) {
             const size_t i = p * M + j;
             struct esr_vec3 loc;
@@ -179,8 +174,8 @@ static void build_point_rows(struct esr_lts *l, size_t P)
     for (size_t p = 0; p < P; p++)
         for (int o = 0; o < 2; o++)
             for (int on = 0; on < 2; on++, r++) {
-                v3_put(l->q_pos3, r, v3_at(l->pos3, p));
-                v3_put(l->q_dir3, r, esr_v3_scale(v3_at(l->wo3, 2 * p + (size_t)o), -1.0f));
+                v3_put(l->q_pos3, r, esr_v3_at(l->pos3, p));
+                v3_put(l->q_dir3, r, esr_v3_scale(esr_v3_at(l->wo3, 2 * p + (size_t)o), -1.0f));
                 l->q_on[r] = (uint8_t)on;
             }
 }
@@ -192,14 +187,14 @@ static void point_loss(struct esr_lts *l, size_t p, float scale, float w_l, floa
     const size_t M = (size_t)l->M;
     const float *lin = l->pf.lin3, *E = l->mf.emit3 + p * 3;
     const struct esr_material mat = esr_material_of_row(l->mf.brdf5 + p * ESR_BRDF_CHANNELS, 1.0f);
-    const struct esr_vec3 n = v3_at(l->nrm3, p);
+    const struct esr_vec3 n = esr_v3_at(l->nrm3, p);
     struct esr_material d_mat;
     memset(&d_mat, 0, sizeof d_mat);
     /* pdra's stop-gradient: an uncertain point's L^_emo = E + sg(reflection), so its emo error
      * trains E (and L_emo), not the BRDF or the incident L_emo */
     const float refl_emo = sg && !l->certain[p] ? 0.0f : 1.0f;
     for (int o = 0; o < 2; o++) {
-        const struct esr_vec3 wo = v3_at(l->wo3, 2 * p + (size_t)o);
+        const struct esr_vec3 wo = esr_v3_at(l->wo3, 2 * p + (size_t)o);
         float *hat_out = l->hat3 + (p * 2 + (size_t)o) * 6;
         if (esr_v3_dot(n, wo) <= 0.0f) { /* back-facing camera direction: nothing to compare */
             for (int c = 0; c < 6; c++)
@@ -212,7 +207,7 @@ static void point_loss(struct esr_lts *l, size_t p, float scale, float w_l, floa
         for (size_t j = 0; j < M; j++) {
             const size_t i = p * M + j;
             float *R = l->R3 + i * 3; /* kept for the backward below */
-            esr_brdf_eval(&mat, n, wo, v3_at(l->wi3, i), R);
+            esr_brdf_eval(&mat, n, wo, esr_v3_at(l->wi3, i), R);
             for (int c = 0; c < 3; c++) {
                 hat_off[c] += l->li_off3[i * 3 + c] * R[c] * l->wt[i];
                 hat_emo[c] += l->li_emo3[i * 3 + c] * R[c] * l->wt[i];
@@ -248,7 +243,7 @@ static void point_loss(struct esr_lts *l, size_t p, float scale, float w_l, floa
                 l->d_li_off3[i * 3 + c] += d_hat_off[c] * R[c] * w;
                 l->d_li_emo3[i * 3 + c] += d_emo * R[c] * w;
             }
-            esr_brdf_eval_bwd(&mat, n, wo, v3_at(l->wi3, i), d_R, &d_mat);
+            esr_brdf_eval_bwd(&mat, n, wo, esr_v3_at(l->wi3, i), d_R, &d_mat);
         }
     }
     float *db = l->d_brdf5 + p * ESR_BRDF_CHANNELS;
@@ -272,7 +267,7 @@ static void reflected_emo(const struct esr_lts *l, const float *lin, const uint8
         if (r < 0 || skip[i])
             continue;
         float R[3];
-        esr_brdf_eval(mat, n, wo, v3_at(l->wi3, i), R);
+        esr_brdf_eval(mat, n, wo, esr_v3_at(l->wi3, i), R);
         for (int c = 0; c < 3; c++)
             out[c] += (lin[(size_t)(r + 1) * 3 + c] - lin[(size_t)r * 3 + c]) * R[c] * l->wt[i];
     }
@@ -290,9 +285,9 @@ static void point_loss_edit(struct esr_lts *l, const struct esr_lights *lights, 
         return;
     const float *lin = l->pf.lin3, *ref = l->pf_ref.lin3;
     const struct esr_material mat = esr_material_of_row(l->mf.brdf5 + p * ESR_BRDF_CHANNELS, 1.0f);
-    const struct esr_vec3 n = v3_at(l->nrm3, p);
+    const struct esr_vec3 n = esr_v3_at(l->nrm3, p);
     for (int o = 0; o < 2; o++) {
-        const struct esr_vec3 wo = v3_at(l->wo3, 2 * p + (size_t)o);
+        const struct esr_vec3 wo = esr_v3_at(l->wo3, 2 * p + (size_t)o);
         if (esr_v3_dot(n, wo) <= 0.0f)
             continue;
         const size_t po = p * 2 + (size_t)o, row_off = p * 4 + (size_t)o * 2, row_on = row_off + 1;
