@@ -7,7 +7,6 @@
 #include <stddef.h>
 #include <stdint.h>
 #include <cmocka.h>
-#include <dirent.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -26,27 +25,12 @@ static int run_limited(int blocks, const char *args, char *out, size_t n)
     return test_run_esr_after(shell, args, out, n);
 }
 
-/* Names in dir containing part (temporary files of atomic writes: ".tmp-"). */
-static int count_names(const char *dir, const char *part)
-{
-    DIR *d = opendir(dir);
-    if (!d)
-        return 0;
-    int n = 0;
-    for (struct dirent *e; (e = readdir(d));)
-        n += strstr(e->d_name, part) != NULL;
-    closedir(d);
-    return n;
-}
-
 static int group_setup(void **state)
 {
     if (test_setup_tmpdir(state))
         return -1;
     snprintf(data_dir, sizeof data_dir, "%s/data", test_tmpdir);
-    char args[4400], out[8192];
-    snprintf(args, sizeof args, "synth --res 16 --spp 1 --train 4 --test 1 %s", data_dir);
-    return run_limited(0, args, out, sizeof out) == 0 ? 0 : -1;
+    return test_synth_small(data_dir) == 0 ? 0 : -1;
 }
 
 /* esr synth into a disk that fills up: exit 1 naming the file and EFBIG, nothing left behind. */
@@ -60,7 +44,7 @@ static void test_synth_on_full_disk(void **state)
     if (!strstr(out, "File too large") || !strstr(out, "cannot write"))
         fail_msg("expected a write error naming EFBIG, got:\n%s", out);
     assert_false(esr_file_exists(dir));
-    assert_int_equal(count_names(test_tmpdir, "synth_full"), 0); /* no staging folder left */
+    assert_int_equal(test_count_names(test_tmpdir, "synth_full"), 0); /* no staging folder left */
 }
 
 /* A training whose next checkpoint does not fit: exit 1, the previous checkpoint byte for byte
@@ -90,7 +74,7 @@ static void test_train_checkpoint_on_full_disk(void **state)
     free(after);
     snprintf(ckpt, sizeof ckpt, "%s/ckpt_coarse.bin", run);
     assert_false(esr_file_exists(ckpt));
-    assert_int_equal(count_names(run, ".tmp-"), 0);
+    assert_int_equal(test_count_names(run, ".tmp-"), 0);
 }
 
 /* Output into a folder that cannot be created (its parent is a regular file; a read-only folder

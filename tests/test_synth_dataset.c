@@ -224,14 +224,7 @@ static void test_reproducible(void **state)
     assert_int_equal(test_run_esr(args, out, sizeof out), 0);
     snprintf(a, sizeof a, "%s/ds/train/r_004.png", tmp);
     snprintf(b, sizeof b, "%s/again/train/r_004.png", tmp);
-    unsigned char *da, *db;
-    size_t na, nb;
-    assert_int_equal(esr_file_read_all(a, &da, &na), 0);
-    assert_int_equal(esr_file_read_all(b, &db, &nb), 0);
-    assert_int_equal(na, nb);
-    assert_memory_equal(da, db, na);
-    free(da);
-    free(db);
+    assert_true(test_files_equal(a, b));
 }
 
 static int no_partial_dirs(void)

@@ -8,7 +8,6 @@
 #include <stddef.h>
 #include <stdint.h>
 #include <cmocka.h>
-#include <dirent.h>
 #include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -36,9 +35,7 @@ static int group_setup(void **state)
     if (test_setup_tmpdir(state))
         return -1;
     snprintf(data_dir, sizeof data_dir, "%s/data", test_tmpdir);
-    char args[4400], out[8192];
-    snprintf(args, sizeof args, "synth --res 16 --spp 1 --train 4 --test 1 %s", data_dir);
-    return test_run_esr(args, out, sizeof out) == 0 ? 0 : -1;
+    return test_synth_small(data_dir) == 0 ? 0 : -1;
 }
 
 /* Starts `esr train DATA --out run [--resume] ...` with its output to /dev/null. */
@@ -63,18 +60,6 @@ static pid_t start_training(const char *run, int resume)
         _exit(127);
     execv(ESR_BINARY, (char *const *)argv);
     _exit(127);
-}
-
-static void assert_same_file(const char *a, const char *b)
-{
-    unsigned char *x, *y;
-    size_t nx, ny;
-    assert_int_equal(esr_file_read_all(a, &x, &nx), 0);
-    assert_int_equal(esr_file_read_all(b, &y, &ny), 0);
-    assert_int_equal(nx, ny);
-    assert_memory_equal(x, y, nx);
-    free(x);
-    free(y);
 }
 
 static void test_killed_anywhere_resumes_exactly(void **state)
@@ -125,16 +110,12 @@ static void test_killed_anywhere_resumes_exactly(void **state)
         for (size_t i = 0; i < 2; i++) {
             snprintf(a, sizeof a, "%s/%s", ref, ckpts[i]);
             snprintf(b, sizeof b, "%s/%s", cut, ckpts[i]);
-            assert_same_file(a, b);
+            if (!test_files_equal(a, b))
+                fail_msg("%s differs from the uninterrupted run's after %d kills", b, kills);
         }
     }
     /* evidence that kills landed inside checkpoint writes: their temp files stay behind */
-    int temps = 0;
-    DIR *d = opendir(cut);
-    assert_non_null(d);
-    for (struct dirent *e; (e = readdir(d));)
-        temps += strstr(e->d_name, ".tmp-") != NULL;
-    closedir(d);
+    const int temps = test_count_names(cut, ".tmp-");
     print_message("killed %d times in %d episodes (%d inside a checkpoint write of the last); "
                   "every final checkpoint identical\n", kills, episodes, temps);
 }

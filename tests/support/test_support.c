@@ -1,5 +1,6 @@
 #include "test_support.h"
 
+#include <dirent.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -74,6 +75,36 @@ int test_run_esr_after(const char *shell, const char *args, char *out, size_t n)
     }
     int status = pclose(p);
     return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+int test_synth_small(const char *dir)
+{
+    char args[4400], out[8192];
+    snprintf(args, sizeof args, "synth --res 16 --spp 1 --train 4 --test 1 %s", dir);
+    return test_run_esr(args, out, sizeof out);
+}
+
+int test_files_equal(const char *a, const char *b)
+{
+    unsigned char *x = NULL, *y = NULL;
+    size_t nx = 0, ny = 0;
+    const int read = esr_file_read_all(a, &x, &nx) == 0 && esr_file_read_all(b, &y, &ny) == 0;
+    const int same = read && nx == ny && memcmp(x, y, nx) == 0;
+    free(x);
+    free(y);
+    return same;
+}
+
+int test_count_names(const char *dir, const char *part)
+{
+    DIR *d = opendir(dir);
+    if (!d)
+        return 0;
+    int n = 0;
+    for (struct dirent *e; (e = readdir(d));)
+        n += strstr(e->d_name, part) != NULL;
+    closedir(d);
+    return n;
 }
 
 int test_write_file(const char *path, const char *text)

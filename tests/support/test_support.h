@@ -18,6 +18,13 @@ int test_teardown_tmpdir(void **state);
 int test_run_esr(const char *args, char *out, size_t n);
 /* The same after shell commands `shell` (for example limits: "ulimit -f 8; "), in one sh -c. */
 int test_run_esr_after(const char *shell, const char *args, char *out, size_t n);
+/* esr synth of a small scene into dir (16 px, 1 sample, 4 + 4 training views, 1 test camera,
+ * a second or two): the data of tests that train briefly. Returns esr's exit code. */
+int test_synth_small(const char *dir);
+/* 1 when files a and b both read and are equal byte for byte. */
+int test_files_equal(const char *a, const char *b);
+/* How many entries of dir have `part` in their name (0 when dir cannot be read). */
+int test_count_names(const char *dir, const char *part);
 /* Writes `text` to path; returns 0 on success. */
 int test_write_file(const char *path, const char *text);
 /* The JSON document in path, or NULL when it cannot be read or parsed; cJSON_Delete it. */
