@@ -88,8 +88,9 @@ static int finish(struct reader *r)
     return ESR_OK;
 }
 
-static int read_camera(struct reader *r, struct esr_colmap_camera *c)
+static int read_camera(struct reader *r, void *record)
 {
+    struct esr_colmap_camera *c = record;
     uint32_t model;
     uint64_t w, h;
     ESR_TRY(read_u32(r, "a camera", &c->id));
@@ -109,8 +110,9 @@ static int read_camera(struct reader *r, struct esr_colmap_camera *c)
     return read_f64s(r, "camera parameters", c->params, esr_colmap_model_n_params(c->model));
 }
 
-static int read_image(struct reader *r, struct esr_colmap_image *im)
+static int read_image(struct reader *r, void *record)
 {
+    struct esr_colmap_image *im = record;
     ESR_TRY(read_u32(r, "an image", &im->id));
     ESR_TRY(read_f64s(r, "an image pose", im->q, 4));
     ESR_TRY(read_f64s(r, "an image pose", im->t, 3));
@@ -129,8 +131,9 @@ static int read_image(struct reader *r, struct esr_colmap_image *im)
     return skip(r, n2d, 24, "keypoints");
 }
 
-static int read_point(struct reader *r, double xyz[3])
+static int read_point(struct reader *r, void *record)
 {
+    double *xyz = record; /* x, y, z */
     uint64_t id, track;
     double error;
     ESR_TRY(read_u64(r, "a 3D point", &id));
@@ -154,54 +157,34 @@ static int open_file(const char *dir, const char *name, char *path, size_t n, un
     return ESR_OK;
 }
 
-static int read_cameras(const char *dir, char *path, size_t n, struct esr_colmap_model *m)
-{
-    unsigned char *bytes;
-    struct reader r;
-    ESR_TRY(open_file(dir, "cameras.bin", path, n, &bytes, &r));
-    uint64_t count;
-    int status = read_count(&r, 24, 1u << 20, "cameras", &count);
-    if (status == ESR_OK && !(m->cameras = calloc(count ? count : 1, sizeof *m->cameras)))
-        status = ESR_FAIL("out of memory reading '%s'", path);
-    for (uint64_t i = 0; i < count && status == ESR_OK; i++, m->n_cameras++)
-        status = read_camera(&r, &m->cameras[i]);
-    if (status == ESR_OK)
-        status = finish(&r);
-    free(bytes);
-    return status;
-}
+/* One file of a binary model: a count, then that many records of at least min_bytes each. */
+struct record_file {
+    const char *name, *what;
+    size_t min_bytes, size; /* least bytes of a record in the file; bytes of one in memory */
+    uint64_t max;
+    int (*read_one)(struct reader *r, void *record);
+};
 
-static int read_images(const char *dir, char *path, size_t n, struct esr_colmap_model *m)
+/* Reads DIR/f->name (its path into path) into *records (allocated, *count of them). */
+static int read_records(const char *dir, const struct record_file *f, char *path, size_t n,
+                        void **records, uint64_t *count)
 {
     unsigned char *bytes;
     struct reader r;
-    ESR_TRY(open_file(dir, "images.bin", path, n, &bytes, &r));
-    uint64_t count;
-    int status = read_count(&r, 73, 1u << 24, "images", &count);
-    if (status == ESR_OK && !(m->images = calloc(count ? count : 1, sizeof *m->images)))
+    ESR_TRY(open_file(dir, f->name, path, n, &bytes, &r));
+    int status = read_count(&r, f->min_bytes, f->max, f->what, count);
+    unsigned char *out = NULL;
+    if (status == ESR_OK && !(out = calloc(*count ? *count : 1, f->size)))
         status = ESR_FAIL("out of memory reading '%s'", path);
-    for (uint64_t i = 0; i < count && status == ESR_OK; i++, m->n_images++)
-        status = read_image(&r, &m->images[i]);
+    for (uint64_t i = 0; i < *count && status == ESR_OK; i++)
+        status = f->read_one(&r, out + i * f->size);
     if (status == ESR_OK)
         status = finish(&r);
     free(bytes);
-    return status;
-}
-
-static int read_points(const char *dir, char *path, size_t n, struct esr_colmap_model *m)
-{
-    unsigned char *bytes;
-    struct reader r;
-    ESR_TRY(open_file(dir, "points3D.bin", path, n, &bytes, &r));
-    uint64_t count;
-    int status = read_count(&r, 51, 1u << 30, "3D points", &count);
-    if (status == ESR_OK && !(m->points = malloc((count ? count : 1) * 3 * sizeof *m->points)))
-        status = ESR_FAIL("out of memory reading '%s'", path);
-    for (uint64_t i = 0; i < count && status == ESR_OK; i++, m->n_points++)
-        status = read_point(&r, m->points + 3 * i);
-    if (status == ESR_OK)
-        status = finish(&r);
-    free(bytes);
+    if (status != ESR_OK)
+        free(out);
+    else
+        *records = out;
     return status;
 }
 
@@ -209,12 +192,24 @@ int esr_colmap_model_read_binary(const char *dir, struct esr_colmap_model *m)
 {
     memset(m, 0, sizeof *m);
     m->format = "binary";
+    static const struct record_file files[3] = {
+        {"cameras.bin", "cameras", 24, sizeof(struct esr_colmap_camera), 1u << 20, read_camera},
+        {"images.bin", "images", 73, sizeof(struct esr_colmap_image), 1u << 24, read_image},
+        {"points3D.bin", "3D points", 51, 3 * sizeof(double), 1u << 30, read_point}};
     char cameras[ESR_COLMAP_NAME_MAX * 2], images[ESR_COLMAP_NAME_MAX * 2], points[ESR_COLMAP_NAME_MAX * 2];
-    int status = read_cameras(dir, cameras, sizeof cameras, m);
+    void *cam = NULL, *img = NULL, *pts = NULL;
+    uint64_t n_cam = 0, n_img = 0, n_pts = 0; /* within read_records' maxima, so they fit */
+    int status = read_records(dir, &files[0], cameras, sizeof cameras, &cam, &n_cam);
     if (status == ESR_OK)
-        status = read_images(dir, images, sizeof images, m);
+        status = read_records(dir, &files[1], images, sizeof images, &img, &n_img);
     if (status == ESR_OK)
-        status = read_points(dir, points, sizeof points, m);
+        status = read_records(dir, &files[2], points, sizeof points, &pts, &n_pts);
+    m->cameras = cam;
+    m->images = img;
+    m->points = pts;
+    m->n_cameras = (int)n_cam;
+    m->n_images = (int)n_img;
+    m->n_points = (long)n_pts;
     if (status == ESR_OK)
         status = esr_colmap_model_validate(m, cameras, images);
     if (status != ESR_OK)
