@@ -127,6 +127,18 @@ static void test_below_range_and_uniformity(void **state)
     }
 }
 
+/* esr_rng_u64 is two u32 draws, the first one the high half, and advances the counter by two. */
+static void test_u64_is_two_draws_high_first(void **state)
+{
+    (void)state;
+    struct esr_rng a = esr_rng_init(7, 3), b = esr_rng_init(7, 3);
+    for (int i = 0; i < 100; i++) {
+        const uint64_t hi = esr_rng_u32(&b), lo = esr_rng_u32(&b);
+        assert_true(esr_rng_u64(&a) == (hi << 32 | lo));
+    }
+    assert_true(esr_rng_u32(&a) == esr_rng_u32(&b));
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -135,6 +147,7 @@ int main(void)
         cmocka_unit_test(test_float_range_and_uniformity),
         cmocka_unit_test(test_float_pairs_uniform),
         cmocka_unit_test(test_below_range_and_uniformity),
+        cmocka_unit_test(test_u64_is_two_draws_high_first),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -223,7 +223,7 @@ static int edit(const struct edit_args *a)
     if (a->iters)
         ft.iters = a->iters;
     if (rc == ESR_OK)
-        rc = esr_dir_create(a->out);
+        rc = esr_dir_prepare_output(a->out);
     if (rc == ESR_OK)
         rc = esr_editor_init(&ed, &m, &sel.ds, a->method, a->spp, &ft);
     if (rc == ESR_OK && a->method == ESR_EDIT_FINETUNE)

@@ -218,7 +218,7 @@ static int evaluate(const struct eval_args *a, const struct esr_run_selection *s
     ESR_TRY(ensure_renders(a, sel, p->render));
     int status = esr_eval_phase(&sel->ds, sel->phase, sel->idx, sel->n, p->render, &res);
     if (status == ESR_OK)
-        status = esr_dir_create(p->eval);
+        status = esr_dir_prepare_output(p->eval);
     if (status == ESR_OK)
         status = esr_eval_write_json(p->json, &sel->ds, &res);
     /* the lights the run found, for the report (a run without a pdra checkpoint has none) */
@@ -270,7 +270,7 @@ static int evaluate_edits(const struct eval_args *a, const struct esr_run_select
                                      a->spp, &ft, &res);
     }
     if (status == ESR_OK)
-        status = esr_dir_create(eval_dir);
+        status = esr_dir_prepare_output(eval_dir);
     if (status == ESR_OK)
         status = esr_edit_eval_write_json(json, &res);
     if (status == ESR_OK)

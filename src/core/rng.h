@@ -33,6 +33,14 @@ ESR_INLINE uint32_t esr_rng_u32(struct esr_rng *rng)
     return (uint32_t)(esr_mix64(rng->key + 0x9e3779b97f4a7c15ULL * ++rng->counter) >> 32);
 }
 
+/* 64 random bits: the first draw is the high half. (Two draws in one expression would leave their
+ * order to the compiler.) */
+ESR_INLINE uint64_t esr_rng_u64(struct esr_rng *rng)
+{
+    const uint64_t hi = esr_rng_u32(rng);
+    return hi << 32 | esr_rng_u32(rng);
+}
+
 /* Uniform in [0, 1): 24 random mantissa bits, never returns 1.0f. */
 ESR_INLINE float esr_rng_float(struct esr_rng *rng)
 {

@@ -142,7 +142,7 @@ int esr_edit_eval_phase(struct esr_model *m, const struct esr_dataset *ds,
     const struct esr_phase *ph = &ds->phases[phase];
     if (!(res->views = calloc((size_t)(n > 0 ? n : 1), sizeof *res->views)))
         return ESR_FAIL("out of memory for %d views", n);
-    ESR_TRY(esr_dir_create(out_dir));
+    ESR_TRY(esr_dir_prepare_output(out_dir));
     /* pass 1: light ids of up to MAP_VIEWS evenly spread frames, and the dataset -> esr mapping
      * from them (the lights are 3D objects: a few views decide it) */
     int map_idx[MAP_VIEWS], n_map = n < MAP_VIEWS ? n : MAP_VIEWS;

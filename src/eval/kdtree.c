@@ -101,11 +101,26 @@ int esr_kdtree_build(struct esr_kdtree *t, const float *pts, size_t n)
         return ESR_FAIL("out of memory for a nearest-neighbour index of %zu points", n);
     }
     memcpy(t->pts, pts, n * 3 * sizeof(float));
+    for (int k = 0; k < 3; k++)
+        t->lo[k] = FLT_MAX, t->hi[k] = -FLT_MAX;
+    for (size_t i = 0; i < n; i++)
+        for (int k = 0; k < 3; k++) {
+            const float v = pts[i * 3 + k];
+            t->lo[k] = v < t->lo[k] ? v : t->lo[k];
+            t->hi[k] = v > t->hi[k] ? v : t->hi[k];
+        }
     build_node(t, 0, 0, n);
     return ESR_OK;
 }
 
-static void nearest_in(const struct esr_kdtree *t, size_t node, const float *q, float *best)
+/* Depth-first search with the incremental distance of Arya and Mount: rd is the squared distance
+ * from q to the node's cell (the bounding box cut by the splits above it), off[k] q's offset from
+ * that cell along axis k. A subtree is skipped when its cell is no closer than the best point
+ * found. Pruning by the split plane alone (|q_axis - split|) ignores how far q lies outside the
+ * points along the other axes, so for a query far from all of them (a floater, a ground plane
+ * beyond the reconstruction) it visits most of the tree: O(n) per query. */
+static void nearest_in(const struct esr_kdtree *t, size_t node, const float *q, float rd, float off[3],
+                       float *best)
 {
     const struct esr_kdnode *nd = &t->nodes[node];
     if (nd->axis < 0) {
@@ -117,18 +132,28 @@ static void nearest_in(const struct esr_kdtree *t, size_t node, const float *q, 
         }
         return;
     }
-    float off = q[nd->axis] - nd->split;
-    size_t near = off <= 0.0f ? 2 * node + 1 : 2 * node + 2;
-    size_t far = off <= 0.0f ? 2 * node + 2 : 2 * node + 1;
-    nearest_in(t, near, q, best);
-    if (off * off < *best) /* the far side can only hold closer points across the split plane */
-        nearest_in(t, far, q, best);
+    const int a = nd->axis;
+    const float diff = q[a] - nd->split;
+    const size_t near = diff <= 0.0f ? 2 * node + 1 : 2 * node + 2;
+    const size_t far = diff <= 0.0f ? 2 * node + 2 : 2 * node + 1;
+    nearest_in(t, near, q, rd, off, best);
+    const float old = off[a];
+    const float far_rd = rd - old * old + diff * diff; /* the far cell's box is diff away along a */
+    if (far_rd < *best) {
+        off[a] = diff;
+        nearest_in(t, far, q, far_rd, off, best);
+        off[a] = old;
+    }
 }
 
 float esr_kdtree_nearest_sq(const struct esr_kdtree *t, const float q[3])
 {
-    float best = FLT_MAX;
-    nearest_in(t, 0, q, &best);
+    float best = FLT_MAX, off[3], rd = 0.0f;
+    for (int k = 0; k < 3; k++) { /* q's offset from the root cell along each axis */
+        off[k] = q[k] < t->lo[k] ? q[k] - t->lo[k] : q[k] > t->hi[k] ? q[k] - t->hi[k] : 0.0f;
+        rd += off[k] * off[k];
+    }
+    nearest_in(t, 0, q, rd, off, &best);
     return best;
 }
 

@@ -1,7 +1,7 @@
 /* A static k-d tree over 3D points for exact nearest-neighbour queries (geometry metrics).
  * Chosen over a uniform grid because query points can lie far from the indexed set (a poor
  * reconstruction's floaters): a grid then scans shells of cells whose number grows with the
- * cube of the distance, while the tree prunes whole subtrees by their split planes. */
+ * cube of the distance, while the tree prunes whole subtrees by the distance to their cells. */
 #ifndef ESR_EVAL_KDTREE_H
 #define ESR_EVAL_KDTREE_H
 
@@ -12,6 +12,7 @@ struct esr_kdtree {
     float *pts;      /* [n*3] points reordered so every subtree is a contiguous range */
     size_t n_nodes;
     struct esr_kdnode *nodes;
+    float lo[3], hi[3]; /* bounding box of all points: the root cell */
 };
 
 /* Builds the tree over pts[n*3] (copied). Fails on n = 0 or out of memory. */

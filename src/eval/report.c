@@ -338,7 +338,7 @@ static int write_true_effect(const struct esr_report_spec *spec, const struct es
 static int write_gt_copies(const struct esr_report_spec *spec)
 {
     const struct esr_phase *ph = &spec->ds->phases[spec->res->phase];
-    ESR_TRY(esr_dir_create(spec->gt_dir));
+    ESR_TRY(esr_dir_prepare_output(spec->gt_dir));
     for (int i = 0; i < spec->res->n_views; i++) {
         const char *name = spec->res->views[i].name;
         const struct esr_frame *f = NULL;

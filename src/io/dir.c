@@ -1,4 +1,4 @@
-/* mkdir -p. */
+/* mkdir -p, and output folders cleared of a killed run's leftovers. */
 #include "io/dir.h"
 
 #include <errno.h>
@@ -7,6 +7,7 @@
 
 #include "core/error.h"
 #include "io/dataset.h"
+#include "io/stale.h"
 
 static int make_one(const char *path)
 {
@@ -37,4 +38,10 @@ int esr_dir_create(const char *path)
         ESR_TRY(status);
     }
     return make_one(buf);
+}
+
+int esr_dir_prepare_output(const char *path)
+{
+    ESR_TRY(esr_dir_create(path));
+    return esr_stale_sweep(path, NULL);
 }

@@ -8,6 +8,7 @@
 #include <unistd.h>
 
 #include "core/error.h"
+#include "io/stale.h"
 
 int esr_file_read_all(const char *path, unsigned char **data, size_t *size)
 {
@@ -46,9 +47,10 @@ int esr_file_read_all(const char *path, unsigned char **data, size_t *size)
 
 int esr_file_write_atomic(const char *path, const void *data, size_t size)
 {
-    char tmp[4096];
-    if (snprintf(tmp, sizeof tmp, "%s.tmp-XXXXXX", path) >= (int)sizeof tmp)
+    char tmp[4096], prefix[4096];
+    if (snprintf(prefix, sizeof prefix, "%s.tmp-", path) >= (int)sizeof prefix)
         return ESR_FAIL("path too long: '%s'", path);
+    ESR_TRY(esr_stale_template(tmp, sizeof tmp, prefix));
     int fd = mkstemp(tmp);
     if (fd < 0)
         return ESR_FAIL("cannot create a temporary file next to '%s': %s", path, strerror(errno));

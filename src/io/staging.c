@@ -12,6 +12,7 @@
 
 #include "core/error.h"
 #include "io/dir.h"
+#include "io/stale.h"
 
 static int dir_is_empty(const char *dir)
 {
@@ -27,7 +28,7 @@ static int dir_is_empty(const char *dir)
     return empty;
 }
 
-/* "<parent>/.<base>.<tag>-XXXXXX" for out_dir (trailing slashes ignored). */
+/* "<parent>/.<base>.<tag>-<pid>-XXXXXX" for out_dir (trailing slashes ignored). */
 static int sibling_template(const char *out_dir, const char *tag, char *buf, size_t n)
 {
     size_t len = strlen(out_dir);
@@ -36,26 +37,32 @@ static int sibling_template(const char *out_dir, const char *tag, char *buf, siz
     size_t slash = len;
     while (slash > 0 && out_dir[slash - 1] != '/')
         slash--;
-    int w = snprintf(buf, n, "%.*s.%.*s.%s-XXXXXX", (int)slash, out_dir, (int)(len - slash), out_dir + slash, tag);
-    if (w < 0 || (size_t)w >= n)
+    char prefix[4096];
+    int w = snprintf(prefix, sizeof prefix, "%.*s.%.*s.%s-", (int)slash, out_dir, (int)(len - slash),
+                     out_dir + slash, tag);
+    if (w < 0 || (size_t)w >= sizeof prefix)
         return ESR_FAIL("output path '%s' is too long", out_dir);
-    return ESR_OK;
+    return esr_stale_template(buf, n, prefix);
 }
 
-/* The staging folder is a sibling of the output, so the output's parent must exist first. */
+/* The staging folder is a sibling of the output, so the output's parent must exist first; a
+ * killed run's staging folders there are removed. */
 static int make_parent(const char *path)
 {
     char parent[4096];
     size_t slash = strlen(path);
     while (slash > 0 && path[slash - 1] != '/')
         slash--;
-    if (slash <= 1) /* relative to the working directory, or directly under / */
+    if (slash == 0) /* relative to the working directory */
+        return esr_stale_sweep(".", NULL);
+    if (slash == 1) /* directly under / */
         return ESR_OK;
     if (slash >= sizeof parent)
         return ESR_FAIL("output path '%s' is too long", path);
     memcpy(parent, path, slash - 1);
     parent[slash - 1] = '\0';
-    return esr_dir_create(parent);
+    ESR_TRY(esr_dir_create(parent));
+    return esr_stale_sweep(parent, NULL);
 }
 
 int esr_staging_begin(const char *out_dir, int force, char *staging, size_t n)

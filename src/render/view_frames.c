@@ -127,7 +127,7 @@ int esr_view_render_frames(const struct esr_model *m, const struct esr_dataset *
             return ESR_FAIL("frame index %d out of range for phase %s", idx[i], esr_phase_name(phase));
         ESR_TRY(check_lighting(ds, &ph->frames[idx[i]]));
     }
-    ESR_TRY(esr_dir_create(dir));
+    ESR_TRY(esr_dir_prepare_output(dir));
     char path[ESR_PATH_MAX];
     cJSON *frames = current_frames(dir, m);
     if (!frames)

@@ -20,7 +20,7 @@ int esr_env_init_level(const struct esr_model *prev, const float *orig3, const f
     int rc = o && d && lin && opac ? ESR_OK : ESR_FAIL("environment level: out of memory");
     struct esr_rng rng = esr_rng_init(seed, 0xe7);
     for (int i = 0; rc == ESR_OK && i < RAYS; i++) {
-        const size_t r = (size_t)(((uint64_t)esr_rng_u32(&rng) << 32 | esr_rng_u32(&rng)) % n);
+        const size_t r = (size_t)(esr_rng_u64(&rng) % n);
         for (int c = 0; c < 3; c++) {
             o[i * 3 + c] = orig3[r * 3 + c];
             d[i * 3 + c] = dir3[r * 3 + c];

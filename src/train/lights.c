@@ -314,7 +314,7 @@ static int calib_points(const struct esr_model *m, const float *orig3, const flo
     for (int round = 0; rc == ESR_OK && *got < want && round < CALIB_MAX_ROUNDS; round++) {
         const int nr = CALIB_RAYS;
         for (int i = 0; i < nr; i++) {
-            const size_t r = (size_t)(((uint64_t)esr_rng_u32(&rng) << 32 | esr_rng_u32(&rng)) % n);
+            const size_t r = (size_t)(esr_rng_u64(&rng) % n);
             memcpy(o + i * 3, orig3 + r * 3, 3 * sizeof(float));
             memcpy(d + i * 3, dir3 + r * 3, 3 * sizeof(float));
         }

@@ -72,7 +72,7 @@ void esr_ray_set_draw(const struct esr_ray_set *rs, uint64_t seed, long step, in
 #pragma omp parallel for schedule(static)
     for (int i = 0; i < n; i++) {
         struct esr_rng rng = esr_rng_init(seed, (uint64_t)step * (uint64_t)n + (uint64_t)i);
-        uint64_t u = ((uint64_t)esr_rng_u32(&rng) << 32) | esr_rng_u32(&rng);
+        uint64_t u = esr_rng_u64(&rng);
         size_t r = i < n_off ? (size_t)(u % rs->n_off) : rs->n_off + (size_t)(u % n_on_rays);
         lights_on[i] = i >= n_off;
         for (int c = 0; c < 3; c++) {

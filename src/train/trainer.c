@@ -461,7 +461,7 @@ static int write_run_record(const char *run_dir, const char *data_dir)
 static int setup(struct run *r)
 {
     char path[4200];
-    ESR_TRY(esr_dir_create(r->o->run_dir));
+    ESR_TRY(esr_dir_prepare_output(r->o->run_dir));
     snprintf(path, sizeof path, "%s/config.json", r->o->run_dir);
     if (r->o->resume && esr_file_exists(path)) {
         esr_config_defaults(&r->cfg, ESR_PRESET_FAST);

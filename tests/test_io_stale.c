@@ -1,0 +1,119 @@
+/* A killed writer's leftovers (io/stale.h): temporary files and staging folders whose writer is
+ * dead are removed, a live writer's and every other file are kept, and atomic writes and staging
+ * use names the sweep recognises. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <cmocka.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include "io/dir.h"
+#include "io/file.h"
+#include "io/stale.h"
+#include "io/staging.h"
+#include "test_support.h"
+
+/* The id of a process that has exited (and been reaped). */
+static long dead_pid(void)
+{
+    const pid_t p = fork();
+    if (p == 0)
+        _exit(0);
+    assert_true(p > 0);
+    assert_int_equal(waitpid(p, NULL, 0), p);
+    return (long)p;
+}
+
+static void put(const char *dir, const char *name)
+{
+    char path[8192];
+    snprintf(path, sizeof path, "%s/%s", dir, name);
+    assert_int_equal(test_write_file(path, "x"), 0);
+}
+
+static int has(const char *dir, const char *name)
+{
+    char path[8192];
+    struct stat st;
+    snprintf(path, sizeof path, "%s/%s", dir, name);
+    return lstat(path, &st) == 0;
+}
+
+static void test_sweep_removes_only_dead_writers_leftovers(void **state)
+{
+    (void)state;
+    char dir[4300], name[256], sub[4700], keep[8][256];
+    snprintf(dir, sizeof dir, "%s/sweep", test_tmpdir);
+    assert_int_equal(esr_dir_create(dir), 0);
+    const long dead = dead_pid(), live = (long)getppid(), self = (long)getpid();
+    int k = 0;
+    /* kept: live writers, and names that only look similar */
+    snprintf(keep[k++], 256, "ckpt_fine.bin.tmp-%ld-a1B2c3", live);
+    snprintf(keep[k++], 256, "ckpt_fine.bin.tmp-%ld-a1B2c3", self);
+    snprintf(keep[k++], 256, "notes.tmp-%ld-abc", dead);      /* not 6 characters */
+    snprintf(keep[k++], 256, "notes.tmp-x%ld-abcdef", dead);  /* no pid */
+    snprintf(keep[k++], 256, "data.partial-%ld-abcdef", dead); /* a staging folder is hidden */
+    snprintf(keep[k++], 256, "ckpt_fine.bin");
+    for (int i = 0; i < k; i++)
+        put(dir, keep[i]);
+    /* removed: a dead writer's temporary file and staging folders (with contents) */
+    snprintf(name, sizeof name, "ckpt_fine.bin.tmp-%ld-Zz9yX8", dead);
+    put(dir, name);
+    const char *tags[] = {"partial", "old"};
+    for (int t = 0; t < 2; t++) {
+        snprintf(sub, sizeof sub, "%s/.data.%s-%ld-abcdef/train", dir, tags[t], dead);
+        assert_int_equal(esr_dir_create(sub), 0);
+        put(sub, "r_0.png");
+    }
+    int removed = -1;
+    assert_int_equal(esr_stale_sweep(dir, &removed), 0);
+    assert_int_equal(removed, 3);
+    assert_false(has(dir, name));
+    for (int i = 0; i < k; i++)
+        if (!has(dir, keep[i]))
+            fail_msg("%s was removed", keep[i]);
+    assert_int_equal(test_count_names(dir, ".data."), 0); /* both staging folders */
+    /* a missing folder is nothing to sweep */
+    snprintf(sub, sizeof sub, "%s/absent", dir);
+    assert_int_equal(esr_stale_sweep(sub, &removed), 0);
+    assert_int_equal(removed, 0);
+}
+
+/* The writers' own temporary names are ones the sweep recognises (checked through a child that
+ * stages an output and dies before committing it). */
+static void test_killed_staging_is_swept_by_the_next_run(void **state)
+{
+    (void)state;
+    char out[4400], staging[4600], parent[4300];
+    snprintf(parent, sizeof parent, "%s/staged", test_tmpdir);
+    snprintf(out, sizeof out, "%s/data", parent);
+    const pid_t p = fork();
+    if (p == 0) {
+        if (esr_staging_begin(out, 0, staging, sizeof staging) != 0)
+            _exit(1);
+        _exit(0); /* as if killed: the staging folder stays */
+    }
+    int status;
+    assert_int_equal(waitpid(p, &status, 0), p);
+    assert_true(WIFEXITED(status) && WEXITSTATUS(status) == 0);
+    assert_int_equal(test_count_names(parent, ".partial-"), 1);
+    assert_int_equal(esr_staging_begin(out, 0, staging, sizeof staging), 0);
+    assert_int_equal(test_count_names(parent, ".partial-"), 1); /* only this process's */
+    assert_int_equal(esr_remove_tree(staging), 0);
+    assert_int_equal(esr_dir_prepare_output(parent), 0);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_sweep_removes_only_dead_writers_leftovers),
+        cmocka_unit_test(test_killed_staging_is_swept_by_the_next_run),
+    };
+    return cmocka_run_group_tests(tests, test_setup_tmpdir, test_teardown_tmpdir);
+}
