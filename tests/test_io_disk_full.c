@@ -10,11 +10,14 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 #include "io/file.h"
 #include "test_support.h"
 
 static char data_dir[4200];
+static const char *const TRAIN_OPTS = "--set batch_rays=512 --set alphamask.iters=100 --set alphamask.res=16 "
+                                      "--set coarse.iters=10 --set coarse.res=16";
 
 /* Runs esr with args under a file-size limit of blocks x 512 bytes (0: none), output into out. */
 static int run_limited(int blocks, const char *args, char *out, size_t n)
@@ -54,8 +57,7 @@ static void test_train_checkpoint_on_full_disk(void **state)
     (void)state;
     char run[4400], args[9000], out[8192], ckpt[4500];
     snprintf(run, sizeof run, "%s/run", test_tmpdir);
-    const char *opts = "--set batch_rays=512 --set alphamask.iters=100 --set alphamask.res=16 "
-                       "--set coarse.iters=10 --set coarse.res=16";
+    const char *opts = TRAIN_OPTS;
     snprintf(args, sizeof args, "train %s --out %s --until alphamask %s", data_dir, run, opts);
     if (run_limited(0, args, out, sizeof out) != 0)
         fail_msg("training the alphamask stage failed:\n%s", out);
@@ -77,8 +79,91 @@ static void test_train_checkpoint_on_full_disk(void **state)
     assert_int_equal(test_count_names(run, ".tmp-"), 0);
 }
 
-/* Output into a folder that cannot be created (its parent is a regular file; a read-only folder
- * is no test as root, which writes anyway): exit 1 naming the path, nothing written. */
+/* esr export of a trained run onto a full disk: exit 1 naming EFBIG, no mesh and no temporary
+ * file; with room, the same export works. */
+static void test_export_on_full_disk(void **state)
+{
+    (void)state;
+    char run[4400], dir[4400], mesh[4500], args[9800], out[8192];
+    snprintf(run, sizeof run, "%s/run", test_tmpdir); /* the run of the test above, to coarse */
+    snprintf(args, sizeof args, "train %s --out %s --resume --until coarse %s", data_dir, run, TRAIN_OPTS);
+    if (run_limited(0, args, out, sizeof out) != 0)
+        fail_msg("training the coarse stage failed:\n%s", out);
+    snprintf(dir, sizeof dir, "%s/export", test_tmpdir);
+    snprintf(mesh, sizeof mesh, "%s/mesh.ply", dir);
+    snprintf(args, sizeof args, "export %s --mesh %s --res 32", run, mesh);
+    char mk[4500];
+    snprintf(mk, sizeof mk, "mkdir -p '%s' && ", dir);
+    char shell[4700];
+    snprintf(shell, sizeof shell, "%strap '' XFSZ; ulimit -f 2; ", mk);
+    assert_int_equal(test_run_esr_after(shell, args, out, sizeof out), 1);
+    if (!strstr(out, "File too large") || !strstr(out, "mesh.ply"))
+        fail_msg("expected a write error naming the mesh and EFBIG, got:\n%s", out);
+    assert_false(esr_file_exists(mesh));
+    assert_int_equal(test_count_names(dir, ".tmp-"), 0);
+    assert_int_equal(run_limited(0, args, out, sizeof out), 0);
+    assert_true(esr_file_exists(mesh));
+}
+
+/* Runs esr as an unprivileged user (root writes into read-only folders anyway): setpriv from
+ * util-linux drops to nobody. Returns -2 when that is not possible here (then the caller skips). */
+static int run_unprivileged(const char *args, char *out, size_t n)
+{
+    if (geteuid() != 0)
+        return test_run_esr_after("", args, out, n);
+    if (system("command -v setpriv >/dev/null 2>&1") != 0)
+        return -2;
+    return test_run_esr_after("setpriv --reuid=65534 --regid=65534 --clear-groups ", args, out, n);
+}
+
+/* Outputs into read-only folders: a new run, a resumed run whose folder became read-only, an
+ * export: exit 1 naming the path and the permission, the earlier checkpoint intact. */
+static void test_read_only_folders(void **state)
+{
+    (void)state;
+    char ro[4300], run[4400], args[9800], out[8192], ckpt[4500], cmd[32768];
+    unsigned char *before, *after;
+    size_t n_before, n_after;
+    snprintf(ro, sizeof ro, "%s/read_only", test_tmpdir);
+    snprintf(run, sizeof run, "%s/run", ro);
+    /* readable by everyone, writable by nobody but root: the test's folder, the data, a run */
+    snprintf(cmd, sizeof cmd, "chmod 755 '%s' && mkdir -p '%s' && cp -r '%s/run/.' '%s/' && "
+             "chmod -R a+rX '%s' '%s' && chmod -R a-w '%s'", test_tmpdir, run, test_tmpdir, run,
+             data_dir, ro, ro);
+    assert_int_equal(system(cmd), 0);
+    snprintf(args, sizeof args, "train %s --out %s/new_run --until alphamask --set alphamask.iters=5", data_dir, ro);
+    int rc = run_unprivileged(args, out, sizeof out);
+    if (rc == -2) {
+        print_message("skipped: running as root and setpriv is missing, so no folder is read-only\n");
+        return;
+    }
+    assert_int_equal(rc, 1);
+    if (!strstr(out, "new_run") || !strstr(out, "Permission denied"))
+        fail_msg("expected the folder and EACCES in the message, got:\n%s", out);
+
+    snprintf(ckpt, sizeof ckpt, "%s/ckpt_coarse.bin", run);
+    assert_int_equal(esr_file_read_all(ckpt, &before, &n_before), 0);
+    snprintf(args, sizeof args, "train %s --out %s --resume --until fine %s", data_dir, run, TRAIN_OPTS);
+    assert_int_equal(run_unprivileged(args, out, sizeof out), 1);
+    if (!strstr(out, "Permission denied"))
+        fail_msg("expected EACCES in the message, got:\n%s", out);
+    assert_int_equal(esr_file_read_all(ckpt, &after, &n_after), 0);
+    assert_int_equal(n_after, n_before);
+    assert_memory_equal(after, before, n_before);
+    free(before);
+    free(after);
+
+    snprintf(args, sizeof args, "export %s --mesh %s/mesh.ply --res 16", run, ro);
+    assert_int_equal(run_unprivileged(args, out, sizeof out), 1);
+    if (!strstr(out, "mesh.ply") || !strstr(out, "Permission denied"))
+        fail_msg("expected the mesh path and EACCES in the message, got:\n%s", out);
+    assert_int_equal(test_count_names(ro, "mesh"), 0);
+    snprintf(cmd, sizeof cmd, "chmod -R u+w '%s'", ro); /* so the teardown can remove it */
+    assert_int_equal(system(cmd), 0);
+}
+
+/* Output into a folder that cannot be created (its parent is a regular file): exit 1 naming the
+ * path, nothing written. */
 static void test_unwritable_output(void **state)
 {
     (void)state;
@@ -102,6 +187,8 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_synth_on_full_disk),
         cmocka_unit_test(test_train_checkpoint_on_full_disk),
+        cmocka_unit_test(test_export_on_full_disk),
+        cmocka_unit_test(test_read_only_folders),
         cmocka_unit_test(test_unwritable_output),
     };
     return cmocka_run_group_tests(tests, group_setup, test_teardown_tmpdir);

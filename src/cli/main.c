@@ -1,10 +1,12 @@
 /* esr: emissive source reconstruction. Dispatches to the subcommands in commands.h. */
 #include <stdarg.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "cli/commands.h"
 #include "core/error.h"
+#include "core/limits.h"
 
 /* One row per subcommand, in the order `esr --help` lists them. */
 static const struct esr_command *const commands[] = {
@@ -63,8 +65,26 @@ static void print_help(FILE *out)
     fprintf(out, "\n`esr <command> --help` describes a command's options.\n");
 }
 
+/* ESR_MEMORY_LIMIT caps the memory a run may hold (core/limits.h): on a shared machine, or to
+ * see what a configuration needs. */
+static int apply_memory_limit(void)
+{
+    const char *text = getenv("ESR_MEMORY_LIMIT");
+    if (!text || !*text)
+        return 0;
+    struct esr_limits l = *esr_limits();
+    if (!(l.memory_bytes = esr_limits_parse_size(text))) {
+        fprintf(stderr, "esr: error: ESR_MEMORY_LIMIT='%s' is not a size (bytes, or a number with K, M, G or T)\n", text);
+        return -1;
+    }
+    esr_limits_set(&l);
+    return 0;
+}
+
 int main(int argc, char **argv)
 {
+    if (apply_memory_limit() != 0)
+        return 1;
     if (argc < 2) {
         print_help(stderr);
         return 1;

@@ -2,6 +2,7 @@
 #include "model/model.h"
 
 #include <math.h>
+#include <stdio.h>
 #include <string.h>
 
 #include "core/error.h"
@@ -128,26 +129,44 @@ static int inherit_mask(struct esr_model *m, const struct esr_model *prev)
     return ESR_OK;
 }
 
-/* Refuses a model that would not fit in memory before any of it is allocated: a layout pass that
- * only counts, then 16 bytes per parameter (values, gradients, both Adam moments). A wrong option
- * or a corrupt checkpoint then fails with a message instead of being killed by the system. */
-static int check_memory(const struct esr_model *m)
+/* A layout pass that only counts parameters: 16 bytes each (values, gradients, both Adam
+ * moments), and the mask cache taken over from prev. */
+int esr_model_memory_need(const struct esr_train_config *cfg, enum esr_stage stage,
+                          const struct esr_model *prev, const float scene_min[3],
+                          const float scene_max[3], size_t *bytes, size_t *n_params)
 {
     struct esr_model dry;
     memset(&dry, 0, sizeof dry);
-    dry.cfg = m->cfg;
-    dry.stage = m->stage;
-    memcpy(dry.scene_min, m->scene_min, sizeof dry.scene_min);
-    memcpy(dry.scene_max, m->scene_max, sizeof dry.scene_max);
+    dry.cfg = *cfg;
+    dry.stage = stage;
+    memcpy(dry.scene_min, scene_min, sizeof dry.scene_min);
+    memcpy(dry.scene_max, scene_max, sizeof dry.scene_max);
     dry.params.count_only = 1;
     ESR_TRY(layout(&dry));
-    const double need = (double)dry.params.count * 4.0 * sizeof(float);
-    const size_t have = esr_limits_memory();
-    if (need > (double)have)
-        return ESR_FAIL("model: the %s stage with these options needs %.2f GiB (%zu parameters), more than the "
-                        "%.2f GiB of memory available",
-                        esr_stage_name((enum esr_stage)m->stage), need / (1 << 30), dry.params.count, (double)have / (1 << 30));
+    const size_t mask = prev && prev->has_mask ? (size_t)prev->mask.nx * prev->mask.ny * prev->mask.nz : 0;
+    *bytes = dry.params.count * 4 * sizeof(float) + mask;
+    if (n_params)
+        *n_params = dry.params.count;
     return ESR_OK;
+}
+
+size_t esr_model_memory_held(const struct esr_model *m)
+{
+    const size_t mask = m->has_mask ? (size_t)m->mask.nx * m->mask.ny * m->mask.nz : 0;
+    return m->params.count * 4 * sizeof(float) + mask;
+}
+
+/* Refuses a model that would not fit in memory before any of it is allocated: a wrong option or
+ * a corrupt checkpoint then fails with a message instead of being killed by the system. */
+static int check_memory(const struct esr_model *m, const struct esr_model *prev)
+{
+    size_t need, n_params;
+    ESR_TRY(esr_model_memory_need(&m->cfg, (enum esr_stage)m->stage, prev, m->scene_min, m->scene_max,
+                                  &need, &n_params));
+    char what[160];
+    snprintf(what, sizeof what, "the %s stage's model with these options (%zu parameters)",
+             esr_stage_name((enum esr_stage)m->stage), n_params);
+    return esr_limits_check_memory(0, need, what);
 }
 
 int esr_model_init(struct esr_model *m, const struct esr_train_config *cfg, enum esr_stage stage,
@@ -163,7 +182,7 @@ int esr_model_init(struct esr_model *m, const struct esr_train_config *cfg, enum
         m->scene_min[a] = scene_min[a];
         m->scene_max[a] = scene_max[a];
     }
-    int rc = check_memory(m);
+    int rc = check_memory(m, prev);
     if (rc == ESR_OK)
         rc = esr_nn_params_init(&m->params, 0);
     if (rc == ESR_OK)

@@ -87,6 +87,14 @@ static inline float *esr_model_values(const struct esr_model *m, enum esr_compon
 int esr_model_init(struct esr_model *m, const struct esr_train_config *cfg, enum esr_stage stage,
                    const struct esr_model *prev, const float scene_min[3], const float scene_max[3]);
 void esr_model_free(struct esr_model *m);
+/* Bytes a fresh model of `stage` would take (parameters with their gradients and Adam moments,
+ * the mask cache taken over from prev, which may be NULL), counted without allocating; *n_params
+ * (may be NULL) its parameter count. esr_model_init refuses a model that does not fit. */
+int esr_model_memory_need(const struct esr_train_config *cfg, enum esr_stage stage,
+                          const struct esr_model *prev, const float scene_min[3],
+                          const float scene_max[3], size_t *bytes, size_t *n_params);
+/* Bytes an allocated model holds, counted the same way. */
+size_t esr_model_memory_held(const struct esr_model *m);
 
 /* Loads a model: `path` is a checkpoint file, or a run directory (then the most advanced stage's
  * checkpoint in it is used). The checkpoint stores its options as JSON and its parameters as

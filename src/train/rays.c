@@ -2,10 +2,12 @@
 #include "train/rays.h"
 
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "core/error.h"
+#include "core/limits.h"
 #include "core/rng.h"
 
 void esr_ray_set_free(struct esr_ray_set *rs)
@@ -28,6 +30,11 @@ static int add_frame(struct esr_ray_set *rs, const struct esr_dataset *ds, const
     return ESR_OK;
 }
 
+size_t esr_ray_set_bytes(size_t n_rays)
+{
+    return n_rays * 9 * sizeof(float); /* origin, direction, colour */
+}
+
 int esr_ray_set_build(struct esr_ray_set *rs, const struct esr_dataset *ds, enum esr_phase_id phase)
 {
     memset(rs, 0, sizeof(*rs));
@@ -36,6 +43,10 @@ int esr_ray_set_build(struct esr_ray_set *rs, const struct esr_dataset *ds, enum
         return ESR_FAIL("dataset %s: phase '%s' has no frames to train on", ds->root,
                         esr_phase_name(phase));
     size_t per = (size_t)ds->width * (size_t)ds->height, n = per * (size_t)ph->n_frames;
+    char what[1400];
+    snprintf(what, sizeof what, "the training rays of dataset %s (%d frames of %d x %d pixels)", ds->root,
+             ph->n_frames, ds->width, ds->height);
+    ESR_TRY(esr_limits_check_memory(0, esr_ray_set_bytes(n), what));
     rs->orig3 = malloc(n * 3 * sizeof(float));
     rs->dir3 = malloc(n * 3 * sizeof(float));
     rs->rgb3 = malloc(n * 3 * sizeof(float));

@@ -14,8 +14,11 @@ struct esr_ray_set {
     float *orig3, *dir3, *rgb3; /* [n * 3] each */
 };
 
-/* Loads every frame of `phase` (its PNG composited on white) and its pixel-centre rays. */
+/* Loads every frame of `phase` (its PNG composited on white) and its pixel-centre rays; refuses,
+ * before loading anything, a set that does not fit in memory (core/limits.h). */
 int esr_ray_set_build(struct esr_ray_set *rs, const struct esr_dataset *ds, enum esr_phase_id phase);
+/* Bytes a set of n_rays rays holds. */
+size_t esr_ray_set_bytes(size_t n_rays);
 void esr_ray_set_free(struct esr_ray_set *rs);
 
 /* Draws a batch of n rays for iteration `step`, stratified by lighting: the off/on split follows

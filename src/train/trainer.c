@@ -13,6 +13,7 @@
 
 #include "core/colour.h"
 #include "core/error.h"
+#include "core/limits.h"
 #include "core/rng.h"
 #include "fields/env_sg.h"
 #include "fields/sdf.h"
@@ -311,12 +312,39 @@ static int find_lights(struct run *r, struct esr_model *m, enum esr_stage s)
     return ESR_OK;
 }
 
+/* The stage's step workspace, refused when it does not fit beside the rays and the model. Its
+ * size is measured, not predicted: the buffers are allocated but none of their pages touched yet
+ * (they cost no memory until the first step writes them), so the allocator's count of bytes in
+ * use is exact where a formula per buffer would drift from the code. Unmeasured (0) under the
+ * sanitizers, which replace the allocator. */
+static int workspace_init(struct run *r, struct esr_train_step *b, const struct esr_model *m,
+                          enum esr_stage s)
+{
+    const size_t before = esr_heap_in_use();
+    ESR_TRY(esr_train_step_init(b, m, r->cfg.batch_rays));
+    const size_t after = esr_heap_in_use();
+    if (after <= before)
+        return ESR_OK;
+    char what[160];
+    snprintf(what, sizeof what, "the %s stage's training workspace (batch of %d rays)",
+             esr_stage_name(s), r->cfg.batch_rays);
+    int rc = esr_limits_check_memory(esr_ray_set_bytes(r->rays.n) + esr_model_memory_held(m),
+                                     after - before, what);
+    if (rc != ESR_OK)
+        esr_train_step_free(b);
+    else
+        say(r, s, "memory: training rays %.1f MiB, model %.1f MiB, workspace %.1f MiB",
+            (double)esr_ray_set_bytes(r->rays.n) / 1048576.0, (double)esr_model_memory_held(m) / 1048576.0,
+            (double)(after - before) / 1048576.0);
+    return rc;
+}
+
 static int run_stage(struct run *r, struct esr_model *m, enum esr_stage s)
 {
     const struct esr_stage_config *sc = esr_stage_options(&r->cfg, s);
     const int B = r->cfg.batch_rays;
     struct esr_train_step b;
-    ESR_TRY(esr_train_step_init(&b, m, B));
+    ESR_TRY(workspace_init(r, &b, m, s));
     int rc = ESR_OK;
     if (m->step == 0)
         rc = save(r, m, s);
@@ -423,6 +451,12 @@ static int stage_model(struct run *r, enum esr_stage s, const struct esr_model *
             m->stage_done ? ", finished" : "");
         return ESR_OK;
     }
+    size_t need, n_params;
+    ESR_TRY(esr_model_memory_need(&r->cfg, s, prev, r->scene_min, r->scene_max, &need, &n_params));
+    char what[160];
+    snprintf(what, sizeof what, "the %s stage's model (%zu parameters)", esr_stage_name(s), n_params);
+    ESR_TRY(esr_limits_check_memory(esr_ray_set_bytes(r->rays.n) + (prev ? esr_model_memory_held(prev) : 0),
+                                    need, what));
     ESR_TRY(esr_model_init(m, &r->cfg, s, prev, r->scene_min, r->scene_max));
     if (!esr_model_has(m, ESR_COMP_ENV) || (prev && esr_model_has(prev, ESR_COMP_ENV)))
         return ESR_OK;
@@ -503,12 +537,13 @@ int esr_train_run(const struct esr_train_opts *o)
         if (rc != ESR_OK || skip)
             break;
         rc = stage_model(&r, (enum esr_stage)s, have_prev ? &prev : NULL, &cur);
+        if (have_prev) /* the new stage took what it needs from it */
+            esr_model_free(&prev);
+        have_prev = 0;
         if (rc != ESR_OK)
             break;
         if (!cur.stage_done)
             rc = run_stage(&r, &cur, (enum esr_stage)s);
-        if (have_prev)
-            esr_model_free(&prev);
         prev = cur;
         have_prev = 1;
         if (rc != ESR_OK || r.stopped)
