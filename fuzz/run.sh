@@ -14,7 +14,7 @@ for name in $names; do
   bin=$build/fuzz/fuzz_$name
   [ -x "$bin" ] || { echo "fuzz: $bin is not built"; exit 1; }
   case $name in
-    png|exr) dict="" ;;
+    png|exr|npz) dict="" ;;
     ply) dict="-dict=$fuzz/ply.dict" ;;
     *) dict="-dict=$fuzz/json.dict" ;;
   esac

@@ -31,11 +31,16 @@ static void test_composite(void **state)
         assert_float_equal(out.data[i], premul[i], 1e-6);
     esr_image_free(&out);
     esr_image_free(&rgba);
+    /* grey stands for all three channels; grey + alpha composites like RGBA */
     struct esr_image grey;
-    assert_int_equal(esr_image_alloc(&grey, 2, 2, 1), ESR_OK);
-    esr_error_clear();
-    assert_int_equal(esr_image_composite(&grey, bg, &out), ESR_ERR);
-    esr_error_clear();
+    assert_int_equal(esr_image_alloc(&grey, 2, 1, 2), ESR_OK);
+    const float ga[4] = {0.8f, 0.5f, 0.3f, 1.0f};
+    memcpy(grey.data, ga, sizeof ga);
+    assert_int_equal(esr_image_composite(&grey, bg, &out), ESR_OK);
+    const float expanded[6] = {0.4f + 0.5f, 0.4f, 0.4f + 0.25f, 0.3f, 0.3f, 0.3f};
+    for (int i = 0; i < 6; i++)
+        assert_float_equal(out.data[i], expanded[i], 1e-6);
+    esr_image_free(&out);
     esr_image_free(&grey);
 }
 

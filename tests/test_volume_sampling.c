@@ -88,6 +88,24 @@ static void test_sampler_positions_and_order(void **state)
     esr_samples_free(&s);
 }
 
+/* A camera closer to the scene than the old near plane (t = 2) still samples the box's near side:
+ * from 1.8 above the origin the box [-1.5, 1.5]^3 starts at t = 0.3; from inside it, at t = 0. */
+static void test_sampler_close_camera(void **state)
+{
+    (void)state;
+    struct esr_samples s;
+    assert_int_equal(esr_samples_alloc(&s, 100, 2), ESR_OK);
+    struct esr_sample_params p;
+    esr_sample_params_init(&p, BMIN, BMAX, 0.25f);
+    const float o[6] = {0, 0, 1.8f, 0.5f, 0, 0.2f}, d[6] = {0, 0, -1, 0, 0, -1};
+    assert_int_equal(esr_sample_rays(&p, o, d, 2, &s), ESR_OK);
+    assert_int_equal(s.ray_start[1], 12); /* the whole 3 units of box */
+    assert_true(fabsf(s.t[0] - (0.3f + 0.125f)) < 1e-5f);
+    assert_int_equal(s.ray_start[2] - s.ray_start[1], 7); /* 1.7 units from inside: 6.8 steps */
+    assert_true(fabsf(s.t[12] - 0.125f) < 1e-5f);
+    esr_samples_free(&s);
+}
+
 /* Jittered samples stay in their strata, are reproducible, independent of the thread count, and
  * masked-out space is skipped. */
 static void test_sampler_jitter_and_mask(void **state)
@@ -123,7 +141,7 @@ static void test_sampler_jitter_and_mask(void **state)
     size_t n_u = 0;
     for (int r = 0; r < R; r++) {
         float t0 = 0.0f, t1 = 0.0f;
-        assert_int_equal(esr_ray_box_clip(o + r * 3, d + r * 3, BMIN, BMAX, 2.0f, 6.0f, &t0, &t1), 1);
+        assert_int_equal(esr_ray_box_clip(o + r * 3, d + r * 3, BMIN, BMAX, 0.0f, 1e30f, &t0, &t1), 1);
         for (size_t i = a.ray_start[r]; i < a.ray_start[r + 1]; i++) {
             float u = (a.t[i] - t0) / p.step - (float)(i - a.ray_start[r]);
             assert_true(u >= -1e-3f && u <= 1.0f + 1e-3f);
@@ -184,14 +202,14 @@ static void test_lamp_camera_rays(void **state)
     for (int r = 0; r < R; r++) {
         float t0 = 0.0f, t1 = 0.0f;
         size_t cnt = s.ray_start[r + 1] - s.ray_start[r];
-        if (!esr_ray_box_clip(o + r * 3, d + r * 3, ds.bbox_min, ds.bbox_max, 2.0f, 6.0f, &t0, &t1)) {
+        if (!esr_ray_box_clip(o + r * 3, d + r * 3, ds.bbox_min, ds.bbox_max, 0.0f, 1e30f, &t0, &t1)) {
             assert_int_equal(cnt, 0);
             continue;
         }
         assert_true(fabs((double)cnt - (t1 - t0) / step) <= 1.0);
     }
     for (size_t i = 0; i < s.count; i++) {
-        assert_true(s.t[i] >= 2.0f && s.t[i] <= 6.0f);
+        assert_true(s.t[i] >= 0.0f && s.t[i] <= 8.0f); /* cameras at 4, the box's diagonal 5.2 */
         for (int a = 0; a < 3; a++)
             assert_true(s.pos[i * 3 + a] >= ds.bbox_min[a] - 1e-4f && s.pos[i * 3 + a] <= ds.bbox_max[a] + 1e-4f);
     }
@@ -206,6 +224,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_box_clip_cases),
         cmocka_unit_test(test_sampler_positions_and_order),
+        cmocka_unit_test(test_sampler_close_camera),
         cmocka_unit_test(test_sampler_jitter_and_mask),
         cmocka_unit_test(test_lamp_camera_rays),
     };

@@ -6,6 +6,7 @@
 #include "cli/commands.h"
 #include "core/error.h"
 #include "io/colmap_import.h"
+#include "io/dtu_import.h"
 
 static int run_import(int argc, char **argv);
 
@@ -13,10 +14,11 @@ static int run_import(int argc, char **argv);
 
 const struct esr_command cmd_import = {
     "import",
-    "turn a COLMAP-posed photo capture into a dataset (ESR layout)",
+    "turn a COLMAP-posed photo capture or a DTU scan into a dataset (ESR layout)",
     "usage: esr import colmap MODEL_DIR IMAGES --out DATA [--size N] [--force]\n"
+    "       esr import dtu SCAN --out DATA [--size N] [--force]\n"
     "\n"
-    "Capture layout: photos with the lights off in IMAGES/off/, with the lights on in IMAGES/on/\n"
+    "colmap: photos with the lights off in IMAGES/off/, with the lights on in IMAGES/on/\n"
     "(JPEG or PNG, any names), all posed in one COLMAP sparse model MODEL_DIR (text: cameras.txt,\n"
     "images.txt, points3D.txt; or binary: the same names with .bin), its image names relative to\n"
     "IMAGES (\"off/x.jpg\"). Camera models: SIMPLE_PINHOLE, PINHOLE, SIMPLE_RADIAL, RADIAL, OPENCV.\n"
@@ -28,6 +30,14 @@ const struct esr_command cmd_import = {
     "is resampled away) and area-filtered to the output size. The scene is centred on the median\n"
     "sparse point, scaled so 90% of the points lie within radius 1 (cameras no further than 4)\n"
     "and turned so the cameras' mean image-up is +Z. EXIF orientation is ignored, as COLMAP does.\n"
+    "\n"
+    "dtu: a DTU scan as NeuS/IDR distribute it: SCAN/cameras_sphere.npz (world_mat_<n>, scale_mat_<n>),\n"
+    "SCAN/image/<n>.png (000000.png, ...) and optionally SCAN/mask/<n>.png (> 127 = foreground). Every\n"
+    "photo becomes a lights-off frame train/<n>_off.png, resampled into one centred pinhole like the\n"
+    "COLMAP import; with masks the PNGs are RGBA, the mask as alpha (composited on white in training).\n"
+    "The normalised frame's unit sphere becomes esr's (scale 1; less if the cameras' median distance\n"
+    "exceeds 4), turned so the cameras' mean image-up is +Z; import.json records the mapping.\n"
+    "\n"
     "DATA is written to a hidden sibling folder and renamed at the end.\n"
     "\n"
     "options:\n"
@@ -43,8 +53,18 @@ static void show_progress(void *user, int done, int total)
     const int tty = *(const int *)user;
     if (!tty && done != total)
         return;
-    fprintf(stderr, "%sundistorting photos %4d / %-4d%s", tty ? "\r" : "", done, total, done == total ? "\n" : "");
+    fprintf(stderr, "%sresampling photos %4d / %-4d%s", tty ? "\r" : "", done, total, done == total ? "\n" : "");
     fflush(stderr);
+}
+
+static void print_dtu_result(const struct esr_dtu_import_opts *o, const struct esr_dtu_import_result *r)
+{
+    printf("wrote %s from DTU scan %s\n", o->out_dir, o->scan_dir);
+    printf("frames    %d (lights off)%s\n", r->n_frames, r->masks ? ", masks as alpha" : ", no masks");
+    printf("images    %d x %d from %d x %d, focal %.2f px (camera_angle_x %.6f rad)\n", r->width, r->height,
+           r->source_width, r->source_height, r->focal, r->camera_angle_x);
+    printf("scene     unit sphere x %.4g\n", r->frame.scale);
+    printf("cameras   %.2f .. %.2f from the origin\n", r->cam_dist_min, r->cam_dist_max);
 }
 
 static void print_result(const struct esr_colmap_import_opts *o, const struct esr_colmap_import_result *r)
@@ -56,11 +76,24 @@ static void print_result(const struct esr_colmap_import_opts *o, const struct es
     printf("scene     centre (%.4g, %.4g, %.4g), scale %.4g (from the %s)\n", r->frame.centre[0], r->frame.centre[1],
            r->frame.centre[2], r->frame.scale, r->frame.from_points ? "sparse points" : "camera centres");
     printf("cameras   %.2f .. %.2f from the origin\n", r->cam_dist_min, r->cam_dist_max);
-    if (r->n_cameras_near)
-        printf("warning   %d cameras are closer than 3 to the origin: esr marches rays from t = 2, so they miss "
-               "the near side of the unit sphere\n", r->n_cameras_near);
     if (!r->n_on || !r->n_off)
         printf("warning   no lights-%s photos: the emitter stages need both\n", r->n_on ? "off" : "on");
+}
+
+/* The DTU import with the options parsed for both sources. */
+static int run_dtu(const char **positional, int n_pos, const struct esr_colmap_import_opts *common, int *tty)
+{
+    if (n_pos != 2)
+        return cli_fail(&cmd_import, "expected exactly SCAN after 'dtu'");
+    struct esr_dtu_import_opts o = {positional[1], common->out_dir, common->size, common->force, show_progress, tty};
+    struct esr_dtu_import_result r;
+    if (esr_dtu_import(&o, &r) != ESR_OK) {
+        if (*tty)
+            fprintf(stderr, "\n");
+        return cli_fail_lib(&cmd_import);
+    }
+    print_dtu_result(&o, &r);
+    return 0;
 }
 
 static int run_import(int argc, char **argv)
@@ -90,15 +123,17 @@ static int run_import(int argc, char **argv)
             positional[n_pos++] = a;
         }
     }
-    if (n_pos < 1 || strcmp(positional[0], "colmap"))
-        return cli_fail(&cmd_import, "the first argument names the source; only 'colmap' is supported");
-    if (n_pos < 3)
-        return cli_fail(&cmd_import, "expected MODEL_DIR and IMAGES after 'colmap'");
+    if (n_pos < 1 || (strcmp(positional[0], "colmap") && strcmp(positional[0], "dtu")))
+        return cli_fail(&cmd_import, "the first argument names the source: 'colmap' or 'dtu'");
     if (!o.out_dir)
         return cli_fail(&cmd_import, "missing --out DATA");
+    int tty = isatty(STDERR_FILENO);
+    if (!strcmp(positional[0], "dtu"))
+        return run_dtu(positional, n_pos, &o, &tty);
+    if (n_pos < 3)
+        return cli_fail(&cmd_import, "expected MODEL_DIR and IMAGES after 'colmap'");
     o.model_dir = positional[1];
     o.images_dir = positional[2];
-    int tty = isatty(STDERR_FILENO);
     o.progress = show_progress;
     o.user = &tty;
     struct esr_colmap_import_result r;

@@ -35,6 +35,18 @@ void esr_colmap_intrinsics_of(const struct esr_colmap_camera *cam, struct esr_co
     }
 }
 
+void esr_colmap_to_pixel(const struct esr_colmap_intrinsics *k, double ud, double vd, double *px, double *py)
+{
+    *px = k->fx * ud + k->skew * vd + k->cx;
+    *py = k->fy * vd + k->cy;
+}
+
+void esr_colmap_from_pixel(const struct esr_colmap_intrinsics *k, double px, double py, double *ud, double *vd)
+{
+    *vd = (py - k->cy) / k->fy;
+    *ud = (px - k->cx - k->skew * *vd) / k->fx;
+}
+
 void esr_colmap_distort(const struct esr_colmap_intrinsics *k, double u, double v, double *ud, double *vd)
 {
     double u2 = u * u, v2 = v * v, uv = u * v, r2 = u2 + v2;
@@ -103,8 +115,7 @@ int esr_colmap_project(const struct esr_colmap_camera *cam, const struct esr_col
     esr_colmap_intrinsics_of(cam, &k);
     double ud, vd;
     esr_colmap_distort(&k, c[0] / c[2], c[1] / c[2], &ud, &vd);
-    *px = k.fx * ud + k.cx;
-    *py = k.fy * vd + k.cy;
+    esr_colmap_to_pixel(&k, ud, vd, px, py);
     return 1;
 }
 

@@ -10,14 +10,22 @@
 
 #include "io/colmap.h"
 
-/* Every supported model as the general OPENCV form (unused terms 0). */
+/* Every supported model as the general OPENCV form (unused terms 0), plus a skew that no COLMAP
+ * model has but calibrated cameras such as DTU's do, so the undistortion (colmap_undistort.h)
+ * serves those too. */
 struct esr_colmap_intrinsics {
     double fx, fy, cx, cy;
+    double skew;   /* pixels of x per unit of normalised y: px = fx u + skew v + cx */
     double k1, k2; /* radial: 1 + k1 r^2 + k2 r^4 */
     double p1, p2; /* tangential */
 };
 
 void esr_colmap_intrinsics_of(const struct esr_colmap_camera *cam, struct esr_colmap_intrinsics *k);
+
+/* Distorted normalised image-plane position (ud, vd) <-> continuous pixel position (centres at
+ * +0.5), through fx, fy, skew, cx, cy. */
+void esr_colmap_to_pixel(const struct esr_colmap_intrinsics *k, double ud, double vd, double *px, double *py);
+void esr_colmap_from_pixel(const struct esr_colmap_intrinsics *k, double px, double py, double *ud, double *vd);
 
 /* Lens distortion on the normalised image plane (x/z, y/z), COLMAP's formula:
  * ud = u + u (k1 r^2 + k2 r^4) + 2 p1 u v + p2 (r^2 + 2 u^2), vd likewise with u, v and p1, p2

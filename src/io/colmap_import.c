@@ -11,13 +11,9 @@
 #include "io/colmap_camera.h"
 #include "io/colmap_undistort.h"
 #include "io/dataset.h"
-#include "io/dir.h"
 #include "io/file.h"
-#include "io/json_file.h"
+#include "io/import_layout.h"
 #include "io/staging.h"
-
-/* A path inside the staging folder (at most ESR_PATH_MAX long): a file name or two more. */
-#define STAGED_PATH (ESR_PATH_MAX + ESR_NAME_MAX + 64)
 
 /* One registered photo and what it becomes. */
 struct frame_plan {
@@ -109,40 +105,7 @@ static int choose_view(const struct esr_colmap_model *m, int size, struct esr_pi
         hx = fmin(hx, cx);
         hy = fmin(hy, cy);
     }
-    if (hx >= hy) {
-        v->width = size;
-        v->focal = size / (2.0 * hx);
-        v->height = (int)floor(2.0 * hy * v->focal);
-    } else {
-        v->height = size;
-        v->focal = size / (2.0 * hy);
-        v->width = (int)floor(2.0 * hx * v->focal);
-    }
-    if (v->width < 1 || v->height < 1)
-        return ESR_FAIL("the cameras' common view is too narrow for %d pixels", size);
-    return ESR_OK;
-}
-
-/* A photo as RGB on white (grey expanded, alpha composited like the dataset loader does). */
-static int photo_rgb(struct esr_image *img)
-{
-    static const float white[3] = {1.0f, 1.0f, 1.0f};
-    struct esr_image rgb;
-    if (img->channels >= 3) {
-        ESR_TRY(esr_image_composite(img, white, &rgb));
-    } else {
-        ESR_TRY(esr_image_alloc(&rgb, img->width, img->height, 3));
-        size_t n = (size_t)img->width * (size_t)img->height;
-        for (size_t p = 0; p < n; p++) {
-            const float *s = img->data + p * (size_t)img->channels;
-            float a = img->channels == 2 ? s[1] : 1.0f;
-            for (int k = 0; k < 3; k++)
-                rgb.data[p * 3 + (size_t)k] = s[0] * a + 1.0f - a;
-        }
-    }
-    esr_image_free(img);
-    *img = rgb;
-    return ESR_OK;
+    return esr_pinhole_view_fit(hx, hy, size, v);
 }
 
 static int write_frame_image(const struct esr_colmap_model *m, const struct frame_plan *p,
@@ -156,95 +119,49 @@ static int write_frame_image(const struct esr_colmap_model *m, const struct fram
     if (photo.width != cam->width || photo.height != cam->height)
         status = ESR_FAIL("'%s' is %dx%d but its COLMAP camera %u is %dx%d", p->src_path, photo.width, photo.height,
                           cam->id, cam->width, cam->height);
+    static const float white[3] = {1.0f, 1.0f, 1.0f};
+    struct esr_image rgb = {0};
+    if (status == ESR_OK) /* grey expanded, alpha composited like the dataset loader does */
+        status = esr_image_composite(&photo, white, &rgb);
     if (status == ESR_OK)
-        status = photo_rgb(&photo);
-    if (status == ESR_OK)
-        status = esr_colmap_undistort_image(cam, &photo, view, &out);
+        status = esr_colmap_undistort_image(cam, &rgb, view, &out);
     esr_image_free(&photo);
+    esr_image_free(&rgb);
     if (status != ESR_OK)
         return status;
-    char path[STAGED_PATH];
-    snprintf(path, sizeof path, "%s/train/%s.png", staging, p->out_name);
-    status = esr_png_write(path, &out, 8);
-    esr_image_free(&out);
-    return status;
+    return esr_import_write_image(staging, p->out_name, &out);
 }
 
-static cJSON *matrix_json(const double c2w[3][4])
-{
-    cJSON *rows = cJSON_CreateArray();
-    for (int r = 0; r < 4; r++) {
-        float row[4] = {0.0f, 0.0f, 0.0f, 1.0f};
-        for (int c = 0; r < 3 && c < 4; c++)
-            row[c] = (float)c2w[r][c];
-        cJSON_AddItemToArray(rows, esr_json_float_array(row, 4));
-    }
-    return rows;
-}
-
-static cJSON *frame_json(const struct frame_plan *p, const double c2w[3][4])
-{
-    cJSON *f = cJSON_CreateObject(), *lights = cJSON_CreateArray(), *light = cJSON_CreateObject();
-    static const float original_colour[3] = {0.0f, 0.0f, 1.0f};
-    char file_path[ESR_NAME_MAX + 8];
-    snprintf(file_path, sizeof file_path, "train/%s", p->out_name);
-    cJSON_AddStringToObject(f, "file_path", file_path);
-    cJSON_AddItemToObject(f, "transform_matrix", matrix_json(c2w));
-    cJSON_AddStringToObject(light, "mode", p->lights_on ? "on" : "off");
-    cJSON_AddNumberToObject(light, "intensity", p->lights_on ? 1.0 : 0.0);
-    cJSON_AddItemToObject(light, "color", esr_json_float_array(original_colour, 3));
-    cJSON_AddStringToObject(light, "mask_path", "");
-    cJSON_AddItemToArray(lights, light);
-    cJSON_AddItemToObject(f, "lights", lights);
-    cJSON_AddStringToObject(f, "colmap_image", p->image->name);
-    return f;
-}
-
-/* transforms_train.json, and the per-camera distances the result reports. */
+/* transforms_train.json, and the range of camera distances the result reports. */
 static int write_transforms(const struct frame_plan *plans, int n, const char *staging,
                             struct esr_colmap_import_result *r)
 {
-    cJSON *root = cJSON_CreateObject(), *frames = cJSON_CreateArray();
-    cJSON_AddNumberToObject(root, "camera_angle_x", r->camera_angle_x);
+    cJSON *frames = cJSON_CreateArray();
     r->cam_dist_min = INFINITY;
     r->cam_dist_max = 0.0;
     for (int i = 0; i < n; i++) {
         double c2w[3][4], placed[3][4];
         esr_colmap_camera_to_world(plans[i].image, c2w);
         esr_scene_frame_apply(&r->frame, c2w, placed);
-        double d = sqrt(placed[0][3] * placed[0][3] + placed[1][3] * placed[1][3] + placed[2][3] * placed[2][3]);
-        r->cam_dist_min = fmin(r->cam_dist_min, d);
-        r->cam_dist_max = fmax(r->cam_dist_max, d);
-        r->n_cameras_near += d < 3.0;
-        cJSON_AddItemToArray(frames, frame_json(&plans[i], placed));
+        esr_import_camera_distance(placed, &r->cam_dist_min, &r->cam_dist_max);
+        cJSON *f = esr_import_frame_json(plans[i].out_name, placed, plans[i].lights_on);
+        cJSON_AddStringToObject(f, "colmap_image", plans[i].image->name);
+        cJSON_AddItemToArray(frames, f);
     }
-    cJSON_AddItemToObject(root, "frames", frames);
-    char path[STAGED_PATH];
-    snprintf(path, sizeof path, "%s/transforms/transforms_train.json", staging);
-    return esr_json_write_atomic(path, root);
+    return esr_import_write_transforms(staging, r->camera_angle_x, frames);
 }
 
 /* import.json: where the COLMAP world went, so poses can be mapped back. */
 static int write_record(const struct esr_colmap_import_opts *o, const struct esr_colmap_import_result *r,
                         const char *staging)
 {
-    cJSON *root = cJSON_CreateObject(), *rot = cJSON_CreateArray();
-    cJSON_AddStringToObject(root, "source", "colmap");
+    cJSON *root = esr_import_record("colmap", "esr = scale * rotation * (colmap - centre)", &r->frame);
     cJSON_AddStringToObject(root, "model", o->model_dir);
     cJSON_AddStringToObject(root, "model_format", r->format);
     cJSON_AddStringToObject(root, "images", o->images_dir);
-    cJSON_AddStringToObject(root, "mapping", "esr = scale * rotation * (colmap - centre)");
-    double centre[3] = {r->frame.centre[0], r->frame.centre[1], r->frame.centre[2]};
-    cJSON_AddItemToObject(root, "centre", cJSON_CreateDoubleArray(centre, 3));
-    for (int i = 0; i < 3; i++)
-        cJSON_AddItemToArray(rot, cJSON_CreateDoubleArray(r->frame.rotation[i], 3));
-    cJSON_AddItemToObject(root, "rotation", rot);
-    cJSON_AddNumberToObject(root, "scale", r->frame.scale);
     cJSON_AddBoolToObject(root, "placed_by_points", r->frame.from_points);
     cJSON_AddNumberToObject(root, "focal", r->focal);
-    char path[STAGED_PATH];
-    snprintf(path, sizeof path, "%s/import.json", staging);
-    return esr_json_write_atomic(path, root);
+    return esr_import_write_record(staging, root);
 }
 
 /* Everything written into staging. */
@@ -252,11 +169,7 @@ static int write_dataset(const struct esr_colmap_import_opts *o, const struct es
                          const struct frame_plan *plans, const struct esr_pinhole_view *view,
                          struct esr_colmap_import_result *r, const char *staging)
 {
-    char path[STAGED_PATH];
-    snprintf(path, sizeof path, "%s/train", staging);
-    ESR_TRY(esr_dir_create(path));
-    snprintf(path, sizeof path, "%s/transforms", staging);
-    ESR_TRY(esr_dir_create(path));
+    ESR_TRY(esr_import_layout_dirs(staging));
     for (int i = 0; i < m->n_images; i++) {
         ESR_TRY(write_frame_image(m, &plans[i], view, staging));
         if (o->progress)

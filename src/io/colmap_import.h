@@ -37,8 +37,6 @@ struct esr_colmap_import_result {
     double camera_angle_x;
     struct esr_scene_frame frame;
     double cam_dist_min, cam_dist_max; /* camera centres' distances from the origin (esr world) */
-    int n_cameras_near;      /* cameras closer than 3: rays start at t = 2, so they miss the near
-                                side of the unit sphere */
 };
 
 /* Fails naming the file on: a model that cannot be read, fewer than 3 registered images, an

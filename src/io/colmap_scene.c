@@ -74,61 +74,74 @@ static void rotation_to_z(const double a[3], double r[3][3])
     r[2][1] += s * k[0];
 }
 
-/* Mean image-up direction of the cameras (the world direction of COLMAP's -Y camera axis, the
- * c2w matrix's second column) when the cameras agree on it; +Z (no rotation) otherwise. */
-static void mean_up(const struct esr_colmap_model *m, double up[3])
+/* Mean image-up direction of the cameras (the c2w matrices' second column) when they agree on
+ * it; +Z (no rotation) otherwise. */
+static void mean_up(const double (*c2w)[3][4], int n, double up[3])
 {
     double sum[3] = {0.0, 0.0, 0.0};
-    for (int i = 0; i < m->n_images; i++) {
-        double c2w[3][4];
-        esr_colmap_camera_to_world(&m->images[i], c2w);
+    for (int i = 0; i < n; i++)
         for (int a = 0; a < 3; a++)
-            sum[a] += c2w[a][1];
-    }
-    double n = sqrt(sum[0] * sum[0] + sum[1] * sum[1] + sum[2] * sum[2]);
-    int agree = n > 0.3 * m->n_images;
+            sum[a] += c2w[i][a][1];
+    double len = sqrt(sum[0] * sum[0] + sum[1] * sum[1] + sum[2] * sum[2]);
+    int agree = len > 0.3 * n;
     for (int a = 0; a < 3; a++)
-        up[a] = agree ? sum[a] / n : (a == 2);
+        up[a] = agree ? sum[a] / len : (a == 2);
+}
+
+int esr_scene_frame_place(const double (*c2w)[3][4], int n, struct esr_scene_frame *f)
+{
+    if (n < 1)
+        return ESR_FAIL("no cameras to place the scene by");
+    if (!(f->radius > 0.0) || !isfinite(f->radius))
+        return ESR_FAIL("the scene's points and cameras all coincide; cannot scale the scene");
+    double *dist = malloc((size_t)n * sizeof *dist);
+    if (!dist)
+        return ESR_FAIL("out of memory placing the scene");
+    for (int i = 0; i < n; i++)
+        dist[i] = sqrt(pow(c2w[i][0][3] - f->centre[0], 2) + pow(c2w[i][1][3] - f->centre[1], 2) +
+                       pow(c2w[i][2][3] - f->centre[2], 2));
+    double cam_dist = quantile(dist, n, 0.5);
+    free(dist);
+    f->scale = 1.0 / f->radius;
+    if (cam_dist > 0.0 && 4.0 / cam_dist < f->scale)
+        f->scale = 4.0 / cam_dist;
+    double up[3];
+    mean_up(c2w, n, up);
+    rotation_to_z(up, f->rotation);
+    return ESR_OK;
 }
 
 int esr_colmap_scene_frame(const struct esr_colmap_model *m, struct esr_scene_frame *f)
 {
     if (m->n_images < 1)
         return ESR_FAIL("the COLMAP model has no registered images to place the scene by");
+    double (*c2w)[3][4] = malloc((size_t)m->n_images * sizeof *c2w);
     double *centres = malloc((size_t)m->n_images * 3 * sizeof *centres);
-    if (!centres)
+    if (!c2w || !centres) {
+        free(c2w);
+        free(centres);
         return ESR_FAIL("out of memory placing the scene");
+    }
     for (int i = 0; i < m->n_images; i++) {
-        double c2w[3][4];
-        esr_colmap_camera_to_world(&m->images[i], c2w);
+        esr_colmap_camera_to_world(&m->images[i], c2w[i]);
         for (int a = 0; a < 3; a++)
-            centres[3 * i + a] = c2w[a][3];
+            centres[3 * i + a] = c2w[i][a][3];
     }
     /* the bulk of the points, or without them the camera centres at 4 units, as in esr's datasets */
     f->from_points = m->n_points >= 10;
     const double *pts = f->from_points ? m->points : centres;
     const long n = f->from_points ? m->n_points : m->n_images;
-    double cam_dist = 0.0;
     int status = median_point(pts, n, f->centre);
     if (status == ESR_OK)
         status = distance_quantile(pts, n, f->centre, f->from_points ? 0.9 : 0.5, &f->radius);
-    if (status == ESR_OK)
-        status = distance_quantile(centres, m->n_images, f->centre, 0.5, &cam_dist);
-    free(centres);
-    ESR_TRY(status);
-    if (!f->from_points)
+    if (status == ESR_OK && !f->from_points)
         f->radius *= 0.25;
-    if (!(f->radius > 0.0) || !isfinite(f->radius))
-        return ESR_FAIL("the COLMAP model's points and cameras all coincide; cannot scale the scene");
-    f->scale = 1.0 / f->radius;
-    if (cam_dist > 0.0 && 4.0 / cam_dist < f->scale)
-        f->scale = 4.0 / cam_dist;
-    double up[3];
-    mean_up(m, up);
-    rotation_to_z(up, f->rotation);
-    return ESR_OK;
+    if (status == ESR_OK)
+        status = esr_scene_frame_place((const double (*)[3][4])c2w, m->n_images, f);
+    free(c2w);
+    free(centres);
+    return status;
 }
-
 void esr_scene_frame_apply(const struct esr_scene_frame *f, const double c2w[3][4], double out[3][4])
 {
     for (int r = 0; r < 3; r++) {

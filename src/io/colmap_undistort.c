@@ -2,10 +2,10 @@
 #include "io/colmap_undistort.h"
 
 #include <math.h>
+#include <stdio.h>
 #include <string.h>
 
 #include "core/error.h"
-#include "io/colmap_camera.h"
 
 enum { BORDER_SAMPLES = 256, MAX_SUPERSAMPLE = 16 };
 
@@ -27,26 +27,26 @@ static int rectangle_inside(const struct esr_colmap_intrinsics *k, int width, in
         for (int s = 0; s <= BORDER_SAMPLES; s++) {
             double u, v, ud, vd;
             edge_point(e, s, -hx, -hy, 2 * hx, 2 * hy, &u, &v);
+            double px, py;
             esr_colmap_distort(k, u, v, &ud, &vd);
-            double px = k->fx * ud + k->cx, py = k->fy * vd + k->cy;
+            esr_colmap_to_pixel(k, ud, vd, &px, &py);
             if (!(px >= -slack && px <= width + slack && py >= -slack && py <= height + slack))
                 return 0;
         }
     return 1;
 }
 
-int esr_colmap_valid_extent(const struct esr_colmap_camera *cam, double *half_x, double *half_y)
+int esr_undistort_extent(const struct esr_colmap_intrinsics *k, int width, int height, const char *camera,
+                         double *half_x, double *half_y)
 {
-    struct esr_colmap_intrinsics k;
-    esr_colmap_intrinsics_of(cam, &k);
     double hx = INFINITY, hy = INFINITY;
     for (int e = 0; e < 4; e++)
         for (int s = 0; s <= BORDER_SAMPLES; s++) {
-            double px, py, u, v;
-            edge_point(e, s, 0.0, 0.0, cam->width, cam->height, &px, &py);
-            if (esr_colmap_undistort(&k, (px - k.cx) / k.fx, (py - k.cy) / k.fy, &u, &v) != ESR_OK)
-                return ESR_FAIL("camera %u (%s): its distortion cannot be inverted at the image border", cam->id,
-                                esr_colmap_model_name(cam->model));
+            double px, py, ud, vd, u, v;
+            edge_point(e, s, 0.0, 0.0, width, height, &px, &py);
+            esr_colmap_from_pixel(k, px, py, &ud, &vd);
+            if (esr_colmap_undistort(k, ud, vd, &u, &v) != ESR_OK)
+                return ESR_FAIL("%s: its distortion cannot be inverted at the image border", camera);
             /* the rectangle may reach no further than the innermost point of each edge */
             double reach = e == 0 ? -u : e == 1 ? u : e == 2 ? -v : v;
             if (e < 2)
@@ -55,18 +55,42 @@ int esr_colmap_valid_extent(const struct esr_colmap_camera *cam, double *half_x,
                 hy = fmin(hy, reach);
         }
     if (!(hx > 0.0 && hy > 0.0))
-        return ESR_FAIL("camera %u: the principal point (%g, %g) is not inside the %dx%d image", cam->id, k.cx, k.cy,
-                        cam->width, cam->height);
+        return ESR_FAIL("%s: the principal point (%g, %g) is not inside the %dx%d image", camera, k->cx, k->cy,
+                        width, height);
     /* in small steps: the edge samples can miss an edge's innermost point by a little */
-    for (int it = 0; it < 2000 && !rectangle_inside(&k, cam->width, cam->height, hx, hy); it++) {
+    for (int it = 0; it < 2000 && !rectangle_inside(k, width, height, hx, hy); it++) {
         hx *= 0.998;
         hy *= 0.998;
     }
-    if (!rectangle_inside(&k, cam->width, cam->height, hx, hy))
-        return ESR_FAIL("camera %u (%s): no undistorted rectangle around the optical axis fits in the image",
-                        cam->id, esr_colmap_model_name(cam->model));
+    if (!rectangle_inside(k, width, height, hx, hy))
+        return ESR_FAIL("%s: no undistorted rectangle around the optical axis fits in the image", camera);
     *half_x = hx;
     *half_y = hy;
+    return ESR_OK;
+}
+
+int esr_colmap_valid_extent(const struct esr_colmap_camera *cam, double *half_x, double *half_y)
+{
+    struct esr_colmap_intrinsics k;
+    esr_colmap_intrinsics_of(cam, &k);
+    char name[64];
+    snprintf(name, sizeof name, "camera %u (%s)", cam->id, esr_colmap_model_name(cam->model));
+    return esr_undistort_extent(&k, cam->width, cam->height, name, half_x, half_y);
+}
+
+int esr_pinhole_view_fit(double half_x, double half_y, int size, struct esr_pinhole_view *v)
+{
+    if (half_x >= half_y) {
+        v->width = size;
+        v->focal = size / (2.0 * half_x);
+        v->height = (int)floor(2.0 * half_y * v->focal);
+    } else {
+        v->height = size;
+        v->focal = size / (2.0 * half_y);
+        v->width = (int)floor(2.0 * half_x * v->focal);
+    }
+    if (v->width < 1 || v->height < 1)
+        return ESR_FAIL("the cameras' common view is too narrow for %d pixels", size);
     return ESR_OK;
 }
 
@@ -93,18 +117,13 @@ static void bilinear_add(const struct esr_image *img, double px, double py, floa
     }
 }
 
-int esr_colmap_undistort_image(const struct esr_colmap_camera *cam, const struct esr_image *src,
-                               const struct esr_pinhole_view *view, struct esr_image *dst)
+int esr_undistort_resample(const struct esr_colmap_intrinsics *k, const struct esr_image *src,
+                           const struct esr_pinhole_view *view, struct esr_image *dst)
 {
-    if (src->width != cam->width || src->height != cam->height)
-        return ESR_FAIL("image is %dx%d but COLMAP camera %u is %dx%d", src->width, src->height, cam->id, cam->width,
-                        cam->height);
     if (!(view->focal > 0.0) || view->width <= 0 || view->height <= 0)
         return ESR_FAIL("invalid output view %dx%d, focal %g", view->width, view->height, view->focal);
     ESR_TRY(esr_image_alloc(dst, view->width, view->height, src->channels));
-    struct esr_colmap_intrinsics k;
-    esr_colmap_intrinsics_of(cam, &k);
-    int ss = (int)ceil(fmax(k.fx, k.fy) / view->focal - 1e-9);
+    int ss = (int)ceil(fmax(k->fx, k->fy) / view->focal - 1e-9);
     ss = ss < 1 ? 1 : ss > MAX_SUPERSAMPLE ? MAX_SUPERSAMPLE : ss;
     const float weight = 1.0f / (float)(ss * ss);
     const int c = src->channels;
@@ -116,12 +135,24 @@ int esr_colmap_undistort_image(const struct esr_colmap_camera *cam, const struct
                 for (int a = 0; a < ss; a++) {
                     double u = (i + (a + 0.5) / ss - 0.5 * view->width) / view->focal;
                     double v = (j + (b + 0.5) / ss - 0.5 * view->height) / view->focal;
-                    double ud, vd;
-                    esr_colmap_distort(&k, u, v, &ud, &vd);
-                    bilinear_add(src, k.fx * ud + k.cx, k.fy * vd + k.cy, weight, acc);
+                    double ud, vd, px, py;
+                    esr_colmap_distort(k, u, v, &ud, &vd);
+                    esr_colmap_to_pixel(k, ud, vd, &px, &py);
+                    bilinear_add(src, px, py, weight, acc);
                 }
             memcpy(dst->data + ((size_t)j * (size_t)view->width + (size_t)i) * (size_t)c, acc,
                    (size_t)c * sizeof(float));
         }
     return ESR_OK;
+}
+
+int esr_colmap_undistort_image(const struct esr_colmap_camera *cam, const struct esr_image *src,
+                               const struct esr_pinhole_view *view, struct esr_image *dst)
+{
+    if (src->width != cam->width || src->height != cam->height)
+        return ESR_FAIL("image is %dx%d but COLMAP camera %u is %dx%d", src->width, src->height, cam->id, cam->width,
+                        cam->height);
+    struct esr_colmap_intrinsics k;
+    esr_colmap_intrinsics_of(cam, &k);
+    return esr_undistort_resample(&k, src, view, dst);
 }

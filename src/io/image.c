@@ -55,20 +55,18 @@ int esr_image_read(const char *path, struct esr_image *out)
 }
 
 /* Both compositing rules share one loop: c = rgb * rgb_scale + bg * (1 - a), where rgb_scale is
- * a for straight alpha and 1 for premultiplied alpha. */
+ * a for straight alpha and 1 for premultiplied alpha; a grey channel stands for all three. */
 static int composite(const struct esr_image *in, const float bg[3], int premultiplied, struct esr_image *out)
 {
-    if (in->channels != 3 && in->channels != 4)
-        return ESR_FAIL("compositing needs an RGB or RGBA image, got %d channels", in->channels);
     ESR_TRY(esr_image_alloc(out, in->width, in->height, 3));
     size_t n = (size_t)in->width * (size_t)in->height;
-    int c = in->channels;
+    const int c = in->channels, grey = c < 3;
     for (size_t p = 0; p < n; p++) {
         const float *s = in->data + p * (size_t)c;
-        float a = c == 4 ? s[3] : 1.0f;
+        float a = c == 4 || c == 2 ? s[c - 1] : 1.0f;
         float scale = premultiplied ? 1.0f : a;
         for (int k = 0; k < 3; k++)
-            out->data[p * 3 + (size_t)k] = s[k] * scale + bg[k] * (1.0f - a);
+            out->data[p * 3 + (size_t)k] = s[grey ? 0 : k] * scale + bg[k] * (1.0f - a);
     }
     return ESR_OK;
 }

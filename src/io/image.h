@@ -60,7 +60,8 @@ int esr_jpeg_read_stored(const char *path, struct esr_image *out);
 int esr_image_read(const char *path, struct esr_image *out);
 
 /* Straight-alpha RGBA (as in the dataset PNGs) -> RGB on background bg: c = rgb*a + bg*(1-a).
- * Accepts 3-channel input unchanged. Output is a new 3-channel image. */
+ * Accepts 3-channel input unchanged, and grey (+ alpha) with the grey in all three channels.
+ * Output is a new 3-channel image. */
 int esr_image_composite(const struct esr_image *rgba, const float bg[3], struct esr_image *rgb);
 /* Premultiplied RGBA (EXR) -> RGB on background bg: c = rgb + bg*(1-a). */
 int esr_image_composite_premultiplied(const struct esr_image *rgba, const float bg[3], struct esr_image *rgb);

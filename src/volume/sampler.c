@@ -17,8 +17,8 @@ void esr_sample_params_init(struct esr_sample_params *p, const float bmin[3], co
         p->bmin[a] = bmin[a];
         p->bmax[a] = bmax[a];
     }
-    p->near = 2.0f;
-    p->far = 6.0f;
+    p->near = 0.0f; /* the box clips: a camera close to (or inside) it marches from where it enters */
+    p->far = 1e30f;
     p->step = step;
 }
 

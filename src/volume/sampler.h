@@ -16,7 +16,8 @@ extern "C" {
 
 struct esr_sample_params {
     float bmin[3], bmax[3];      /* scene box (samples only inside it) */
-    float near, far;             /* ray parameter range before clipping (dataset: 2, 6) */
+    float near, far;             /* ray parameter range before clipping by the box (default 0 and
+                                    1e30: the box alone decides, whatever the camera distance) */
     float step;                  /* distance between samples along t (world units for unit d) */
     int jitter;                  /* 0: t = t0 + (k + 0.5) step; 1: t = t0 + (k + u_k) step */
     uint64_t seed;               /* jitter randomness: stream = stream_base + ray index */
@@ -39,8 +40,8 @@ struct esr_samples {
     size_t *ray_start;  /* [max_rays + 1]: ray r owns samples ray_start[r] .. ray_start[r+1]-1 */
 };
 
-/* Parameters for marching the box [bmin, bmax] at `step` with the dataset's near/far (2, 6),
- * no jitter, no cap and no mask; callers then adjust fields. */
+/* Parameters for marching the box [bmin, bmax] at `step` from t = 0 (no near or far beyond the
+ * box), no jitter, no cap and no mask; callers then adjust fields. */
 void esr_sample_params_init(struct esr_sample_params *p, const float bmin[3], const float bmax[3],
                             float step);
 
