@@ -33,6 +33,10 @@
 #define N_RAYS 2
 #define LAMBDA 0.5f
 
+/* 1: the model learns its background (fields/background.h) and the second ray grazes the sphere,
+ * so part of its colour is the background's */
+static int learned_background;
+
 struct fixture {
     struct esr_model m;
     struct esr_train_step st;
@@ -46,6 +50,7 @@ static void setup_stage(struct fixture *fx, enum esr_stage stage, const uint8_t 
     struct esr_train_config cfg;
     test_small_config(&cfg, LAMBDA);
     cfg.lts_estimator = estimator;
+    cfg.background = learned_background ? ESR_BACKGROUND_LEARNED : ESR_BACKGROUND_WHITE;
     const float bmin[3] = {-1, -1, -1}, bmax[3] = {1, 1, 1};
     memset(fx, 0, sizeof(*fx));
     struct esr_model *m = &fx->m;
@@ -64,11 +69,13 @@ static void setup_stage(struct fixture *fx, enum esr_stage stage, const uint8_t 
         test_randomise(m, ESR_COMP_EMO_FEAT, 0.5f, 15);
         esr_mlp_init_weights(esr_model_mlp(m, ESR_COMP_EMO_MLP), m->params.w, 9, 0.0f);
     }
+    if (learned_background)
+        test_randomise(m, ESR_COMP_BACKGROUND, 1.0f, 31);
     m->inv_s = 10.0f;
     assert_int_equal(esr_train_step_init(&fx->st, m, N_RAYS), 0);
     fx->analytic = malloc(m->params.count * sizeof(float));
     assert_non_null(fx->analytic);
-    const float o[N_RAYS][3] = {{0.1f, -3.0f, 0.15f}, {-3.0f, 0.2f, -0.1f}};
+    const float o[N_RAYS][3] = {{0.1f, -3.0f, 0.15f}, {-3.0f, 0.2f, learned_background ? 0.52f : -0.1f}};
     const float d[N_RAYS][3] = {{0.02f, 1.0f, -0.03f}, {1.0f, -0.04f, 0.05f}};
     for (int r = 0; r < N_RAYS; r++) {
         float len = sqrtf(d[r][0] * d[r][0] + d[r][1] * d[r][1] + d[r][2] * d[r][2]);
@@ -441,6 +448,31 @@ static void test_coarse_gradients(void **state)
     teardown(&fx);
 }
 
+/* The learned background's gradient through both composites (fine: tone-mapped and linear;
+ * coarse: LDR), every entry of every trained component. The grazing ray keeps a transmittance
+ * well between 0 and 1, so both the background and the geometry in front of it matter. */
+static void test_background_gradients(void **state)
+{
+    (void)state;
+    learned_background = 1;
+    const enum esr_stage stages[] = {ESR_STAGE_COARSE, ESR_STAGE_FINE};
+    for (size_t i = 0; i < 2; i++) {
+        struct fixture fx;
+        const uint8_t lights[N_RAYS] = {0, 1};
+        setup_stage(&fx, stages[i], lights, ESR_LTS_FIRST_HIT);
+        analytic_gradient(&fx);
+        const float t = fx.st.tr.march.t_last[1];
+        if (!(t > 0.05f && t < 0.95f))
+            fail_msg("the grazing ray's transmittance %.3f is not partial", (double)t);
+        assert_false(all_zero(&fx, ESR_COMP_BACKGROUND));
+        /* the background, and the SDF whose alpha it sits behind (the rest: the tests above) */
+        check_stage(&fx, esr_stage_info(stages[i])->trained &
+                             ~(ESR_BIT(ESR_COMP_BACKGROUND) | ESR_BIT(ESR_COMP_SDF)));
+        teardown(&fx);
+    }
+    learned_background = 0;
+}
+
 static void test_render_loss_by_hand(void **state)
 {
     (void)state;
@@ -477,6 +509,7 @@ int main(void)
         cmocka_unit_test(test_fine_gradients_mixed_lighting),
         cmocka_unit_test(test_fine_lights_on_stop_gradient),
         cmocka_unit_test(test_coarse_gradients),
+        cmocka_unit_test(test_background_gradients),
         cmocka_unit_test(test_lts_gradients),
         cmocka_unit_test(test_lts_volume_gradients),
         cmocka_unit_test(test_pdra_gradients),

@@ -4,6 +4,7 @@
 #include <string.h>
 
 #include "core/error.h"
+#include "fields/background.h"
 #include "fields/env_sg.h"
 #include "model/material_fields.h"
 #include "model/model.h"
@@ -110,6 +111,14 @@ static int layout_env(struct esr_model *m, enum esr_component c)
     return esr_nn_params_take(&m->params, p->count, &p->off);
 }
 
+/* Present only when the options ask for a learned background (count 0 = absent). */
+static int layout_background(struct esr_model *m, enum esr_component c)
+{
+    struct esr_part *p = &m->part[c];
+    p->count = m->cfg.background == ESR_BACKGROUND_LEARNED ? ESR_BACKGROUND_PARAMS : 0;
+    return p->count ? esr_nn_params_take(&m->params, p->count, &p->off) : ESR_OK;
+}
+
 /* ---- the component table ---- */
 
 static const struct esr_component_info components[ESR_COMP_COUNT] = {
@@ -144,6 +153,9 @@ static const struct esr_component_info components[ESR_COMP_COUNT] = {
                            0.0f, layout_brdf_mlp},
     [ESR_COMP_ENV] = {"env", ESR_KIND_VECTOR, ESR_LR_MLP, ESR_TV_NONE, ESR_INIT_ENV_SG, 6, 0.0f,
                       layout_env},
+    /* logits 0: grey until the data says otherwise; the feature learning rate (a texture) */
+    [ESR_COMP_BACKGROUND] = {"background", ESR_KIND_VECTOR, ESR_LR_FEAT, ESR_TV_NONE, ESR_INIT_ZERO,
+                             0, 0.0f, layout_background},
 };
 
 const struct esr_component_info *esr_component_info(enum esr_component c)
@@ -161,12 +173,16 @@ enum esr_component esr_component_from_name(const char *name)
 
 /* ---- the stage table ---- */
 
-#define ALPHAMASK_PARTS (ESR_BIT(ESR_COMP_DENSITY) | ESR_BIT(ESR_COMP_RGB_GRID))
+/* the background (absent unless learned) is in every stage and carries over from one to the next */
+#define ALPHAMASK_PARTS                                                                           \
+    (ESR_BIT(ESR_COMP_DENSITY) | ESR_BIT(ESR_COMP_RGB_GRID) | ESR_BIT(ESR_COMP_BACKGROUND))
 #define COARSE_PARTS                                                                              \
-    (ESR_BIT(ESR_COMP_SDF) | ESR_BIT(ESR_COMP_COLOUR_FEAT) | ESR_BIT(ESR_COMP_COLOUR_MLP))
+    (ESR_BIT(ESR_COMP_SDF) | ESR_BIT(ESR_COMP_COLOUR_FEAT) | ESR_BIT(ESR_COMP_COLOUR_MLP) |       \
+     ESR_BIT(ESR_COMP_BACKGROUND))
 #define FINE_PARTS                                                                                \
     (ESR_BIT(ESR_COMP_SDF) | ESR_BIT(ESR_COMP_OFF_FEAT) | ESR_BIT(ESR_COMP_EMO_FEAT) |            \
-     ESR_BIT(ESR_COMP_OFF_MLP) | ESR_BIT(ESR_COMP_EMO_MLP) | ESR_BIT(ESR_COMP_TONE_MLP))
+     ESR_BIT(ESR_COMP_OFF_MLP) | ESR_BIT(ESR_COMP_EMO_MLP) | ESR_BIT(ESR_COMP_TONE_MLP) |         \
+     ESR_BIT(ESR_COMP_BACKGROUND))
 
 #define LTS_PARTS                                                                                 \
     (FINE_PARTS | ESR_BIT(ESR_COMP_EMIT_MLP) | ESR_BIT(ESR_COMP_BRDF_FEAT) |                      \

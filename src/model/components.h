@@ -38,6 +38,7 @@ enum esr_component {
     ESR_COMP_BRDF_FEAT,   /* lts: feature grid of the BRDF */
     ESR_COMP_BRDF_MLP,    /* lts: BRDF MLP -> base colour (3), roughness, metallic; sigmoid */
     ESR_COMP_ENV,         /* lts: spherical-Gaussian environment map (fields/env_sg.h) */
+    ESR_COMP_BACKGROUND,  /* every stage, only with background = learned: fields/background.h */
     ESR_COMP_COUNT
 };
 

@@ -42,6 +42,9 @@ static const struct opt opts[] = {
      "checkpoint every N iterations within a stage"},
     {"log_every", OPT_INT, OFF(log_every), 1, 1000000, DEF(50, 100), "log line every N iterations"},
     {"threads", OPT_INT, OFF(threads), 0, 1024, DEF(0, 0), "OpenMP threads (0 = default)"},
+    {"background", OPT_INT, OFF(background), -1, 1, DEF(-1, -1),
+     "rays leaving the scene: -1 from the data (learned for photos without alpha, else white), "
+     "0 white, 1 learned (fields/background.h)"},
     {"alpha_thres", OPT_FLOAT, OFF(alpha_thres), 1e-7, 0.5, DEF(1e-3, 1e-3),
      "mask cache: density alpha threshold"},
     {"smooth_ksize", OPT_INT, OFF(smooth_ksize), 0, 9, DEF(5, 5),

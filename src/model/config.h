@@ -34,6 +34,12 @@ struct esr_stage_config {
     float step_vox;     /* ray-marching step in voxels of this stage's grid */
 };
 
+/* The background of rays that leave the scene. AUTO is resolved by the trainer from the data
+ * (learned when no training image has an alpha channel with any transparency: photos; white
+ * otherwise: renders and masked captures, composited on white as the authors do); a model whose
+ * options say AUTO (a checkpoint older than the option) has the white one. */
+enum esr_background_mode { ESR_BACKGROUND_AUTO = -1, ESR_BACKGROUND_WHITE = 0, ESR_BACKGROUND_LEARNED = 1 };
+
 struct esr_train_config {
     int preset;             /* enum esr_preset the defaults came from */
     int seed;
@@ -41,6 +47,7 @@ struct esr_train_config {
     int save_every;         /* checkpoint every N iterations within a stage */
     int log_every;          /* progress/log line every N iterations */
     int threads;            /* OpenMP threads (0 = runtime default) */
+    int background;         /* enum esr_background_mode: what rays leaving the scene see */
     float alpha_thres;      /* mask cache: alpha threshold on the density grid */
     int smooth_ksize;       /* SDF Gaussian smoothing kernel (0 = off) */
     float smooth_sigma;

@@ -6,10 +6,19 @@
 #include <string.h>
 
 #include "core/error.h"
+#include "fields/background.h"
 #include "fields/grid.h"
 #include "volume/composite.h"
 
 static const float white[3] = {1.0f, 1.0f, 1.0f};
+
+/* The background the composites blend in behind each ray: the learned one per ray when the model
+ * has it (filled by the forward), else white. */
+static void background_args(const struct esr_trace *t, const float **bg, int *per_ray)
+{
+    *bg = t->has_bg ? t->bg3 : white;
+    *per_ray = t->has_bg;
+}
 
 static void free_rows(struct esr_trace *t)
 {
@@ -43,7 +52,10 @@ int esr_trace_init(struct esr_trace *t, const struct esr_model *m, int max_rays,
     ESR_TRY(esr_march_init(&t->march, max_rays, train));
     t->rgb3 = malloc((size_t)max_rays * 3 * sizeof(float));
     t->lin_rgb3 = malloc((size_t)max_rays * 3 * sizeof(float));
-    int rc = t->rgb3 && t->lin_rgb3 ? ESR_OK : ESR_FAIL("trace: out of memory for %d rays", max_rays);
+    t->bg3 = malloc((size_t)max_rays * 3 * sizeof(float));
+    t->d_bg3 = malloc((size_t)max_rays * 3 * sizeof(float));
+    int rc = t->rgb3 && t->lin_rgb3 && t->bg3 && t->d_bg3 ? ESR_OK
+                                                          : ESR_FAIL("trace: out of memory for %d rays", max_rays);
     if (rc == ESR_OK)
         rc = grow_rows(t, (size_t)max_rays * 8);
     if (rc == ESR_OK)
@@ -60,6 +72,8 @@ void esr_trace_free(struct esr_trace *t)
     free_rows(t);
     free(t->rgb3);
     free(t->lin_rgb3);
+    free(t->bg3);
+    free(t->d_bg3);
     memset(t, 0, sizeof(*t));
 }
 
@@ -112,16 +126,36 @@ int esr_trace_fwd(struct esr_trace *t, const struct esr_model *m, const float *s
         t->row_on[k] = lights_on[mc->kray[k]] ? 1 : 0;
     struct esr_point_query q = {nk, mc->kpos3, mc->kdir3, t->row_on};
     ESR_TRY(esr_point_fields_fwd(&t->fields, m, sdf, &q));
+    t->has_bg = esr_model_has(m, ESR_COMP_BACKGROUND);
+    t->dirs = dirs;
+    if (t->has_bg)
+        esr_background_fwd(esr_model_values(m, ESR_COMP_BACKGROUND), dirs, lights_on, n, t->bg3);
+    const float *bg;
+    int bg_per_ray;
+    background_args(t, &bg, &bg_per_ray);
     struct esr_composite_args a;
-    esr_march_composite_args(mc, t->fields.tone3, 3, white, 0, &a);
+    esr_march_composite_args(mc, t->fields.tone3, 3, bg, bg_per_ray, &a);
     esr_composite_fwd(&a, t->rgb3);
     if (t->fields.lin3) {
-        esr_march_composite_args(mc, t->fields.lin3, 3, white, 0, &a);
+        esr_march_composite_args(mc, t->fields.lin3, 3, bg, bg_per_ray, &a);
         esr_composite_fwd(&a, t->lin_rgb3);
     } else {
         memcpy(t->lin_rgb3, t->rgb3, (size_t)n * 3 * sizeof(float));
     }
     return ESR_OK;
+}
+
+/* The background's gradient: both composites add t_last bg, so d bg = t_last (d rgb + d lin). */
+static void background_bwd(struct esr_trace *t, const struct esr_model *m, float *grads,
+                           const float *d_rgb3, const float *d_lin3)
+{
+    const struct esr_march *mc = &t->march;
+    float *d_bg3 = t->d_bg3;
+    for (int r = 0; r < mc->n_rays; r++)
+        for (int c = 0; c < 3; c++)
+            d_bg3[r * 3 + c] = mc->t_last[r] * (d_rgb3[r * 3 + c] + (d_lin3 ? d_lin3[r * 3 + c] : 0.0f));
+    esr_background_bwd(esr_model_values(m, ESR_COMP_BACKGROUND), t->dirs, t->lights_on, mc->n_rays,
+                       d_bg3, grads + m->part[ESR_COMP_BACKGROUND].off);
 }
 
 int esr_trace_bwd(struct esr_trace *t, const struct esr_model *m, const float *sdf, float *g_sdf,
@@ -131,13 +165,18 @@ int esr_trace_bwd(struct esr_trace *t, const struct esr_model *m, const float *s
     const size_t nk = mc->n_kept;
     esr_march_zero_d_alpha(mc);
     memset(t->d_tone_rows, 0, nk * 3 * sizeof(float));
+    const float *bg;
+    int bg_per_ray;
+    background_args(t, &bg, &bg_per_ray);
+    if (t->has_bg)
+        background_bwd(t, m, grads, d_rgb3, t->fields.lin3 ? d_lin3 : NULL);
     struct esr_composite_args a;
-    esr_march_composite_args(mc, t->fields.tone3, 3, white, 0, &a);
+    esr_march_composite_args(mc, t->fields.tone3, 3, bg, bg_per_ray, &a);
     esr_composite_bwd(&a, d_rgb3, mc->d_alpha, t->d_tone_rows);
     const float *d_lin_rows = NULL;
     if (t->fields.lin3 && d_lin3) {
         memset(t->d_lin_rows, 0, nk * 3 * sizeof(float));
-        esr_march_composite_args(mc, t->fields.lin3, 3, white, 0, &a);
+        esr_march_composite_args(mc, t->fields.lin3, 3, bg, bg_per_ray, &a);
         esr_composite_bwd(&a, d_lin3, mc->d_alpha, t->d_lin_rows);
         d_lin_rows = t->d_lin_rows;
     }

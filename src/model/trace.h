@@ -5,7 +5,7 @@
  *   2. point fields (model/point_fields.h): the stage's head on the kept rows, each row with its
  *      ray's lighting flag
  *   3. composite (volume/composite.h): tone-mapped / LDR colour and linear radiance over each ray
- *      on a white background
+ *      on a white background, or on the learned one (fields/background.h) when the model has it
  * The backward pass runs them in reverse into the flat gradient and the SDF gradient. Buffers
  * grow to the high-water mark of the first batches and are then reused: the training loop
  * allocates nothing in steady state. */
@@ -34,9 +34,12 @@ struct esr_trace {
     const uint8_t *lights_on; /* per ray, of the last forward */
     const float *d_t_last;   /* per ray, or NULL: a loss gradient on the final transmittances
                                 for the next backward (set after the forward; consumed) */
+    const float *dirs;       /* per ray, of the last forward */
+    int has_bg;              /* the last forward composited on the model's learned background */
     /* per ray [max_rays * 3] */
-    float *rgb3;             /* tone-mapped / LDR colour on white */
-    float *lin_rgb3;         /* linear HDR on white (= rgb3 for the LDR heads) */
+    float *rgb3;             /* tone-mapped / LDR colour on the background */
+    float *lin_rgb3;         /* linear HDR on the background (= rgb3 for the LDR heads) */
+    float *bg3, *d_bg3;      /* the learned background seen by each ray, and its gradient */
 };
 
 /* Workspace for batches of up to max_rays rays of model m's current stage. */

@@ -22,11 +22,15 @@ void esr_ray_set_free(struct esr_ray_set *rs)
 static int add_frame(struct esr_ray_set *rs, const struct esr_dataset *ds, const struct esr_frame *f,
                      size_t at)
 {
-    struct esr_image rgb;
-    ESR_TRY(esr_frame_load_rgb(ds, f, &rgb, NULL));
+    struct esr_image rgb, alpha;
+    ESR_TRY(esr_frame_load_rgb(ds, f, &rgb, &alpha));
     esr_camera_pixel_rays(&f->camera, rs->orig3 + at * 3, rs->dir3 + at * 3);
-    memcpy(rs->rgb3 + at * 3, rgb.data, (size_t)ds->width * (size_t)ds->height * 3 * sizeof(float));
+    const size_t n = (size_t)ds->width * (size_t)ds->height;
+    memcpy(rs->rgb3 + at * 3, rgb.data, n * 3 * sizeof(float));
+    for (size_t i = 0; i < n && !rs->transparent; i++)
+        rs->transparent = alpha.data[i] < 0.999f;
     esr_image_free(&rgb);
+    esr_image_free(&alpha);
     return ESR_OK;
 }
 

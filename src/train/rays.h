@@ -12,6 +12,7 @@
 struct esr_ray_set {
     size_t n, n_off;
     float *orig3, *dir3, *rgb3; /* [n * 3] each */
+    int transparent;            /* some image has alpha < 1 somewhere (renders, masked photos) */
 };
 
 /* Loads every frame of `phase` (its PNG composited on white) and its pixel-centre rays; refuses,

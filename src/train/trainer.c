@@ -518,6 +518,13 @@ static int setup(struct run *r)
     if (rc == ESR_OK)
         say(r, ESR_STAGE_ALPHAMASK, "dataset %s: %zu training rays (%zu lights-off)", ds.root,
             r->rays.n, r->rays.n_off);
+    if (rc == ESR_OK && r->cfg.background == ESR_BACKGROUND_AUTO) {
+        r->cfg.background = r->rays.transparent ? ESR_BACKGROUND_WHITE : ESR_BACKGROUND_LEARNED;
+        say(r, ESR_STAGE_ALPHAMASK, "background: %s", r->rays.transparent
+            ? "white (the training images have alpha: rays that leave the scene see white)"
+            : "learned (no training image has transparent pixels: photos, whose rays leave the "
+              "scene into a room; fields/background.h)");
+    }
     esr_dataset_free(&ds);
     return rc;
 }
