@@ -15,7 +15,6 @@
 #include "io/file.h"
 #include "test_support.h"
 
-static char data_dir[4200];
 static const char *const TRAIN_OPTS = "--set batch_rays=512 --set alphamask.iters=100 --set alphamask.res=16 "
                                       "--set coarse.iters=10 --set coarse.res=16";
 
@@ -28,12 +27,16 @@ static int run_limited(int blocks, const char *args, char *out, size_t n)
     return test_run_esr_after(shell, args, out, n);
 }
 
-static int group_setup(void **state)
+/* path holds exactly the bytes `before` (n) held, read earlier; frees before. */
+static void assert_unchanged(const char *path, unsigned char *before, size_t n)
 {
-    if (test_setup_tmpdir(state))
-        return -1;
-    snprintf(data_dir, sizeof data_dir, "%s/data", test_tmpdir);
-    return test_synth_small(data_dir) == 0 ? 0 : -1;
+    unsigned char *after;
+    size_t n_after;
+    assert_int_equal(esr_file_read_all(path, &after, &n_after), 0);
+    assert_int_equal(n_after, n);
+    assert_memory_equal(after, before, n);
+    free(before);
+    free(after);
 }
 
 /* esr synth into a disk that fills up: exit 1 naming the file and EFBIG, nothing left behind. */
@@ -58,22 +61,18 @@ static void test_train_checkpoint_on_full_disk(void **state)
     char run[4400], args[9000], out[8192], ckpt[4500];
     snprintf(run, sizeof run, "%s/run", test_tmpdir);
     const char *opts = TRAIN_OPTS;
-    snprintf(args, sizeof args, "train %s --out %s --until alphamask %s", data_dir, run, opts);
+    snprintf(args, sizeof args, "train %s --out %s --until alphamask %s", test_data_dir, run, opts);
     if (run_limited(0, args, out, sizeof out) != 0)
         fail_msg("training the alphamask stage failed:\n%s", out);
     snprintf(ckpt, sizeof ckpt, "%s/ckpt_alphamask.bin", run);
-    unsigned char *before, *after;
-    size_t n_before, n_after;
+    unsigned char *before;
+    size_t n_before;
     assert_int_equal(esr_file_read_all(ckpt, &before, &n_before), 0);
-    snprintf(args, sizeof args, "train %s --out %s --resume --until coarse %s", data_dir, run, opts);
+    snprintf(args, sizeof args, "train %s --out %s --resume --until coarse %s", test_data_dir, run, opts);
     assert_int_equal(run_limited(64, args, out, sizeof out), 1); /* 32 KiB: no checkpoint fits */
     if (!strstr(out, "File too large") || !strstr(out, "ckpt_"))
         fail_msg("expected a checkpoint write error naming EFBIG, got:\n%s", out);
-    assert_int_equal(esr_file_read_all(ckpt, &after, &n_after), 0);
-    assert_int_equal(n_after, n_before);
-    assert_memory_equal(after, before, n_before);
-    free(before);
-    free(after);
+    assert_unchanged(ckpt, before, n_before);
     snprintf(ckpt, sizeof ckpt, "%s/ckpt_coarse.bin", run);
     assert_false(esr_file_exists(ckpt));
     assert_int_equal(test_count_names(run, ".tmp-"), 0);
@@ -86,7 +85,7 @@ static void test_export_on_full_disk(void **state)
     (void)state;
     char run[4400], dir[4400], mesh[4500], args[9800], out[8192];
     snprintf(run, sizeof run, "%s/run", test_tmpdir); /* the run of the test above, to coarse */
-    snprintf(args, sizeof args, "train %s --out %s --resume --until coarse %s", data_dir, run, TRAIN_OPTS);
+    snprintf(args, sizeof args, "train %s --out %s --resume --until coarse %s", test_data_dir, run, TRAIN_OPTS);
     if (run_limited(0, args, out, sizeof out) != 0)
         fail_msg("training the coarse stage failed:\n%s", out);
     snprintf(dir, sizeof dir, "%s/export", test_tmpdir);
@@ -122,16 +121,16 @@ static void test_read_only_folders(void **state)
 {
     (void)state;
     char ro[4300], run[4400], args[9800], out[8192], ckpt[4500], cmd[32768];
-    unsigned char *before, *after;
-    size_t n_before, n_after;
+    unsigned char *before;
+    size_t n_before;
     snprintf(ro, sizeof ro, "%s/read_only", test_tmpdir);
     snprintf(run, sizeof run, "%s/run", ro);
     /* readable by everyone, writable by nobody but root: the test's folder, the data, a run */
     snprintf(cmd, sizeof cmd, "chmod 755 '%s' && mkdir -p '%s' && cp -r '%s/run/.' '%s/' && "
              "chmod -R a+rX '%s' '%s' && chmod -R a-w '%s'", test_tmpdir, run, test_tmpdir, run,
-             data_dir, ro, ro);
+             test_data_dir, ro, ro);
     assert_int_equal(system(cmd), 0);
-    snprintf(args, sizeof args, "train %s --out %s/new_run --until alphamask --set alphamask.iters=5", data_dir, ro);
+    snprintf(args, sizeof args, "train %s --out %s/new_run --until alphamask --set alphamask.iters=5", test_data_dir, ro);
     int rc = run_unprivileged(args, out, sizeof out);
     if (rc == -2) {
         print_message("skipped: running as root and setpriv is missing, so no folder is read-only\n");
@@ -143,15 +142,11 @@ static void test_read_only_folders(void **state)
 
     snprintf(ckpt, sizeof ckpt, "%s/ckpt_coarse.bin", run);
     assert_int_equal(esr_file_read_all(ckpt, &before, &n_before), 0);
-    snprintf(args, sizeof args, "train %s --out %s --resume --until fine %s", data_dir, run, TRAIN_OPTS);
+    snprintf(args, sizeof args, "train %s --out %s --resume --until fine %s", test_data_dir, run, TRAIN_OPTS);
     assert_int_equal(run_unprivileged(args, out, sizeof out), 1);
     if (!strstr(out, "Permission denied"))
         fail_msg("expected EACCES in the message, got:\n%s", out);
-    assert_int_equal(esr_file_read_all(ckpt, &after, &n_after), 0);
-    assert_int_equal(n_after, n_before);
-    assert_memory_equal(after, before, n_before);
-    free(before);
-    free(after);
+    assert_unchanged(ckpt, before, n_before);
 
     snprintf(args, sizeof args, "export %s --mesh %s/mesh.ply --res 16", run, ro);
     assert_int_equal(run_unprivileged(args, out, sizeof out), 1);
@@ -176,7 +171,7 @@ static void test_unwritable_output(void **state)
     if (!strstr(out, "plain_file"))
         fail_msg("expected the path in the message, got:\n%s", out);
     snprintf(args, sizeof args, "train %s --out %s --until alphamask --set alphamask.iters=5",
-             data_dir, dir);
+             test_data_dir, dir);
     assert_int_equal(run_limited(0, args, out, sizeof out), 1);
     if (!strstr(out, "plain_file"))
         fail_msg("expected the path in the message, got:\n%s", out);
@@ -191,5 +186,5 @@ int main(void)
         cmocka_unit_test(test_read_only_folders),
         cmocka_unit_test(test_unwritable_output),
     };
-    return cmocka_run_group_tests(tests, group_setup, test_teardown_tmpdir);
+    return cmocka_run_group_tests(tests, test_setup_small_data, test_teardown_tmpdir);
 }

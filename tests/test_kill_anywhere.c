@@ -35,15 +35,6 @@ static const char *const TRAIN_SET[] = {
     "--set", "coarse.iters=100", "--set", "coarse.mlp_width=32", "--set", "coarse.feat_channels=6"};
 #define N_TRAIN_SET (sizeof TRAIN_SET / sizeof TRAIN_SET[0])
 
-static char data_dir[4200];
-
-static int group_setup(void **state)
-{
-    if (test_setup_tmpdir(state))
-        return -1;
-    snprintf(data_dir, sizeof data_dir, "%s/data", test_tmpdir);
-    return test_synth_small(data_dir) == 0 ? 0 : -1;
-}
 
 /* A command line: esr's arguments, NULL-terminated. */
 struct command {
@@ -186,7 +177,7 @@ static void train_command(struct job *j, struct command *c)
 {
     static char config[4400];
     add(c, "train");
-    add(c, data_dir);
+    add(c, test_data_dir);
     add(c, "--out");
     add(c, j->dir);
     snprintf(config, sizeof config, "%s/config.json", j->dir);
@@ -344,7 +335,7 @@ static void test_eval_killed_anywhere_finishes_identically(void **state)
     snprintf(eval_data, sizeof eval_data, "%s/eval_data", test_tmpdir);
     snprintf(run, sizeof run, "%s/eval_run", test_tmpdir);
     snprintf(ref, sizeof ref, "%s/eval_ref", test_tmpdir);
-    snprintf(cmd, sizeof cmd, "cp -r '%s' '%s' && rm '%s/gt/mesh.ply'", data_dir, eval_data, eval_data);
+    snprintf(cmd, sizeof cmd, "cp -r '%s' '%s' && rm '%s/gt/mesh.ply'", test_data_dir, eval_data, eval_data);
     assert_int_equal(system(cmd), 0);
     struct command c = {.n = 0};
     const char *train[] = {"train", eval_data, "--out", run};
@@ -372,5 +363,5 @@ int main(void)
         cmocka_unit_test(test_synth_killed_anywhere_leaves_all_or_nothing),
         cmocka_unit_test(test_eval_killed_anywhere_finishes_identically),
     };
-    return cmocka_run_group_tests(tests, group_setup, test_teardown_tmpdir);
+    return cmocka_run_group_tests(tests, test_setup_small_data, test_teardown_tmpdir);
 }

@@ -21,15 +21,6 @@
 #define SANITIZED 0
 #endif
 
-static char data_dir[4200];
-
-static int group_setup(void **state)
-{
-    if (test_setup_tmpdir(state))
-        return -1;
-    snprintf(data_dir, sizeof data_dir, "%s/data", test_tmpdir);
-    return test_synth_small(data_dir) == 0 ? 0 : -1;
-}
 
 static void test_parse_size(void **state)
 {
@@ -78,7 +69,7 @@ static int train_limited(const char *limit, const char *run, int resume, char *o
 {
     char shell[64], args[9000];
     snprintf(shell, sizeof shell, "ESR_MEMORY_LIMIT=%s ", limit);
-    snprintf(args, sizeof args, "train %s --out %s %s %s", data_dir, run, resume ? "--resume" : "", TRAIN_OPTS);
+    snprintf(args, sizeof args, "train %s --out %s %s %s", test_data_dir, run, resume ? "--resume" : "", TRAIN_OPTS);
     return test_run_esr_after(shell, args, out, n);
 }
 
@@ -128,5 +119,5 @@ int main(void)
         cmocka_unit_test(test_check_against_a_budget),
         cmocka_unit_test(test_training_refuses_what_does_not_fit),
     };
-    return cmocka_run_group_tests(tests, group_setup, test_teardown_tmpdir);
+    return cmocka_run_group_tests(tests, test_setup_small_data, test_teardown_tmpdir);
 }

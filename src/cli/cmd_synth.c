@@ -28,6 +28,9 @@ const struct esr_command cmd_synth = {
     "  --train N      train views per lighting condition, 1..500 (default: the scene's, 50)\n"
     "  --test N       test cameras, 1..500 (default: the scene's, 10)\n"
     "  --seed S       seed of cameras and noise (default: 1)\n"
+    "  --backdrop     the cameras see a distant backdrop where renders are transparent: opaque\n"
+    "                 images like photographs of an object in a room (esr then learns the\n"
+    "                 background, fields/background.h)\n"
     "  --force        replace a non-empty OUT_DIR\n"
     "  -h, --help     this text\n",
     run_synth,
@@ -87,6 +90,8 @@ static int run_synth(int argc, char **argv)
         int has_value = i + 1 < argc;
         if (!strcmp(a, "--force")) {
             opt.force = 1;
+        } else if (!strcmp(a, "--backdrop")) {
+            opt.backdrop = 1;
         } else if (!strcmp(a, "--scene") && has_value) {
             opt.scene = argv[++i];
         } else if (!strcmp(a, "--res") && has_value) {

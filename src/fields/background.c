@@ -37,7 +37,14 @@ static struct texels lookup(const float *d, int on)
     return t;
 }
 
-static float sigmoid(float x) { return 1.0f / (1.0f + expf(-x)); }
+/* sigmoid(bilinear logit) of channel c at the texels t */
+static float colour(const float *logits, const struct texels *t, int c)
+{
+    float s = 0.0f;
+    for (int k = 0; k < 4; k++)
+        s += t->w[k] * logits[t->at[k] + (size_t)c];
+    return 1.0f / (1.0f + expf(-s));
+}
 
 void esr_background_fwd(const float *logits, const float *dirs3, const uint8_t *lights_on, int n,
                         float *out3)
@@ -45,12 +52,8 @@ void esr_background_fwd(const float *logits, const float *dirs3, const uint8_t *
 #pragma omp parallel for schedule(static)
     for (int r = 0; r < n; r++) {
         const struct texels t = lookup(dirs3 + (size_t)r * 3, lights_on[r]);
-        for (int c = 0; c < 3; c++) {
-            float s = 0.0f;
-            for (int k = 0; k < 4; k++)
-                s += t.w[k] * logits[t.at[k] + (size_t)c];
-            out3[(size_t)r * 3 + c] = sigmoid(s);
-        }
+        for (int c = 0; c < 3; c++)
+            out3[(size_t)r * 3 + c] = colour(logits, &t, c);
     }
 }
 
@@ -60,10 +63,7 @@ void esr_background_bwd(const float *logits, const float *dirs3, const uint8_t *
     for (int r = 0; r < n; r++) {
         const struct texels t = lookup(dirs3 + (size_t)r * 3, lights_on[r]);
         for (int c = 0; c < 3; c++) {
-            float s = 0.0f;
-            for (int k = 0; k < 4; k++)
-                s += t.w[k] * logits[t.at[k] + (size_t)c];
-            const float y = sigmoid(s), g = d_out3[(size_t)r * 3 + c] * y * (1.0f - y);
+            const float y = colour(logits, &t, c), g = d_out3[(size_t)r * 3 + c] * y * (1.0f - y);
             for (int k = 0; k < 4; k++)
                 g_logits[t.at[k] + (size_t)c] += t.w[k] * g;
         }

@@ -143,6 +143,7 @@ static int render_phase(struct job *j, enum esr_phase_id ph)
         const struct esr_camera *cam = test ? &j->plan->test_cams[f->cam] : &j->plan->train_cams[f->cam];
         struct esr_synth_trace_params params;
         esr_synth_trace_setup(j->scene, (const float(*)[3])f->emission, &params);
+        params.backdrop = j->opt->backdrop;
         char path[PATH_LEN];
         rc = esr_synth_render(&params, cam, j->spp, j->opt->seed, j->image_id++, &j->lin);
         if (rc == ESR_OK) {

@@ -25,6 +25,7 @@ struct esr_synth_options {
     int n_test;            /* test cameras; 0 = the scene's default */
     uint64_t seed;
     int force;             /* replace a non-empty out_dir */
+    int backdrop;          /* 1: cameras see a distant backdrop (alpha 1): "photos" (trace.h) */
     /* Called after every rendered image (from the calling thread); may be NULL. */
     void (*progress)(void *user, const struct esr_synth_progress *p);
     void *user;

@@ -98,6 +98,20 @@ static void sample_world(const struct esr_synth_trace_params *p, struct esr_vec3
         l[c] += beta[c] * f[c] * p->world[c] * w;
 }
 
+void esr_synth_backdrop(struct esr_vec3 d, int lights_on, float rgb[3])
+{
+    const float len = sqrtf(esr_v3_dot(d, d)), z = d.z / len, phi = atan2f(d.y, d.x);
+    static const float floor_rgb[3] = {0.30f, 0.24f, 0.18f}, horizon[3] = {0.75f, 0.72f, 0.66f},
+                       zenith[3] = {0.40f, 0.55f, 0.80f};
+    const float stripes = 0.12f * sinf(5.0f * phi) + 0.06f * cosf(2.0f * phi);
+    for (int c = 0; c < 3; c++) {
+        float v = z < 0.0f ? floor_rgb[c] + (horizon[c] - floor_rgb[c]) * expf(8.0f * z)
+                           : zenith[c] + (horizon[c] - zenith[c]) * expf(-3.0f * z);
+        v *= 1.0f + stripes;
+        rgb[c] = v * (lights_on ? 1.25f : 1.0f);
+    }
+}
+
 int esr_synth_trace_path(const struct esr_synth_trace_params *p, struct esr_vec3 o, struct esr_vec3 d,
                          struct esr_rng *rng, float rgb[3])
 {
@@ -112,6 +126,13 @@ int esr_synth_trace_path(const struct esr_synth_trace_params *p, struct esr_vec3
         float t = INFINITY;
         int hit = esr_synth_intersect(s, o, d, 0.0f, &t);
         if (hit < 0) {
+            if (depth == 0 && p->backdrop) {
+                int any_lit = 0;
+                for (int k = 0; k < s->n_lights; k++)
+                    any_lit |= p->lit[k];
+                esr_synth_backdrop(d, any_lit, l);
+                primary_hit = 1; /* opaque, as a photograph */
+            }
             /* The camera sees a transparent film; later vertices see the world light. */
             if (depth > 0 && world_on) {
                 float w = power_heuristic(prev_pdf, fmaxf(esr_v3_dot(prev_n, d), 0.0f) * ESR_INV_PI);

@@ -18,7 +18,14 @@ struct esr_synth_trace_params {
     int lit[ESR_SYNTH_MAX_LIGHTS];           /* 1 when light k emits (NEE samples every lit light) */
     float world[3];                          /* world radiance (colour * strength) */
     int max_bounces;
+    int backdrop;                            /* camera rays that escape see esr_synth_backdrop */
 };
+
+/* A distant backdrop the camera sees where a render would be transparent, as in a photograph
+ * (a room around the object): a smooth function of the direction d (+Z up) with a floor, a
+ * horizon band and stripes in azimuth, a quarter brighter when any light is on. It lights
+ * nothing: the scene's own lighting stays that of its renders. Into rgb. */
+void esr_synth_backdrop(struct esr_vec3 d, int lights_on, float rgb[3]);
 
 /* Fills p for scene s with light k emitting emission[k] (linear radiance). */
 void esr_synth_trace_setup(const struct esr_synth_scene *s, const float emission[][3],

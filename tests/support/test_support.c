@@ -84,6 +84,16 @@ int test_synth_small(const char *dir)
     return test_run_esr(args, out, sizeof out);
 }
 
+char test_data_dir[4200];
+
+int test_setup_small_data(void **state)
+{
+    if (test_setup_tmpdir(state))
+        return -1;
+    snprintf(test_data_dir, sizeof test_data_dir, "%s/data", test_tmpdir);
+    return test_synth_small(test_data_dir) == 0 ? 0 : -1;
+}
+
 int test_files_equal(const char *a, const char *b)
 {
     unsigned char *x = NULL, *y = NULL;

@@ -21,6 +21,9 @@ int test_run_esr_after(const char *shell, const char *args, char *out, size_t n)
 /* esr synth of a small scene into dir (16 px, 1 sample, 4 + 4 training views, 1 test camera,
  * a second or two): the data of tests that train briefly. Returns esr's exit code. */
 int test_synth_small(const char *dir);
+/* cmocka group setup: test_tmpdir with test_synth_small's scene in test_data_dir (its "data"). */
+extern char test_data_dir[];
+int test_setup_small_data(void **state);
 /* 1 when files a and b both read and are equal byte for byte. */
 int test_files_equal(const char *a, const char *b);
 /* How many entries of dir have `part` in their name (0 when dir cannot be read). */
