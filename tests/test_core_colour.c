@@ -114,6 +114,23 @@ static void test_srgb_gradient_matches_finite_difference(void **state)
     }
 }
 
+/* The decoding's gradient against a central difference of the sRGB EOTF written out in double. */
+static void test_srgb_decode_gradient_matches_finite_difference(void **state)
+{
+    (void)state;
+    const float xs[] = {0.01f, 0.03f, 0.05f, 0.2f, 0.5f, 0.9f, 0.999f};
+    for (size_t i = 0; i < N_OF(xs); i++) {
+        double x = xs[i], h = 1e-4 * x;
+        double up = x + h, dn = x - h;
+        double lin_up = up <= 0.04045 ? up / 12.92 : pow((up + 0.055) / 1.055, 2.4);
+        double lin_dn = dn <= 0.04045 ? dn / 12.92 : pow((dn + 0.055) / 1.055, 2.4);
+        double fd = (lin_up - lin_dn) / (2 * h);
+        double got = esr_linear_from_srgb_grad(xs[i]);
+        if (fabs(got - fd) > 1e-4 * fabs(fd))
+            fail_msg("x %g: %g vs central difference %g", x, got, fd);
+    }
+}
+
 /* {r,g,b} -> {h,s,v} from Python's colorsys.rgb_to_hsv (double, %.9g). colorsys uses a
  * different formulation ((max-x)/C differences) of the same hexcone model, so agreement checks
  * eqs. 10-13 independently; values above 1 are HDR inputs (V unbounded). */
@@ -264,6 +281,7 @@ int main(void)
         cmocka_unit_test(test_srgb_round_trip),
         cmocka_unit_test(test_srgb_continuous_at_knee),
         cmocka_unit_test(test_srgb_gradient_matches_finite_difference),
+        cmocka_unit_test(test_srgb_decode_gradient_matches_finite_difference),
         cmocka_unit_test(test_rgb_to_hsv_matches_colorsys),
         cmocka_unit_test(test_hsv_to_rgb_matches_colorsys),
         cmocka_unit_test(test_hsv_hue_wraps),

@@ -16,6 +16,13 @@ float esr_linear_from_srgb(float encoded)
     return powf((encoded + 0.055f) / 1.055f, 2.4f);
 }
 
+float esr_linear_from_srgb_grad(float encoded)
+{
+    if (encoded <= 0.04045f)
+        return 1.0f / 12.92f;
+    return (2.4f / 1.055f) * powf((encoded + 0.055f) / 1.055f, 1.4f);
+}
+
 float esr_srgb_from_linear_grad(float linear)
 {
     if (linear <= 0.0031308f)

@@ -7,6 +7,8 @@
 float esr_srgb_from_linear(float linear);
 /* Its exact inverse (EOTF): sRGB-encoded -> linear. */
 float esr_linear_from_srgb(float encoded);
+/* Derivative of esr_linear_from_srgb, for backward passes. */
+float esr_linear_from_srgb_grad(float encoded);
 /* Derivative of esr_srgb_from_linear, for backward passes. */
 float esr_srgb_from_linear_grad(float linear);
 

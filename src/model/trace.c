@@ -5,6 +5,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "core/colour.h"
 #include "core/error.h"
 #include "fields/background.h"
 #include "fields/grid.h"
@@ -13,10 +14,11 @@
 static const float white[3] = {1.0f, 1.0f, 1.0f};
 
 /* The background the composites blend in behind each ray: the learned one per ray when the model
- * has it (filled by the forward), else white. */
-static void background_args(const struct esr_trace *t, const float **bg, int *per_ray)
+ * has it (filled by the forward; the tone-mapped composite takes its colour, the linear one that
+ * colour decoded to linear, so the loss's gamma(linear) term sees the same colour), else white. */
+static void background_args(const struct esr_trace *t, int linear, const float **bg, int *per_ray)
 {
-    *bg = t->has_bg ? t->bg3 : white;
+    *bg = t->has_bg ? (linear ? t->bg_lin3 : t->bg3) : white;
     *per_ray = t->has_bg;
 }
 
@@ -53,8 +55,9 @@ int esr_trace_init(struct esr_trace *t, const struct esr_model *m, int max_rays,
     t->rgb3 = malloc((size_t)max_rays * 3 * sizeof(float));
     t->lin_rgb3 = malloc((size_t)max_rays * 3 * sizeof(float));
     t->bg3 = malloc((size_t)max_rays * 3 * sizeof(float));
+    t->bg_lin3 = malloc((size_t)max_rays * 3 * sizeof(float));
     t->d_bg3 = malloc((size_t)max_rays * 3 * sizeof(float));
-    int rc = t->rgb3 && t->lin_rgb3 && t->bg3 && t->d_bg3 ? ESR_OK
+    int rc = t->rgb3 && t->lin_rgb3 && t->bg3 && t->bg_lin3 && t->d_bg3 ? ESR_OK
                                                           : ESR_FAIL("trace: out of memory for %d rays", max_rays);
     if (rc == ESR_OK)
         rc = grow_rows(t, (size_t)max_rays * 8);
@@ -73,6 +76,7 @@ void esr_trace_free(struct esr_trace *t)
     free(t->rgb3);
     free(t->lin_rgb3);
     free(t->bg3);
+    free(t->bg_lin3);
     free(t->d_bg3);
     memset(t, 0, sizeof(*t));
 }
@@ -128,15 +132,19 @@ int esr_trace_fwd(struct esr_trace *t, const struct esr_model *m, const float *s
     ESR_TRY(esr_point_fields_fwd(&t->fields, m, sdf, &q));
     t->has_bg = esr_model_has(m, ESR_COMP_BACKGROUND);
     t->dirs = dirs;
-    if (t->has_bg)
+    if (t->has_bg) {
         esr_background_fwd(esr_model_values(m, ESR_COMP_BACKGROUND), dirs, lights_on, n, t->bg3);
+        for (int i = 0; i < n * 3; i++)
+            t->bg_lin3[i] = esr_linear_from_srgb(t->bg3[i]);
+    }
     const float *bg;
     int bg_per_ray;
-    background_args(t, &bg, &bg_per_ray);
+    background_args(t, 0, &bg, &bg_per_ray);
     struct esr_composite_args a;
     esr_march_composite_args(mc, t->fields.tone3, 3, bg, bg_per_ray, &a);
     esr_composite_fwd(&a, t->rgb3);
     if (t->fields.lin3) {
+        background_args(t, 1, &bg, &bg_per_ray);
         esr_march_composite_args(mc, t->fields.lin3, 3, bg, bg_per_ray, &a);
         esr_composite_fwd(&a, t->lin_rgb3);
     } else {
@@ -145,7 +153,8 @@ int esr_trace_fwd(struct esr_trace *t, const struct esr_model *m, const float *s
     return ESR_OK;
 }
 
-/* The background's gradient: both composites add t_last bg, so d bg = t_last (d rgb + d lin). */
+/* The background's gradient: the composites add t_last bg and t_last lin(bg), so
+ * d bg = t_last (d rgb + lin'(bg) d lin). */
 static void background_bwd(struct esr_trace *t, const struct esr_model *m, float *grads,
                            const float *d_rgb3, const float *d_lin3)
 {
@@ -153,7 +162,8 @@ static void background_bwd(struct esr_trace *t, const struct esr_model *m, float
     float *d_bg3 = t->d_bg3;
     for (int r = 0; r < mc->n_rays; r++)
         for (int c = 0; c < 3; c++)
-            d_bg3[r * 3 + c] = mc->t_last[r] * (d_rgb3[r * 3 + c] + (d_lin3 ? d_lin3[r * 3 + c] : 0.0f));
+            d_bg3[r * 3 + c] = mc->t_last[r] * (d_rgb3[r * 3 + c] +
+                                                (d_lin3 ? d_lin3[r * 3 + c] * esr_linear_from_srgb_grad(t->bg3[r * 3 + c]) : 0.0f));
     esr_background_bwd(esr_model_values(m, ESR_COMP_BACKGROUND), t->dirs, t->lights_on, mc->n_rays,
                        d_bg3, grads + m->part[ESR_COMP_BACKGROUND].off);
 }
@@ -167,7 +177,7 @@ int esr_trace_bwd(struct esr_trace *t, const struct esr_model *m, const float *s
     memset(t->d_tone_rows, 0, nk * 3 * sizeof(float));
     const float *bg;
     int bg_per_ray;
-    background_args(t, &bg, &bg_per_ray);
+    background_args(t, 0, &bg, &bg_per_ray);
     if (t->has_bg)
         background_bwd(t, m, grads, d_rgb3, t->fields.lin3 ? d_lin3 : NULL);
     struct esr_composite_args a;
@@ -176,6 +186,7 @@ int esr_trace_bwd(struct esr_trace *t, const struct esr_model *m, const float *s
     const float *d_lin_rows = NULL;
     if (t->fields.lin3 && d_lin3) {
         memset(t->d_lin_rows, 0, nk * 3 * sizeof(float));
+        background_args(t, 1, &bg, &bg_per_ray);
         esr_march_composite_args(mc, t->fields.lin3, 3, bg, bg_per_ray, &a);
         esr_composite_bwd(&a, d_lin3, mc->d_alpha, t->d_lin_rows);
         d_lin_rows = t->d_lin_rows;

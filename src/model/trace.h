@@ -40,6 +40,7 @@ struct esr_trace {
     float *rgb3;             /* tone-mapped / LDR colour on the background */
     float *lin_rgb3;         /* linear HDR on the background (= rgb3 for the LDR heads) */
     float *bg3, *d_bg3;      /* the learned background seen by each ray, and its gradient */
+    float *bg_lin3;          /* bg3 decoded to linear (sRGB): what the linear composite blends */
 };
 
 /* Workspace for batches of up to max_rays rays of model m's current stage. */
