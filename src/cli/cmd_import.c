@@ -14,7 +14,7 @@ static int run_import(int argc, char **argv);
 const struct esr_command cmd_import = {
     "import",
     "turn a COLMAP-posed photo capture into a dataset (ESR layout)",
-    "usage: esr import colmap MODEL_DIR IMAGES --out DATA [--size N] [--force]\n"
+    "usage: esr import colmap MODEL_DIR IMAGES --out DATA [--size N | --align-to TRUE_DATA] [--force]\n"
     "\n"
     "Capture layout: photos with the lights off in IMAGES/off/, with the lights on in IMAGES/on/\n"
     "(JPEG or PNG, any names), all posed in one COLMAP sparse model MODEL_DIR (text: cameras.txt,\n"
@@ -30,9 +30,19 @@ const struct esr_command cmd_import = {
     "and turned so the cameras' mean image-up is +Z. EXIF orientation is ignored, as COLMAP does.\n"
     "DATA is written to a hidden sibling folder and renamed at the end.\n"
     "\n"
+    "--align-to TRUE_DATA checks COLMAP against known cameras (a synthetic capture: TRUE_DATA is\n"
+    "the dataset whose train images the photos are, named alike: off/r_003.png <-> train/r_003):\n"
+    "the COLMAP cameras are aligned to the true ones by a similarity on the camera centres, which\n"
+    "also places the scene, so DATA lives in TRUE_DATA's world; the photos are written in\n"
+    "TRUE_DATA's pinhole (size, camera_angle_x) and its test_nv phase is copied in, so runs on both\n"
+    "are scored on the same test views. Prints and records in import.json (\"alignment\") the\n"
+    "median and largest rotation error (degrees) and camera-centre error (absolute and in units\n"
+    "of the scene radius: half the largest side of scene.json's tight box, else 1).\n"
+    "\n"
     "options:\n"
     "  --out DATA   output dataset folder (absent or empty unless --force)\n"
     "  --size N     longer side of the written images in pixels, 8..16384 (default: 400)\n"
+    "  --align-to TRUE_DATA  align to and compare with true cameras (above)\n"
     "  --force      replace a non-empty DATA\n"
     "  -h, --help   this text\n",
     run_import,
@@ -59,6 +69,18 @@ static void print_result(const struct esr_colmap_import_opts *o, const struct es
     if (r->n_cameras_near)
         printf("warning   %d cameras are closer than 3 to the origin: esr marches rays from t = 2, so they miss "
                "the near side of the unit sphere\n", r->n_cameras_near);
+    if (r->aligned) {
+        const struct esr_colmap_alignment *a = &r->alignment;
+        printf("aligned   to %s: %d of %d true train frames registered; scale %.6g\n", o->align_to, a->n_matched,
+               a->n_true, a->colmap_to_true.scale);
+        printf("rotation  error median %.4f deg, max %.4f deg\n", a->rot_median_deg, a->rot_max_deg);
+        printf("position  error median %.5f, max %.5f (x scene radius %.4g: %.5f, %.5f)\n", a->pos_median,
+               a->pos_max, a->scene_radius, a->pos_median_rel, a->pos_max_rel);
+        printf("test      %d test_nv views copied\n", r->n_test_views);
+        if (r->view_coverage < 0.999)
+            printf("warning   the COLMAP cameras cover %.1f%% of the true field of view; the outermost pixels "
+                   "repeat the photos' edges\n", 100.0 * r->view_coverage);
+    }
     if (!r->n_on || !r->n_off)
         printf("warning   no lights-%s photos: the emitter stages need both\n", r->n_on ? "off" : "on");
 }
@@ -71,7 +93,7 @@ static int run_import(int argc, char **argv)
     memset(&o, 0, sizeof o);
     o.size = DEFAULT_SIZE;
     const char *positional[3] = {NULL, NULL, NULL};
-    int n_pos = 0;
+    int n_pos = 0, size_given = 0;
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
         int has_value = i + 1 < argc;
@@ -79,7 +101,10 @@ static int run_import(int argc, char **argv)
             o.force = 1;
         } else if (!strcmp(a, "--out") && has_value) {
             o.out_dir = argv[++i];
+        } else if (!strcmp(a, "--align-to") && has_value) {
+            o.align_to = argv[++i];
         } else if (!strcmp(a, "--size") && has_value) {
+            size_given = 1;
             if (cli_parse_int(argv[++i], 8, 16384, &o.size))
                 return cli_fail(&cmd_import, "--size must be an integer in 8..16384, got '%s'", argv[i]);
         } else if (a[0] == '-' && a[1]) {
@@ -96,6 +121,9 @@ static int run_import(int argc, char **argv)
         return cli_fail(&cmd_import, "expected MODEL_DIR and IMAGES after 'colmap'");
     if (!o.out_dir)
         return cli_fail(&cmd_import, "missing --out DATA");
+    if (size_given && o.align_to)
+        return cli_fail(&cmd_import, "--size and --align-to exclude each other: an aligned import takes the true "
+                        "dataset's image size");
     o.model_dir = positional[1];
     o.images_dir = positional[2];
     int tty = isatty(STDERR_FILENO);
