@@ -76,6 +76,9 @@ static void print_result(const struct esr_colmap_import_opts *o, const struct es
         printf("rotation  error median %.4f deg, max %.4f deg\n", a->rot_median_deg, a->rot_max_deg);
         printf("position  error median %.5f, max %.5f (x scene radius %.4g: %.5f, %.5f)\n", a->pos_median,
                a->pos_max, a->scene_radius, a->pos_median_rel, a->pos_max_rel);
+        printf("inliers   %d of %d within %.3g of their true centre: rotation median %.4f, max %.4f deg; "
+               "position median %.5f, max %.5f\n", a->n_inliers, a->n_matched, a->inlier_threshold,
+               a->rot_median_inliers_deg, a->rot_max_inliers_deg, a->pos_median_inliers, a->pos_max_inliers);
         printf("test      %d test_nv views copied\n", r->n_test_views);
         if (r->view_coverage < 0.999)
             printf("warning   the COLMAP cameras cover %.1f%% of the true field of view; the outermost pixels "

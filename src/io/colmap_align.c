@@ -2,6 +2,7 @@
 #include "io/colmap_align.h"
 
 #include <math.h>
+#include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -117,8 +118,92 @@ static int match_images(const struct esr_colmap_model *m, const struct esr_datas
     return ESR_OK;
 }
 
+#define RANSAC_SAMPLES 4000
+
+/* Matched cameras whose centre s maps within thr of the true one: their count, and their
+ * indices into `inliers` when non-NULL. */
+static int count_inliers(const struct matches *mt, const struct esr_similarity *s, double thr, int *inliers)
+{
+    int n = 0;
+    for (int k = 0; k < mt->n; k++) {
+        double c[3], d2 = 0.0;
+        esr_similarity_apply(s, &mt->colmap_centres[3 * k], c);
+        for (int a = 0; a < 3; a++)
+            d2 += pow(c[a] - mt->true_centres[3 * k + a], 2);
+        if (d2 < thr * thr) {
+            if (inliers)
+                inliers[n] = k;
+            n++;
+        }
+    }
+    return n;
+}
+
+/* Least squares on the cameras listed in idx. */
+static int fit_subset(const struct matches *mt, const int *idx, int n, double *x, double *y, struct esr_similarity *s)
+{
+    for (int i = 0; i < n; i++)
+        for (int a = 0; a < 3; a++) {
+            x[3 * i + a] = mt->colmap_centres[3 * idx[i] + a];
+            y[3 * i + a] = mt->true_centres[3 * idx[i] + a];
+        }
+    return esr_similarity_fit(x, y, n, s);
+}
+
+/* The similarity of the 3-camera sample most cameras agree with, refitted on its inliers (the
+ * least-squares fit on all cameras when no sample has more than 3 inliers). Samples come from a
+ * fixed LCG, so the result is reproducible. */
+static int robust_fit(const struct matches *mt, double thr, struct esr_colmap_alignment *a)
+{
+    int *idx = malloc((size_t)mt->n * sizeof *idx);
+    double *x = malloc((size_t)mt->n * 3 * sizeof *x), *y = malloc((size_t)mt->n * 3 * sizeof *y);
+    int status = idx && x && y ? ESR_OK : ESR_FAIL("out of memory aligning %d cameras", mt->n);
+    int best = 0;
+    struct esr_similarity best_s;
+    uint64_t state = 0x9E3779B97F4A7C15ull;
+    for (int t = 0; t < RANSAC_SAMPLES && status == ESR_OK; t++) {
+        int sample[3];
+        for (int i = 0; i < 3; i++) {
+            state = state * 6364136223846793005ull + 1442695040888963407ull;
+            sample[i] = (int)((state >> 33) % (uint64_t)mt->n);
+        }
+        struct esr_similarity s;
+        if (sample[0] == sample[1] || sample[1] == sample[2] || sample[0] == sample[2])
+            continue;
+        if (fit_subset(mt, sample, 3, x, y, &s) != ESR_OK) {
+            esr_error_clear(); /* a degenerate sample (collinear centres) is skipped, not an error */
+            continue;
+        }
+        int n = count_inliers(mt, &s, thr, NULL);
+        if (n > best) {
+            best = n;
+            best_s = s;
+        }
+    }
+    if (status == ESR_OK) {
+        if (best > 3) { /* refit on the inliers, twice: the refit can admit a few more */
+            for (int pass = 0; pass < 2 && status == ESR_OK; pass++) {
+                int n = count_inliers(mt, &best_s, thr, idx);
+                if (n >= 3)
+                    status = fit_subset(mt, idx, n, x, y, &best_s);
+            }
+            a->colmap_to_true = best_s;
+        } else {
+            for (int k = 0; k < mt->n; k++)
+                idx[k] = k;
+            status = fit_subset(mt, idx, mt->n, x, y, &a->colmap_to_true);
+        }
+    }
+    if (status == ESR_OK)
+        a->n_inliers = count_inliers(mt, &a->colmap_to_true, thr, NULL);
+    free(idx);
+    free(x);
+    free(y);
+    return status;
+}
+
 /* Each matched camera moved into the true world by the fitted similarity and compared with its
- * true camera: rotation angle and centre distance. */
+ * true camera: rotation angle and centre distance, over all cameras and over the inliers. */
 static int measure(const struct matches *mt, struct esr_colmap_alignment *a)
 {
     double *rot = malloc((size_t)mt->n * sizeof *rot), *pos = malloc((size_t)mt->n * sizeof *pos);
@@ -142,6 +227,24 @@ static int measure(const struct matches *mt, struct esr_colmap_alignment *a)
         rot[k] = esr_rotation_angle_deg(true_r, aligned);
         pos[k] = sqrt(d2);
     }
+    /* the inliers first (pos below the threshold), compacted in place, then all of them */
+    double *rot_in = malloc((size_t)mt->n * sizeof *rot_in), *pos_in = malloc((size_t)mt->n * sizeof *pos_in);
+    if (!rot_in || !pos_in) {
+        free(rot), free(pos), free(rot_in), free(pos_in);
+        return ESR_FAIL("out of memory measuring %d camera errors", mt->n);
+    }
+    int n_in = 0;
+    for (int k = 0; k < mt->n; k++)
+        if (pos[k] < a->inlier_threshold) {
+            rot_in[n_in] = rot[k];
+            pos_in[n_in++] = pos[k];
+        }
+    if (n_in > 0) {
+        median_max(rot_in, n_in, &a->rot_median_inliers_deg, &a->rot_max_inliers_deg);
+        median_max(pos_in, n_in, &a->pos_median_inliers, &a->pos_max_inliers);
+    }
+    free(rot_in);
+    free(pos_in);
     median_max(rot, mt->n, &a->rot_median_deg, &a->rot_max_deg);
     median_max(pos, mt->n, &a->pos_median, &a->pos_max);
     a->pos_median_rel = a->pos_median / a->scene_radius;
@@ -164,8 +267,9 @@ int esr_colmap_align(const struct esr_colmap_model *m, const struct esr_dataset 
     a->n_matched = mt.n;
     if (status == ESR_OK && mt.n < 3)
         status = ESR_FAIL("only %d COLMAP images match train frames of '%s'; the alignment needs 3", mt.n, truth->root);
+    a->inlier_threshold = ESR_ALIGN_INLIER_FRACTION * a->scene_radius;
     if (status == ESR_OK)
-        status = esr_similarity_fit(mt.colmap_centres, mt.true_centres, mt.n, &a->colmap_to_true);
+        status = robust_fit(&mt, a->inlier_threshold, a);
     if (status == ESR_OK)
         status = measure(&mt, a);
     matches_free(&mt);

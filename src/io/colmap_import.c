@@ -275,6 +275,12 @@ static cJSON *alignment_json(const struct esr_colmap_import_opts *o, const struc
     cJSON_AddNumberToObject(j, "scene_radius", a->scene_radius);
     cJSON_AddNumberToObject(j, "position_error_median_rel", a->pos_median_rel);
     cJSON_AddNumberToObject(j, "position_error_max_rel", a->pos_max_rel);
+    cJSON_AddNumberToObject(j, "inliers", a->n_inliers);
+    cJSON_AddNumberToObject(j, "inlier_threshold", a->inlier_threshold);
+    cJSON_AddNumberToObject(j, "inlier_rotation_error_median_deg", a->rot_median_inliers_deg);
+    cJSON_AddNumberToObject(j, "inlier_rotation_error_max_deg", a->rot_max_inliers_deg);
+    cJSON_AddNumberToObject(j, "inlier_position_error_median", a->pos_median_inliers);
+    cJSON_AddNumberToObject(j, "inlier_position_error_max", a->pos_max_inliers);
     cJSON_AddNumberToObject(j, "colmap_to_true_scale", a->colmap_to_true.scale);
     cJSON_AddNumberToObject(j, "view_coverage", r->view_coverage);
     cJSON_AddNumberToObject(j, "test_views", r->n_test_views);
