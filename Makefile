@@ -1,6 +1,6 @@
 # Set-up and entry points. `make demo` and `make test` are the two commands in the README:
 # both install missing Debian packages (as root, non-interactively), build, and leave build/esr.
-.PHONY: all deps test-tools build demo test test-release test-asan bench fuzz clean
+.PHONY: all deps test-tools build demo test test-release test-asan bench colmap-roundtrip fuzz clean
 
 DEB_PACKAGES := build-essential cmake pkg-config libspng-dev libopenexr-dev libcjson-dev \
                 libjpeg62-turbo-dev libcmocka-dev zlib1g-dev libzip-dev imagemagick libdnnl-dev libopenblas-pthread-dev
@@ -51,6 +51,13 @@ test: test-release test-asan
 
 bench: build
 	./build/esr bench --out bench.json
+
+# COLMAP itself poses esr synth's renders, esr imports and trains them: camera errors and test PSNR
+# against the true cameras (tests/colmap_roundtrip.sh; installs colmap and jq when missing; the
+# README gives its figures and times). Not part of `make test`. Variables: WORK, RES, SPP, VIEWS,
+# SIZE, TEST_VIEWS, THREADS, FEATURES.
+colmap-roundtrip: build
+	ESR=./build/esr tests/colmap_roundtrip.sh
 
 # libFuzzer harnesses (fuzz/), clang with ASan+UBSan, each run FUZZ_TIME seconds in turn on one
 # core; exit status 1 on any crash, leak, sanitizer report or memory blow-up (fuzz/run.sh).

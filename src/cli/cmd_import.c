@@ -15,7 +15,7 @@ static int run_import(int argc, char **argv);
 const struct esr_command cmd_import = {
     "import",
     "turn a COLMAP-posed photo capture or a DTU scan into a dataset (ESR layout)",
-    "usage: esr import colmap MODEL_DIR IMAGES --out DATA [--size N] [--force]\n"
+    "usage: esr import colmap MODEL_DIR IMAGES --out DATA [--size N | --align-to TRUE_DATA] [--force]\n"
     "       esr import dtu SCAN --out DATA [--size N] [--force]\n"
     "\n"
     "colmap: photos with the lights off in IMAGES/off/, with the lights on in IMAGES/on/\n"
@@ -40,9 +40,19 @@ const struct esr_command cmd_import = {
     "\n"
     "DATA is written to a hidden sibling folder and renamed at the end.\n"
     "\n"
+    "--align-to TRUE_DATA checks COLMAP against known cameras (a synthetic capture: TRUE_DATA is\n"
+    "the dataset whose train images the photos are, named alike: off/r_003.png <-> train/r_003):\n"
+    "the COLMAP cameras are aligned to the true ones by a similarity on the camera centres, which\n"
+    "also places the scene, so DATA lives in TRUE_DATA's world; the photos are written in\n"
+    "TRUE_DATA's pinhole (size, camera_angle_x) and its test_nv phase is copied in, so runs on both\n"
+    "are scored on the same test views. Prints and records in import.json (\"alignment\") the\n"
+    "median and largest rotation error (degrees) and camera-centre error (absolute and in units\n"
+    "of the scene radius: half the largest side of scene.json's tight box, else 1).\n"
+    "\n"
     "options:\n"
     "  --out DATA   output dataset folder (absent or empty unless --force)\n"
     "  --size N     longer side of the written images in pixels, 8..16384 (default: 400)\n"
+    "  --align-to TRUE_DATA  align to and compare with true cameras (above)\n"
     "  --force      replace a non-empty DATA\n"
     "  -h, --help   this text\n",
     run_import,
@@ -76,6 +86,21 @@ static void print_result(const struct esr_colmap_import_opts *o, const struct es
     printf("scene     centre (%.4g, %.4g, %.4g), scale %.4g (from the %s)\n", r->frame.centre[0], r->frame.centre[1],
            r->frame.centre[2], r->frame.scale, r->frame.from_points ? "sparse points" : "camera centres");
     printf("cameras   %.2f .. %.2f from the origin\n", r->cam_dist_min, r->cam_dist_max);
+    if (r->aligned) {
+        const struct esr_colmap_alignment *a = &r->alignment;
+        printf("aligned   to %s: %d of %d true train frames registered; scale %.6g\n", o->align_to, a->n_matched,
+               a->n_true, a->colmap_to_true.scale);
+        printf("rotation  error median %.4f deg, max %.4f deg\n", a->rot_median_deg, a->rot_max_deg);
+        printf("position  error median %.5f, max %.5f (x scene radius %.4g: %.5f, %.5f)\n", a->pos_median,
+               a->pos_max, a->scene_radius, a->pos_median_rel, a->pos_max_rel);
+        printf("inliers   %d of %d within %.3g of their true centre: rotation median %.4f, max %.4f deg; "
+               "position median %.5f, max %.5f\n", a->n_inliers, a->n_matched, a->inlier_threshold,
+               a->rot_median_inliers_deg, a->rot_max_inliers_deg, a->pos_median_inliers, a->pos_max_inliers);
+        printf("test      %d test_nv views copied\n", r->n_test_views);
+        if (r->view_coverage < 0.999)
+            printf("warning   the COLMAP cameras cover %.1f%% of the true field of view; the outermost pixels "
+                   "repeat the photos' edges\n", 100.0 * r->view_coverage);
+    }
     if (!r->n_on || !r->n_off)
         printf("warning   no lights-%s photos: the emitter stages need both\n", r->n_on ? "off" : "on");
 }
@@ -104,7 +129,7 @@ static int run_import(int argc, char **argv)
     memset(&o, 0, sizeof o);
     o.size = DEFAULT_SIZE;
     const char *positional[3] = {NULL, NULL, NULL};
-    int n_pos = 0;
+    int n_pos = 0, size_given = 0;
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
         int has_value = i + 1 < argc;
@@ -112,7 +137,10 @@ static int run_import(int argc, char **argv)
             o.force = 1;
         } else if (!strcmp(a, "--out") && has_value) {
             o.out_dir = argv[++i];
+        } else if (!strcmp(a, "--align-to") && has_value) {
+            o.align_to = argv[++i];
         } else if (!strcmp(a, "--size") && has_value) {
+            size_given = 1;
             if (cli_parse_int(argv[++i], 8, 16384, &o.size))
                 return cli_fail(&cmd_import, "--size must be an integer in 8..16384, got '%s'", argv[i]);
         } else if (a[0] == '-' && a[1]) {
@@ -127,9 +155,15 @@ static int run_import(int argc, char **argv)
         return cli_fail(&cmd_import, "the first argument names the source: 'colmap' or 'dtu'");
     if (!o.out_dir)
         return cli_fail(&cmd_import, "missing --out DATA");
+    if (size_given && o.align_to)
+        return cli_fail(&cmd_import, "--size and --align-to exclude each other: an aligned import takes the true "
+                        "dataset's image size");
     int tty = isatty(STDERR_FILENO);
-    if (!strcmp(positional[0], "dtu"))
+    if (!strcmp(positional[0], "dtu")) {
+        if (o.align_to)
+            return cli_fail(&cmd_import, "--align-to is for 'colmap' imports");
         return run_dtu(positional, n_pos, &o, &tty);
+    }
     if (n_pos < 3)
         return cli_fail(&cmd_import, "expected MODEL_DIR and IMAGES after 'colmap'");
     o.model_dir = positional[1];

@@ -9,6 +9,7 @@
 
 #include "core/error.h"
 #include "io/colmap_camera.h"
+#include "io/colmap_test_views.h"
 #include "io/colmap_undistort.h"
 #include "io/dataset.h"
 #include "io/file.h"
@@ -108,6 +109,41 @@ static int choose_view(const struct esr_colmap_model *m, int size, struct esr_pi
     return esr_pinhole_view_fit(hx, hy, size, v);
 }
 
+/* The true dataset's pinhole (align_to), and how much of its half field of view the COLMAP
+ * cameras' valid extents cover. */
+static int true_view(const struct esr_colmap_model *m, const struct esr_dataset *truth, struct esr_pinhole_view *v,
+                     double *coverage)
+{
+    v->width = truth->width;
+    v->height = truth->height;
+    v->focal = truth->focal;
+    const double hx = 0.5 * v->width / v->focal, hy = 0.5 * v->height / v->focal;
+    *coverage = 1.0;
+    for (int i = 0; i < m->n_images; i++) {
+        double cx, cy;
+        ESR_TRY(esr_colmap_valid_extent(esr_colmap_find_camera(m, m->images[i].camera_id), &cx, &cy));
+        *coverage = fmin(*coverage, fmin(cx / hx, cy / hy));
+    }
+    return ESR_OK;
+}
+
+/* Where the scene goes and the view the photos are written in: by the model alone, or (truth
+ * given) by the alignment to the true cameras in the true pinhole. */
+static int place_scene(const struct esr_colmap_import_opts *o, const struct esr_colmap_model *m,
+                       const struct esr_dataset *truth, struct esr_pinhole_view *view,
+                       struct esr_colmap_import_result *r)
+{
+    if (!truth) {
+        ESR_TRY(choose_view(m, o->size, view));
+        return esr_colmap_scene_frame(m, &r->frame);
+    }
+    ESR_TRY(esr_colmap_align(m, truth, &r->alignment));
+    esr_colmap_alignment_frame(&r->alignment, &r->frame);
+    r->aligned = 1;
+    return true_view(m, truth, view, &r->view_coverage);
+}
+
+
 static int write_frame_image(const struct esr_colmap_model *m, const struct frame_plan *p,
                              const struct esr_pinhole_view *view, const char *staging)
 {
@@ -151,6 +187,34 @@ static int write_transforms(const struct frame_plan *plans, int n, const char *s
     return esr_import_write_transforms(staging, r->camera_angle_x, frames);
 }
 
+/* import.json's record of the comparison with the true cameras. */
+static cJSON *alignment_json(const struct esr_colmap_import_opts *o, const struct esr_colmap_import_result *r)
+{
+    const struct esr_colmap_alignment *a = &r->alignment;
+    cJSON *j = cJSON_CreateObject();
+    cJSON_AddStringToObject(j, "true_dataset", o->align_to);
+    cJSON_AddNumberToObject(j, "registered_images", a->n_registered);
+    cJSON_AddNumberToObject(j, "matched_images", a->n_matched);
+    cJSON_AddNumberToObject(j, "true_train_frames", a->n_true);
+    cJSON_AddNumberToObject(j, "rotation_error_median_deg", a->rot_median_deg);
+    cJSON_AddNumberToObject(j, "rotation_error_max_deg", a->rot_max_deg);
+    cJSON_AddNumberToObject(j, "position_error_median", a->pos_median);
+    cJSON_AddNumberToObject(j, "position_error_max", a->pos_max);
+    cJSON_AddNumberToObject(j, "scene_radius", a->scene_radius);
+    cJSON_AddNumberToObject(j, "position_error_median_rel", a->pos_median_rel);
+    cJSON_AddNumberToObject(j, "position_error_max_rel", a->pos_max_rel);
+    cJSON_AddNumberToObject(j, "inliers", a->n_inliers);
+    cJSON_AddNumberToObject(j, "inlier_threshold", a->inlier_threshold);
+    cJSON_AddNumberToObject(j, "inlier_rotation_error_median_deg", a->rot_median_inliers_deg);
+    cJSON_AddNumberToObject(j, "inlier_rotation_error_max_deg", a->rot_max_inliers_deg);
+    cJSON_AddNumberToObject(j, "inlier_position_error_median", a->pos_median_inliers);
+    cJSON_AddNumberToObject(j, "inlier_position_error_max", a->pos_max_inliers);
+    cJSON_AddNumberToObject(j, "colmap_to_true_scale", a->colmap_to_true.scale);
+    cJSON_AddNumberToObject(j, "view_coverage", r->view_coverage);
+    cJSON_AddNumberToObject(j, "test_views", r->n_test_views);
+    return j;
+}
+
 /* import.json: where the COLMAP world went, so poses can be mapped back. */
 static int write_record(const struct esr_colmap_import_opts *o, const struct esr_colmap_import_result *r,
                         const char *staging)
@@ -160,14 +224,17 @@ static int write_record(const struct esr_colmap_import_opts *o, const struct esr
     cJSON_AddStringToObject(root, "model_format", r->format);
     cJSON_AddStringToObject(root, "images", o->images_dir);
     cJSON_AddBoolToObject(root, "placed_by_points", r->frame.from_points);
+    cJSON_AddStringToObject(root, "placed_by", r->aligned ? "alignment" : r->frame.from_points ? "points" : "cameras");
     cJSON_AddNumberToObject(root, "focal", r->focal);
+    if (r->aligned)
+        cJSON_AddItemToObject(root, "alignment", alignment_json(o, r));
     return esr_import_write_record(staging, root);
 }
 
 /* Everything written into staging. */
 static int write_dataset(const struct esr_colmap_import_opts *o, const struct esr_colmap_model *m,
                          const struct frame_plan *plans, const struct esr_pinhole_view *view,
-                         struct esr_colmap_import_result *r, const char *staging)
+                         const struct esr_dataset *truth, struct esr_colmap_import_result *r, const char *staging)
 {
     ESR_TRY(esr_import_layout_dirs(staging));
     for (int i = 0; i < m->n_images; i++) {
@@ -176,18 +243,18 @@ static int write_dataset(const struct esr_colmap_import_opts *o, const struct es
             o->progress(o->user, i + 1, m->n_images);
     }
     ESR_TRY(write_transforms(plans, m->n_images, staging, r));
+    if (truth)
+        ESR_TRY(esr_colmap_write_test_views(truth, r->camera_angle_x, staging, &r->n_test_views));
     return write_record(o, r, staging);
 }
 
 static int import_model(const struct esr_colmap_import_opts *o, const struct esr_colmap_model *m,
-                        struct esr_colmap_import_result *r)
+                        const struct esr_dataset *truth, struct esr_colmap_import_result *r)
 {
     struct frame_plan *plans = NULL;
     struct esr_pinhole_view view;
     ESR_TRY(plan_frames(o, m, &plans));
-    int status = choose_view(m, o->size, &view);
-    if (status == ESR_OK)
-        status = esr_colmap_scene_frame(m, &r->frame);
+    int status = place_scene(o, m, truth, &view, r);
     char staging[ESR_PATH_MAX];
     if (status == ESR_OK)
         status = esr_staging_begin(o->out_dir, o->force, staging, sizeof staging);
@@ -200,8 +267,9 @@ static int import_model(const struct esr_colmap_import_opts *o, const struct esr
         r->width = view.width;
         r->height = view.height;
         r->focal = view.focal;
-        r->camera_angle_x = 2.0 * atan(0.5 * view.width / view.focal);
-        status = write_dataset(o, m, plans, &view, r, staging);
+        /* the true value itself when aligned: the phases' camera_angle_x must agree exactly */
+        r->camera_angle_x = truth ? truth->camera_angle_x : 2.0 * atan(0.5 * view.width / view.focal);
+        status = write_dataset(o, m, plans, &view, truth, r, staging);
         if (status == ESR_OK)
             status = esr_staging_commit(staging, o->out_dir);
         if (status != ESR_OK)
@@ -216,9 +284,16 @@ int esr_colmap_import(const struct esr_colmap_import_opts *o, struct esr_colmap_
     memset(r, 0, sizeof *r);
     if (o->size < 8 || o->size > 16384)
         return ESR_FAIL("output size %d is outside 8..16384 pixels", o->size);
+    struct esr_dataset truth;
+    if (o->align_to)
+        ESR_TRY(esr_dataset_load(o->align_to, &truth));
     struct esr_colmap_model m;
-    ESR_TRY(esr_colmap_model_read(o->model_dir, &m));
-    int status = import_model(o, &m, r);
-    esr_colmap_model_free(&m);
+    int status = esr_colmap_model_read(o->model_dir, &m);
+    if (status == ESR_OK) {
+        status = import_model(o, &m, o->align_to ? &truth : NULL, r);
+        esr_colmap_model_free(&m);
+    }
+    if (o->align_to)
+        esr_dataset_free(&truth);
     return status;
 }

@@ -17,6 +17,7 @@
 #ifndef ESR_IO_COLMAP_IMPORT_H
 #define ESR_IO_COLMAP_IMPORT_H
 
+#include "io/colmap_align.h"
 #include "io/colmap_scene.h"
 
 struct esr_colmap_import_opts {
@@ -25,6 +26,7 @@ struct esr_colmap_import_opts {
     const char *out_dir;    /* DATA; absent or empty unless force */
     int size;               /* longer side of the written images, pixels */
     int force;              /* replace a non-empty out_dir */
+    const char *align_to;   /* NULL, or the true dataset the photos were rendered from: see below */
     void (*progress)(void *user, int done, int total); /* after each photo; may be NULL */
     void *user;
 };
@@ -37,12 +39,26 @@ struct esr_colmap_import_result {
     double camera_angle_x;
     struct esr_scene_frame frame;
     double cam_dist_min, cam_dist_max; /* camera centres' distances from the origin (esr world) */
+    int aligned;             /* align_to given: the fields below are set */
+    struct esr_colmap_alignment alignment;
+    double view_coverage;    /* the true pinhole's half field of view that every COLMAP camera's
+                                valid extent covers, as a fraction (1: all; below 1 the outermost
+                                output pixels repeat the photos' edge) */
+    int n_test_views;        /* test_nv frames copied from the true dataset */
 };
 
-/* Fails naming the file on: a model that cannot be read, fewer than 3 registered images, an
+/* With align_to (a synthetic capture whose true cameras are known, e.g. `esr synth`'s training
+ * renders posed by COLMAP; io/colmap_align.h): the scene is placed by the similarity that aligns
+ * the COLMAP cameras to the true ones, so the import lives in the true world; the photos are
+ * written in the true dataset's pinhole (its size and camera_angle_x; `size` is not used) and the
+ * true test_nv phase is copied in (io/colmap_test_views.h), so both datasets are scored on the
+ * same test views; import.json records the camera errors.
+ *
+ * Fails naming the file on: a model that cannot be read, fewer than 3 registered images, an
  * image outside off/ and on/, two photos that would get the same output name, a missing or
  * undecodable photo, a photo whose size is not its camera's, or a camera whose distortion
- * leaves no undistorted view. Nothing is left in out_dir on failure. */
+ * leaves no undistorted view; with align_to also on a true dataset that does not load, an image
+ * with no true train frame of its name, or no test_nv phase. Nothing is left in out_dir on failure. */
 int esr_colmap_import(const struct esr_colmap_import_opts *o, struct esr_colmap_import_result *r);
 
 #endif
