@@ -20,7 +20,7 @@ int esr_similarity_fit(const double *x, const double *y, int n, struct esr_simil
 /* y = scale * R x + t. */
 void esr_similarity_apply(const struct esr_similarity *s, const double x[3], double y[3]);
 
-/* R of a unit quaternion (w, x, y, z) (normalised here). */
+/* R of a Hamilton quaternion (w, x, y, z), normalised first (also COLMAP's image poses). */
 void esr_quaternion_to_rotation(const double q[4], double r[3][3]);
 
 /* The angle in degrees of the rotation a^T b taking a's frame to b's (0..180), full precision near 0

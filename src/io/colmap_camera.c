@@ -5,6 +5,7 @@
 #include <string.h>
 
 #include "core/error.h"
+#include "core/similarity.h"
 
 void esr_colmap_intrinsics_of(const struct esr_colmap_camera *cam, struct esr_colmap_intrinsics *k)
 {
@@ -87,26 +88,11 @@ int esr_colmap_undistort(const struct esr_colmap_intrinsics *k, double ud, doubl
     return ESR_OK;
 }
 
-void esr_colmap_quat_to_matrix(const double q[4], double r[3][3])
-{
-    double n = sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
-    double w = q[0] / n, x = q[1] / n, y = q[2] / n, z = q[3] / n;
-    r[0][0] = 1 - 2 * (y * y + z * z);
-    r[0][1] = 2 * (x * y - w * z);
-    r[0][2] = 2 * (x * z + w * y);
-    r[1][0] = 2 * (x * y + w * z);
-    r[1][1] = 1 - 2 * (x * x + z * z);
-    r[1][2] = 2 * (y * z - w * x);
-    r[2][0] = 2 * (x * z - w * y);
-    r[2][1] = 2 * (y * z + w * x);
-    r[2][2] = 1 - 2 * (x * x + y * y);
-}
-
 int esr_colmap_project(const struct esr_colmap_camera *cam, const struct esr_colmap_image *im,
                        const double world[3], double *px, double *py)
 {
     double r[3][3], c[3];
-    esr_colmap_quat_to_matrix(im->q, r);
+    esr_quaternion_to_rotation(im->q, r);
     for (int i = 0; i < 3; i++)
         c[i] = r[i][0] * world[0] + r[i][1] * world[1] + r[i][2] * world[2] + im->t[i];
     if (!(c[2] > 0.0))
@@ -123,7 +109,7 @@ void esr_colmap_camera_to_world(const struct esr_colmap_image *im, double c2w[3]
 {
     static const double flip[3] = {1.0, -1.0, -1.0};
     double r[3][3];
-    esr_colmap_quat_to_matrix(im->q, r);
+    esr_quaternion_to_rotation(im->q, r);
     for (int row = 0; row < 3; row++) {
         for (int col = 0; col < 3; col++)
             c2w[row][col] = r[col][row] * flip[col]; /* R^T, columns = camera axes in the world */

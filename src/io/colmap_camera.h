@@ -40,8 +40,6 @@ int esr_colmap_undistort(const struct esr_colmap_intrinsics *k, double ud, doubl
 int esr_colmap_project(const struct esr_colmap_camera *cam, const struct esr_colmap_image *im,
                        const double world[3], double *px, double *py);
 
-/* Rotation matrix of a Hamilton quaternion (w, x, y, z), normalised first. */
-void esr_colmap_quat_to_matrix(const double q[4], double r[3][3]);
 
 /* Camera-to-world matrix of image `im` in esr's convention: rotation R^T diag(1, -1, -1) (the
  * camera's +Y and +Z flipped to image-up and backwards) and centre -R^T t. */
