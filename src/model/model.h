@@ -114,8 +114,10 @@ int esr_model_save(const struct esr_model *m, const char *path);
 
 /* What esr_model_render_rays writes; any pointer may be NULL (not computed). */
 struct esr_render_out {
-    float *rgb;      /* [n*3] tone-mapped LDR in [0,1] composited on white (what PNGs compare to) */
-    float *linear;   /* [n*3] linear HDR radiance composited on white (fine; coarse: sRGB^-1 of rgb) */
+    float *rgb;      /* [n*3] tone-mapped LDR in [0,1] composited on the model's background: white,
+                        or its learned one (fields/background.h); what PNGs compare to */
+    float *linear;   /* [n*3] linear HDR radiance composited on the background (fine; coarse:
+                        sRGB^-1 of rgb) */
     float *depth;    /* [n]   expected ray distance of the surface (weights-normalised) */
     float *normal;   /* [n*3] composited unit SDF normal (world space, not normalised by opacity) */
     float *opacity;  /* [n]   1 - T_final */
