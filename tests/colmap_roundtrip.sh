@@ -27,6 +27,7 @@ VIEWS=${VIEWS:-50}          # training views per lighting condition
 SIZE=${SIZE:-200}           # true dataset and import, px
 TEST_VIEWS=${TEST_VIEWS:-10}
 THREADS=${THREADS:-2}       # COLMAP's threads (the machine is shared)
+SYNTH_OPTS=${SYNTH_OPTS:-}    # extra `esr synth` options for both renders, e.g. --backdrop (opaque photos)
 FEATURES=${FEATURES:-2048}  # SIFT features per photo: CPU matching is brute force, pairs x features^2
 MAX_ROT_DEG=0.5
 MAX_PSNR_DIFF_DB=1.0
@@ -68,9 +69,9 @@ COLMAP_VERSION=$(colmap -h 2>&1 | grep -m1 -o 'COLMAP [^ ]*' || echo unknown)
 
 # 1. renders
 [ -f "$CAPTURE_SRC/scene.json" ] || run_stage synth_capture \
-    "$ESR" synth --res "$RES" --spp "$SPP" --train "$VIEWS" --test 1 --force "$CAPTURE_SRC"
+    "$ESR" synth $SYNTH_OPTS --res "$RES" --spp "$SPP" --train "$VIEWS" --test 1 --force "$CAPTURE_SRC"
 [ -f "$TRUE/scene.json" ] || run_stage synth_true \
-    "$ESR" synth --res "$SIZE" --train "$VIEWS" --test "$TEST_VIEWS" --force "$TRUE"
+    "$ESR" synth $SYNTH_OPTS --res "$SIZE" --train "$VIEWS" --test "$TEST_VIEWS" --force "$TRUE"
 # same seed, same cameras: the import is matched to the true frames by name
 cmp -s <(jq -c '[.frames[] | [.file_path, .transform_matrix]]' "$CAPTURE_SRC/transforms/transforms_train.json") \
        <(jq -c '[.frames[] | [.file_path, .transform_matrix]]' "$TRUE/transforms/transforms_train.json") \
