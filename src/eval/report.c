@@ -281,12 +281,7 @@ static int copy_true_emitters(const struct esr_report_spec *spec, const struct e
     if (!esr_file_exists(src))
         return ESR_OK;
     ESR_TRY(esr_view_path(dst, sizeof dst, spec->gt_dir, f->name, "_emitter_true.png"));
-    unsigned char *bytes;
-    size_t size;
-    ESR_TRY(esr_file_read_all(src, &bytes, &size));
-    int status = esr_file_write_atomic(dst, bytes, size);
-    free(bytes);
-    return status;
+    return esr_file_copy(src, dst);
 }
 
 /* The true emission effect of a lights-on frame f: its EXR minus its camera's lights-off EXR

@@ -2,7 +2,6 @@
 #include "io/colmap_test_views.h"
 
 #include <stdio.h>
-#include <stdlib.h>
 #include <string.h>
 
 #include <cjson/cJSON.h>
@@ -19,12 +18,7 @@ static int copy_file(const char *src, const char *dst, int optional)
 {
     if (optional && !esr_file_exists(src))
         return ESR_OK;
-    unsigned char *data;
-    size_t size;
-    ESR_TRY(esr_file_read_all(src, &data, &size));
-    int status = esr_file_write_atomic(dst, data, size);
-    free(data);
-    return status;
+    return esr_file_copy(src, dst);
 }
 
 /* The parent folder of path made (mkdir -p). */

@@ -81,6 +81,16 @@ int esr_file_write_atomic(const char *path, const void *data, size_t size)
     return ESR_OK;
 }
 
+int esr_file_copy(const char *src, const char *dst)
+{
+    unsigned char *data;
+    size_t size;
+    ESR_TRY(esr_file_read_all(src, &data, &size));
+    int status = esr_file_write_atomic(dst, data, size);
+    free(data);
+    return status;
+}
+
 int esr_file_exists(const char *path)
 {
     struct stat st;

@@ -14,6 +14,9 @@ int esr_file_read_all(const char *path, unsigned char **data, size_t *size);
  * path. On failure the temporary file is removed and path is left untouched. */
 int esr_file_write_atomic(const char *path, const void *data, size_t size);
 
+/* Copies the file src to dst with esr_file_write_atomic (dst never half-written). */
+int esr_file_copy(const char *src, const char *dst);
+
 /* 1 when path names an existing regular file. */
 int esr_file_exists(const char *path);
 
