@@ -208,7 +208,7 @@ static void normalise(double v[3])
 }
 
 /* COLMAP pose of a camera at centre looking at target, image-down along -up: rows of R are
- * the camera's x (right), y (down), z (forward) axes in the world; q by Shepperd's method. */
+ * the camera's x (right), y (down), z (forward) axes in the world. */
 static void look_at(const double centre[3], const double target[3], const double up[3], double q[4], double t[3])
 {
     double z[3] = {target[0] - centre[0], target[1] - centre[1], target[2] - centre[2]}, down[3] = {-up[0], -up[1], -up[2]};
@@ -218,20 +218,7 @@ static void look_at(const double centre[3], const double target[3], const double
     normalise(x);
     cross(z, x, y);
     double r[3][3] = {{x[0], x[1], x[2]}, {y[0], y[1], y[2]}, {z[0], z[1], z[2]}};
-    double tr = r[0][0] + r[1][1] + r[2][2];
-    if (tr > 0) {
-        double s = 2.0 * sqrt(1.0 + tr);
-        q[0] = s / 4, q[1] = (r[2][1] - r[1][2]) / s, q[2] = (r[0][2] - r[2][0]) / s, q[3] = (r[1][0] - r[0][1]) / s;
-    } else if (r[0][0] > r[1][1] && r[0][0] > r[2][2]) {
-        double s = 2.0 * sqrt(1.0 + r[0][0] - r[1][1] - r[2][2]);
-        q[0] = (r[2][1] - r[1][2]) / s, q[1] = s / 4, q[2] = (r[0][1] + r[1][0]) / s, q[3] = (r[0][2] + r[2][0]) / s;
-    } else if (r[1][1] > r[2][2]) {
-        double s = 2.0 * sqrt(1.0 + r[1][1] - r[0][0] - r[2][2]);
-        q[0] = (r[0][2] - r[2][0]) / s, q[1] = (r[0][1] + r[1][0]) / s, q[2] = s / 4, q[3] = (r[1][2] + r[2][1]) / s;
-    } else {
-        double s = 2.0 * sqrt(1.0 + r[2][2] - r[0][0] - r[1][1]);
-        q[0] = (r[1][0] - r[0][1]) / s, q[1] = (r[0][2] + r[2][0]) / s, q[2] = (r[1][2] + r[2][1]) / s, q[3] = s / 4;
-    }
+    test_rotation_to_quaternion(r, q);
     for (int i = 0; i < 3; i++)
         t[i] = -(r[i][0] * centre[0] + r[i][1] * centre[1] + r[i][2] * centre[2]);
 }

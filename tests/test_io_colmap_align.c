@@ -47,25 +47,6 @@ static void no_problem(void *user, const char *message)
     fail_msg("dataset check: %s", message);
 }
 
-/* Unit quaternion (w, x, y, z) of a rotation matrix (Shepperd). */
-static void rotation_to_quaternion(const double r[3][3], double q[4])
-{
-    double tr = r[0][0] + r[1][1] + r[2][2];
-    if (tr > 0) {
-        double s = 2.0 * sqrt(1.0 + tr);
-        q[0] = s / 4, q[1] = (r[2][1] - r[1][2]) / s, q[2] = (r[0][2] - r[2][0]) / s, q[3] = (r[1][0] - r[0][1]) / s;
-    } else if (r[0][0] > r[1][1] && r[0][0] > r[2][2]) {
-        double s = 2.0 * sqrt(1.0 + r[0][0] - r[1][1] - r[2][2]);
-        q[0] = (r[2][1] - r[1][2]) / s, q[1] = s / 4, q[2] = (r[0][1] + r[1][0]) / s, q[3] = (r[0][2] + r[2][0]) / s;
-    } else if (r[1][1] > r[2][2]) {
-        double s = 2.0 * sqrt(1.0 + r[1][1] - r[0][0] - r[2][2]);
-        q[0] = (r[0][2] - r[2][0]) / s, q[1] = (r[0][1] + r[1][0]) / s, q[2] = s / 4, q[3] = (r[1][2] + r[2][1]) / s;
-    } else {
-        double s = 2.0 * sqrt(1.0 + r[2][2] - r[0][0] - r[1][1]);
-        q[0] = (r[1][0] - r[0][1]) / s, q[1] = (r[0][2] + r[2][0]) / s, q[2] = (r[1][2] + r[2][1]) / s, q[3] = s / 4;
-    }
-}
-
 /* The COLMAP pose of true frame f moved into the COLMAP world; `turn_deg` turns the camera about
  * its own x axis and `shift` moves its centre (true-world units) to plant a known error. COLMAP:
  * x_cam = R x_world + t with R = diag(1, -1, -1) (c2w rotation)^T, t = -R centre. */
@@ -92,7 +73,7 @@ static void colmap_pose(const struct esr_frame *f, double turn_deg, double shift
     for (int a = 0; a < 3; a++)
         for (int b = 0; b < 3; b++)
             r[a][b] = (a == 0 ? 1.0 : -1.0) * c2w[b][a];
-    rotation_to_quaternion(r, im->q);
+    test_rotation_to_quaternion(r, im->q);
     for (int a = 0; a < 3; a++)
         im->t[a] = -(r[a][0] * moved[0] + r[a][1] * moved[1] + r[a][2] * moved[2]);
 }

@@ -1,6 +1,7 @@
 #include "test_support.h"
 
 #include <dirent.h>
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -115,6 +116,24 @@ int test_count_names(const char *dir, const char *part)
         n += strstr(e->d_name, part) != NULL;
     closedir(d);
     return n;
+}
+
+void test_rotation_to_quaternion(const double r[3][3], double q[4])
+{
+    double tr = r[0][0] + r[1][1] + r[2][2];
+    if (tr > 0) {
+        double s = 2.0 * sqrt(1.0 + tr);
+        q[0] = s / 4, q[1] = (r[2][1] - r[1][2]) / s, q[2] = (r[0][2] - r[2][0]) / s, q[3] = (r[1][0] - r[0][1]) / s;
+    } else if (r[0][0] > r[1][1] && r[0][0] > r[2][2]) {
+        double s = 2.0 * sqrt(1.0 + r[0][0] - r[1][1] - r[2][2]);
+        q[0] = (r[2][1] - r[1][2]) / s, q[1] = s / 4, q[2] = (r[0][1] + r[1][0]) / s, q[3] = (r[0][2] + r[2][0]) / s;
+    } else if (r[1][1] > r[2][2]) {
+        double s = 2.0 * sqrt(1.0 + r[1][1] - r[0][0] - r[2][2]);
+        q[0] = (r[0][2] - r[2][0]) / s, q[1] = (r[0][1] + r[1][0]) / s, q[2] = s / 4, q[3] = (r[1][2] + r[2][1]) / s;
+    } else {
+        double s = 2.0 * sqrt(1.0 + r[2][2] - r[0][0] - r[1][1]);
+        q[0] = (r[1][0] - r[0][1]) / s, q[1] = (r[0][2] + r[2][0]) / s, q[2] = (r[1][2] + r[2][1]) / s, q[3] = s / 4;
+    }
 }
 
 int test_write_file(const char *path, const char *text)

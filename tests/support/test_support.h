@@ -28,6 +28,8 @@ int test_setup_small_data(void **state);
 int test_files_equal(const char *a, const char *b);
 /* How many entries of dir have `part` in their name (0 when dir cannot be read). */
 int test_count_names(const char *dir, const char *part);
+/* Unit quaternion (w, x, y, z) of a rotation matrix (Shepperd's method): COLMAP poses for tests. */
+void test_rotation_to_quaternion(const double r[3][3], double q[4]);
 /* Writes `text` to path; returns 0 on success. */
 int test_write_file(const char *path, const char *text);
 /* The JSON document in path, or NULL when it cannot be read or parsed; cJSON_Delete it. */
