@@ -328,14 +328,13 @@ static int workspace_init(struct run *r, struct esr_train_step *b, const struct 
     char what[160];
     snprintf(what, sizeof what, "the %s stage's training workspace (batch of %d rays)",
              esr_stage_name(s), r->cfg.batch_rays);
-    int rc = esr_limits_check_memory(esr_ray_set_bytes(r->rays.n) + esr_model_memory_held(m),
-                                     after - before, what);
+    const size_t rays = esr_ray_set_bytes(r->rays.n), model = esr_model_memory_held(m);
+    int rc = esr_limits_check_memory(rays + model, after - before, what);
     if (rc != ESR_OK)
         esr_train_step_free(b);
     else
         say(r, s, "memory: training rays %.1f MiB, model %.1f MiB, workspace %.1f MiB",
-            (double)esr_ray_set_bytes(r->rays.n) / 1048576.0, (double)esr_model_memory_held(m) / 1048576.0,
-            (double)(after - before) / 1048576.0);
+            (double)rays / 1048576.0, (double)model / 1048576.0, (double)(after - before) / 1048576.0);
     return rc;
 }
 
