@@ -19,17 +19,6 @@
 #include "io/staging.h"
 #include "test_support.h"
 
-/* The id of a process that has exited (and been reaped). */
-static long dead_pid(void)
-{
-    const pid_t p = fork();
-    if (p == 0)
-        _exit(0);
-    assert_true(p > 0);
-    assert_int_equal(waitpid(p, NULL, 0), p);
-    return (long)p;
-}
-
 static void put(const char *dir, const char *name)
 {
     char path[8192];
@@ -51,7 +40,8 @@ static void test_sweep_removes_only_dead_writers_leftovers(void **state)
     char dir[4300], name[256], sub[4700], keep[8][256];
     snprintf(dir, sizeof dir, "%s/sweep", test_tmpdir);
     assert_int_equal(esr_dir_create(dir), 0);
-    const long dead = dead_pid(), live = (long)getppid(), self = (long)getpid();
+    const long dead = test_dead_pid(), live = (long)getppid(), self = (long)getpid();
+    assert_true(dead > 0);
     int k = 0;
     /* kept: live writers, and names that only look similar */
     snprintf(keep[k++], 256, "ckpt_fine.bin.tmp-%ld-a1B2c3", live);

@@ -302,7 +302,9 @@ static void eval_after_kill(struct job *j)
     j->temps += count_temps(j->dir);
 }
 
-/* The trained run without its evaluation outputs. */
+/* The trained run without its evaluation outputs, and with the temporary report a kill during
+ * the report's write leaves (so that every episode checks it is removed, not only the rare one
+ * whose kill lands there). */
 static void eval_reset(struct job *j)
 {
     char path[4400];
@@ -311,6 +313,10 @@ static void eval_reset(struct job *j)
         snprintf(path, sizeof path, "%s/%s", j->dir, outputs[i]);
         remove_tree(path);
     }
+    const long dead = test_dead_pid();
+    assert_true(dead > 0);
+    snprintf(path, sizeof path, "%s/report.html.tmp-%ld-Kq3xZ9", j->dir, dead);
+    assert_int_equal(test_write_file(path, "<html>half a report"), 0);
 }
 
 static void eval_compare(struct job *j)

@@ -13,6 +13,7 @@
 #include "eval/run_dir.h"
 #include "io/dir.h"
 #include "io/file.h"
+#include "io/stale.h"
 #include "render/view.h"
 #include "model/model.h"
 
@@ -363,6 +364,9 @@ static int run_eval(int argc, char **argv)
     int status = make_paths(a.run, a.phase, &paths);
     if (status == ESR_OK)
         status = esr_run_select(a.run, a.data, a.phase, a.frames, a.limit, &sel);
+    /* the reports are written into RUN itself: a killed evaluation's temporary report goes here */
+    if (status == ESR_OK)
+        status = esr_stale_sweep(a.run, NULL);
     const int edit_phase = status == ESR_OK && (sel.phase == ESR_PHASE_TEST_NVI ||
                                                 sel.phase == ESR_PHASE_TEST_NVC ||
                                                 sel.phase == ESR_PHASE_TEST_NVIC);

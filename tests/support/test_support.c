@@ -7,6 +7,7 @@
 #include <string.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
+#include <unistd.h>
 
 #include <cjson/cJSON.h>
 
@@ -155,4 +156,14 @@ cJSON *test_read_json(const char *path)
     cJSON *root = cJSON_ParseWithLength((const char *)text, size);
     free(text);
     return root;
+}
+
+long test_dead_pid(void)
+{
+    const pid_t p = fork();
+    if (p == 0)
+        _exit(0);
+    if (p < 0 || waitpid(p, NULL, 0) != p)
+        return -1;
+    return (long)p;
 }

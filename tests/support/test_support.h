@@ -32,6 +32,9 @@ int test_count_names(const char *dir, const char *part);
 void test_rotation_to_quaternion(const double r[3][3], double q[4]);
 /* Writes `text` to path; returns 0 on success. */
 int test_write_file(const char *path, const char *text);
+/* The id of a process that has exited and been reaped (for a dead writer's leftovers), -1 when
+ * fork fails. */
+long test_dead_pid(void);
 /* The JSON document in path, or NULL when it cannot be read or parsed; cJSON_Delete it. */
 struct cJSON *test_read_json(const char *path);
 
