@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # COLMAP round trip (issue #14's peer check with COLMAP itself); what `make colmap-roundtrip` runs.
 #
-#   1. `esr synth` renders the default scene's training views at RES px (the capture) and, with the
+#   1. `esr synth` renders SCENE's training views at RES px (the capture) and, with the
 #      same seed and so the same cameras, at SIZE px with its test views (the true dataset).
 #   2. The capture's renders are laid out as photos (IMAGES/off, IMAGES/on; alpha composited on
 #      white and saved as JPEG, as a camera would) and posed by COLMAP from scratch: one shared
@@ -27,6 +27,7 @@ VIEWS=${VIEWS:-50}          # training views per lighting condition
 SIZE=${SIZE:-200}           # true dataset and import, px
 TEST_VIEWS=${TEST_VIEWS:-10}
 THREADS=${THREADS:-2}       # COLMAP's threads (the machine is shared)
+SCENE=${SCENE:-capture}     # built-in scene: capture (non-repeating textures) or default (checker, stripes)
 SYNTH_OPTS=${SYNTH_OPTS:-}    # extra `esr synth` options for both renders, e.g. --backdrop (opaque photos)
 FEATURES=${FEATURES:-2048}  # SIFT features per photo: CPU matching is brute force, pairs x features^2
 MAX_ROT_DEG=0.5
@@ -69,9 +70,9 @@ COLMAP_VERSION=$(colmap -h 2>&1 | grep -m1 -o 'COLMAP [^ ]*' || echo unknown)
 
 # 1. renders
 [ -f "$CAPTURE_SRC/scene.json" ] || run_stage synth_capture \
-    "$ESR" synth $SYNTH_OPTS --res "$RES" --spp "$SPP" --train "$VIEWS" --test 1 --force "$CAPTURE_SRC"
+    "$ESR" synth --scene "$SCENE" $SYNTH_OPTS --res "$RES" --spp "$SPP" --train "$VIEWS" --test 1 --force "$CAPTURE_SRC"
 [ -f "$TRUE/scene.json" ] || run_stage synth_true \
-    "$ESR" synth $SYNTH_OPTS --res "$SIZE" --train "$VIEWS" --test "$TEST_VIEWS" --force "$TRUE"
+    "$ESR" synth --scene "$SCENE" $SYNTH_OPTS --res "$SIZE" --train "$VIEWS" --test "$TEST_VIEWS" --force "$TRUE"
 # same seed, same cameras: the import is matched to the true frames by name
 cmp -s <(jq -c '[.frames[] | [.file_path, .transform_matrix]]' "$CAPTURE_SRC/transforms/transforms_train.json") \
        <(jq -c '[.frames[] | [.file_path, .transform_matrix]]' "$TRUE/transforms/transforms_train.json") \
@@ -138,13 +139,13 @@ done
 A=$IMPORTED/import.json
 jq -n --slurpfile imp "$A" --slurpfile et "$WORK/run_true/eval/test_nv.json" \
       --slurpfile ei "$WORK/run_imported/eval/test_nv.json" \
-      --arg colmap "$COLMAP_VERSION" --argjson res "$RES" --argjson spp "$SPP" --argjson views "$VIEWS" --argjson features "$FEATURES" \
+      --arg colmap "$COLMAP_VERSION" --arg scene "$SCENE" --argjson res "$RES" --argjson spp "$SPP" --argjson views "$VIEWS" --argjson features "$FEATURES" \
       --argjson size "$SIZE" --argjson max_rot "$MAX_ROT_DEG" --argjson max_drop "$MAX_PSNR_DIFF_DB" \
       --argjson timings "$(for f in "$WORK"/logs/*.seconds; do [ -f "$f" ] && echo "{\"$(basename "$f" .seconds)\": $(cat "$f")}"; done | jq -s 'add // {}')" '
   ($imp[0].alignment) as $a | ($et[0].mean.psnr) as $pt | ($ei[0].mean.psnr) as $pi |
   {
     colmap_version: $colmap,
-    capture: {resolution: $res, spp: $spp, sift_features: $features, views_per_lighting: $views, photos: (2 * $views), camera_model: "SIMPLE_RADIAL"},
+    capture: {scene: $scene, resolution: $res, spp: $spp, sift_features: $features, views_per_lighting: $views, photos: (2 * $views), camera_model: "SIMPLE_RADIAL"},
     registered_images: $a.registered_images, matched_images: $a.matched_images,
     rotation_error_deg: {median: $a.rotation_error_median_deg, max: $a.rotation_error_max_deg},
     position_error: {median: $a.position_error_median, max: $a.position_error_max,

@@ -105,7 +105,7 @@ static cJSON *scene_lights(const struct esr_synth_scene *s)
 static cJSON *scene_objects(const struct esr_synth_scene *s)
 {
     static const char *const kinds[] = {"sphere", "box", "cylinder"};
-    static const char *const textures[] = {"none", "checker", "stripes"};
+    static const char *const textures[] = {"none", "checker", "stripes", "noise"};
     cJSON *arr = cJSON_CreateArray();
     for (int i = 0; i < s->n_prims; i++) {
         const struct esr_synth_prim *p = &s->prims[i];

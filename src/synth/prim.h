@@ -10,9 +10,10 @@
 #include "core/brdf.h"
 #include "core/sampling.h"
 #include "core/vec3.h"
+#include "synth/noise.h"
 
 enum esr_synth_prim_kind { ESR_SYNTH_SPHERE, ESR_SYNTH_BOX, ESR_SYNTH_CYLINDER };
-enum esr_synth_texture { ESR_SYNTH_TEX_NONE, ESR_SYNTH_TEX_CHECKER, ESR_SYNTH_TEX_STRIPES };
+enum esr_synth_texture { ESR_SYNTH_TEX_NONE, ESR_SYNTH_TEX_CHECKER, ESR_SYNTH_TEX_STRIPES, ESR_SYNTH_TEX_NOISE };
 
 struct esr_synth_prim {
     enum esr_synth_prim_kind kind;
@@ -21,7 +22,7 @@ struct esr_synth_prim {
     struct esr_material mat;   /* base colour is texture colour 0 */
     enum esr_synth_texture texture;
     float base2[3];            /* texture colour 1 */
-    float tex_period;          /* size of one checker square / stripe, metres */
+    float tex_period;          /* size of one checker square / stripe / noise cell, metres */
     int light;                 /* index of the light this primitive is, -1 when not emissive */
     const char *name;          /* object name (scene.json) */
 };
@@ -237,20 +238,20 @@ ESR_INLINE float esr_synth_prim_sample_toward(const struct esr_synth_prim *p, st
 }
 
 /* Material at surface point x: the procedural texture picks base colour 0 or 1 (checker in x,y
- * for floors, stripes across x+z), so multi-view geometry has texture to lock onto. */
+ * for floors, stripes across x+z), so multi-view geometry has texture to lock onto, or blends the
+ * two by fractal noise (non-repeating, like the surfaces of a real capture). */
 ESR_INLINE struct esr_material esr_synth_prim_material(const struct esr_synth_prim *p, struct esr_vec3 x)
 {
     struct esr_material m = p->mat;
-    int alt = 0;
+    float w = 0.0f; /* weight of base colour 1 */
     if (p->texture == ESR_SYNTH_TEX_CHECKER)
-        alt = ((int)floorf(x.x / p->tex_period) + (int)floorf(x.y / p->tex_period)) & 1;
+        w = (float)(((int)floorf(x.x / p->tex_period) + (int)floorf(x.y / p->tex_period)) & 1);
     else if (p->texture == ESR_SYNTH_TEX_STRIPES)
-        alt = (int)floorf((x.x + x.z) / p->tex_period) & 1;
-    if (alt) {
-        m.base[0] = p->base2[0];
-        m.base[1] = p->base2[1];
-        m.base[2] = p->base2[2];
-    }
+        w = (float)((int)floorf((x.x + x.z) / p->tex_period) & 1);
+    else if (p->texture == ESR_SYNTH_TEX_NOISE)
+        w = esr_synth_noise(x, p->tex_period);
+    for (int c = 0; c < 3; c++) /* w = 1 gives base colour 1 exactly */
+        m.base[c] = w == 1.0f ? p->base2[c] : m.base[c] + w * (p->base2[c] - m.base[c]);
     return m;
 }
 

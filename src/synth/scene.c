@@ -91,6 +91,21 @@ static void build_default(struct esr_synth_scene *s)
              0.2f, 0.35f, 0.0f);
 }
 
+/* The default scene as a real capture would show it: its floor and box carry non-repeating fractal
+ * noise instead of a checker and stripes, whose repeats make a feature matcher (COLMAP) place some
+ * cameras at a wrong, look-alike pose. */
+static void build_capture(struct esr_synth_scene *s)
+{
+    build_default(s);
+    s->name = "capture";
+    s->summary = "the default scene with non-repeating (noise) textures, for pose estimation";
+    for (int i = 0; i < s->n_prims; i++) {
+        struct esr_synth_prim *p = &s->prims[i];
+        if (p->texture != ESR_SYNTH_TEX_NONE)
+            set_texture(p, ESR_SYNTH_TEX_NOISE, p->base2[0], p->base2[1], p->base2[2], 2.0f * p->tex_period);
+    }
+}
+
 /* Harder: a glossy metallic floor under a bright ball light, a small magenta emitter box, a glossy
  * back wall and mirror-like balls, so most light arrives through inter-reflections. */
 static void build_glossy(struct esr_synth_scene *s)
@@ -126,6 +141,7 @@ static const struct {
 } scenes[] = {
     {"default", build_default},
     {"glossy", build_glossy},
+    {"capture", build_capture},
 };
 #define N_SCENES (int)(sizeof scenes / sizeof scenes[0])
 
