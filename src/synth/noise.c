@@ -44,8 +44,8 @@ float esr_synth_noise(struct esr_vec3 x, float period)
         amp *= 0.5f;
         cell *= 0.5f;
     }
-    /* octave sums bunch around 0.5: stretched (x2.5, clamped) so the patches contrast like a
-     * real surface's */
-    const float w = 0.5f + 2.5f * (v / total - 0.5f);
+    /* octave sums bunch around 0.5: stretched (x5, clamped) into blotches of either colour with
+     * short transitions, whose corners and edges a feature detector finds as on a real surface */
+    const float w = 0.5f + 5.0f * (v / total - 0.5f);
     return w < 0.0f ? 0.0f : w > 1.0f ? 1.0f : w;
 }

@@ -102,7 +102,7 @@ static void build_capture(struct esr_synth_scene *s)
     for (int i = 0; i < s->n_prims; i++) {
         struct esr_synth_prim *p = &s->prims[i];
         if (p->texture != ESR_SYNTH_TEX_NONE)
-            set_texture(p, ESR_SYNTH_TEX_NOISE, p->base2[0], p->base2[1], p->base2[2], 2.0f * p->tex_period);
+            set_texture(p, ESR_SYNTH_TEX_NOISE, p->base2[0], p->base2[1], p->base2[2], p->tex_period);
     }
 }
 
