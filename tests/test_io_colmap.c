@@ -946,12 +946,76 @@ static void test_import_projection_agrees_with_colmap(void **state)
     esr_colmap_model_free(&m);
 }
 
+/* A mask for every photo of make_capture's capture: the left half foreground. Photo i's mask is
+ * named the COLMAP way (off/shot0.jpg.png) for even i, by its stem (on/shot1.png) for odd i. */
+static void write_masks(const char *root)
+{
+    char path[1400];
+    snprintf(path, sizeof path, "%s/masks", root), mkdir(path, 0755);
+    snprintf(path, sizeof path, "%s/masks/off", root), mkdir(path, 0755);
+    snprintf(path, sizeof path, "%s/masks/on", root), mkdir(path, 0755);
+    struct esr_image mask;
+    assert_int_equal(esr_image_alloc(&mask, 64, 48, 1), ESR_OK);
+    for (int y = 0; y < 48; y++)
+        for (int x = 0; x < 64; x++)
+            mask.data[y * 64 + x] = x < 32 ? 1.0f : 0.0f;
+    for (int i = 0; i < 6; i++) {
+        const char *folder = i < 3 ? "off" : "on", *ext = i % 3 == 2 ? "png" : "jpg";
+        if (i % 2 == 0)
+            snprintf(path, sizeof path, "%s/masks/%s/shot%d.%s.png", root, folder, i % 3, ext);
+        else
+            snprintf(path, sizeof path, "%s/masks/%s/shot%d.png", root, folder, i % 3);
+        assert_int_equal(esr_png_write(path, &mask, 8), ESR_OK);
+    }
+    esr_image_free(&mask);
+}
+
+/* --masks: every written frame carries its mask as alpha, undistorted with the photo (the mask's
+ * edge x = 32 of 64 maps to the middle column of the centred pinhole, give or take the
+ * distortion and the principal point), and import.json records it. */
+static void test_import_masks_become_alpha(void **state)
+{
+    (void)state;
+    char root[1200], args[8192], out[8192], data[1300], path[1400];
+    snprintf(root, sizeof root, "%s/capture_masks", test_tmpdir);
+    make_capture(root, 0, 6);
+    write_masks(root);
+    snprintf(data, sizeof data, "%s/data", root);
+    snprintf(args, sizeof args, "import colmap '%s/sparse' '%s/images' --masks '%s/masks' --out '%s' --size 40",
+             root, root, root, data);
+    int rc = test_run_esr(args, out, sizeof out);
+    if (rc != 0)
+        fail_msg("esr import --masks failed (%d): %s", rc, out);
+    assert_non_null(strstr(out, "masks as alpha"));
+    static const char *const names[] = {"shot0_off", "shot1_off", "shot2_off", "shot0_on", "shot1_on", "shot2_on"};
+    for (int i = 0; i < 6; i++) {
+        struct esr_image img;
+        snprintf(path, sizeof path, "%s/train/%s.png", data, names[i]);
+        assert_int_equal(esr_png_read(path, &img), ESR_OK);
+        assert_int_equal(img.channels, 4);
+        const int w = img.width, y = img.height / 2;
+        /* a quarter of the width inside either side of the edge: fully in or out */
+        assert_true(img.data[((size_t)y * w + w / 4) * 4 + 3] > 0.99f);
+        assert_true(img.data[((size_t)y * w + 3 * w / 4) * 4 + 3] < 0.01f);
+        esr_image_free(&img);
+    }
+    snprintf(path, sizeof path, "%s/import.json", data);
+    cJSON *rec = test_read_json(path);
+    assert_non_null(rec);
+    assert_true(cJSON_IsTrue(cJSON_GetObjectItem(rec, "masks")));
+    cJSON_Delete(rec);
+}
+
 /* `esr import colmap` on a broken capture exits 1 naming `what` and leaves no output. */
 static void assert_import_fails(const char *root, const char *what)
 {
-    char args[4096], out[8192], data[1300];
+    char args[8192], out[8192], data[1300], masks[1300];
     snprintf(data, sizeof data, "%s/data", root);
-    snprintf(args, sizeof args, "import colmap '%s/sparse' '%s/images' --out '%s' --size 32", root, root, data);
+    snprintf(masks, sizeof masks, "%s/masks", root);
+    struct stat mst;
+    const int has_masks = stat(masks, &mst) == 0;
+    snprintf(args, sizeof args, "import colmap '%s/sparse' '%s/images' --out '%s' --size 32%s%s%s", root, root,
+             data, has_masks ? " --masks '" : "", has_masks ? masks : "", has_masks ? "'" : "");
     int rc = test_run_esr(args, out, sizeof out);
     if (rc != 1 || !strstr(out, what))
         fail_msg("expected exit 1 naming '%s', got %d: %s", what, rc, out);
@@ -1023,6 +1087,19 @@ static void test_import_bad_captures(void **state)
     put_bytes(f, 1000, 8);
     fclose(f);
     assert_import_fails(root, "images.bin' is truncated or corrupt");
+    /* --masks: a photo without its mask, a mask of the wrong size, a mask that is not a PNG */
+    snprintf(root, sizeof root, "%s/nomask", test_tmpdir);
+    make_capture(root, 0, 6);
+    write_masks(root);
+    snprintf(path, sizeof path, "%s/masks/on/shot1.jpg.png", root); /* photo 4: COLMAP's naming */
+    assert_int_equal(remove(path), 0);
+    assert_import_fails(root, "no mask for image 'on/shot1.jpg': with --masks every registered photo needs");
+    assert_int_equal(esr_image_alloc(&small, 32, 24, 1), ESR_OK);
+    assert_int_equal(esr_png_write(path, &small, 8), ESR_OK);
+    esr_image_free(&small);
+    assert_import_fails(root, "masks/on/shot1.jpg.png' is 32x24 but its photo");
+    assert_int_equal(test_write_file(path, "not a png"), 0);
+    assert_import_fails(root, "masks/on/shot1.jpg.png");
 }
 
 int main(void)
@@ -1043,6 +1120,7 @@ int main(void)
         cmocka_unit_test(test_valid_extent_off_centre_and_tight),
         cmocka_unit_test(test_import_end_to_end),
         cmocka_unit_test(test_import_projection_agrees_with_colmap),
+        cmocka_unit_test(test_import_masks_become_alpha),
         cmocka_unit_test(test_import_bad_captures),
     };
     return cmocka_run_group_tests(tests, test_setup_tmpdir, test_teardown_tmpdir);

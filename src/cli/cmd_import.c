@@ -15,7 +15,8 @@ static int run_import(int argc, char **argv);
 const struct esr_command cmd_import = {
     "import",
     "turn a COLMAP-posed photo capture or a DTU scan into a dataset (ESR layout)",
-    "usage: esr import colmap MODEL_DIR IMAGES --out DATA [--size N | --align-to TRUE_DATA] [--force]\n"
+    "usage: esr import colmap MODEL_DIR IMAGES --out DATA [--size N | --align-to TRUE_DATA]\n"
+    "                         [--masks MASKS] [--force]\n"
     "       esr import dtu SCAN --out DATA [--size N] [--force]\n"
     "\n"
     "colmap: photos with the lights off in IMAGES/off/, with the lights on in IMAGES/on/\n"
@@ -30,6 +31,11 @@ const struct esr_command cmd_import = {
     "is resampled away) and area-filtered to the output size. The scene is centred on the median\n"
     "sparse point, scaled so 90% of the points lie within radius 1 (cameras no further than 4)\n"
     "and turned so the cameras' mean image-up is +Z. EXIF orientation is ignored, as COLMAP does.\n"
+    "Without masks the photos are opaque and training learns their background (fields/background).\n"
+    "--masks MASKS: foreground masks laid out as COLMAP reads them (--ImageReader.mask_path):\n"
+    "MASKS/off/x.jpg.png for the photo off/x.jpg (or MASKS/off/x.png), one per registered photo,\n"
+    "its size, > 127 = foreground; undistorted with the photo into the PNG's alpha (training then\n"
+    "composites on white and ignores the background, as for DTU).\n"
     "\n"
     "dtu: a DTU scan as NeuS/IDR distribute it: SCAN/cameras_sphere.npz (world_mat_<n>, scale_mat_<n>),\n"
     "SCAN/image/<n>.png (000000.png, ...) and optionally SCAN/mask/<n>.png (> 127 = foreground). Every\n"
@@ -53,6 +59,7 @@ const struct esr_command cmd_import = {
     "  --out DATA   output dataset folder (absent or empty unless --force)\n"
     "  --size N     longer side of the written images in pixels, 8..16384 (default: 400)\n"
     "  --align-to TRUE_DATA  align to and compare with true cameras (above)\n"
+    "  --masks MASKS  colmap: foreground masks (above)\n"
     "  --force      replace a non-empty DATA\n"
     "  -h, --help   this text\n",
     run_import,
@@ -80,7 +87,8 @@ static void print_dtu_result(const struct esr_dtu_import_opts *o, const struct e
 static void print_result(const struct esr_colmap_import_opts *o, const struct esr_colmap_import_result *r)
 {
     printf("wrote %s from COLMAP %s model %s\n", o->out_dir, r->format, o->model_dir);
-    printf("frames    %d (lights off %d, on %d)\n", r->n_frames, r->n_off, r->n_on);
+    printf("frames    %d (lights off %d, on %d)%s\n", r->n_frames, r->n_off, r->n_on,
+           o->masks_dir ? ", masks as alpha" : "");
     printf("images    %d x %d, focal %.2f px (camera_angle_x %.6f rad)\n", r->width, r->height, r->focal,
            r->camera_angle_x);
     printf("scene     centre (%.4g, %.4g, %.4g), scale %.4g (from the %s)\n", r->frame.centre[0], r->frame.centre[1],
@@ -139,6 +147,8 @@ static int run_import(int argc, char **argv)
             o.out_dir = argv[++i];
         } else if (!strcmp(a, "--align-to") && has_value) {
             o.align_to = argv[++i];
+        } else if (!strcmp(a, "--masks") && has_value) {
+            o.masks_dir = argv[++i];
         } else if (!strcmp(a, "--size") && has_value) {
             size_given = 1;
             if (cli_parse_int(argv[++i], 8, 16384, &o.size))
@@ -160,8 +170,9 @@ static int run_import(int argc, char **argv)
                         "dataset's image size");
     int tty = isatty(STDERR_FILENO);
     if (!strcmp(positional[0], "dtu")) {
-        if (o.align_to)
-            return cli_fail(&cmd_import, "--align-to is for 'colmap' imports");
+        if (o.align_to || o.masks_dir)
+            return cli_fail(&cmd_import, "%s is for 'colmap' imports (a DTU scan's masks are SCAN/mask/)",
+                            o.align_to ? "--align-to" : "--masks");
         return run_dtu(positional, n_pos, &o, &tty);
     }
     if (n_pos < 3)

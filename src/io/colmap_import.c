@@ -23,6 +23,7 @@ struct frame_plan {
     int jpeg;                     /* else PNG */
     char out_name[ESR_NAME_MAX];  /* "<stem>_<off|on>" */
     char src_path[ESR_PATH_MAX];  /* IMAGES/<name> */
+    char mask_path[ESR_PATH_MAX]; /* MASKS/<name>.png or MASKS/<name without extension>.png; "" */
 };
 
 static int compare_plans(const void *a, const void *b)
@@ -41,7 +42,23 @@ static int ends_with(const char *s, const char *suffix)
     return 1;
 }
 
-/* Lighting (from the first folder of the name), photo type, output name and source path. */
+/* The mask of the photo `name` (its extension at name[ext]): COLMAP's name, else the stem's. */
+static int find_mask(const char *masks_dir, const char *name, int ext, struct frame_plan *p)
+{
+    char stem[ESR_PATH_MAX];
+    if (snprintf(p->mask_path, sizeof p->mask_path, "%s/%s.png", masks_dir, name) >= (int)sizeof p->mask_path ||
+        snprintf(stem, sizeof stem, "%s/%.*s.png", masks_dir, ext, name) >= (int)sizeof stem)
+        return ESR_FAIL("mask path for image '%s' is too long", name);
+    if (esr_file_exists(p->mask_path))
+        return ESR_OK;
+    if (!esr_file_exists(stem))
+        return ESR_FAIL("no mask for image '%s': with --masks every registered photo needs '%s' or '%s'", name,
+                        p->mask_path, stem);
+    memcpy(p->mask_path, stem, sizeof stem);
+    return ESR_OK;
+}
+
+/* Lighting (from the first folder of the name), photo type, output name, source and mask path. */
 static int plan_frame(const struct esr_colmap_import_opts *o, const char *model_file,
                       const struct esr_colmap_image *im, struct frame_plan *p)
 {
@@ -64,7 +81,7 @@ static int plan_frame(const struct esr_colmap_import_opts *o, const char *model_
         return ESR_FAIL("'%s': image name '%s' is too long", model_file, im->name);
     if (!esr_file_exists(p->src_path))
         return ESR_FAIL("'%s' is missing (image %u of the COLMAP model in '%s')", p->src_path, im->id, o->model_dir);
-    return ESR_OK;
+    return o->masks_dir ? find_mask(o->masks_dir, im->name, (int)(dot - im->name), p) : ESR_OK;
 }
 
 /* The frames sorted by name, every output name unique. */
@@ -159,9 +176,15 @@ static int write_frame_image(const struct esr_colmap_model *m, const struct fram
     struct esr_image rgb = {0};
     if (status == ESR_OK) /* grey expanded, alpha composited like the dataset loader does */
         status = esr_image_composite(&photo, white, &rgb);
+    esr_image_free(&photo);
+    if (status == ESR_OK && p->mask_path[0]) { /* the mask travels with the colours as alpha */
+        struct esr_image rgba;
+        status = esr_import_attach_mask(&rgb, p->mask_path, p->src_path, &rgba);
+        esr_image_free(&rgb);
+        rgb = rgba;
+    }
     if (status == ESR_OK)
         status = esr_colmap_undistort_image(cam, &rgb, view, &out);
-    esr_image_free(&photo);
     esr_image_free(&rgb);
     if (status != ESR_OK)
         return status;
@@ -226,6 +249,8 @@ static int write_record(const struct esr_colmap_import_opts *o, const struct esr
     cJSON_AddBoolToObject(root, "placed_by_points", r->frame.from_points);
     cJSON_AddStringToObject(root, "placed_by", r->aligned ? "alignment" : r->frame.from_points ? "points" : "cameras");
     cJSON_AddNumberToObject(root, "focal", r->focal);
+    cJSON_AddBoolToObject(root, "masks", o->masks_dir != NULL);
+    cJSON_AddStringToObject(root, "alpha", o->masks_dir ? o->masks_dir : "none");
     if (r->aligned)
         cJSON_AddItemToObject(root, "alignment", alignment_json(o, r));
     return esr_import_write_record(staging, root);

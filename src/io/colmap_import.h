@@ -27,6 +27,10 @@ struct esr_colmap_import_opts {
     int size;               /* longer side of the written images, pixels */
     int force;              /* replace a non-empty out_dir */
     const char *align_to;   /* NULL, or the true dataset the photos were rendered from: see below */
+    const char *masks_dir;  /* NULL, or foreground masks in COLMAP's layout: MASKS/<image name>.png
+                               (off/x.jpg -> MASKS/off/x.jpg.png, as colmap's
+                               --ImageReader.mask_path reads them), or MASKS/off/x.png; one per
+                               registered photo, its size, > 127 foreground; they become alpha */
     void (*progress)(void *user, int done, int total); /* after each photo; may be NULL */
     void *user;
 };

@@ -164,7 +164,7 @@ static int choose_view(const struct dtu_frame *f, int n, int width, int height, 
 static int read_photo(const struct dtu_frame *f, int width, int height, struct esr_image *out)
 {
     static const float white[3] = {1.0f, 1.0f, 1.0f};
-    struct esr_image photo, mask = {0}, rgb = {0};
+    struct esr_image photo, rgb = {0};
     ESR_TRY(esr_image_read(f->image, &photo));
     int status = ESR_OK;
     if (photo.width != width || photo.height != height)
@@ -177,20 +177,7 @@ static int read_photo(const struct dtu_frame *f, int width, int height, struct e
         *out = rgb;
         return status;
     }
-    status = esr_png_read(f->mask, &mask);
-    if (status == ESR_OK && (mask.width != width || mask.height != height))
-        status = ESR_FAIL("'%s' is %dx%d but its photo '%s' is %dx%d", f->mask, mask.width, mask.height, f->image,
-                          width, height);
-    if (status == ESR_OK)
-        status = esr_image_alloc(out, width, height, 4);
-    if (status == ESR_OK) {
-        const size_t np = (size_t)width * (size_t)height;
-        for (size_t p = 0; p < np; p++) {
-            memcpy(out->data + p * 4, rgb.data + p * 3, 3 * sizeof(float));
-            out->data[p * 4 + 3] = mask.data[p * (size_t)mask.channels] * 255.0f > 127.5f ? 1.0f : 0.0f;
-        }
-    }
-    esr_image_free(&mask);
+    status = esr_import_attach_mask(&rgb, f->mask, f->image, out);
     esr_image_free(&rgb);
     return status;
 }

@@ -3,6 +3,7 @@
 
 #include <math.h>
 #include <stdio.h>
+#include <string.h>
 
 #include "core/error.h"
 #include "io/dir.h"
@@ -23,6 +24,27 @@ int esr_import_write_image(const char *staging, const char *name, struct esr_ima
     snprintf(path, sizeof path, "%s/train/%s.png", staging, name);
     int status = esr_png_write(path, img, 8);
     esr_image_free(img);
+    return status;
+}
+
+int esr_import_attach_mask(const struct esr_image *rgb, const char *mask_path, const char *photo_path,
+                           struct esr_image *out)
+{
+    struct esr_image mask = {0};
+    memset(out, 0, sizeof *out);
+    ESR_TRY(esr_png_read(mask_path, &mask));
+    int status = mask.width == rgb->width && mask.height == rgb->height
+                     ? esr_image_alloc(out, rgb->width, rgb->height, 4)
+                     : ESR_FAIL("'%s' is %dx%d but its photo '%s' is %dx%d", mask_path, mask.width,
+                                mask.height, photo_path, rgb->width, rgb->height);
+    if (status == ESR_OK) {
+        const size_t np = (size_t)rgb->width * (size_t)rgb->height;
+        for (size_t p = 0; p < np; p++) {
+            memcpy(out->data + p * 4, rgb->data + p * 3, 3 * sizeof(float));
+            out->data[p * 4 + 3] = mask.data[p * (size_t)mask.channels] * 255.0f > 127.5f ? 1.0f : 0.0f;
+        }
+    }
+    esr_image_free(&mask);
     return status;
 }
 
