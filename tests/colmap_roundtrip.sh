@@ -3,8 +3,8 @@
 #
 #   1. `esr synth` renders SCENE's training views at RES px (the capture) and, with the
 #      same seed and so the same cameras, at SIZE px with its test views (the true dataset).
-#   2. The capture's renders are laid out as photos (IMAGES/off, IMAGES/on; alpha composited on
-#      white and saved as JPEG, as a camera would) and posed by COLMAP from scratch: one shared
+#   2. The capture's renders are laid out as photos (IMAGES/off, IMAGES/on; any alpha composited
+#      on white, saved as JPEG, as a camera would) and posed by COLMAP from scratch: one shared
 #      SIMPLE_RADIAL camera, exhaustive matching, mapper, CPU only.
 #   3. `esr import colmap ... --align-to TRUE` aligns COLMAP's cameras to the true ones (a
 #      similarity on the centres; that alignment also places the scene), reports their rotation
@@ -22,13 +22,14 @@ set -euo pipefail
 ESR=${ESR:-build/esr}
 WORK=${WORK:-/tmp/esr-colmap-roundtrip}
 RES=${RES:-1000}            # capture photos, px (issue #14: 1000 px or more)
-SPP=${SPP:-32}              # path-tracing samples per pixel of the capture
+SPP=${SPP:-16}              # path-tracing samples per pixel of the capture
 VIEWS=${VIEWS:-50}          # training views per lighting condition
-SIZE=${SIZE:-200}           # true dataset and import, px
-TEST_VIEWS=${TEST_VIEWS:-10}
+SIZE=${SIZE:-100}           # true dataset and import, px (what both trainings see)
+TEST_VIEWS=${TEST_VIEWS:-5}
 THREADS=${THREADS:-2}       # COLMAP's threads (the machine is shared)
 SCENE=${SCENE:-capture}     # built-in scene: capture (non-repeating textures) or default (checker, stripes)
-SYNTH_OPTS=${SYNTH_OPTS:-}    # extra `esr synth` options for both renders, e.g. --backdrop (opaque photos)
+SYNTH_OPTS=${SYNTH_OPTS---backdrop} # extra `esr synth` options for both renders (default --backdrop: opaque
+                             # photos of the object in a room; SYNTH_OPTS= for renders on white)
 FEATURES=${FEATURES:-2048}  # SIFT features per photo: CPU matching is brute force, pairs x features^2
 MAX_ROT_DEG=0.5
 MAX_PSNR_DIFF_DB=1.0

@@ -91,9 +91,10 @@ static void build_default(struct esr_synth_scene *s)
              0.2f, 0.35f, 0.0f);
 }
 
-/* The default scene as a real capture would show it: its floor and box carry non-repeating fractal
- * noise instead of a checker and stripes, whose repeats make a feature matcher (COLMAP) place some
- * cameras at a wrong, look-alike pose. */
+/* The default scene as a real capture would show it: every surface but the lights' carries
+ * non-repeating fractal noise. A checker and stripes repeat, so a feature matcher (COLMAP) places
+ * some cameras at a wrong, look-alike pose; plain-coloured objects give it nothing, so the low
+ * views, which see the floor edge-on, go unregistered. */
 static void build_capture(struct esr_synth_scene *s)
 {
     build_default(s);
@@ -101,8 +102,11 @@ static void build_capture(struct esr_synth_scene *s)
     s->summary = "the default scene with non-repeating (noise) textures, for pose estimation";
     for (int i = 0; i < s->n_prims; i++) {
         struct esr_synth_prim *p = &s->prims[i];
+        const float *b = p->mat.base;
         if (p->texture != ESR_SYNTH_TEX_NONE)
             set_texture(p, ESR_SYNTH_TEX_NOISE, p->base2[0], p->base2[1], p->base2[2], p->tex_period);
+        else if (p->light < 0) /* blotches of a darker shade of its colour */
+            set_texture(p, ESR_SYNTH_TEX_NOISE, 0.45f * b[0], 0.45f * b[1], 0.45f * b[2], 0.15f);
     }
 }
 
