@@ -112,17 +112,32 @@ static int plan_frames(const struct esr_colmap_import_opts *o, const struct esr_
     return status;
 }
 
+/* The half extents the undistorted views of all registered photos cover: the smallest over the
+ * cameras the images use, each camera once however many photos share it. */
+static int common_extent(const struct esr_colmap_model *m, double *hx, double *hy)
+{
+    *hx = *hy = INFINITY;
+    for (int c = 0; c < m->n_cameras; c++) {
+        const struct esr_colmap_camera *cam = &m->cameras[c];
+        int used = 0;
+        for (int i = 0; i < m->n_images && !used; i++)
+            used = m->images[i].camera_id == cam->id;
+        if (!used)
+            continue;
+        double cx, cy;
+        ESR_TRY(esr_colmap_valid_extent(cam, &cx, &cy));
+        *hx = fmin(*hx, cx);
+        *hy = fmin(*hy, cy);
+    }
+    return ESR_OK;
+}
+
 /* The one pinhole view every frame is written in: the field of view all cameras cover, the
  * longer side `size` pixels. */
 static int choose_view(const struct esr_colmap_model *m, int size, struct esr_pinhole_view *v)
 {
-    double hx = INFINITY, hy = INFINITY;
-    for (int i = 0; i < m->n_images; i++) {
-        double cx, cy;
-        ESR_TRY(esr_colmap_valid_extent(esr_colmap_find_camera(m, m->images[i].camera_id), &cx, &cy));
-        hx = fmin(hx, cx);
-        hy = fmin(hy, cy);
-    }
+    double hx, hy;
+    ESR_TRY(common_extent(m, &hx, &hy));
     return esr_pinhole_view_fit(hx, hy, size, v);
 }
 
@@ -134,13 +149,9 @@ static int true_view(const struct esr_colmap_model *m, const struct esr_dataset 
     v->width = truth->width;
     v->height = truth->height;
     v->focal = truth->focal;
-    const double hx = 0.5 * v->width / v->focal, hy = 0.5 * v->height / v->focal;
-    *coverage = 1.0;
-    for (int i = 0; i < m->n_images; i++) {
-        double cx, cy;
-        ESR_TRY(esr_colmap_valid_extent(esr_colmap_find_camera(m, m->images[i].camera_id), &cx, &cy));
-        *coverage = fmin(*coverage, fmin(cx / hx, cy / hy));
-    }
+    double cx, cy;
+    ESR_TRY(common_extent(m, &cx, &cy));
+    *coverage = fmin(1.0, fmin(cx / (0.5 * v->width / v->focal), cy / (0.5 * v->height / v->focal)));
     return ESR_OK;
 }
 
