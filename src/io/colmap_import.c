@@ -179,24 +179,16 @@ static int write_frame_image(const struct esr_colmap_model *m, const struct fram
     struct esr_image photo, out;
     /* as stored: COLMAP ignores the EXIF orientation, so its cameras describe these pixels */
     ESR_TRY(p->jpeg ? esr_jpeg_read_stored(p->src_path, &photo) : esr_png_read(p->src_path, &photo));
-    int status = ESR_OK;
-    if (photo.width != cam->width || photo.height != cam->height)
-        status = ESR_FAIL("'%s' is %dx%d but its COLMAP camera %u is %dx%d", p->src_path, photo.width, photo.height,
-                          cam->id, cam->width, cam->height);
-    static const float white[3] = {1.0f, 1.0f, 1.0f};
-    struct esr_image rgb = {0};
-    if (status == ESR_OK) /* grey expanded, alpha composited like the dataset loader does */
-        status = esr_image_composite(&photo, white, &rgb);
-    esr_image_free(&photo);
-    if (status == ESR_OK && p->mask_path[0]) { /* the mask travels with the colours as alpha */
-        struct esr_image rgba;
-        status = esr_import_attach_mask(&rgb, p->mask_path, p->src_path, &rgba);
-        esr_image_free(&rgb);
-        rgb = rgba;
+    if (photo.width != cam->width || photo.height != cam->height) {
+        int status = ESR_FAIL("'%s' is %dx%d but its COLMAP camera %u is %dx%d", p->src_path, photo.width,
+                              photo.height, cam->id, cam->width, cam->height);
+        esr_image_free(&photo);
+        return status;
     }
-    if (status == ESR_OK)
-        status = esr_colmap_undistort_image(cam, &rgb, view, &out);
-    esr_image_free(&rgb);
+    struct esr_image pixels; /* the mask, if any, travels with the colours as alpha */
+    ESR_TRY(esr_import_photo_pixels(&photo, p->src_path, p->mask_path, &pixels));
+    int status = esr_colmap_undistort_image(cam, &pixels, view, &out);
+    esr_image_free(&pixels);
     if (status != ESR_OK)
         return status;
     return esr_import_write_image(staging, p->out_name, &out);

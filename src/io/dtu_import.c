@@ -163,23 +163,15 @@ static int choose_view(const struct dtu_frame *f, int n, int width, int height, 
 /* The photo as RGB on white, with the mask as a fourth channel when there is one. */
 static int read_photo(const struct dtu_frame *f, int width, int height, struct esr_image *out)
 {
-    static const float white[3] = {1.0f, 1.0f, 1.0f};
-    struct esr_image photo, rgb = {0};
+    struct esr_image photo;
     ESR_TRY(esr_image_read(f->image, &photo));
-    int status = ESR_OK;
-    if (photo.width != width || photo.height != height)
-        status = ESR_FAIL("'%s' is %dx%d but the scan's first photo is %dx%d", f->image, photo.width, photo.height,
-                          width, height);
-    if (status == ESR_OK)
-        status = esr_image_composite(&photo, white, &rgb);
-    esr_image_free(&photo);
-    if (status != ESR_OK || !f->mask[0]) {
-        *out = rgb;
+    if (photo.width != width || photo.height != height) {
+        int status = ESR_FAIL("'%s' is %dx%d but the scan's first photo is %dx%d", f->image, photo.width,
+                              photo.height, width, height);
+        esr_image_free(&photo);
         return status;
     }
-    status = esr_import_attach_mask(&rgb, f->mask, f->image, out);
-    esr_image_free(&rgb);
-    return status;
+    return esr_import_photo_pixels(&photo, f->image, f->mask, out);
 }
 
 static int write_frame_image(const struct dtu_frame *f, int width, int height, const struct esr_pinhole_view *view,

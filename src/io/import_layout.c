@@ -27,8 +27,9 @@ int esr_import_write_image(const char *staging, const char *name, struct esr_ima
     return status;
 }
 
-int esr_import_attach_mask(const struct esr_image *rgb, const char *mask_path, const char *photo_path,
-                           struct esr_image *out)
+/* rgb (opaque) with the mask at mask_path as alpha. */
+static int attach_mask(const struct esr_image *rgb, const char *mask_path, const char *photo_path,
+                       struct esr_image *out)
 {
     struct esr_image mask = {0};
     memset(out, 0, sizeof *out);
@@ -45,6 +46,22 @@ int esr_import_attach_mask(const struct esr_image *rgb, const char *mask_path, c
         }
     }
     esr_image_free(&mask);
+    return status;
+}
+
+int esr_import_photo_pixels(struct esr_image *photo, const char *photo_path, const char *mask_path,
+                            struct esr_image *out)
+{
+    static const float white[3] = {1.0f, 1.0f, 1.0f};
+    struct esr_image rgb = {0};
+    int status = esr_image_composite(photo, white, &rgb);
+    esr_image_free(photo);
+    if (status != ESR_OK || !mask_path[0]) {
+        *out = rgb;
+        return status;
+    }
+    status = attach_mask(&rgb, mask_path, photo_path, out);
+    esr_image_free(&rgb);
     return status;
 }
 

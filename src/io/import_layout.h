@@ -18,12 +18,13 @@ int esr_import_layout_dirs(const char *staging);
 /* staging/train/<name>.png, 8-bit; img is freed in every case. */
 int esr_import_write_image(const char *staging, const char *name, struct esr_image *img);
 
-/* The photo rgb (3 channels, opaque) with a foreground mask as alpha: out gets rgb's colours and
- * alpha 1 where the mask's first channel exceeds 127 of 255, else 0 (DTU's and COLMAP's masks are
- * binary; a fringe of partial alpha comes from resampling, not from the mask). Fails naming both
- * files when the mask is unreadable or not the photo's size. */
-int esr_import_attach_mask(const struct esr_image *rgb, const char *mask_path, const char *photo_path,
-                           struct esr_image *out);
+/* A photo's pixels as an importer writes them: grey expanded and any alpha composited on white
+ * (as the dataset loader does), then, when mask_path is not empty, the foreground mask as alpha:
+ * 1 where its first channel exceeds 127 of 255, else 0 (DTU's and COLMAP's masks are binary; a
+ * fringe of partial alpha comes from resampling, not from the mask). Fails naming both files when
+ * the mask is unreadable or not the photo's size. photo is freed in every case. */
+int esr_import_photo_pixels(struct esr_image *photo, const char *photo_path, const char *mask_path,
+                            struct esr_image *out);
 
 /* A training frame: file_path "train/<name>", the camera-to-world matrix (esr's convention and
  * world, 4x4 with the row 0 0 0 1), one light, "off" (intensity 0) or "on" (1), original colour,
