@@ -129,6 +129,12 @@ static int inherit_mask(struct esr_model *m, const struct esr_model *prev)
     return ESR_OK;
 }
 
+/* Bytes of m's mask cache (one per cell; 0 without one). */
+static size_t mask_bytes(const struct esr_model *m)
+{
+    return m->has_mask ? (size_t)m->mask.nx * m->mask.ny * m->mask.nz : 0;
+}
+
 /* A layout pass that only counts parameters: 16 bytes each (values, gradients, both Adam
  * moments), and the mask cache taken over from prev. */
 int esr_model_memory_need(const struct esr_train_config *cfg, enum esr_stage stage,
@@ -143,8 +149,7 @@ int esr_model_memory_need(const struct esr_train_config *cfg, enum esr_stage sta
     memcpy(dry.scene_max, scene_max, sizeof dry.scene_max);
     dry.params.count_only = 1;
     ESR_TRY(layout(&dry));
-    const size_t mask = prev && prev->has_mask ? (size_t)prev->mask.nx * prev->mask.ny * prev->mask.nz : 0;
-    *bytes = dry.params.count * 4 * sizeof(float) + mask;
+    *bytes = dry.params.count * 4 * sizeof(float) + (prev ? mask_bytes(prev) : 0);
     if (n_params)
         *n_params = dry.params.count;
     return ESR_OK;
@@ -152,8 +157,7 @@ int esr_model_memory_need(const struct esr_train_config *cfg, enum esr_stage sta
 
 size_t esr_model_memory_held(const struct esr_model *m)
 {
-    const size_t mask = m->has_mask ? (size_t)m->mask.nx * m->mask.ny * m->mask.nz : 0;
-    return m->params.count * 4 * sizeof(float) + mask;
+    return m->params.count * 4 * sizeof(float) + mask_bytes(m);
 }
 
 /* Refuses a model that would not fit in memory before any of it is allocated: a wrong option or
