@@ -163,7 +163,7 @@ static int count_temps(const char *dir)
     return n;
 }
 
-/* 1 when the trees a and b hold the same files with the same bytes (diff from diffutils). */
+/* 1 when the files, or the trees a and b, hold the same bytes (diff from diffutils). */
 static int trees_equal(const char *a, const char *b)
 {
     char cmd[9000];
@@ -197,18 +197,25 @@ static void train_reset(struct job *j)
     remove_tree(j->dir);
 }
 
+/* Fails unless each of the n names (files or folders) under j->dir holds the same bytes as under
+ * j->ref, the uninterrupted `what`'s output, and unless the last run removed every temporary
+ * file the kills left. */
+static void assert_same_outputs(const struct job *j, const char *const *names, size_t n, const char *what)
+{
+    char a[4400], b[4400];
+    for (size_t i = 0; i < n; i++) {
+        snprintf(a, sizeof a, "%s/%s", j->ref, names[i]);
+        snprintf(b, sizeof b, "%s/%s", j->dir, names[i]);
+        if (!trees_equal(a, b))
+            fail_msg("%s differs from the uninterrupted %s's", b, what);
+    }
+    assert_int_equal(count_temps(j->dir), 0);
+}
+
 static void train_compare(struct job *j)
 {
     static const char *const ckpts[] = {"ckpt_alphamask.bin", "ckpt_coarse.bin"};
-    char a[4400], b[4400];
-    for (size_t i = 0; i < 2; i++) {
-        snprintf(a, sizeof a, "%s/%s", j->ref, ckpts[i]);
-        snprintf(b, sizeof b, "%s/%s", j->dir, ckpts[i]);
-        if (!test_files_equal(a, b))
-            fail_msg("%s differs from the uninterrupted run's", b);
-    }
-    /* the last (resumed) run removed what earlier kills left */
-    assert_int_equal(count_temps(j->dir), 0);
+    assert_same_outputs(j, ckpts, sizeof ckpts / sizeof ckpts[0], "run");
 }
 
 static void test_train_killed_anywhere_resumes_exactly(void **state)
@@ -290,6 +297,9 @@ static void test_synth_killed_anywhere_leaves_all_or_nothing(void **state)
 /* ---- eval ---- */
 
 static char eval_data[4300];
+/* what `esr eval` writes into the run */
+static const char *const EVAL_OUTPUTS[] = {"render", "eval", "report.html"};
+#define N_EVAL_OUTPUTS (sizeof EVAL_OUTPUTS / sizeof EVAL_OUTPUTS[0])
 
 static void eval_command(struct job *j, struct command *c)
 {
@@ -308,9 +318,8 @@ static void eval_after_kill(struct job *j)
 static void eval_reset(struct job *j)
 {
     char path[4400];
-    static const char *const outputs[] = {"render", "eval", "report.html"};
-    for (size_t i = 0; i < sizeof outputs / sizeof outputs[0]; i++) {
-        snprintf(path, sizeof path, "%s/%s", j->dir, outputs[i]);
+    for (size_t i = 0; i < N_EVAL_OUTPUTS; i++) {
+        snprintf(path, sizeof path, "%s/%s", j->dir, EVAL_OUTPUTS[i]);
         remove_tree(path);
     }
     const long dead = test_dead_pid();
@@ -321,15 +330,7 @@ static void eval_reset(struct job *j)
 
 static void eval_compare(struct job *j)
 {
-    char a[4400], b[4400];
-    static const char *const outputs[] = {"render", "eval", "report.html"};
-    for (size_t i = 0; i < sizeof outputs / sizeof outputs[0]; i++) {
-        snprintf(a, sizeof a, "%s/%s", j->ref, outputs[i]);
-        snprintf(b, sizeof b, "%s/%s", j->dir, outputs[i]);
-        if (!trees_equal(a, b))
-            fail_msg("%s differs from the uninterrupted evaluation's", b);
-    }
-    assert_int_equal(count_temps(j->dir), 0);
+    assert_same_outputs(j, EVAL_OUTPUTS, N_EVAL_OUTPUTS, "evaluation");
 }
 
 static void test_eval_killed_anywhere_finishes_identically(void **state)
