@@ -847,16 +847,29 @@ static int count_entries(const char *dir, const char *prefix)
     return n;
 }
 
+/* Runs `esr import colmap` on the capture at root (make_capture's layout) into root/data with
+ * `size` pixels, and with --masks root/masks when that folder exists; returns the exit status,
+ * the output in out. */
+static int import_capture(const char *root, int size, char *out, size_t n)
+{
+    char args[8192], masks[1300];
+    snprintf(masks, sizeof masks, "%s/masks", root);
+    struct stat st;
+    const int has_masks = stat(masks, &st) == 0;
+    snprintf(args, sizeof args, "import colmap '%s/sparse' '%s/images' --out '%s/data' --size %d%s%s%s", root, root,
+             root, size, has_masks ? " --masks '" : "", has_masks ? masks : "", has_masks ? "'" : "");
+    return test_run_esr(args, out, n);
+}
+
 static void test_import_end_to_end(void **state)
 {
     (void)state;
     for (int text = 0; text < 2; text++) {
-        char root[1200], args[4096], out[8192], data[1300];
+        char root[1200], out[8192], data[1300];
         snprintf(root, sizeof root, "%s/capture_%d", test_tmpdir, text);
         make_capture(root, text, 6);
         snprintf(data, sizeof data, "%s/data", root);
-        snprintf(args, sizeof args, "import colmap '%s/sparse' '%s/images' --out '%s' --size 40", root, root, data);
-        int rc = test_run_esr(args, out, sizeof out);
+        int rc = import_capture(root, 40, out, sizeof out);
         if (rc != 0)
             fail_msg("esr import failed (%d): %s", rc, out);
         assert_non_null(strstr(out, "frames    6 (lights off 3, on 3)"));
@@ -897,12 +910,11 @@ static void test_import_end_to_end(void **state)
 static void test_import_projection_agrees_with_colmap(void **state)
 {
     (void)state;
-    char root[1200], args[4096], out[8192], data[1300], path[1400];
+    char root[1200], out[8192], data[1300], path[1400];
     snprintf(root, sizeof root, "%s/capture_proj", test_tmpdir);
     make_capture(root, 0, 6);
     snprintf(data, sizeof data, "%s/data", root);
-    snprintf(args, sizeof args, "import colmap '%s/sparse' '%s/images' --out '%s' --size 48", root, root, data);
-    assert_int_equal(test_run_esr(args, out, sizeof out), 0);
+    assert_int_equal(import_capture(root, 48, out, sizeof out), 0);
     struct esr_colmap_model m;
     snprintf(path, sizeof path, "%s/sparse", root);
     assert_int_equal(esr_colmap_model_read(path, &m), ESR_OK);
@@ -976,14 +988,12 @@ static void write_masks(const char *root)
 static void test_import_masks_become_alpha(void **state)
 {
     (void)state;
-    char root[1200], args[8192], out[8192], data[1300], path[1400];
+    char root[1200], out[8192], data[1300], path[1400];
     snprintf(root, sizeof root, "%s/capture_masks", test_tmpdir);
     make_capture(root, 0, 6);
     write_masks(root);
     snprintf(data, sizeof data, "%s/data", root);
-    snprintf(args, sizeof args, "import colmap '%s/sparse' '%s/images' --masks '%s/masks' --out '%s' --size 40",
-             root, root, root, data);
-    int rc = test_run_esr(args, out, sizeof out);
+    int rc = import_capture(root, 40, out, sizeof out);
     if (rc != 0)
         fail_msg("esr import --masks failed (%d): %s", rc, out);
     assert_non_null(strstr(out, "masks as alpha"));
@@ -1009,14 +1019,9 @@ static void test_import_masks_become_alpha(void **state)
 /* `esr import colmap` on a broken capture exits 1 naming `what` and leaves no output. */
 static void assert_import_fails(const char *root, const char *what)
 {
-    char args[8192], out[8192], data[1300], masks[1300];
+    char out[8192], data[1300];
     snprintf(data, sizeof data, "%s/data", root);
-    snprintf(masks, sizeof masks, "%s/masks", root);
-    struct stat mst;
-    const int has_masks = stat(masks, &mst) == 0;
-    snprintf(args, sizeof args, "import colmap '%s/sparse' '%s/images' --out '%s' --size 32%s%s%s", root, root,
-             data, has_masks ? " --masks '" : "", has_masks ? masks : "", has_masks ? "'" : "");
-    int rc = test_run_esr(args, out, sizeof out);
+    int rc = import_capture(root, 32, out, sizeof out);
     if (rc != 1 || !strstr(out, what))
         fail_msg("expected exit 1 naming '%s', got %d: %s", what, rc, out);
     struct stat st;
