@@ -2,7 +2,8 @@
  * light's area and centroid, point lookups, and the lights' round trip through a checkpoint. The
  * emission field is made constant (zero weights, last bias b: E = softplus(b) everywhere), so
  * which surfaces emit is decided by the geometry alone and the answers are known: a sphere of
- * radius r has area 4 pi r^2 and its centre as centroid. */
+ * radius r has area 4 pi r^2 and its centre as centroid. The cameras are parallel rays from
+ * around the box (26 directions); only surface they can reach counts. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -20,6 +21,50 @@
 #include "train/lights.h"
 
 #define RES 48
+/* camera rays: 26 directions (cube faces, edges, corners), a GRID x GRID bundle of parallel
+ * rays each */
+#define GRID 40
+#define N_RAYS (26 * GRID * GRID)
+
+static float ray_orig[N_RAYS * 3], ray_dir[N_RAYS * 3];
+
+/* Parallel rays towards the origin from 26 directions, each bundle 2.4 wide (the box, 2 wide,
+ * seen from any of them), starting 3 units out. */
+static void make_rays(void)
+{
+    size_t r = 0;
+    for (int dz = -1; dz <= 1; dz++)
+        for (int dy = -1; dy <= 1; dy++)
+            for (int dx = -1; dx <= 1; dx++) {
+                if (!dx && !dy && !dz)
+                    continue;
+                const float len = sqrtf((float)(dx * dx + dy * dy + dz * dz));
+                const float d[3] = {-dx / len, -dy / len, -dz / len};
+                /* two unit vectors across d */
+                float u[3] = {-d[1], d[0], 0.0f};
+                if (fabsf(d[2]) > 0.9f)
+                    u[0] = 1.0f, u[1] = 0.0f, u[2] = 0.0f;
+                float ul = sqrtf(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);
+                for (int a = 0; a < 3; a++)
+                    u[a] /= ul;
+                const float v[3] = {d[1] * u[2] - d[2] * u[1], d[2] * u[0] - d[0] * u[2],
+                                    d[0] * u[1] - d[1] * u[0]};
+                for (int i = 0; i < GRID; i++)
+                    for (int j = 0; j < GRID; j++, r++) {
+                        const float a = 2.4f * ((float)i + 0.5f) / GRID - 1.2f;
+                        const float b = 2.4f * ((float)j + 0.5f) / GRID - 1.2f;
+                        for (int c = 0; c < 3; c++) {
+                            ray_orig[r * 3 + c] = -3.0f * d[c] + a * u[c] + b * v[c];
+                            ray_dir[r * 3 + c] = d[c];
+                        }
+                    }
+            }
+}
+
+static int find_lights(struct esr_model *m)
+{
+    return esr_lights_find(m, ray_orig, ray_dir, N_RAYS);
+}
 
 /* A pdra-stage model on [-1, 1]^3 whose SDF is the union of spheres (cx, 0, 0) of radius r and
  * whose emission is the constant softplus(bias). */
@@ -53,7 +98,7 @@ static void test_one_emitting_sphere_is_one_light(void **state)
     struct esr_model m;
     const float cx[1] = {0.1f};
     setup(&m, cx, 1, 0.5f, 3.0f);
-    assert_int_equal(esr_lights_find(&m), ESR_OK);
+    assert_int_equal(find_lights(&m), ESR_OK);
     assert_int_equal(m.lights.n, 1);
     const struct esr_light *l = &m.lights.light[0];
     const double area = 4.0 * M_PI * 0.25;
@@ -82,7 +127,7 @@ static void test_two_spheres_are_two_lights(void **state)
     struct esr_model m;
     const float cx[2] = {-0.5f, 0.45f};
     setup(&m, cx, 2, 0.3f, 3.0f);
-    assert_int_equal(esr_lights_find(&m), ESR_OK);
+    assert_int_equal(find_lights(&m), ESR_OK);
     assert_int_equal(m.lights.n, 2);
     const double area = 4.0 * M_PI * 0.09;
     int left = m.lights.light[0].centroid[0] < 0.0f ? 0 : 1;
@@ -107,7 +152,7 @@ static void test_dark_field_has_no_lights(void **state)
     struct esr_model m;
     const float cx[1] = {0.0f};
     setup(&m, cx, 1, 0.5f, -6.0f); /* E = softplus(-6) ~ 0.0025, below k */
-    assert_int_equal(esr_lights_find(&m), ESR_OK);
+    assert_int_equal(find_lights(&m), ESR_OK);
     assert_int_equal(m.lights.n, 0);
     assert_null(m.lights.label);
     const float on[3] = {0.5f, 0.0f, 0.0f};
@@ -121,7 +166,7 @@ static void test_lights_survive_a_checkpoint(void **state)
     struct esr_model m, back;
     const float cx[2] = {-0.5f, 0.45f};
     setup(&m, cx, 2, 0.3f, 3.0f);
-    assert_int_equal(esr_lights_find(&m), ESR_OK);
+    assert_int_equal(find_lights(&m), ESR_OK);
     m.lights.light[1].scale[2] = 7.5f; /* as a calibration would set it */
     char path[4200];
     snprintf(path, sizeof path, "%s/lights.bin", test_tmpdir);
@@ -130,6 +175,14 @@ static void test_lights_survive_a_checkpoint(void **state)
     assert_int_equal(back.lights.n, 2);
     assert_memory_equal(back.lights.light, m.lights.light, sizeof m.lights.light);
     assert_memory_equal(back.lights.label, m.lights.label, esr_grid_voxels(&m.lights.grid));
+    /* the fingerprint renders record: the same after the round trip, another for other lights */
+    const uint64_t fp = esr_lights_fingerprint(&m.lights);
+    assert_true(esr_lights_fingerprint(&back.lights) == fp);
+    m.lights.light[1].scale[2] = 7.25f;
+    assert_true(esr_lights_fingerprint(&m.lights) != fp);
+    m.lights.light[1].scale[2] = 7.5f;
+    m.lights.label[esr_grid_voxels(&m.lights.grid) / 2] ^= 1;
+    assert_true(esr_lights_fingerprint(&m.lights) != fp);
     /* a scaled light's emission is reported scaled */
     float pos[3] = {0.45f, 0.0f, -0.3f}, e[3] = {1.0f, 1.0f, 1.0f};
     const int id = esr_lights_id_at(&back.lights, pos);
@@ -139,13 +192,48 @@ static void test_lights_survive_a_checkpoint(void **state)
     esr_model_free(&m);
 }
 
+/* A hollow emitting sphere: the inner wall (a cavity no camera sees into) emits as much as the
+ * outer one, but only the outer surface is a light. */
+static void test_unseen_cavity_is_no_light(void **state)
+{
+    (void)state;
+    struct esr_model m;
+    const float cx[1] = {0.0f};
+    setup(&m, cx, 1, 0.6f, 3.0f);
+    const struct esr_grid *g = esr_model_grid(&m, ESR_COMP_SDF);
+    float *f = esr_model_values(&m, ESR_COMP_SDF);
+    for (int z = 0; z < g->nz; z++) /* carve a cavity of radius 0.3 */
+        for (int y = 0; y < g->ny; y++)
+            for (int x = 0; x < g->nx; x++) {
+                float p[3];
+                esr_grid_voxel_pos(g, x, y, z, p);
+                float *v = &f[((size_t)z * g->ny + y) * g->nx + x];
+                *v = fmaxf(*v, 0.3f - sqrtf(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]));
+            }
+    assert_int_equal(find_lights(&m), ESR_OK);
+    assert_int_equal(m.lights.n, 1);
+    const double outer = 4.0 * M_PI * 0.36, inner = 4.0 * M_PI * 0.09;
+    print_message("hollow sphere: area %.4f (outer %.4f, with the cavity %.4f)\n",
+                  (double)m.lights.light[0].area, outer, outer + inner);
+    assert_true(fabs(m.lights.light[0].area - outer) < 0.05 * outer);
+    const float wall[3] = {0.3f, 0.0f, 0.0f}, shell[3] = {0.0f, 0.6f, 0.0f};
+    assert_int_equal(esr_lights_id_at(&m.lights, wall), -1);
+    assert_int_equal(esr_lights_id_at(&m.lights, shell), 0);
+    /* with no camera rays there is no free space: nothing is seen, nothing is a light */
+    assert_int_equal(esr_lights_find(&m, ray_orig, ray_dir, 0), ESR_OK);
+    assert_int_equal(m.lights.n, 0);
+    esr_model_free(&m);
+}
+
 int main(void)
 {
+    make_rays();
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_one_emitting_sphere_is_one_light),
         cmocka_unit_test(test_two_spheres_are_two_lights),
         cmocka_unit_test(test_dark_field_has_no_lights),
         cmocka_unit_test(test_lights_survive_a_checkpoint),
+        cmocka_unit_test(test_unseen_cavity_is_no_light),
     };
     return cmocka_run_group_tests(tests, test_setup_tmpdir, test_teardown_tmpdir);
 }

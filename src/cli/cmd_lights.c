@@ -49,7 +49,7 @@ static int recompute(struct esr_model *m, const char *data)
     if (rc == ESR_OK && rs.n_off == 0)
         rc = ESR_FAIL("dataset %s: no lights-off training images to calibrate with", data);
     if (rc == ESR_OK)
-        rc = esr_lights_find(m);
+        rc = esr_lights_find(m, rs.orig3, rs.dir3, rs.n);
     if (rc == ESR_OK)
         rc = esr_lights_calibrate(m, rs.orig3, rs.dir3, rs.n_off, ESR_LIGHTS_CALIB_POINTS,
                                   (uint64_t)m->cfg.seed);

@@ -54,6 +54,10 @@ struct esr_lights {
 
 void esr_lights_free(struct esr_lights *L);
 
+/* A 64-bit hash (FNV-1a) of the lights (table and labels; not an edit in place): renders record
+ * it, so that lights found again (`esr lights --recompute`) make earlier renders stale. */
+uint64_t esr_lights_fingerprint(const struct esr_lights *L);
+
 /* The edited emission of radiance e (linear RGB) under edit ed: times the intensity, then hue and
  * saturation replaced with V kept when ed->recolour. */
 void esr_light_edit_apply(const struct esr_light_edit *ed, const float e[3], float out[3]);

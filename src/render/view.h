@@ -88,16 +88,16 @@ typedef void (*esr_view_progress_fn)(void *user, const struct esr_view_progress 
 
 /* Renders frames idx[0..n) of `phase` into dir (created if absent), each with its own camera and
  * lighting (frame mode "off" or "on"), writing the files of esr_view_write, then records the
- * model's stage and step and the frames rendered by that model in dir/render.json (frames of an
- * earlier model are dropped from the record), plus the environment map (esr_view_write_env).
- * Edit frames (i_change, c_change, ic_change) are refused before anything is rendered:
- * relighting edits are not implemented by the model yet.
+ * model's stage, step and lights fingerprint and the frames rendered by that model in
+ * dir/render.json (frames of an earlier model are dropped from the record), plus the
+ * environment map (esr_view_write_env). Edit frames (i_change, c_change, ic_change) are refused
+ * before anything is rendered: edit/editor.h renders those.
  * `progress` may be NULL. */
 int esr_view_render_frames(const struct esr_model *m, const struct esr_dataset *ds, enum esr_phase_id phase,
                            const int *idx, int n, const char *dir, esr_view_progress_fn progress, void *user);
 
-/* 1 when frame `name`'s outputs exist in dir and dir/render.json says this model (stage and step)
- * rendered them, else 0 (render again). */
+/* 1 when frame `name`'s outputs exist in dir and dir/render.json says this model (stage, step
+ * and lights) rendered them, else 0 (render again). */
 int esr_view_is_current(const char *dir, const struct esr_model *m, const char *name);
 
 #endif

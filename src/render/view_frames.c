@@ -31,10 +31,18 @@ static int check_lighting(const struct esr_dataset *ds, const struct esr_frame *
     return ESR_OK;
 }
 
-/* dir/render.json: {"stage": "fine", "step": 1234, "frames": ["c000_off", ...]}. */
+/* dir/render.json: {"stage": "fine", "step": 1234, "lights": "<16 hex digits>",
+ * "frames": ["c000_off", ...]}. */
 static int stamp_path(char *path, size_t n, const char *dir)
 {
     return esr_view_path(path, n, dir, "render", ".json");
+}
+
+/* The model's lights fingerprint as 16 hex digits: the same stage and step with other lights
+ * (`esr lights --recompute`) is another model to a render. */
+static void lights_fingerprint(const struct esr_model *m, char out[24])
+{
+    snprintf(out, 24, "%016llx", (unsigned long long)esr_lights_fingerprint(&m->lights));
 }
 
 /* The frame list of dir's stamp when the stamp names this model; NULL otherwise (no stamp, an
@@ -54,10 +62,14 @@ static cJSON *current_frames(const char *dir, const struct esr_model *m)
     free(text);
     const cJSON *stage = cJSON_GetObjectItemCaseSensitive(root, "stage");
     const cJSON *step = cJSON_GetObjectItemCaseSensitive(root, "step");
+    const cJSON *lights = cJSON_GetObjectItemCaseSensitive(root, "lights");
     cJSON *frames = cJSON_DetachItemFromObjectCaseSensitive(root, "frames");
+    char fp[24];
+    lights_fingerprint(m, fp);
     int match = cJSON_IsString(stage) && cJSON_IsNumber(step) && cJSON_IsArray(frames) &&
+                cJSON_IsString(lights) &&
                 !strcmp(stage->valuestring, esr_stage_name((enum esr_stage)m->stage)) &&
-                step->valuedouble == (double)m->step;
+                step->valuedouble == (double)m->step && !strcmp(lights->valuestring, fp);
     cJSON_Delete(root);
     if (!match) {
         cJSON_Delete(frames);
@@ -97,6 +109,9 @@ static int write_stamp(const char *dir, const struct esr_model *m, cJSON *frames
     }
     cJSON_AddStringToObject(root, "stage", esr_stage_name((enum esr_stage)m->stage));
     cJSON_AddNumberToObject(root, "step", (double)m->step);
+    char fp[24];
+    lights_fingerprint(m, fp);
+    cJSON_AddStringToObject(root, "lights", fp);
     cJSON_AddItemToObject(root, "frames", frames);
     if (stamp_path(path, sizeof path, dir) != ESR_OK) {
         cJSON_Delete(root);

@@ -8,6 +8,7 @@
 #include "core/brdf.h"
 #include "core/colour.h"
 #include "core/error.h"
+#include "core/ridge_solve.h"
 #include "core/rng.h"
 #include "core/vec3.h"
 #include "fields/grid.h"
@@ -15,7 +16,12 @@
 #include "model/trace.h"
 #include "train/light_direct.h"
 #include "train/lts.h"
+#include "volume/free_space.h"
 
+/* a surface point is outer when free space touches it this many voxels out along its normal */
+#define OUTER_OFFSET 1.5f
+/* camera rays stop carving free space this many voxels before their first hit */
+#define CARVE_MARGIN 1.0f
 /* a component smaller than this share of all emitting points (or points) is noise */
 #define LIGHTS_MIN_SHARE 0.005
 #define LIGHTS_MIN_POINTS 8
@@ -36,6 +42,7 @@
 #define CALIB_E_SHARE 0.25f
 /* ridge towards scale 1, relative to each light's own normal-equation diagonal */
 #define CALIB_RIDGE 1e-3
+_Static_assert(ESR_MAX_LIGHTS <= ESR_RIDGE_MAX, "the calibration solves one unknown per light");
 
 static size_t lattice_index(const struct esr_grid *g, int x, int y, int z)
 {
@@ -201,7 +208,7 @@ static int components(const struct esr_grid *g, const uint8_t *flag, int32_t *co
     return ESR_OK;
 }
 
-int esr_lights_find(struct esr_model *m)
+int esr_lights_find(struct esr_model *m, const float *orig3, const float *dir3, size_t n_rays)
 {
     esr_lights_free(&m->lights);
     if (!esr_model_has(m, ESR_COMP_EMIT_MLP))
@@ -214,21 +221,28 @@ int esr_lights_find(struct esr_model *m)
     float *pos = NULL, *nrm = NULL, *emit = NULL;
     size_t n = 0;
     ESR_TRY(surface_points(m, &idx, &pos, &nrm, &n));
-    uint8_t *flag = calloc(N, 1);
+    uint8_t *flag = calloc(N, 1), *free_mask = malloc(N);
     int32_t *comp = malloc(N * sizeof(int32_t));
     uint32_t *queue = malloc(N * sizeof(uint32_t));
     emit = malloc((n ? n : 1) * 3 * sizeof(float));
     long *sizes = NULL;
     int nc = 0;
-    int rc = flag && comp && queue && emit ? ESR_OK : ESR_FAIL("lights: out of memory");
+    int rc = flag && free_mask && comp && queue && emit ? ESR_OK : ESR_FAIL("lights: out of memory");
     if (rc == ESR_OK)
         rc = emission_at(m, pos, n, emit);
+    if (rc == ESR_OK)
+        rc = esr_free_space_carve(g, esr_model_values(m, ESR_COMP_SDF), orig3, dir3, n_rays,
+                                  CARVE_MARGIN, free_mask);
     long emitting = 0;
-    for (size_t i = 0; rc == ESR_OK && i < n; i++)
-        if (max3(emit + i * 3) > k) {
+    for (size_t i = 0; rc == ESR_OK && i < n; i++) {
+        float out[3];
+        for (int a = 0; a < 3; a++)
+            out[a] = pos[i * 3 + a] + OUTER_OFFSET * h * nrm[i * 3 + a];
+        if (max3(emit + i * 3) > k && esr_free_space_at(g, free_mask, out)) {
             flag[idx[i]] = 1;
             emitting++;
         }
+    }
     if (rc == ESR_OK)
         rc = components(g, flag, comp, queue, &sizes, &nc);
     /* the kept components, largest first: id_of[c] = light id or -1 */
@@ -285,8 +299,8 @@ int esr_lights_find(struct esr_model *m)
             l->power = esr_luminance(l->radiance) * (float)M_PI * l->area;
         }
     }
-    free(idx), free(pos), free(nrm), free(emit), free(flag), free(comp), free(queue), free(sizes);
-    free(id_of);
+    free(idx), free(pos), free(nrm), free(emit), free(flag), free(free_mask), free(comp), free(queue);
+    free(sizes), free(id_of);
     if (rc != ESR_OK)
         esr_lights_free(L);
     return rc;
@@ -346,43 +360,6 @@ static int calib_points(const struct esr_model *m, const float *orig3, const flo
     esr_material_fields_free(&mf);
     esr_trace_free(&t);
     return rc;
-}
-
-/* Solves (G + ridge) s = r + ridge . 1 for K unknowns by Gaussian elimination with partial
- * pivoting; G is K x K row-major (overwritten). */
-static void solve_ridge(int K, double *G, double *r, double *s)
-{
-    for (int i = 0; i < K; i++) {
-        const double lam = CALIB_RIDGE * G[i * K + i] + 1e-12;
-        G[i * K + i] += lam;
-        r[i] += lam;
-    }
-    for (int c = 0; c < K; c++) {
-        int piv = c;
-        for (int i = c + 1; i < K; i++)
-            if (fabs(G[i * K + c]) > fabs(G[piv * K + c]))
-                piv = i;
-        for (int j = 0; j < K; j++) {
-            double t = G[c * K + j];
-            G[c * K + j] = G[piv * K + j];
-            G[piv * K + j] = t;
-        }
-        double t = r[c];
-        r[c] = r[piv];
-        r[piv] = t;
-        for (int i = c + 1; i < K; i++) {
-            const double f = G[i * K + c] / G[c * K + c];
-            for (int j = c; j < K; j++)
-                G[i * K + j] -= f * G[c * K + j];
-            r[i] -= f * r[c];
-        }
-    }
-    for (int i = K - 1; i >= 0; i--) {
-        double v = r[i];
-        for (int j = i + 1; j < K; j++)
-            v -= G[i * K + j] * s[j];
-        s[i] = v / G[i * K + i];
-    }
 }
 
 /* Point p of an LTS call: its normal, camera direction and material; 0 when the camera sees it
@@ -512,9 +489,9 @@ int esr_lights_calibrate(struct esr_model *m, const float *orig3, const float *d
     m->step = keep_step;
     for (int c = 0; rc == ESR_OK && c < 3; c++) {
         double s[ESR_MAX_LIGHTS];
-        solve_ridge(K, G + (size_t)c * K * K, rhs + (size_t)c * K, s);
+        esr_ridge_solve_nonneg(K, G + (size_t)c * K * K, rhs + (size_t)c * K, CALIB_RIDGE, s);
         for (int a = 0; a < K; a++)
-            m->lights.light[a].scale[c] = (float)fmax(s[a], 0.0);
+            m->lights.light[a].scale[c] = (float)s[a];
     }
     for (int a = 0; rc == ESR_OK && a < K; a++) {
         struct esr_light *lt = &m->lights.light[a];

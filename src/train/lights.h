@@ -3,7 +3,8 @@
  *
  * Finding: the SDF lattice points next to the zero level set (a sign change to an axis
  * neighbour) are projected onto the surface; E is evaluated there, and a point emits when any
- * channel of E exceeds the emitter threshold k (the pdra stage's final k). Emitting points are
+ * channel of E exceeds the emitter threshold k (the pdra stage's final k) and the point is on the
+ * outer surface (the cameras' free space touches it from outside). Emitting points are
  * split into 26-connected components; components below LIGHTS_MIN_SHARE of the emitting points
  * (or LIGHTS_MIN_POINTS) are noise and dropped; the rest, largest first, are the lights.
  *
@@ -20,7 +21,8 @@
  * nearly noise-free, and noise in A would bias a small light's least-squares scale towards 0).
  * The scales s_K come from least squares over calib_points points seen by the lights-off
  * training cameras, per channel, with a small ridge towards 1 so
- * that a light no point sees keeps its field strength. Caveat: images fix the product of albedo
+ * that a light no point sees keeps its field strength, and no scale below 0 (a light solved
+ * negative is set to 0 and the others solved again). Caveat: images fix the product of albedo
  * and light, so s_K is only as right as the reconstructed base colour (see docs). */
 #ifndef ESR_TRAIN_LIGHTS_H
 #define ESR_TRAIN_LIGHTS_H
@@ -36,8 +38,11 @@ extern "C" {
 /* Calibration points the trainer and `esr lights` use. */
 #define ESR_LIGHTS_CALIB_POINTS 2000
 
-/* Labels the emitting surface of m into lights (m->lights, replacing any), scales 1. */
-int esr_lights_find(struct esr_model *m);
+/* Labels the emitting surface of m into lights (m->lights, replacing any), scales 1. Only the
+ * outer surface counts: points that the free space seen along the cameras' rays (orig3/dir3
+ * [n_rays*3], volume/free_space.h) touches from outside; the emission field is unconstrained on
+ * surfaces no camera looks at (inside solids, under a floor), and they would cast no light. */
+int esr_lights_find(struct esr_model *m, const float *orig3, const float *dir3, size_t n_rays);
 
 /* Calibrates the strength of m's lights from calib_points surface points of the lights-off rays
  * (orig3/dir3 [n*3]; rays are picked evenly). Sets scale, radiance, power, calib_points. */

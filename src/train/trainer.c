@@ -295,7 +295,7 @@ static int build_mask(struct run *r, struct esr_model *m)
 /* The lights of the emitter stage's model: found, calibrated on the lights-off training rays. */
 static int find_lights(struct run *r, struct esr_model *m, enum esr_stage s)
 {
-    ESR_TRY(esr_lights_find(m));
+    ESR_TRY(esr_lights_find(m, r->rays.orig3, r->rays.dir3, r->rays.n));
     ESR_TRY(esr_lights_calibrate(m, r->rays.orig3, r->rays.dir3, r->rays.n_off,
                                  ESR_LIGHTS_CALIB_POINTS, (uint64_t)r->cfg.seed));
     say(r, s, "lights found: %d", m->lights.n);
