@@ -23,6 +23,7 @@
 #include "eval/evaluate.h"
 #include "eval/quick_eval.h"
 #include "eval/select.h"
+#include "edit/editor.h"
 #include "edit/finetune.h"
 #include "io/dataset.h"
 #include "render/view.h"
@@ -429,7 +430,7 @@ static void test_pdra_finds_lights(void **state)
         {"--light all --intensity -1", "--intensity: expected a finite number >= 0"},
         {"--light all --intensity nan", "--intensity: expected a finite number >= 0"},
         {"--light 0 --color 1.5,0.2", "--color: expected H,S with both in [0,1]"},
-        {"--light 0 --method relit", "--method: expected direct or finetune"},
+        {"--light 0 --method relit", "--method: expected direct, ratio or finetune"},
         {"--light 0 --method finetune --iters 0", "--iters: expected 1..1000000"},
         {"--intensity 2", "--intensity before any --light"},
     };
@@ -589,6 +590,69 @@ static void test_finetune_edits(void **state)
     esr_model_free(&m);
 }
 
+/* The ratio method (edit/relight.h) on the pdra run: unedited it is the model's own lights-on
+ * render where no light is seen; every light off leaves the lights-off render; intensity 2
+ * doubles the lights' effect (the ratio of direct light is linear in the intensity). */
+static void test_ratio_edits(void **state)
+{
+    (void)state;
+    char path[4400];
+    snprintf(path, sizeof path, "%s/run_pdra/ckpt_pdra.bin", test_tmpdir);
+    struct esr_model m;
+    assert_int_equal(esr_model_load(&m, path), ESR_OK);
+    assert_true(m.lights.n > 0);
+    struct esr_dataset ds;
+    assert_int_equal(esr_dataset_load(data_dir, &ds), ESR_OK);
+    const struct esr_camera *cam = &ds.phases[ESR_PHASE_TEST_NV].frames[0].camera;
+    const size_t px = (size_t)cam->width * (size_t)cam->height, n = px * 3;
+    float *on = malloc(n * sizeof(float)), *off = malloc(n * sizeof(float));
+    int32_t *ids = malloc(px * sizeof(int32_t));
+    assert_non_null(on);
+    assert_non_null(off);
+    assert_non_null(ids);
+    render_linear(&m, cam, 1, on, ids);
+    render_linear(&m, cam, 0, off, NULL);
+    struct esr_editor ed;
+    if (esr_editor_init(&ed, &m, &ds, ESR_EDIT_RATIO, 8, NULL) != ESR_OK)
+        fail_msg("%s", esr_error_message());
+    struct esr_image img[3];
+    const float gain[3] = {0.0f, 1.0f, 2.0f};
+    for (int g = 0; g < 3; g++) {
+        struct esr_light_edit e[ESR_MAX_LIGHTS];
+        for (int k = 0; k < ESR_MAX_LIGHTS; k++)
+            e[k] = (struct esr_light_edit){gain[g], 0, 0.0f, 0.0f};
+        assert_int_equal(esr_editor_set(&ed, e, 3), ESR_OK);
+        assert_int_equal(esr_editor_view(&ed, cam, 3, &img[g]), ESR_OK);
+    }
+    double same = 0.0, dark = 0.0, lin = 0.0, effect = 0.0;
+    size_t seen = 0;
+    for (size_t p = 0; p < px; p++)
+        for (int c = 0; c < 3; c++) {
+            const size_t i = p * 3 + c;
+            const double a = img[1].data[i] - img[0].data[i], b = img[2].data[i] - img[0].data[i];
+            lin = fmax(lin, fabs(b - 2.0 * a));
+            if (ids[p] >= 0)
+                continue;
+            seen += c == 0;
+            same = fmax(same, fabs((double)img[1].data[i] - on[i]));
+            dark = fmax(dark, fabs((double)img[0].data[i] - off[i]));
+            effect = fmax(effect, fabs((double)on[i] - off[i]));
+        }
+    print_message("ratio: %zu pixels see no light; lights' effect up to %.4f; unedited differs "
+                  "from the lights-on render by %.2g, all off from the lights-off one by %.2g; "
+                  "x2 - 2 x1 %.2g\n", seen, effect, same, dark, lin);
+    assert_true(seen > 0 && effect > 0.0);
+    assert_true(same < 1e-5);
+    assert_true(dark < 1e-6 * (1.0 + effect));
+    assert_true(lin < 1e-4 * (1.0 + effect));
+    for (int g = 0; g < 3; g++)
+        esr_image_free(&img[g]);
+    esr_editor_free(&ed);
+    esr_dataset_free(&ds);
+    free(on), free(off), free(ids);
+    esr_model_free(&m);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -600,6 +664,7 @@ int main(void)
         cmocka_unit_test(test_emitter_stages_need_both_lightings),
         cmocka_unit_test(test_pdra_finds_lights),
         cmocka_unit_test(test_finetune_edits),
+        cmocka_unit_test(test_ratio_edits),
     };
     return cmocka_run_group_tests(tests, group_setup, test_teardown_tmpdir);
 }

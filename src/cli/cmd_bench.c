@@ -291,7 +291,7 @@ static int relight_section(const char *run, const char *data, cJSON *root)
         edits[k] = (struct esr_light_edit){1.0f, 0, 0.0f, 0.0f};
     const int spp = 8, reps = 3;
     const double t_init = omp_get_wtime();
-    rc = esr_relight_init(&rl, &m, spp);
+    rc = esr_relight_init(&rl, &m, spp, 0);
     const double init_s = omp_get_wtime() - t_init;
     double secs = 0.0;
     for (int i = 0; rc == ESR_OK && i <= reps; i++) {

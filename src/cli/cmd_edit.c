@@ -22,7 +22,7 @@ const struct esr_command cmd_edit = {
     "edit",
     "relight a trained scene: each light's intensity and colour, rendered from test or orbit views",
     "usage: esr edit RUN --light ID|all [--intensity X] [--color H,S] [--light ...]...\n"
-    "                [--method direct|finetune] --out DIR [--views PHASE | --orbit N]\n"
+    "                [--method direct|ratio|finetune] --out DIR [--views PHASE | --orbit N]\n"
     "                [--spp N] [--data DIR]\n"
     "\n"
     "Edits the lights `esr lights RUN` lists (ids from 0) and renders the scene. Each --light\n"
@@ -36,6 +36,10 @@ const struct esr_command cmd_edit = {
     "  direct     (default) the lights-off radiance plus the direct light of every light at its\n"
     "             edited strength and colour: area samples over each light's surface, shadow rays\n"
     "             against the SDF, the reconstructed BRDF (edit/relight.h); any colour works\n"
+    "  ratio      the model's own lights-on radiance, its reflected light scaled per pixel and\n"
+    "             channel by the edited over the found direct light (the same samples and\n"
+    "             shadow rays as direct): light after bounces included, the lights' absolute\n"
+    "             strength cancels; as fast as direct\n"
     "  finetune   the paper's radiance fine-tuning (edit/finetune.h): L_emo trained towards the\n"
     "             light transport with the edited emission (about a minute per edit on 2 cores),\n"
     "             then the fine-tuned lights-on radiance rendered: interreflections included\n"
@@ -45,7 +49,7 @@ const struct esr_command cmd_edit = {
     "  --orbit N      N cameras on a circle around the scene at the first test camera's distance\n"
     "                 and height, written orbit_000 .. orbit_<N-1>\n"
     "  --frames a,b   only these frames of the phase, by name\n"
-    "  --spp N        direct: light samples per pixel and light (default 8)\n"
+    "  --spp N        direct, ratio: light samples per pixel and light (default 8)\n"
     "  --iters N      finetune: steps of the fine-tune (default 300)\n"
     "  --data DIR     dataset (default: the one RUN was trained on)\n"
     "  -h, --help     this text\n",
@@ -118,7 +122,7 @@ static int parse(int argc, char **argv, struct edit_args *a)
         } else if (!strcmp(o, "--method") && has) {
             const char *v = argv[++i];
             if (esr_edit_method_from_name(v, &a->method))
-                return cli_fail(&cmd_edit, "--method: expected direct or finetune, got '%s'", v);
+                return cli_fail(&cmd_edit, "--method: expected direct, ratio or finetune, got '%s'", v);
         } else if (!strcmp(o, "--out") && has) {
             a->out = argv[++i];
         } else if (!strcmp(o, "--views") && has) {

@@ -50,9 +50,10 @@ const struct esr_command cmd_eval = {
     "  --frames a,b,..  only these frames, by name\n"
     "  --limit N        only the first N (selected) frames\n"
     "  --rerender       render every selected frame again\n"
-    "  --method M       edit phases: direct (default) or finetune (one radiance fine-tune per\n"
-    "                   distinct edit of the phase, edit/finetune.h)\n"
-    "  --spp N          edit phases, direct: light samples per pixel and light (default 8)\n"
+    "  --method M       edit phases: direct (default), ratio (edit/relight.h) or finetune (one\n"
+    "                   radiance fine-tune per distinct edit of the phase, edit/finetune.h)\n"
+    "  --spp N          edit phases, direct and ratio: light samples per pixel and light\n"
+    "                   (default 8)\n"
     "  --iters N        edit phases, finetune: steps per fine-tune (default 300)\n"
     "  -h, --help       this text\n",
     run_eval,
@@ -338,7 +339,7 @@ static int run_eval(int argc, char **argv)
         else if (!strcmp(s, "--method") && has_value) {
             const char *mth = argv[++i];
             if (esr_edit_method_from_name(mth, &a.method))
-                return cli_fail(&cmd_eval, "--method: expected direct or finetune, got '%s'", mth);
+                return cli_fail(&cmd_eval, "--method: expected direct, ratio or finetune, got '%s'", mth);
         } else if (!strcmp(s, "--iters") && has_value) {
             if (cli_parse_int(argv[++i], 1, 1000000, &a.iters))
                 return cli_fail(&cmd_eval, "--iters must be an integer in 1..1000000, got '%s'", argv[i]);

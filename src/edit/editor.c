@@ -1,4 +1,4 @@
-/* Both relighting methods behind one interface (see editor.h). */
+/* The relighting methods behind one interface (see editor.h). */
 #include "edit/editor.h"
 
 #include <stdio.h>
@@ -9,7 +9,7 @@
 
 const char *esr_edit_method_name(enum esr_edit_method method)
 {
-    return method == ESR_EDIT_FINETUNE ? "finetune" : "direct";
+    return method == ESR_EDIT_FINETUNE ? "finetune" : method == ESR_EDIT_RATIO ? "ratio" : "direct";
 }
 
 int esr_edit_method_from_name(const char *name, enum esr_edit_method *out)
@@ -18,6 +18,8 @@ int esr_edit_method_from_name(const char *name, enum esr_edit_method *out)
         *out = ESR_EDIT_DIRECT;
     else if (!strcmp(name, "finetune"))
         *out = ESR_EDIT_FINETUNE;
+    else if (!strcmp(name, "ratio"))
+        *out = ESR_EDIT_RATIO;
     else
         return ESR_ERR;
     return ESR_OK;
@@ -29,8 +31,8 @@ int esr_editor_init(struct esr_editor *e, struct esr_model *m, const struct esr_
     memset(e, 0, sizeof(*e));
     e->method = method;
     e->m = m;
-    if (method == ESR_EDIT_DIRECT)
-        return esr_relight_init(&e->direct, m, spp);
+    if (method != ESR_EDIT_FINETUNE)
+        return esr_relight_init(&e->direct, m, spp, method == ESR_EDIT_RATIO);
     struct esr_finetune_opts defaults;
     esr_finetune_default_opts(&defaults);
     return esr_finetune_init(&e->ft, m, ds, ft ? ft : &defaults);
@@ -38,7 +40,7 @@ int esr_editor_init(struct esr_editor *e, struct esr_model *m, const struct esr_
 
 void esr_editor_free(struct esr_editor *e)
 {
-    if (e->method == ESR_EDIT_DIRECT) {
+    if (e->method != ESR_EDIT_FINETUNE) {
         esr_relight_free(&e->direct);
     } else if (e->m) {
         esr_finetune_restore(&e->ft, e->m);
@@ -66,7 +68,7 @@ int esr_editor_view(struct esr_editor *e, const struct esr_camera *cam, uint64_t
 {
     if (!e->has_edit)
         return ESR_FAIL("edit: no edit set before rendering");
-    if (e->method == ESR_EDIT_DIRECT)
+    if (e->method != ESR_EDIT_FINETUNE)
         return esr_relight_view(&e->direct, e->m, e->edits, cam, seed, out);
     /* the fine-tuned model's lights-on radiance; where the camera sees a light, the lights-off
      * radiance plus the light's edited emission (the model's lights carry the edit): L_emo on

@@ -1,5 +1,5 @@
-/* One entry point for both relighting methods: set an edit of the lights, then render views of
- * the edited scene. `direct` (edit/relight.h) renders any edit straight away; `finetune`
+/* One entry point for the relighting methods: set an edit of the lights, then render views of
+ * the edited scene. `direct` and `ratio` (edit/relight.h) render any edit straight away; `finetune`
  * (edit/finetune.h) fine-tunes L_emo once per distinct edit (setting the edit the model already
  * shows costs nothing) and renders the lights-on radiance of the fine-tuned model. */
 #ifndef ESR_EDIT_EDITOR_H
@@ -18,16 +18,16 @@
 extern "C" {
 #endif
 
-enum esr_edit_method { ESR_EDIT_DIRECT, ESR_EDIT_FINETUNE };
+enum esr_edit_method { ESR_EDIT_DIRECT, ESR_EDIT_FINETUNE, ESR_EDIT_RATIO };
 
-/* "direct" / "finetune" */
+/* "direct" / "finetune" / "ratio" */
 const char *esr_edit_method_name(enum esr_edit_method method);
 int esr_edit_method_from_name(const char *name, enum esr_edit_method *out);
 
 struct esr_editor {
     enum esr_edit_method method;
     struct esr_model *m;
-    struct esr_relight direct;
+    struct esr_relight direct;   /* direct and ratio */
     struct esr_finetune ft;
     struct esr_light_edit edits[ESR_MAX_LIGHTS]; /* the current edit */
     int has_edit;
@@ -38,7 +38,7 @@ struct esr_editor {
 
 /* An editor of model m (a finished pdra model; modified in place by finetune until
  * esr_editor_free puts it back). ds: the run's dataset (finetune trains on its training
- * cameras; unused by direct). spp: light samples per pixel (direct). ft: fine-tuning options
+ * cameras; unused by direct and ratio). spp: light samples per pixel (direct, ratio). ft: fine-tuning options
  * (NULL: the defaults). */
 int esr_editor_init(struct esr_editor *e, struct esr_model *m, const struct esr_dataset *ds,
                     enum esr_edit_method method, int spp, const struct esr_finetune_opts *ft);

@@ -26,10 +26,13 @@
 #define DENOISE_DEPTH_VOX 2.0f
 #define DENOISE_NPOW 8
 #define DENOISE_MIN_ALBEDO 0.05f
+/* ratio method: the share of the view's mean direct light added to each pixel's (edit/relight.h) */
+#define RATIO_FLOOR 0.1
 
-int esr_relight_init(struct esr_relight *r, const struct esr_model *m, int spp)
+int esr_relight_init(struct esr_relight *r, const struct esr_model *m, int spp, int ratio)
 {
     memset(r, 0, sizeof(*r));
+    r->ratio = ratio;
     if (m->lights.n == 0)
         return ESR_FAIL("relight: the model has no lights (the pdra stage finds them; run `esr "
                         "lights RUN --recompute` for an older checkpoint)");
@@ -74,19 +77,23 @@ static void view_buf_free(struct view_buf *b)
 struct shadow {
     size_t n;
     float *o3, *d3, *tmax, *weight3; /* weight: E' R |n_y.wi| A N / (spp d^2), per channel */
+    float *found3;                   /* the same with the emission as found (ratio), or NULL */
     uint32_t *pixel;
     uint8_t *flags;
 };
 
 static void shadow_free(struct shadow *s)
 {
-    free(s->o3), free(s->d3), free(s->tmax), free(s->weight3), free(s->pixel), free(s->flags);
+    free(s->o3), free(s->d3), free(s->tmax), free(s->weight3), free(s->found3), free(s->pixel);
+    free(s->flags);
 }
 
-/* Whether light k sends any light under its edit (on, with samples, a strength above 0). */
+/* Whether light k sends any light under its edit (on, with samples, a strength above 0); the
+ * ratio method also needs the light as found. */
 static int lights_up(const struct esr_relight *r, const struct esr_light_edit *edits, int k)
 {
-    return edits[k].intensity > 0.0f && r->samples[k].n > 0 && r->samples[k].max_emit > 0.0f;
+    return (edits[k].intensity > 0.0f || r->ratio) && r->samples[k].n > 0 &&
+           r->samples[k].max_emit > 0.0f;
 }
 
 /* Pixel p's rays take the fixed slots [p * per_px, (p + 1) * per_px) (so pixels fill them in
@@ -108,9 +115,11 @@ static int build_shadow(const struct esr_relight *r, const struct esr_model *m,
     s->d3 = calloc(cap * 3, sizeof(float));
     s->tmax = calloc(cap, sizeof(float));
     s->weight3 = calloc(cap * 3, sizeof(float));
+    s->found3 = r->ratio ? calloc(cap * 3, sizeof(float)) : NULL;
     s->pixel = malloc(cap * sizeof(uint32_t));
     s->flags = malloc(cap);
-    if (!s->o3 || !s->d3 || !s->tmax || !s->weight3 || !s->pixel || !s->flags)
+    if (!s->o3 || !s->d3 || !s->tmax || !s->weight3 || (r->ratio && !s->found3) || !s->pixel ||
+        !s->flags)
         return ESR_FAIL("relight: out of memory for %zu shadow rays", cap);
     s->n = cap;
 #pragma omp parallel for schedule(dynamic, 64)
@@ -162,6 +171,9 @@ static int build_shadow(const struct esr_relight *r, const struct esr_model *m,
                 s->tmax[i] = dist - SHADOW_STOP_VOX * h;
                 for (int c = 0; c < 3; c++)
                     s->weight3[i * 3 + c] = a * e[c] * R[c] * g;
+                if (s->found3)
+                    for (int c = 0; c < 3; c++)
+                        s->found3[i * 3 + c] = a * ls->emit3[q * 3 + c] * R[c] * g;
             }
         }
     }
@@ -264,6 +276,59 @@ static int denoise_direct(const struct view_buf *b, int w, int h, float vox, flo
     return ESR_OK;
 }
 
+/* The direct light per pixel from the slots' weights w3 (the edited or the found emission's),
+ * denoised. */
+static int gather_direct(const struct view_buf *b, const struct shadow *s, const float *w3, int w,
+                         int h, float vox, float *direct)
+{
+    for (size_t i = 0; i < s->n; i++) /* a pixel's slots add in a fixed order */
+        if (!(s->flags[i] & ESR_FIRST_HIT_HIT) && s->tmax[i] > 0.0f)
+            for (int c = 0; c < 3; c++)
+                direct[(size_t)s->pixel[i] * 3 + c] += w3[i * 3 + c];
+    return denoise_direct(b, w, h, vox, direct);
+}
+
+/* The ratio method at the pixels that see no light: out (the lights-off view) plus the trained
+ * lights-on radiance's reflected light L_on - L_off, per channel times
+ *     (D' + f mean D') / (D + f mean D)
+ * D', D: the direct light with the edited and the found emission (same samples and shadow
+ * rays); the means over the view's lit surface pixels, f = RATIO_FLOOR, so that where no light
+ * reaches directly (shadow, light after bounces only) the view's overall change applies. */
+static int transfer_ratio(const struct esr_model *m, const struct view_buf *b, const float *edited,
+                          const float *found, size_t n, float *out)
+{
+    float *on = malloc(n * 3 * sizeof(float));
+    if (!on)
+        return ESR_FAIL("relight: out of memory for the lights-on view");
+    struct esr_render_out o = {.linear = on};
+    int rc = esr_model_render_rays(m, b->o3, b->d3, n, 1, &o);
+    double mean_e[3] = {0, 0, 0}, mean_f[3] = {0, 0, 0};
+    size_t lit = 0;
+    for (size_t p = 0; p < n; p++)
+        if (b->opac[p] > SURFACE_OPACITY && b->ids[p] < 0) {
+            lit++;
+            for (int c = 0; c < 3; c++)
+                mean_e[c] += edited[p * 3 + c], mean_f[c] += found[p * 3 + c];
+        }
+    for (int c = 0; c < 3; c++) {
+        mean_e[c] = RATIO_FLOOR * mean_e[c] / (double)(lit ? lit : 1) + 1e-12;
+        mean_f[c] = RATIO_FLOOR * mean_f[c] / (double)(lit ? lit : 1) + 1e-12;
+    }
+    for (size_t p = 0; rc == ESR_OK && p < n; p++) {
+        if (b->ids[p] >= 0) { /* a light: its edited emission and the direct light, as direct */
+            for (int c = 0; c < 3; c++)
+                out[p * 3 + c] += edited[p * 3 + c];
+            continue;
+        }
+        for (int c = 0; c < 3; c++) {
+            const double ratio = (edited[p * 3 + c] + mean_e[c]) / (found[p * 3 + c] + mean_f[c]);
+            out[p * 3 + c] += (float)(ratio * (on[p * 3 + c] - b->lin3[p * 3 + c]));
+        }
+    }
+    free(on);
+    return rc;
+}
+
 int esr_relight_view(const struct esr_relight *r, const struct esr_model *m,
                      const struct esr_light_edit *edits, const struct esr_camera *cam,
                      uint64_t seed, struct esr_image *out)
@@ -323,19 +388,21 @@ int esr_relight_view(const struct esr_relight *r, const struct esr_model *m,
                 out->data[p * 3 + c] = b.lin3[p * 3 + c] + e[c];
         }
         float *direct = calloc(n * 3, sizeof(float));
-        if (!direct)
+        float *found = r->ratio ? calloc(n * 3, sizeof(float)) : NULL;
+        if (!direct || (r->ratio && !found))
             rc = ESR_FAIL("relight: out of memory for the direct light");
-        for (size_t i = 0; rc == ESR_OK && i < s.n; i++) /* a pixel's slots add in a fixed order */
-            if (!(s.flags[i] & ESR_FIRST_HIT_HIT) && s.tmax[i] > 0.0f)
-                for (int c = 0; c < 3; c++)
-                    direct[(size_t)s.pixel[i] * 3 + c] += s.weight3[i * 3 + c];
+        const float vox = esr_grid_voxel_size(esr_model_grid(m, ESR_COMP_SDF), 0);
         if (rc == ESR_OK)
-            rc = denoise_direct(&b, cam->width, cam->height,
-                                esr_grid_voxel_size(esr_model_grid(m, ESR_COMP_SDF), 0), direct);
-        for (size_t p = 0; rc == ESR_OK && p < n; p++)
-            for (int c = 0; c < 3; c++)
-                out->data[p * 3 + c] += direct[p * 3 + c];
-        free(direct);
+            rc = gather_direct(&b, &s, s.weight3, cam->width, cam->height, vox, direct);
+        if (rc == ESR_OK && found)
+            rc = gather_direct(&b, &s, s.found3, cam->width, cam->height, vox, found);
+        if (rc == ESR_OK && found)
+            rc = transfer_ratio(m, &b, direct, found, n, out->data);
+        else
+            for (size_t p = 0; rc == ESR_OK && p < n; p++)
+                for (int c = 0; c < 3; c++)
+                    out->data[p * 3 + c] += direct[p * 3 + c];
+        free(direct), free(found);
     }
     shadow_free(&s);
     view_buf_free(&b);

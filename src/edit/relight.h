@@ -7,7 +7,16 @@
  * samples (train/lights.h) with a shadow ray to each (first hit of the SDF before y: occluded),
  * and E'_K = the light's calibrated emission times its intensity, recoloured to the edit's hue and
  * saturation with V kept (seed eqs. 10-15). Light reaching x only after a bounce is left out
- * (what the method is), so it reaches any colour, including ones never seen in training. */
+ * (what the method is), so it reaches any colour, including ones never seen in training.
+ *
+ * The ratio method (esr's own) keeps what the model learned of the lights-on scene instead: at
+ * a pixel that sees no light,
+ *     L(x) = L_off(x) + (L_on(x) - L_off(x)) (D'(x) + f mean D') / (D(x) + f mean D)
+ * per channel, with D' and D the direct light above with the edited and the found emission
+ * (the same samples and shadow rays), the means over the view's surface, f = 0.1. Unedited it
+ * is the model's own lights-on render; the strength calibration's error cancels in the ratio
+ * (only the lights' relative strengths matter), and light after bounces follows the edit as
+ * the direct light at the pixel does. A pixel that sees a light renders as in direct. */
 #ifndef ESR_EDIT_RELIGHT_H
 #define ESR_EDIT_RELIGHT_H
 
@@ -27,10 +36,11 @@ struct esr_relight {
     int n_lights;
     struct esr_light_samples samples[ESR_MAX_LIGHTS];
     int spp;            /* light samples per pixel and light */
+    int ratio;          /* 1: the ratio method */
     float *normal_sdf;  /* the smoothed SDF the normals come from (model/render_sdf.h), once */
 };
 
-int esr_relight_init(struct esr_relight *r, const struct esr_model *m, int spp);
+int esr_relight_init(struct esr_relight *r, const struct esr_model *m, int spp, int ratio);
 void esr_relight_free(struct esr_relight *r);
 
 /* The edited view of cam: linear RGB on white into *out (allocated, 3 channels). edits has one

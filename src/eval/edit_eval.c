@@ -203,7 +203,7 @@ int esr_edit_eval_write_json(const char *path, const struct esr_edit_eval *res)
     cJSON *root = cJSON_CreateObject();
     cJSON_AddStringToObject(root, "phase", esr_phase_name(res->phase));
     cJSON_AddStringToObject(root, "method", esr_edit_method_name(res->method));
-    if (res->method == ESR_EDIT_DIRECT)
+    if (res->method != ESR_EDIT_FINETUNE)
         cJSON_AddNumberToObject(root, "spp", res->spp);
     else {
         cJSON_AddNumberToObject(root, "finetunes", res->n_edits);
@@ -251,7 +251,7 @@ int esr_edit_eval_write_html(const char *path, const char *title, const struct e
                  "(%.2f s per view",
             title, esr_phase_name(res->phase), title, esr_phase_name(res->phase),
             esr_edit_method_name(res->method), res->psnr, res->ssim, res->n, res->seconds);
-    if (res->method == ESR_EDIT_DIRECT)
+    if (res->method != ESR_EDIT_FINETUNE)
         fprintf(out, ", %d light samples per pixel and light).</p>\n", res->spp);
     else
         fprintf(out, ", after one fine-tune per distinct edit: %d, %.1f s each).</p>\n",
