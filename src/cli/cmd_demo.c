@@ -26,7 +26,7 @@ const struct esr_command cmd_demo = {
     "                     --resume`: an interrupted demo continues where it stopped)\n"
     "  4. DIR/run/lights.json  the lights found: id, place, area, emitted radiance (`esr lights`)\n"
     "  5. DIR/run/edits   one edit per light on a test view: off, and recoloured blue\n"
-    "                     (`esr edit`)\n"
+    "                     (`esr edit --method ratio`)\n"
     "  6. DIR/run/eval    test_nv renders, PSNR/SSIM per view and lighting, emitter IoU and each\n"
     "                     light's emitted radiance against the truth, Chamfer distance to the\n"
     "                     ground-truth surface when the scene has one, DIR/run/report.html\n"
@@ -69,8 +69,9 @@ static int step(int number, const struct esr_command *cmd, int argc, char **argv
     return rc;
 }
 
-/* One edit per light of the run (off, and recoloured blue) on the first lights-on test_nv view,
- * into RUN/edits/light<K>_off and RUN/edits/light<K>_recoloured (the report shows them). */
+/* One edit per light of the run (off, and recoloured blue; the ratio method) on the first
+ * lights-on test_nv view, into RUN/edits/light<K>_off and RUN/edits/light<K>_recoloured (the
+ * report shows them). */
 static int demo_edits(const char *run, const char *data)
 {
     char ckpt[4200];
@@ -95,10 +96,10 @@ static int demo_edits(const char *run, const char *data)
         snprintf(out_off, sizeof out_off, "%s/edits/light%d_off", run, k);
         snprintf(out_col, sizeof out_col, "%s/edits/light%d_recoloured", run, k);
         char *off[] = {"edit", (char *)run, "--light", id, "--intensity", "0", "--out", out_off,
-                       "--frames", view, "--data", (char *)data};
+                       "--frames", view, "--data", (char *)data, "--method", "ratio"};
         char *col[] = {"edit", (char *)run, "--light", id, "--color", "0.6,1", "--out", out_col,
-                       "--frames", view, "--data", (char *)data};
-        if (step(5, &cmd_edit, 12, off) || step(5, &cmd_edit, 12, col))
+                       "--frames", view, "--data", (char *)data, "--method", "ratio"};
+        if (step(5, &cmd_edit, 14, off) || step(5, &cmd_edit, 14, col))
             return 1;
     }
     return 0;
