@@ -524,6 +524,44 @@ static double mean_abs_diff_off_lights(const float *a, const float *b, const int
     return k ? s / (double)k : 0.0;
 }
 
+/* The pdra run (it finds the tiny scene's lights, see above) seen from the first test_nv
+ * camera: its model and dataset, and the lights-on render (with the light each pixel sees) and
+ * the lights-off render of that view. */
+struct pdra_view {
+    struct esr_model m;
+    struct esr_dataset ds;
+    const struct esr_camera *cam;
+    size_t px;
+    float *on, *off;
+    int32_t *ids;
+};
+
+static void pdra_view_open(struct pdra_view *v)
+{
+    char path[4400];
+    snprintf(path, sizeof path, "%s/run_pdra/ckpt_pdra.bin", test_tmpdir);
+    assert_int_equal(esr_model_load(&v->m, path), ESR_OK);
+    assert_true(v->m.lights.n > 0);
+    assert_int_equal(esr_dataset_load(data_dir, &v->ds), ESR_OK);
+    v->cam = &v->ds.phases[ESR_PHASE_TEST_NV].frames[0].camera;
+    v->px = (size_t)v->cam->width * (size_t)v->cam->height;
+    v->on = malloc(v->px * 3 * sizeof(float));
+    v->off = malloc(v->px * 3 * sizeof(float));
+    v->ids = malloc(v->px * sizeof(int32_t));
+    assert_non_null(v->on);
+    assert_non_null(v->off);
+    assert_non_null(v->ids);
+    render_linear(&v->m, v->cam, 1, v->on, v->ids);
+    render_linear(&v->m, v->cam, 0, v->off, NULL);
+}
+
+static void pdra_view_close(struct pdra_view *v)
+{
+    esr_dataset_free(&v->ds);
+    free(v->on), free(v->off), free(v->ids);
+    esr_model_free(&v->m);
+}
+
 /* Radiance fine-tuning (edit/finetune.h) on the pdra run: where no light is seen, an edit that
  * changes nothing leaves the lights-on render as it was (the trained model's residual is kept)
  * and every light off brings it most of the way to the lights-off render; restoring gives the
@@ -531,24 +569,15 @@ static double mean_abs_diff_off_lights(const float *a, const float *b, const int
 static void test_finetune_edits(void **state)
 {
     (void)state;
-    char path[4400];
-    snprintf(path, sizeof path, "%s/run_pdra/ckpt_pdra.bin", test_tmpdir);
-    struct esr_model m;
-    assert_int_equal(esr_model_load(&m, path), ESR_OK);
-    assert_true(m.lights.n > 0); /* the tiny scene's pdra run finds its lights (see above) */
-    struct esr_dataset ds;
-    assert_int_equal(esr_dataset_load(data_dir, &ds), ESR_OK);
-    const struct esr_camera *cam = &ds.phases[ESR_PHASE_TEST_NV].frames[0].camera;
-    const size_t px = (size_t)cam->width * (size_t)cam->height, n = px * 3;
-    float *before = malloc(n * sizeof(float)), *off = malloc(n * sizeof(float));
+    struct pdra_view v;
+    pdra_view_open(&v);
+    struct esr_model *m = &v.m;
+    const struct esr_camera *cam = v.cam;
+    const size_t px = v.px, n = px * 3;
+    const float *before = v.on, *off = v.off;
+    const int32_t *ids = v.ids;
     float *after = malloc(n * sizeof(float));
-    int32_t *ids = malloc(px * sizeof(int32_t));
-    assert_non_null(before);
-    assert_non_null(off);
     assert_non_null(after);
-    assert_non_null(ids);
-    render_linear(&m, cam, 1, before, ids);
-    render_linear(&m, cam, 0, off, NULL);
 
     struct esr_finetune_opts o;
     esr_finetune_default_opts(&o);
@@ -558,7 +587,7 @@ static void test_finetune_edits(void **state)
     o.dirs = 8;
     o.light_spp = 4;
     struct esr_finetune f;
-    if (esr_finetune_init(&f, &m, &ds, &o) != ESR_OK)
+    if (esr_finetune_init(&f, m, &v.ds, &o) != ESR_OK)
         fail_msg("%s", esr_error_message());
     struct esr_light_edit same[ESR_MAX_LIGHTS], dark[ESR_MAX_LIGHTS];
     for (int k = 0; k < ESR_MAX_LIGHTS; k++) {
@@ -566,13 +595,13 @@ static void test_finetune_edits(void **state)
         dark[k] = (struct esr_light_edit){0.0f, 0, 0.0f, 0.0f};
     }
     struct esr_finetune_stats st;
-    assert_int_equal(esr_finetune_apply(&f, &m, same, 7, &st), ESR_OK);
+    assert_int_equal(esr_finetune_apply(&f, m, same, 7, &st), ESR_OK);
     assert_int_equal(st.iters, o.iters);
-    render_linear(&m, cam, 1, after, NULL);
+    render_linear(m, cam, 1, after, NULL);
     const double effect = mean_abs_diff_off_lights(before, off, ids, px);
     const double drift = mean_abs_diff_off_lights(after, before, ids, px);
-    assert_int_equal(esr_finetune_apply(&f, &m, dark, 7, &st), ESR_OK);
-    render_linear(&m, cam, 1, after, NULL);
+    assert_int_equal(esr_finetune_apply(&f, m, dark, 7, &st), ESR_OK);
+    render_linear(m, cam, 1, after, NULL);
     const double left = mean_abs_diff_off_lights(after, off, ids, px);
     print_message("finetune: lights' effect %.4f; unchanged edit drifts %.4f; all off leaves %.4f "
                   "(LTS MSE %.3g -> %.3g)\n", effect, drift, left, st.mse_first, st.mse_last);
@@ -581,13 +610,12 @@ static void test_finetune_edits(void **state)
     /* the light goes as the ratio of estimates decays (train/lts.h): 100 steps leave 47% of
      * the effect on this 24-pixel scene, whose lights explain little of its emo radiance */
     assert_true(left < 0.6 * effect);
-    esr_finetune_restore(&f, &m);
-    render_linear(&m, cam, 1, after, NULL);
+    esr_finetune_restore(&f, m);
+    render_linear(m, cam, 1, after, NULL);
     assert_memory_equal(after, before, n * sizeof(float));
     esr_finetune_free(&f);
-    esr_dataset_free(&ds);
-    free(before), free(off), free(after), free(ids);
-    esr_model_free(&m);
+    free(after);
+    pdra_view_close(&v);
 }
 
 /* The ratio method (edit/relight.h) on the pdra run: unedited it is the model's own lights-on
@@ -596,24 +624,11 @@ static void test_finetune_edits(void **state)
 static void test_ratio_edits(void **state)
 {
     (void)state;
-    char path[4400];
-    snprintf(path, sizeof path, "%s/run_pdra/ckpt_pdra.bin", test_tmpdir);
-    struct esr_model m;
-    assert_int_equal(esr_model_load(&m, path), ESR_OK);
-    assert_true(m.lights.n > 0);
-    struct esr_dataset ds;
-    assert_int_equal(esr_dataset_load(data_dir, &ds), ESR_OK);
-    const struct esr_camera *cam = &ds.phases[ESR_PHASE_TEST_NV].frames[0].camera;
-    const size_t px = (size_t)cam->width * (size_t)cam->height, n = px * 3;
-    float *on = malloc(n * sizeof(float)), *off = malloc(n * sizeof(float));
-    int32_t *ids = malloc(px * sizeof(int32_t));
-    assert_non_null(on);
-    assert_non_null(off);
-    assert_non_null(ids);
-    render_linear(&m, cam, 1, on, ids);
-    render_linear(&m, cam, 0, off, NULL);
+    struct pdra_view v;
+    pdra_view_open(&v);
+    const float *on = v.on, *off = v.off;
     struct esr_editor ed;
-    if (esr_editor_init(&ed, &m, &ds, ESR_EDIT_RATIO, 8, NULL) != ESR_OK)
+    if (esr_editor_init(&ed, &v.m, &v.ds, ESR_EDIT_RATIO, 8, NULL) != ESR_OK)
         fail_msg("%s", esr_error_message());
     struct esr_image img[3];
     const float gain[3] = {0.0f, 1.0f, 2.0f};
@@ -622,16 +637,16 @@ static void test_ratio_edits(void **state)
         for (int k = 0; k < ESR_MAX_LIGHTS; k++)
             e[k] = (struct esr_light_edit){gain[g], 0, 0.0f, 0.0f};
         assert_int_equal(esr_editor_set(&ed, e, 3), ESR_OK);
-        assert_int_equal(esr_editor_view(&ed, cam, 3, &img[g]), ESR_OK);
+        assert_int_equal(esr_editor_view(&ed, v.cam, 3, &img[g]), ESR_OK);
     }
     double same = 0.0, dark = 0.0, lin = 0.0, effect = 0.0;
     size_t seen = 0;
-    for (size_t p = 0; p < px; p++)
+    for (size_t p = 0; p < v.px; p++)
         for (int c = 0; c < 3; c++) {
             const size_t i = p * 3 + c;
             const double a = img[1].data[i] - img[0].data[i], b = img[2].data[i] - img[0].data[i];
             lin = fmax(lin, fabs(b - 2.0 * a));
-            if (ids[p] >= 0)
+            if (v.ids[p] >= 0)
                 continue;
             seen += c == 0;
             same = fmax(same, fabs((double)img[1].data[i] - on[i]));
@@ -648,9 +663,7 @@ static void test_ratio_edits(void **state)
     for (int g = 0; g < 3; g++)
         esr_image_free(&img[g]);
     esr_editor_free(&ed);
-    esr_dataset_free(&ds);
-    free(on), free(off), free(ids);
-    esr_model_free(&m);
+    pdra_view_close(&v);
 }
 
 int main(void)
