@@ -54,7 +54,7 @@ const struct esr_command cmd_bench = {
     "  --data DIR    dataset for the training benchmark\n"
     "  --no-train    skip the training benchmark\n"
     "  --run RUN     also compare the LTS estimators on RUN's pdra (else lts) checkpoint and time\n"
-    "                a direct relight of its first test_nv view\n"
+    "                the direct and the ratio relight of its first test_nv view and a fine-tune\n"
     "  -h, --help    this text\n",
     run_bench,
 };
@@ -266,8 +266,49 @@ static int finetune_timing(struct esr_model *m, const struct esr_dataset *ds, cJ
     return rc;
 }
 
-/* The direct relight (edit/relight.h) of the first test_nv view of run, all lights as found:
- * seconds per view (after a warm-up view), into root's "relight_direct". */
+/* Seconds per relit view (after a warm-up view) of cam, all lights as found, by the direct
+ * (ratio 0) or the ratio method (edit/relight.h), into root's "relight_direct" / "relight_ratio". */
+static int relight_timing(const char *run, const struct esr_model *m, const struct esr_camera *c,
+                          int ratio, cJSON *root)
+{
+    struct esr_relight rl;
+    struct esr_light_edit edits[ESR_MAX_LIGHTS];
+    for (int k = 0; k < ESR_MAX_LIGHTS; k++)
+        edits[k] = (struct esr_light_edit){1.0f, 0, 0.0f, 0.0f};
+    const int spp = 8, reps = 3;
+    const double t_init = omp_get_wtime();
+    ESR_TRY(esr_relight_init(&rl, m, spp, ratio));
+    const double init_s = omp_get_wtime() - t_init;
+    double secs = 0.0;
+    int rc = ESR_OK;
+    for (int i = 0; rc == ESR_OK && i <= reps; i++) {
+        struct esr_image img;
+        const double t0 = omp_get_wtime();
+        rc = esr_relight_view(&rl, m, edits, c, (uint64_t)i, &img);
+        if (i > 0) /* the first view warms up */
+            secs += omp_get_wtime() - t0;
+        esr_image_free(&img);
+    }
+    esr_relight_free(&rl);
+    if (rc != ESR_OK)
+        return rc;
+    const char *name = ratio ? "ratio" : "direct";
+    char key[32];
+    snprintf(key, sizeof key, "relight_%s", name);
+    cJSON *j = cJSON_AddObjectToObject(root, key);
+    cJSON_AddNumberToObject(j, "width", c->width);
+    cJSON_AddNumberToObject(j, "height", c->height);
+    cJSON_AddNumberToObject(j, "lights", m->lights.n);
+    cJSON_AddNumberToObject(j, "spp", spp);
+    cJSON_AddNumberToObject(j, "seconds_per_view", secs / reps);
+    cJSON_AddNumberToObject(j, "setup_seconds", init_s);
+    printf("\n%s relight (%s): %dx%d view, %d lights, %d light samples per pixel: %.3f s per view "
+           "(setup %.2f s once)\n",
+           name, run, c->width, c->height, m->lights.n, spp, secs / reps, init_s);
+    return ESR_OK;
+}
+
+/* The relights of the first test_nv view of run (direct, ratio) and a fine-tune, into root. */
 static int relight_section(const char *run, const char *data, cJSON *root)
 {
     char ckpt[4200];
@@ -285,37 +326,8 @@ static int relight_section(const char *run, const char *data, cJSON *root)
         esr_model_free(&m);
         return rc;
     }
-    struct esr_relight rl;
-    struct esr_light_edit edits[ESR_MAX_LIGHTS];
-    for (int k = 0; k < ESR_MAX_LIGHTS; k++)
-        edits[k] = (struct esr_light_edit){1.0f, 0, 0.0f, 0.0f};
-    const int spp = 8, reps = 3;
-    const double t_init = omp_get_wtime();
-    rc = esr_relight_init(&rl, &m, spp, 0);
-    const double init_s = omp_get_wtime() - t_init;
-    double secs = 0.0;
-    for (int i = 0; rc == ESR_OK && i <= reps; i++) {
-        struct esr_image img;
-        const double t0 = omp_get_wtime();
-        rc = esr_relight_view(&rl, &m, edits, &ph->frames[0].camera, (uint64_t)i, &img);
-        if (i > 0) /* the first view warms up */
-            secs += omp_get_wtime() - t0;
-        esr_image_free(&img);
-    }
-    if (rc == ESR_OK) {
-        const struct esr_camera *c = &ph->frames[0].camera;
-        cJSON *j = cJSON_AddObjectToObject(root, "relight_direct");
-        cJSON_AddNumberToObject(j, "width", c->width);
-        cJSON_AddNumberToObject(j, "height", c->height);
-        cJSON_AddNumberToObject(j, "lights", m.lights.n);
-        cJSON_AddNumberToObject(j, "spp", spp);
-        cJSON_AddNumberToObject(j, "seconds_per_view", secs / reps);
-        cJSON_AddNumberToObject(j, "setup_seconds", init_s);
-        printf("\ndirect relight (%s): %dx%d view, %d lights, %d light samples per pixel: %.3f s "
-               "per view (setup %.2f s once)\n",
-               run, c->width, c->height, m.lights.n, spp, secs / reps, init_s);
-        esr_relight_free(&rl);
-    }
+    for (int ratio = 0; rc == ESR_OK && ratio < 2; ratio++)
+        rc = relight_timing(run, &m, &ph->frames[0].camera, ratio, root);
     if (rc == ESR_OK)
         rc = finetune_timing(&m, &ds, root);
     esr_dataset_free(&ds);

@@ -69,9 +69,9 @@ static int step(int number, const struct esr_command *cmd, int argc, char **argv
     return rc;
 }
 
-/* One edit per light of the run (off, and recoloured blue; the ratio method) on the first
- * lights-on test_nv view, into RUN/edits/light<K>_off and RUN/edits/light<K>_recoloured (the
- * report shows them). */
+/* One edit per light of the run that emits (off, and recoloured blue; the ratio method) on the
+ * first lights-on test_nv view, into RUN/edits/light<K>_off and RUN/edits/light<K>_recoloured
+ * (the report shows them). */
 static int demo_edits(const char *run, const char *data)
 {
     char ckpt[4200];
@@ -81,6 +81,11 @@ static int demo_edits(const char *run, const char *data)
     if (esr_model_load(&m, ckpt) != ESR_OK)
         return cli_fail(&cmd_demo, "%s", esr_error_message());
     const int n = m.lights.n;
+    int lit[ESR_MAX_LIGHTS]; /* a light calibrated to nothing (a highlight) is not worth an edit */
+    for (int k = 0; k < n; k++) {
+        const float *rad = m.lights.light[k].radiance;
+        lit[k] = rad[0] > 0.0f || rad[1] > 0.0f || rad[2] > 0.0f;
+    }
     esr_model_free(&m);
     if (esr_dataset_load(data, &ds) != ESR_OK)
         return cli_fail(&cmd_demo, "%s", esr_error_message());
@@ -91,6 +96,8 @@ static int demo_edits(const char *run, const char *data)
             snprintf(view, sizeof view, "%s", ph->frames[i].name);
     esr_dataset_free(&ds);
     for (int k = 0; k < n && view[0]; k++) {
+        if (!lit[k])
+            continue;
         char id[16], out_off[4300], out_col[4300];
         snprintf(id, sizeof id, "%d", k);
         snprintf(out_off, sizeof out_off, "%s/edits/light%d_off", run, k);
