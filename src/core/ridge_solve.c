@@ -3,15 +3,9 @@
 
 #include <math.h>
 
-/* Solves (G + L) s = r + L 1 by Gaussian elimination with partial pivoting; G and r are
- * overwritten. */
-static void solve_ridge(int K, double *G, double *r, double ridge, double *s)
+/* Solves G s = r by Gaussian elimination with partial pivoting; G and r are overwritten. */
+static void solve_dense(int K, double *G, double *r, double *s)
 {
-    for (int i = 0; i < K; i++) {
-        const double lam = ridge * G[i * K + i] + 1e-12;
-        G[i * K + i] += lam;
-        r[i] += lam;
-    }
     for (int c = 0; c < K; c++) {
         int piv = c;
         for (int i = c + 1; i < K; i++)
@@ -49,7 +43,7 @@ static void solve_subset(int K, const double *H, const double *b, const int *map
         for (int e = 0; e < k; e++)
             Gs[a * k + e] = H[map[a] * K + map[e]];
     }
-    solve_ridge(k, Gs, rs, 0.0, x);
+    solve_dense(k, Gs, rs, x);
 }
 
 /* Lawson and Hanson's active-set method on the ridge-augmented problem, minimise
