@@ -292,8 +292,9 @@ static int gather_direct(const struct view_buf *b, const struct shadow *s, const
  * lights-on radiance's reflected light L_on - L_off, per channel times
  *     (D' + f mean D') / (D + f mean D)
  * D', D: the direct light with the edited and the found emission (same samples and shadow
- * rays); the means over the view's lit surface pixels, f = RATIO_FLOOR, so that where no light
- * reaches directly (shadow, light after bounces only) the view's overall change applies. */
+ * rays); the means over the view's surface pixels that see no light, f = RATIO_FLOOR, so that
+ * where no light reaches directly (shadow, light after bounces only) the view's overall change
+ * applies. */
 static int transfer_ratio(const struct esr_model *m, const struct view_buf *b, const float *edited,
                           const float *found, size_t n, float *out)
 {
@@ -303,16 +304,16 @@ static int transfer_ratio(const struct esr_model *m, const struct view_buf *b, c
     struct esr_render_out o = {.linear = on};
     int rc = esr_model_render_rays(m, b->o3, b->d3, n, 1, &o);
     double mean_e[3] = {0, 0, 0}, mean_f[3] = {0, 0, 0};
-    size_t lit = 0;
+    size_t surface = 0;
     for (size_t p = 0; p < n; p++)
         if (b->opac[p] > SURFACE_OPACITY && b->ids[p] < 0) {
-            lit++;
+            surface++;
             for (int c = 0; c < 3; c++)
                 mean_e[c] += edited[p * 3 + c], mean_f[c] += found[p * 3 + c];
         }
     for (int c = 0; c < 3; c++) {
-        mean_e[c] = RATIO_FLOOR * mean_e[c] / (double)(lit ? lit : 1) + 1e-12;
-        mean_f[c] = RATIO_FLOOR * mean_f[c] / (double)(lit ? lit : 1) + 1e-12;
+        mean_e[c] = RATIO_FLOOR * mean_e[c] / (double)(surface ? surface : 1) + 1e-12;
+        mean_f[c] = RATIO_FLOOR * mean_f[c] / (double)(surface ? surface : 1) + 1e-12;
     }
     for (size_t p = 0; rc == ESR_OK && p < n; p++) {
         if (b->ids[p] >= 0) { /* a light: its edited emission and the direct light, as direct */
@@ -398,8 +399,8 @@ int esr_relight_view(const struct esr_relight *r, const struct esr_model *m,
             rc = gather_direct(&b, &s, s.found3, cam->width, cam->height, vox, found);
         if (rc == ESR_OK && found)
             rc = transfer_ratio(m, &b, direct, found, n, out->data);
-        else
-            for (size_t p = 0; rc == ESR_OK && p < n; p++)
+        else if (rc == ESR_OK)
+            for (size_t p = 0; p < n; p++)
                 for (int c = 0; c < 3; c++)
                     out->data[p * 3 + c] += direct[p * 3 + c];
         free(direct), free(found);

@@ -6,25 +6,23 @@
 #include <string.h>
 
 #include "core/error.h"
+#include "fields/trilerp.h"
 #include "volume/first_hit.h"
 #include "volume/ray.h"
 
 #define CARVE_CHUNK 65536
 
-static size_t nearest_index(const struct esr_grid *g, const float p[3], int *ok)
+/* The lattice point nearest to p, a point in g's box (the corner of its cell that it is past
+ * the middle towards, per axis). */
+static size_t nearest_index(const struct esr_grid *g, const float p[3])
 {
-    const int n[3] = {g->nx, g->ny, g->nz};
-    int q[3];
-    for (int a = 0; a < 3; a++) {
-        const float u = (p[a] - g->bmin[a]) / (g->bmax[a] - g->bmin[a]) * (float)(n[a] - 1);
-        q[a] = (int)lrintf(u);
-        if (!(q[a] >= 0 && q[a] < n[a])) {
-            *ok = 0;
-            return 0;
-        }
-    }
-    *ok = 1;
-    return ((size_t)q[2] * (size_t)n[1] + (size_t)q[1]) * (size_t)n[0] + (size_t)q[0];
+    struct esr_trilerp t;
+    esr_trilerp_locate(g, p, &t);
+    size_t i = t.base;
+    for (int a = 0; a < 3; a++)
+        if (t.f[a] >= 0.5f)
+            i += t.stride[a];
+    return i;
 }
 
 int esr_free_space_carve(const struct esr_grid *g, const float *sdf, const float *orig3,
@@ -71,10 +69,8 @@ int esr_free_space_carve(const struct esr_grid *g, const float *sdf, const float
                 float p[3];
                 for (int a = 0; a < 3; a++)
                     p[a] = o[i * 3 + a] + s * d[i * 3 + a];
-                int ok;
-                const size_t k = nearest_index(g, p, &ok);
-                if (ok) /* racing stores of the same byte: relaxed atomics make them defined */
-                    __atomic_store_n(free_out + k, (uint8_t)1, __ATOMIC_RELAXED);
+                /* racing stores of the same byte: relaxed atomics make them defined */
+                __atomic_store_n(free_out + nearest_index(g, p), (uint8_t)1, __ATOMIC_RELAXED);
             }
         }
     }
@@ -84,21 +80,14 @@ int esr_free_space_carve(const struct esr_grid *g, const float *sdf, const float
 
 int esr_free_space_at(const struct esr_grid *g, const uint8_t *free_mask, const float p[3])
 {
-    const int n[3] = {g->nx, g->ny, g->nz};
-    int lo[3];
-    for (int a = 0; a < 3; a++) {
-        const float u = (p[a] - g->bmin[a]) / (g->bmax[a] - g->bmin[a]) * (float)(n[a] - 1);
-        if (!(u >= 0.0f && u <= (float)(n[a] - 1)))
+    for (int a = 0; a < 3; a++)
+        if (!(p[a] >= g->bmin[a] && p[a] <= g->bmax[a]))
             return 0;
-        lo[a] = (int)u;
-        if (lo[a] > n[a] - 2)
-            lo[a] = n[a] - 2;
-    }
-    for (int c = 0; c < 8; c++) {
-        const size_t i = ((size_t)(lo[2] + (c >> 2 & 1)) * (size_t)n[1] + (size_t)(lo[1] + (c >> 1 & 1))) *
-                             (size_t)n[0] + (size_t)(lo[0] + (c & 1));
-        if (free_mask[i])
+    struct esr_trilerp t;
+    esr_trilerp_locate(g, p, &t);
+    for (int c = 0; c < 8; c++)
+        if (free_mask[t.base + (c & 1) * t.stride[0] + (c >> 1 & 1) * t.stride[1] +
+                      (c >> 2 & 1) * t.stride[2]])
             return 1;
-    }
     return 0;
 }
