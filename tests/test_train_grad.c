@@ -50,6 +50,9 @@ static void setup_stage(struct fixture *fx, enum esr_stage stage, const uint8_t 
     struct esr_train_config cfg;
     test_small_config(&cfg, LAMBDA);
     cfg.lts_estimator = estimator;
+    /* the full gradient of the loss, which finite differences see (test_geom_on_weight checks
+     * the weighted one) */
+    cfg.coarse.geom_on = cfg.fine.geom_on = 1.0f;
     cfg.background = learned_background ? ESR_BACKGROUND_LEARNED : ESR_BACKGROUND_WHITE;
     const float bmin[3] = {-1, -1, -1}, bmax[3] = {1, 1, 1};
     memset(fx, 0, sizeof(*fx));
@@ -229,6 +232,47 @@ static void test_fine_lights_on_stop_gradient(void **state)
     check_component(&fx, ESR_COMP_EMO_MLP, 1e-2f);
     check_component(&fx, ESR_COMP_EMO_FEAT, 1e-2f);
     teardown(&fx);
+}
+
+/* The SDF gradient of one step with the fine stage's geom_on weight w, into g. */
+static void sdf_gradient(struct fixture *fx, float w, float *g)
+{
+    fx->m.cfg.fine.geom_on = w;
+    analytic_gradient(fx);
+    memcpy(g, fx->analytic + fx->m.part[ESR_COMP_SDF].off,
+           fx->m.part[ESR_COMP_SDF].count * sizeof(float));
+}
+
+/* geom_on weighs the lights-on rays' pull on the surface (their opacities' gradient) and leaves
+ * lights-off rays alone: the SDF gradient is affine in it, and moves with it only when a ray is
+ * lit. */
+static void test_geom_on_weight(void **state)
+{
+    (void)state;
+    for (int lit = 0; lit < 2; lit++) {
+        struct fixture fx;
+        const uint8_t lights[N_RAYS] = {(uint8_t)lit, 0};
+        setup_stage(&fx, ESR_STAGE_FINE, lights, ESR_LTS_FIRST_HIT);
+        const size_t n = fx.m.part[ESR_COMP_SDF].count;
+        float *g0 = malloc(n * sizeof(float)), *gh = malloc(n * sizeof(float));
+        float *g1 = malloc(n * sizeof(float));
+        assert_true(g0 && gh && g1);
+        sdf_gradient(&fx, 0.0f, g0);
+        sdf_gradient(&fx, 0.5f, gh);
+        sdf_gradient(&fx, 1.0f, g1);
+        double moved = 0.0, scale = 0.0;
+        for (size_t i = 0; i < n; i++) {
+            moved += fabs((double)g1[i] - g0[i]);
+            scale += fabs((double)g1[i]);
+            assert_float_equal(gh[i], 0.5f * (g0[i] + g1[i]), 1e-6f + 1e-4f * fabsf(g1[i]));
+        }
+        if (lit)
+            assert_true(moved > 0.05 * scale);
+        else
+            assert_true(moved == 0.0);
+        free(g0), free(gh), free(g1);
+        teardown(&fx);
+    }
 }
 
 /* Walls around the sphere at |x| = 0.9 and |y| = 0.9, open at the top and bottom: secondary rays
@@ -508,6 +552,7 @@ int main(void)
         cmocka_unit_test(test_fine_gradients_lights_off),
         cmocka_unit_test(test_fine_gradients_mixed_lighting),
         cmocka_unit_test(test_fine_lights_on_stop_gradient),
+        cmocka_unit_test(test_geom_on_weight),
         cmocka_unit_test(test_coarse_gradients),
         cmocka_unit_test(test_background_gradients),
         cmocka_unit_test(test_lts_gradients),

@@ -357,6 +357,29 @@ static void test_emitter_stages_need_both_lightings(void **state)
     }
 }
 
+/* Lights-on photos only: the geometry stages, which by default shape the surface from the
+ * lights-off photos (geom_on 0), take it from the lights-on ones and say so; without that the
+ * alphamask stage learns no occupancy and the run stops on an empty mask cache. */
+static void test_geometry_from_lights_on_only(void **state)
+{
+    (void)state;
+    char data[4300], run[4300];
+    snprintf(data, sizeof data, "%s/data_on_only", test_tmpdir);
+    snprintf(run, sizeof run, "%s/run_on_only", test_tmpdir);
+    one_lighting_dataset(data, "on");
+    struct esr_train_opts o;
+    struct log_capture lc;
+    opts_for(&o, run, ESR_STAGE_ALPHAMASK, &lc);
+    o.data_dir = data;
+    assert_true(o.cfg.alphamask.geom_on == 0.0f);
+    esr_error_clear();
+    if (esr_train_run(&o) != ESR_OK)
+        fail_msg("%s", esr_error_message());
+    assert_non_null(strstr(lc.text, "no lights-off training images: stage alphamask shapes the "
+                                    "surface from the lights-on ones"));
+    assert_non_null(strstr(lc.text, "mask cache: "));
+}
+
 /* The pdra stage, continuing the full run's lts checkpoint, ends by finding the lights and
  * storing them in its checkpoint; `esr lights` lists them and writes RUN/lights.json. */
 static void test_pdra_finds_lights(void **state)
@@ -675,6 +698,7 @@ int main(void)
         cmocka_unit_test(test_corrupt_checkpoints_are_refused),
         cmocka_unit_test(test_empty_mask_cache_is_refused),
         cmocka_unit_test(test_emitter_stages_need_both_lightings),
+        cmocka_unit_test(test_geometry_from_lights_on_only),
         cmocka_unit_test(test_pdra_finds_lights),
         cmocka_unit_test(test_finetune_edits),
         cmocka_unit_test(test_ratio_edits),

@@ -32,6 +32,7 @@ struct esr_stage_config {
     float tv_sdf_grad;  /* smoothed-gradient total-variation weight on the SDF */
     float tv_feat;      /* feature-grid total-variation weight */
     float step_vox;     /* ray-marching step in voxels of this stage's grid */
+    float geom_on;      /* weight of lights-on rays in the geometry (density / SDF) gradient */
 };
 
 /* The background of rays that leave the scene. AUTO is resolved by the trainer from the data

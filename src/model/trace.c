@@ -168,6 +168,21 @@ static void background_bwd(struct esr_trace *t, const struct esr_model *m, float
                        d_bg3, grads + m->part[ESR_COMP_BACKGROUND].off);
 }
 
+/* The stage's geom_on weight on the lights-on rays' share of d alpha (the composites' gradient,
+ * background's included), before it reaches the density or SDF grid. */
+static void scale_lights_on_geometry(struct esr_trace *t, const struct esr_model *m)
+{
+    const float w = esr_stage_options(&m->cfg, (enum esr_stage)m->stage)->geom_on;
+    struct esr_march *mc = &t->march;
+    if (w == 1.0f || !t->lights_on)
+        return;
+#pragma omp parallel for schedule(static)
+    for (int r = 0; r < mc->n_rays; r++)
+        if (t->lights_on[r])
+            for (size_t s = mc->smp.ray_start[r]; s < mc->smp.ray_start[r + 1]; s++)
+                mc->d_alpha[s] *= w;
+}
+
 int esr_trace_bwd(struct esr_trace *t, const struct esr_model *m, const float *sdf, float *g_sdf,
                   float *grads, const float *d_rgb3, const float *d_lin3)
 {
@@ -196,6 +211,7 @@ int esr_trace_bwd(struct esr_trace *t, const struct esr_model *m, const float *s
                                  t->d_t_last, mc->d_alpha);
         t->d_t_last = NULL;
     }
+    scale_lights_on_geometry(t, m);
     ESR_TRY(esr_point_fields_bwd(&t->fields, m, sdf, g_sdf, grads, t->d_tone_rows, d_lin_rows));
     float *g_geom = mc->geom.alpha == ESR_MARCH_DENSITY ? grads + m->part[ESR_COMP_DENSITY].off
                                                         : g_sdf;

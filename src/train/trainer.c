@@ -413,11 +413,20 @@ static int run_stage(struct run *r, struct esr_model *m, enum esr_stage s)
 }
 
 /* Whether the dataset's lighting lets stage s run: the emitter stages compare lights-off and
- * lights-on images. No lights-off images: refused (nothing tells emission from reflection). No
- * lights-on images: lts trains materials and environment only, pdra is skipped (*skip). */
+ * lights-on images. No lights-off images: refused (nothing tells emission from reflection), and
+ * a geometry stage whose surface would come from the lights-off photos only (geom_on < 1) takes
+ * it from the lights-on ones. No lights-on images: lts trains materials and environment only,
+ * pdra is skipped (*skip). */
 static int check_lighting(struct run *r, enum esr_stage s, int *skip)
 {
     *skip = 0;
+    struct esr_stage_config *opt =
+        (struct esr_stage_config *)((char *)&r->cfg + esr_stage_info(s)->options);
+    if (r->rays.n_off == 0 && opt->geom_on < 1.0f) {
+        say(r, s, "no lights-off training images: stage %s shapes the surface from the "
+                  "lights-on ones (%s.geom_on 1)", esr_stage_name(s), esr_stage_name(s));
+        opt->geom_on = 1.0f;
+    }
     if (!esr_stage_info(s)->lts_loss)
         return ESR_OK;
     const size_t n_on = r->rays.n - r->rays.n_off;
