@@ -225,6 +225,30 @@ static void test_unseen_cavity_is_no_light(void **state)
     esr_model_free(&m);
 }
 
+/* The calibration fits the lights of at least 5% of the lights' area; a smaller one takes the
+ * fitted lights' area-weighted mean scale, per channel. */
+static void test_small_light_shares_the_fitted_scale(void **state)
+{
+    (void)state;
+    struct esr_lights L;
+    memset(&L, 0, sizeof L);
+    L.n = 3;
+    const float area[3] = {0.729f, 0.141f, 0.011f}; /* lamp's lampshade, bulb, mirror speck */
+    for (int a = 0; a < 3; a++)
+        L.light[a].area = area[a];
+    int fit[ESR_MAX_LIGHTS];
+    assert_int_equal(esr_lights_fitted(&L, fit), 2);
+    assert_int_equal(fit[0], 0);
+    assert_int_equal(fit[1], 1);
+    L.light[0].scale[1] = 8.0f, L.light[1].scale[1] = 2.0f, L.light[2].scale[1] = 300.0f;
+    esr_lights_share_scale(&L, 1);
+    assert_float_equal(L.light[2].scale[1], (8.0f * 0.729f + 2.0f * 0.141f) / 0.870f, 1e-5f);
+    assert_float_equal(L.light[0].scale[1], 8.0f, 0.0f);
+    assert_float_equal(L.light[2].scale[0], 0.0f, 0.0f); /* channel 0 untouched */
+    L.light[2].area = 0.05f * 0.92f; /* 5% of the total exactly: fitted */
+    assert_int_equal(esr_lights_fitted(&L, fit), 3);
+}
+
 int main(void)
 {
     make_rays();
@@ -234,6 +258,7 @@ int main(void)
         cmocka_unit_test(test_dark_field_has_no_lights),
         cmocka_unit_test(test_lights_survive_a_checkpoint),
         cmocka_unit_test(test_unseen_cavity_is_no_light),
+        cmocka_unit_test(test_small_light_shares_the_fitted_scale),
     };
     return cmocka_run_group_tests(tests, test_setup_tmpdir, test_teardown_tmpdir);
 }

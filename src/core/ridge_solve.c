@@ -2,6 +2,7 @@
 #include "core/ridge_solve.h"
 
 #include <math.h>
+#include <stdlib.h>
 
 /* Solves G s = r by Gaussian elimination with partial pivoting; G and r are overwritten. */
 static void solve_dense(int K, double *G, double *r, double *s)
@@ -101,4 +102,63 @@ void esr_ridge_solve_nonneg(int K, const double *G, const double *r, double ridg
                     free_set[j] = 0, s[j] = 0.0;
         }
     }
+}
+
+/* Weighted normal equations G = sum w a a', r = sum w y a of n rows. */
+static void normal_equations(int K, size_t n, const double *a, const double *y, const double *w,
+                             double *G, double *r)
+{
+    for (int i = 0; i < K * K; i++)
+        G[i] = 0.0;
+    for (int i = 0; i < K; i++)
+        r[i] = 0.0;
+    for (size_t p = 0; p < n; p++) {
+        const double *ap = a + p * (size_t)K, wp = w ? w[p] : 1.0;
+        for (int i = 0; i < K; i++) {
+            r[i] += wp * ap[i] * y[p];
+            for (int j = 0; j < K; j++)
+                G[i * K + j] += wp * ap[i] * ap[j];
+        }
+    }
+}
+
+static int cmp_double(const void *x, const void *y)
+{
+    const double u = *(const double *)x, v = *(const double *)y;
+    return (u > v) - (u < v);
+}
+
+int esr_ridge_fit_robust(int K, size_t n, const double *a, const double *y, double ridge,
+                         int rounds, double *s)
+{
+    double G[ESR_RIDGE_MAX * ESR_RIDGE_MAX], r[ESR_RIDGE_MAX];
+    normal_equations(K, n, a, y, NULL, G, r);
+    esr_ridge_solve_nonneg(K, G, r, ridge, s);
+    if (rounds <= 0 || n == 0)
+        return 0;
+    double *res = malloc(n * sizeof(double)), *sorted = malloc(n * sizeof(double));
+    if (!res || !sorted) {
+        free(res), free(sorted);
+        return -1;
+    }
+    for (int round = 0; round < rounds; round++) {
+        for (size_t p = 0; p < n; p++) {
+            double v = y[p];
+            for (int i = 0; i < K; i++)
+                v -= a[p * (size_t)K + i] * s[i];
+            res[p] = fabs(v);
+            sorted[p] = res[p];
+        }
+        qsort(sorted, n, sizeof(double), cmp_double);
+        const double med = n % 2 ? sorted[n / 2] : 0.5 * (sorted[n / 2 - 1] + sorted[n / 2]);
+        const double cut = 1.345 * 1.4826 * med;
+        if (!(cut > 0.0))
+            break; /* most rows fit exactly: nothing to down-weight */
+        for (size_t p = 0; p < n; p++)
+            res[p] = res[p] > cut ? cut / res[p] : 1.0; /* the weights, in place */
+        normal_equations(K, n, a, y, res, G, r);
+        esr_ridge_solve_nonneg(K, G, r, ridge, s);
+    }
+    free(res), free(sorted);
+    return 0;
 }

@@ -3,6 +3,8 @@
 #ifndef ESR_CORE_RIDGE_SOLVE_H
 #define ESR_CORE_RIDGE_SOLVE_H
 
+#include <stddef.h>
+
 #ifdef __cplusplus
 extern "C" {
 #endif
@@ -15,6 +17,15 @@ extern "C" {
  * share of a negative one). K <= ESR_RIDGE_MAX. */
 #define ESR_RIDGE_MAX 16
 void esr_ridge_solve_nonneg(int K, const double *G, const double *r, double ridge, double *s);
+
+/* The same fit from its n rows, y_i ~ a_i . s (a: [n*K] row-major, y: [n]), made robust: after a
+ * plain solve, `rounds` times, each row is weighted by Huber's w = min(1, 1.345 sigma / |res|),
+ * sigma = 1.4826 median |res| (the residuals' scale were they Gaussian), and the weighted
+ * normal equations are solved again. Rows the model cannot explain at all (a mirror's reflection
+ * seen as direct light) then pull with a bounded force instead of their squared error. rounds 0
+ * is the plain fit. Returns 0, or -1 when out of memory (s then holds the plain fit). */
+int esr_ridge_fit_robust(int K, size_t n, const double *a, const double *y, double ridge,
+                         int rounds, double *s);
 
 #ifdef __cplusplus
 }

@@ -42,6 +42,8 @@
 #define CALIB_E_SHARE 0.25f
 /* ridge towards scale 1, relative to each light's own normal-equation diagonal */
 #define CALIB_RIDGE 1e-3
+/* Huber reweighting rounds of the fit (core/ridge_solve.h) */
+#define CALIB_ROBUST_ROUNDS 8
 _Static_assert(ESR_MAX_LIGHTS <= ESR_RIDGE_MAX, "the calibration solves one unknown per light");
 
 static size_t lattice_index(const struct esr_grid *g, int x, int y, int z)
@@ -373,11 +375,18 @@ static int point_frame(const struct esr_lts *l, size_t p, struct esr_vec3 *n, st
     return esr_v3_dot(*n, *wo) > 0.0f;
 }
 
-/* Adds one LTS call's points to the per-channel normal equations G[c] (K x K), rhs[c] (K):
- * A from esr_lights_direct, B from the hemisphere directions (the other surfaces' emo radiance,
- * and the lights' own reflected part L_emo - E where a direction hits one). */
+/* Calibration rows, one per point and channel: y = L_emo - B ~ sum_K s_K A_K. */
+struct calib_rows {
+    size_t n, cap;  /* points */
+    double *a;      /* [cap * 3 * K]: point p, channel c at (p * 3 + c) * K */
+    double *y;      /* [cap * 3] */
+};
+
+/* Adds one LTS call's points as rows: A from esr_lights_direct, B from the hemisphere directions
+ * (the other surfaces' emo radiance, and the lights' own reflected part L_emo - E where a
+ * direction hits one). */
 static void accumulate(const struct esr_model *m, const struct esr_lts *l, size_t P,
-                       const float *hit_emit3, const double *Aall, double *G, double *rhs,
+                       const float *hit_emit3, const double *Aall, struct calib_rows *rows,
                        double *seen)
 {
     const int K = m->lights.n;
@@ -408,14 +417,15 @@ static void accumulate(const struct esr_model *m, const struct esr_lts *l, size_
         }
         /* L_emo at the point for the camera direction: on row minus off row */
         const float *lin = l->pf.lin3;
+        if (rows->n == rows->cap)
+            break;
         for (int c = 0; c < 3; c++) {
-            const double y = (double)lin[(p * 4 + 1) * 3 + c] - lin[(p * 4) * 3 + c] - B[c];
-            for (int a = 0; a < K; a++) {
-                rhs[c * K + a] += A[a * 3 + c] * y;
-                for (int e = 0; e < K; e++)
-                    G[(c * K + a) * K + e] += A[a * 3 + c] * A[e * 3 + c];
-            }
+            const size_t row = rows->n * 3 + (size_t)c;
+            rows->y[row] = (double)lin[(p * 4 + 1) * 3 + c] - lin[(p * 4) * 3 + c] - B[c];
+            for (int a = 0; a < K; a++)
+                rows->a[row * (size_t)K + (size_t)a] = A[a * 3 + c];
         }
+        rows->n++;
         for (int a = 0; a < K; a++)
             seen[a] += A[a * 3] + A[a * 3 + 1] + A[a * 3 + 2] > 0.0;
     }
@@ -437,10 +447,12 @@ int esr_lights_calibrate(struct esr_model *m, const float *orig3, const float *d
     float *pos = malloc((size_t)want * 3 * sizeof(float)), *dir = malloc((size_t)want * 3 * sizeof(float));
     const size_t ns = esr_grid_count(esr_model_grid(m, ESR_COMP_SDF));
     float *grads = calloc(m->params.count, sizeof(float)), *g_sdf = calloc(ns, sizeof(float));
-    double *G = calloc((size_t)3 * K * K, sizeof(double)), *rhs = calloc((size_t)3 * K, sizeof(double));
+    struct calib_rows rows = {0, (size_t)want, malloc((size_t)want * 3 * K * sizeof(double)),
+                              malloc((size_t)want * 3 * sizeof(double))};
+    double *ca = malloc((size_t)want * K * sizeof(double)), *cy = malloc((size_t)want * sizeof(double));
     double seen[ESR_MAX_LIGHTS] = {0};
     int got = 0;
-    int rc = pos && dir && grads && g_sdf && G && rhs && Abuf
+    int rc = pos && dir && grads && g_sdf && rows.a && rows.y && ca && cy && Abuf
                  ? ESR_OK
                  : ESR_FAIL("lights: out of memory for the calibration");
     for (int a = 0; rc == ESR_OK && a < K; a++)
@@ -481,17 +493,27 @@ int esr_lights_calibrate(struct esr_model *m, const float *orig3, const float *d
             rc = esr_lights_direct(m, ls, K, NULL, &dp, CALIB_LIGHT_SPP,
                                    seed ^ (uint64_t)(p0 + 1) * 0x9e3779b97f4a7c15ULL, Abuf, NULL);
         if (rc == ESR_OK)
-            accumulate(m, &l, P, mf.emit3, Abuf, G, rhs, seen);
+            accumulate(m, &l, P, mf.emit3, Abuf, &rows, seen);
     }
     esr_material_fields_free(&mf);
     esr_lts_free(&l);
     m->cfg = keep_cfg;
     m->step = keep_step;
+    int fit[ESR_MAX_LIGHTS];
+    const int nf = esr_lights_fitted(&m->lights, fit);
     for (int c = 0; rc == ESR_OK && c < 3; c++) {
+        for (size_t p = 0; p < rows.n; p++) { /* channel c's rows of the fitted lights */
+            cy[p] = rows.y[p * 3 + (size_t)c];
+            for (int f = 0; f < nf; f++)
+                ca[p * (size_t)nf + (size_t)f] = rows.a[(p * 3 + (size_t)c) * (size_t)K + (size_t)fit[f]];
+        }
         double s[ESR_MAX_LIGHTS];
-        esr_ridge_solve_nonneg(K, G + (size_t)c * K * K, rhs + (size_t)c * K, CALIB_RIDGE, s);
-        for (int a = 0; a < K; a++)
-            m->lights.light[a].scale[c] = (float)s[a];
+        if (esr_ridge_fit_robust(nf, rows.n, ca, cy, CALIB_RIDGE, CALIB_ROBUST_ROUNDS, s) != 0)
+            rc = ESR_FAIL("lights: out of memory for the calibration");
+        for (int f = 0; rc == ESR_OK && f < nf; f++)
+            m->lights.light[fit[f]].scale[c] = (float)s[f];
+        if (rc == ESR_OK)
+            esr_lights_share_scale(&m->lights, c);
     }
     for (int a = 0; rc == ESR_OK && a < K; a++) {
         struct esr_light *lt = &m->lights.light[a];
@@ -502,8 +524,46 @@ int esr_lights_calibrate(struct esr_model *m, const float *orig3, const float *d
     }
     for (int a = 0; a < K; a++)
         esr_light_samples_free(&ls[a]);
-    free(pos), free(dir), free(grads), free(g_sdf), free(G), free(rhs), free(Abuf);
+    free(pos), free(dir), free(grads), free(g_sdf), free(rows.a), free(rows.y), free(ca), free(cy);
+    free(Abuf);
     return rc;
+}
+
+static int is_fitted(const struct esr_lights *L, int a, double total_area)
+{
+    return L->light[a].area >= ESR_LIGHTS_SMALL_SHARE * total_area;
+}
+
+static double lights_area(const struct esr_lights *L)
+{
+    double total = 0.0;
+    for (int a = 0; a < L->n; a++)
+        total += L->light[a].area;
+    return total;
+}
+
+int esr_lights_fitted(const struct esr_lights *L, int *fit)
+{
+    const double total = lights_area(L);
+    int nf = 0;
+    for (int a = 0; a < L->n; a++)
+        if (is_fitted(L, a, total))
+            fit[nf++] = a;
+    return nf;
+}
+
+void esr_lights_share_scale(struct esr_lights *L, int c)
+{
+    const double total = lights_area(L);
+    double mean = 0.0, area = 0.0;
+    for (int a = 0; a < L->n; a++)
+        if (is_fitted(L, a, total)) {
+            mean += (double)L->light[a].scale[c] * L->light[a].area;
+            area += L->light[a].area;
+        }
+    for (int a = 0; a < L->n; a++)
+        if (!is_fitted(L, a, total))
+            L->light[a].scale[c] = (float)(area > 0.0 ? mean / area : 1.0);
 }
 
 void esr_light_samples_free(struct esr_light_samples *s)

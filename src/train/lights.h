@@ -22,7 +22,10 @@
  * The scales s_K come from least squares over calib_points points seen by the lights-off
  * training cameras, per channel, with a small ridge towards 1 so
  * that a light no point sees keeps its field strength, and no scale below 0 (a light solved
- * negative is set to 0 and the others solved again). Caveat: images fix the product of albedo
+ * negative is set to 0 and the others solved again), made robust by Huber reweighting (points
+ * the BRDF cannot explain, a mirror's reflection, pull with a bounded force). A light under
+ * CALIB_SMALL_SHARE of the lights' area is not fitted but takes the fitted lights' mean scale
+ * (esr_lights_fitted, esr_lights_share_scale). Caveat: images fix the product of albedo
  * and light, so s_K is only as right as the reconstructed base colour (see docs). */
 #ifndef ESR_TRAIN_LIGHTS_H
 #define ESR_TRAIN_LIGHTS_H
@@ -48,6 +51,20 @@ int esr_lights_find(struct esr_model *m, const float *orig3, const float *dir3, 
  * (orig3/dir3 [n*3]; rays are picked evenly). Sets scale, radiance, power, calib_points. */
 int esr_lights_calibrate(struct esr_model *m, const float *orig3, const float *dir3, size_t n,
                          int calib_points, uint64_t seed);
+
+/* The lights the calibration fits (ids into fit[], their count returned): those of at least
+ * ESR_LIGHTS_SMALL_SHARE of all the lights' area. A smaller one casts little light from a few
+ * close area samples, so a shortfall spread over the scene (light after several bounces, a
+ * light's part no camera sees) can be loaded onto it at hundreds of times its field (lamp: a
+ * mirror sphere's reflection of the lampshade, area 0.011 of 0.88, came out at 323x, fitted over
+ * the whole floor). */
+#define ESR_LIGHTS_SMALL_SHARE 0.05
+int esr_lights_fitted(const struct esr_lights *L, int *fit);
+
+/* Gives every light esr_lights_fitted leaves out the fitted lights' area-weighted mean scale in
+ * channel c (1 when none is fitted): the images clip every light alike, so that mean is the best
+ * guess of its exposure. */
+void esr_lights_share_scale(struct esr_lights *L, int c);
 
 /* Surface samples of one light for direct lighting (edit/relight.h): the light's labelled
  * surface points, unit normals, calibrated emitted radiance (scale x E) and the area each stands
