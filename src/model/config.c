@@ -167,9 +167,9 @@ static const struct opt opts[] = {
     /* fast: the geometry stages shape the surface from the lights-off photos only. A lit
      * emitter is clipped in the lights-on photos and its edge bleeds through the pixel filter, so
      * there it looks about half a pixel wider than it is; the off photos show the true outline
-     * (lamp: bulb split IoU 0.836 -> 0.861, emitter IoU 0.948 -> 0.956; default scene: emitter
-     * IoU 0.887 -> 0.926; lamp test_nv after fine 32.53 -> 31.55 dB, the on views no longer
-     * reproducing that bleed, 34.19 -> 33.90 after pdra). lts and pdra keep both: with the on
+     * (lamp: bulb split IoU 0.836 -> 0.863, emitter IoU 0.948 -> 0.958; default scene: emitter
+     * IoU 0.887 -> 0.924; lamp test_nv after fine 32.53 -> 31.55 dB, the on views no longer
+     * reproducing that bleed, 34.19 -> 33.91 after pdra). lts and pdra keep both: with the on
      * rays' pull on the surface cut there too, lamp's lampshade lost its emission (emitter IoU
      * 0.34). The weight is on the opacities; the geometry features the emo branch reads keep
      * their gradient.
