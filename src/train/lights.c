@@ -391,7 +391,7 @@ static void accumulate(const struct esr_model *m, const struct esr_lts *l, size_
 {
     const int K = m->lights.n;
     const size_t M = (size_t)l->M;
-    for (size_t p = 0; p < P; p++) {
+    for (size_t p = 0; p < P && rows->n < rows->cap; p++) {
         struct esr_vec3 n, wo;
         struct esr_material mat;
         if (!point_frame(l, p, &n, &wo, &mat))
@@ -417,8 +417,6 @@ static void accumulate(const struct esr_model *m, const struct esr_lts *l, size_
         }
         /* L_emo at the point for the camera direction: on row minus off row */
         const float *lin = l->pf.lin3;
-        if (rows->n == rows->cap)
-            break;
         for (int c = 0; c < 3; c++) {
             const size_t row = rows->n * 3 + (size_t)c;
             rows->y[row] = (double)lin[(p * 4 + 1) * 3 + c] - lin[(p * 4) * 3 + c] - B[c];

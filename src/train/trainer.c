@@ -420,8 +420,8 @@ static int run_stage(struct run *r, struct esr_model *m, enum esr_stage s)
 static int check_lighting(struct run *r, enum esr_stage s, int *skip)
 {
     *skip = 0;
-    struct esr_stage_config *opt =
-        (struct esr_stage_config *)((char *)&r->cfg + esr_stage_info(s)->options);
+    /* r->cfg is the run's own (mutable) copy; the accessor hands out const views */
+    struct esr_stage_config *opt = (struct esr_stage_config *)esr_stage_options(&r->cfg, s);
     if (r->rays.n_off == 0 && opt->geom_on < 1.0f) {
         say(r, s, "no lights-off training images: stage %s shapes the surface from the "
                   "lights-on ones (%s.geom_on 1)", esr_stage_name(s), esr_stage_name(s));
