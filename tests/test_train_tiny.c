@@ -630,14 +630,54 @@ static void test_finetune_edits(void **state)
                   "(LTS MSE %.3g -> %.3g)\n", effect, drift, left, st.mse_first, st.mse_last);
     assert_true(effect > 0.0);
     assert_true(drift < 0.1 * effect);
-    /* the light goes as the ratio of estimates decays (train/lts.h): 100 steps leave 47% of
-     * the effect on this 24-pixel scene, whose lights explain little of its emo radiance */
+    /* the light goes as the ratio of estimates decays (train/lts.h): 100 steps leave 36% of
+     * the effect on this 24-pixel scene, whose lights explain little of its emo radiance (47%
+     * before the fine-tune's start, esr_finetune_start) */
     assert_true(left < 0.6 * effect);
     esr_finetune_restore(&f, m);
     render_linear(m, cam, 1, after, NULL);
     assert_memory_equal(after, before, n * sizeof(float));
     esr_finetune_free(&f);
     free(after);
+    pdra_view_close(&v);
+}
+
+/* The fine-tune's start (edit/finetune.h) shifts only the emo MLP's output biases, by ln of the
+ * lights' power ratio: 0 for an unchanged edit, ln 0.5 at half intensity, the floor ln 1e-3
+ * with every light off. */
+static void test_finetune_start(void **state)
+{
+    (void)state;
+    struct pdra_view v;
+    pdra_view_open(&v);
+    struct esr_model *m = &v.m;
+    const size_t count = m->params.count;
+    float *w0 = malloc(count * sizeof(float));
+    assert_non_null(w0);
+    memcpy(w0, m->params.w, count * sizeof(float));
+    const struct esr_mlp *mlp = esr_model_mlp(m, ESR_COMP_EMO_MLP);
+    const size_t b = mlp->b_off[mlp->n_layers - 1];
+    const float intensity[3] = {1.0f, 0.5f, 0.0f};
+    const double want[3] = {0.0, log(0.5), log(1e-3)};
+    for (int t = 0; t < 3; t++) {
+        struct esr_light_edit ed[ESR_MAX_LIGHTS];
+        for (int k = 0; k < ESR_MAX_LIGHTS; k++)
+            ed[k] = (struct esr_light_edit){intensity[t], 0, 0.0f, 0.0f};
+        memcpy(m->params.w, w0, count * sizeof(float));
+        float rho[3];
+        esr_finetune_start(m, ed, rho);
+        for (size_t i = 0; i < count; i++) {
+            const double shift = (double)m->params.w[i] - w0[i];
+            if (i >= b && i < b + 3)
+                assert_true(fabs(shift - want[t]) < 1e-5);
+            else
+                assert_true(shift == 0.0);
+        }
+        for (int c = 0; c < 3; c++)
+            assert_true(fabs(log(rho[c]) - want[t]) < 1e-5);
+    }
+    memcpy(m->params.w, w0, count * sizeof(float));
+    free(w0);
     pdra_view_close(&v);
 }
 
@@ -701,6 +741,7 @@ int main(void)
         cmocka_unit_test(test_geometry_from_lights_on_only),
         cmocka_unit_test(test_pdra_finds_lights),
         cmocka_unit_test(test_finetune_edits),
+        cmocka_unit_test(test_finetune_start),
         cmocka_unit_test(test_ratio_edits),
     };
     return cmocka_run_group_tests(tests, group_setup, test_teardown_tmpdir);

@@ -13,6 +13,10 @@
 #include "train/light_direct.h"
 #include "model/trace.h"
 
+/* the start's power ratio is kept within these (an edit that turns every light off) */
+#define START_RATIO_MIN 1e-3
+#define START_RATIO_MAX 1e3
+
 /* the two components fine-tuning trains */
 static const enum esr_component TUNED[2] = {ESR_COMP_EMO_FEAT, ESR_COMP_EMO_MLP};
 
@@ -23,8 +27,8 @@ void esr_finetune_default_opts(struct esr_finetune_opts *o)
     o->points = 2048;
     o->dirs = 16;
     o->light_spp = 8;
-    o->lr_feat = 0.02f;
-    o->lr_mlp = 1e-3f;
+    o->lr_feat = 0.06f;
+    o->lr_mlp = 3e-3f;
     o->lr_final = 0.1f;
 }
 
@@ -49,6 +53,29 @@ static int direct_light(void *user, const struct esr_lts *l, size_t P,
                 dst[v][i * 3 + (size_t)c] = (float)sum;
             }
     return ESR_OK;
+}
+
+void esr_finetune_start(struct esr_model *m, const struct esr_light_edit *edits, float rho[3])
+{
+    double found[3] = {0, 0, 0}, edited[3] = {0, 0, 0};
+    for (int k = 0; k < m->lights.n; k++) {
+        const struct esr_light *lt = &m->lights.light[k];
+        float e[3];
+        esr_light_edit_apply(&edits[k], lt->radiance, e);
+        for (int c = 0; c < 3; c++) {
+            found[c] += (double)lt->radiance[c] * lt->area;
+            edited[c] += (double)e[c] * lt->area;
+        }
+    }
+    const struct esr_mlp *mlp = esr_model_mlp(m, ESR_COMP_EMO_MLP);
+    float *bias = m->params.w + mlp->b_off[mlp->n_layers - 1];
+    for (int c = 0; c < 3; c++) {
+        double r = found[c] > 0.0 ? edited[c] / found[c] : 1.0;
+        r = r < START_RATIO_MIN ? START_RATIO_MIN : r > START_RATIO_MAX ? START_RATIO_MAX : r;
+        bias[c] += (float)log(r);
+        if (rho)
+            rho[c] = (float)r;
+    }
 }
 
 void esr_finetune_free(struct esr_finetune *f)
@@ -154,6 +181,7 @@ int esr_finetune_apply(struct esr_finetune *f, struct esr_model *m,
     f->lts.edit = edits;
     f->seed = seed;
     f->applied = 1; /* from here on the weights move: restore puts them back */
+    esr_finetune_start(m, edits, NULL);
     const int iters = f->o.iters, tail = iters / 10 > 0 ? iters / 10 : 1;
     int rc = ESR_OK;
     for (int it = 0; it < iters && rc == ESR_OK; it++) {
