@@ -2,6 +2,7 @@
 #include "model/lights.h"
 
 #include "core/colour.h"
+#include "fields/trilerp.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -43,30 +44,24 @@ int esr_lights_id_at(const struct esr_lights *L, const float pos[3])
     if (L->n == 0 || !L->label)
         return -1;
     const struct esr_grid *g = &L->grid;
-    const int n[3] = {g->nx, g->ny, g->nz};
-    int lo[3];
-    float fr[3];
-    for (int a = 0; a < 3; a++) {
-        float u = (pos[a] - g->bmin[a]) / (g->bmax[a] - g->bmin[a]) * (float)(n[a] - 1);
-        if (!(u >= 0.0f && u <= (float)(n[a] - 1)))
+    for (int a = 0; a < 3; a++) /* outside the lattice (or NaN): no light */
+        if (!(pos[a] >= g->bmin[a] && pos[a] <= g->bmax[a]))
             return -1;
-        lo[a] = (int)u;
-        if (lo[a] > n[a] - 2)
-            lo[a] = n[a] - 2;
-        fr[a] = u - (float)lo[a];
-    }
-    /* corners nearest first: by squared distance in lattice units */
+    struct esr_trilerp t;
+    esr_trilerp_locate(g, pos, &t);
+    /* the labelled corner nearest by squared distance in lattice units */
     int best = -1;
     float best_d = INFINITY;
     for (int c = 0; c < 8; c++) {
-        const int o[3] = {c & 1, (c >> 1) & 1, (c >> 2) & 1};
-        const size_t i = ((size_t)(lo[2] + o[2]) * (size_t)n[1] + (size_t)(lo[1] + o[1])) *
-                             (size_t)n[0] + (size_t)(lo[0] + o[0]);
+        float w;
+        const size_t i = esr_trilerp_corner(&t, c, &w);
         if (!L->label[i])
             continue;
         float d = 0.0f;
-        for (int a = 0; a < 3; a++)
-            d += (fr[a] - (float)o[a]) * (fr[a] - (float)o[a]);
+        for (int a = 0; a < 3; a++) {
+            const float o = (float)((c >> a) & 1);
+            d += (t.f[a] - o) * (t.f[a] - o);
+        }
         if (d < best_d) {
             best_d = d;
             best = L->label[i] - 1;
