@@ -642,6 +642,29 @@ static void test_finetune_edits(void **state)
     pdra_view_close(&v);
 }
 
+/* A render's linear_other (model.h) is the other lighting's linear render bit for bit, from
+ * either side, with the lights' calibrated emission where lit. */
+static void test_render_other_lighting(void **state)
+{
+    (void)state;
+    struct pdra_view v;
+    pdra_view_open(&v);
+    const size_t px = v.px, n = px * 3;
+    float *o = malloc(n * sizeof(float)), *d = malloc(n * sizeof(float));
+    float *lin = malloc(n * sizeof(float)), *other = malloc(n * sizeof(float));
+    assert_true(o && d && lin && other);
+    esr_camera_pixel_rays(v.cam, o, d);
+    for (int on = 0; on < 2; on++) {
+        struct esr_render_out r = {.linear = lin, .linear_other = other};
+        assert_int_equal(esr_model_render_rays(&v.m, o, d, px, on, &r), ESR_OK);
+        assert_memory_equal(lin, on ? v.on : v.off, n * sizeof(float));
+        assert_memory_equal(other, on ? v.off : v.on, n * sizeof(float));
+    }
+    assert_true(memcmp(v.on, v.off, n * sizeof(float)) != 0); /* the lights show */
+    free(o), free(d), free(lin), free(other);
+    pdra_view_close(&v);
+}
+
 /* The fine-tune's start (edit/finetune.h) shifts only the emo MLP's output biases, by ln of the
  * lights' power ratio: 0 for an unchanged edit, ln 0.5 at half intensity, the floor ln 1e-3
  * with every light off. */
@@ -742,6 +765,7 @@ int main(void)
         cmocka_unit_test(test_pdra_finds_lights),
         cmocka_unit_test(test_finetune_edits),
         cmocka_unit_test(test_finetune_start),
+        cmocka_unit_test(test_render_other_lighting),
         cmocka_unit_test(test_ratio_edits),
     };
     return cmocka_run_group_tests(tests, group_setup, test_teardown_tmpdir);

@@ -63,13 +63,14 @@ void esr_relight_free(struct esr_relight *r)
 
 /* Per-pixel buffers of one view. */
 struct view_buf {
-    float *o3, *d3, *lin3, *opac, *depth, *nrm3, *mat5, *emit3;
+    float *o3, *d3, *lin3, *on3, *opac, *depth, *nrm3, *mat5, *emit3; /* on3: ratio only */
     int32_t *ids;
 };
 
 static void view_buf_free(struct view_buf *b)
 {
-    free(b->o3), free(b->d3), free(b->lin3), free(b->opac), free(b->depth), free(b->nrm3);
+    free(b->o3), free(b->d3), free(b->lin3), free(b->on3), free(b->opac), free(b->depth);
+    free(b->nrm3);
     free(b->mat5), free(b->emit3), free(b->ids);
 }
 
@@ -295,14 +296,10 @@ static int gather_direct(const struct view_buf *b, const struct shadow *s, const
  * rays); the means over the view's surface pixels that see no light, f = RATIO_FLOOR, so that
  * where no light reaches directly (shadow, light after bounces only) the view's overall change
  * applies. */
-static int transfer_ratio(const struct esr_model *m, const struct view_buf *b, const float *edited,
-                          const float *found, size_t n, float *out)
+static void transfer_ratio(const struct view_buf *b, const float *edited, const float *found,
+                           size_t n, float *out)
 {
-    float *on = malloc(n * 3 * sizeof(float));
-    if (!on)
-        return ESR_FAIL("relight: out of memory for the lights-on view");
-    struct esr_render_out o = {.linear = on};
-    int rc = esr_model_render_rays(m, b->o3, b->d3, n, 1, &o);
+    const float *on = b->on3;
     double mean_e[3] = {0, 0, 0}, mean_f[3] = {0, 0, 0};
     size_t surface = 0;
     for (size_t p = 0; p < n; p++)
@@ -315,7 +312,7 @@ static int transfer_ratio(const struct esr_model *m, const struct view_buf *b, c
         mean_e[c] = RATIO_FLOOR * mean_e[c] / (double)(surface ? surface : 1) + 1e-12;
         mean_f[c] = RATIO_FLOOR * mean_f[c] / (double)(surface ? surface : 1) + 1e-12;
     }
-    for (size_t p = 0; rc == ESR_OK && p < n; p++) {
+    for (size_t p = 0; p < n; p++) {
         if (b->ids[p] >= 0) { /* a light: its edited emission and the direct light, as direct */
             for (int c = 0; c < 3; c++)
                 out[p * 3 + c] += edited[p * 3 + c];
@@ -326,8 +323,6 @@ static int transfer_ratio(const struct esr_model *m, const struct view_buf *b, c
             out[p * 3 + c] += (float)(ratio * (on[p * 3 + c] - b->lin3[p * 3 + c]));
         }
     }
-    free(on);
-    return rc;
 }
 
 int esr_relight_view(const struct esr_relight *r, const struct esr_model *m,
@@ -340,19 +335,21 @@ int esr_relight_view(const struct esr_relight *r, const struct esr_model *m,
     b.o3 = malloc(n * 3 * sizeof(float));
     b.d3 = malloc(n * 3 * sizeof(float));
     b.lin3 = malloc(n * 3 * sizeof(float));
+    b.on3 = r->ratio ? malloc(n * 3 * sizeof(float)) : NULL;
     b.opac = malloc(n * sizeof(float));
     b.depth = malloc(n * sizeof(float));
     b.nrm3 = malloc(n * 3 * sizeof(float));
     b.mat5 = malloc(n * 5 * sizeof(float));
     b.emit3 = malloc(n * 3 * sizeof(float));
     b.ids = malloc(n * sizeof(int32_t));
-    int rc = b.o3 && b.d3 && b.lin3 && b.opac && b.depth && b.nrm3 && b.mat5 && b.emit3 && b.ids
+    int rc = b.o3 && b.d3 && b.lin3 && (b.on3 || !r->ratio) && b.opac && b.depth && b.nrm3 && b.mat5 && b.emit3 && b.ids
                  ? ESR_OK
                  : ESR_FAIL("relight: out of memory for a %dx%d view", cam->width, cam->height);
     if (rc == ESR_OK) {
         esr_camera_pixel_rays(cam, b.o3, b.d3);
         struct esr_render_out o = {.linear = b.lin3, .depth = b.depth, .opacity = b.opac,
-                                   .emitted = b.emit3, .material = b.mat5, .light_id = b.ids};
+                                   .emitted = b.emit3, .material = b.mat5, .light_id = b.ids,
+                                   .linear_other = b.on3};
         rc = esr_model_render_rays(m, b.o3, b.d3, n, 0, &o);
     }
     if (rc == ESR_OK) { /* surface points, and their normals from the smoothed SDF */
@@ -398,7 +395,7 @@ int esr_relight_view(const struct esr_relight *r, const struct esr_model *m,
         if (rc == ESR_OK && found)
             rc = gather_direct(&b, &s, s.found3, cam->width, cam->height, vox, found);
         if (rc == ESR_OK && found)
-            rc = transfer_ratio(m, &b, direct, found, n, out->data);
+            transfer_ratio(&b, direct, found, n, out->data);
         else if (rc == ESR_OK)
             for (size_t p = 0; p < n; p++)
                 for (int c = 0; c < 3; c++)

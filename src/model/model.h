@@ -131,6 +131,8 @@ struct esr_render_out {
                         background: multiply out by opacity); lts stage on, like emission */
     int32_t *light_id; /* [n] the light (model/lights.h) at the ray's strongest kept sample, -1
                           where none (also for a model without lights) */
+    float *linear_other; /* [n*3] `linear` of the other lighting (lights off for a lights-on
+                            render and on for off), from the same march: both for one march */
 };
 
 /* Renders n rays (origins/dirs [n*3], dirs unit length) with lights on (1) or off (0). Only

@@ -117,6 +117,13 @@ static void light_ids(const struct esr_march *mc, const struct esr_lights *L, in
     }
 }
 
+/* The last shading's linear radiance of n rays (the LDR heads': their colour decoded). */
+static void copy_linear(const struct esr_trace *t, float *dst, size_t n)
+{
+    for (size_t i = 0; i < n * 3; i++)
+        dst[i] = t->fields.lin3 ? t->lin_rgb3[i] : esr_linear_from_srgb(t->rgb3[i]);
+}
+
 static void copy_out(float *dst, const float *src, size_t off, size_t n)
 {
     if (dst)
@@ -155,10 +162,10 @@ int esr_model_render_rays(const struct esr_model *m, const float *origins, const
     int chunk = n < RENDER_CHUNK ? (int)(n ? n : 1) : RENDER_CHUNK;
     rc = esr_trace_init(&t, m, chunk, 0);
     float *depth = NULL, *normal = NULL, *opac = NULL;
-    uint8_t *flags = NULL;
+    uint8_t *flags = NULL, *flags_other = NULL;
     struct esr_material_fields mf;
     const int fields = (out->emission || out->emitted || out->material ||
-                        (lights_on && out->linear && m->lights.n > 0)) &&
+                        (((lights_on && out->linear) || out->linear_other) && m->lights.n > 0)) &&
                        esr_model_has(m, ESR_COMP_EMIT_MLP);
     struct emit_scratch es = {NULL, 0};
     memset(&mf, 0, sizeof mf);
@@ -167,13 +174,17 @@ int esr_model_render_rays(const struct esr_model *m, const float *origins, const
                                       out->material ? 0 : ESR_MATERIAL_EMISSION_ONLY);
     if (rc == ESR_OK) {
         flags = malloc((size_t)chunk);
+        flags_other = out->linear_other ? malloc((size_t)chunk) : NULL;
         depth = malloc((size_t)chunk * sizeof(float));
         normal = malloc((size_t)chunk * 3 * sizeof(float));
         opac = malloc((size_t)chunk * sizeof(float));
-        if (!depth || !normal || !opac || !flags)
+        if (!depth || !normal || !opac || !flags || (out->linear_other && !flags_other))
             rc = ESR_FAIL("render: out of memory");
-        else
+        else {
             memset(flags, lights_on ? 1 : 0, (size_t)chunk);
+            if (flags_other)
+                memset(flags_other, lights_on ? 0 : 1, (size_t)chunk);
+        }
     }
     for (size_t r0 = 0; rc == ESR_OK && r0 < n; r0 += (size_t)chunk) {
         int c = (int)(n - r0 < (size_t)chunk ? n - r0 : (size_t)chunk);
@@ -185,11 +196,8 @@ int esr_model_render_rays(const struct esr_model *m, const float *origins, const
         copy_out(out->depth, depth, r0, (size_t)c);
         copy_out(out->normal, normal, r0 * 3, (size_t)c * 3);
         copy_out(out->opacity, opac, r0, (size_t)c);
-        if (out->linear) {
-            for (size_t i = 0; i < (size_t)c * 3; i++)
-                out->linear[r0 * 3 + i] = t.fields.lin3 ? t.lin_rgb3[i]
-                                                        : esr_linear_from_srgb(t.rgb3[i]);
-        }
+        if (out->linear)
+            copy_linear(&t, out->linear + r0 * 3, (size_t)c);
         if (out->light_id)
             light_ids(&t.march, &m->lights, out->light_id + r0);
         if (fields) {
@@ -201,12 +209,22 @@ int esr_model_render_rays(const struct esr_model *m, const float *origins, const
             if (rc != ESR_OK)
                 break;
         }
+        if (out->linear_other) { /* the same march shaded with the other lighting */
+            rc = esr_trace_shade(&t, m, sdf, flags_other);
+            if (rc != ESR_OK)
+                break;
+            copy_linear(&t, out->linear_other + r0 * 3, (size_t)c);
+            if (fields)
+                rc = material_rows(&t, m, sdf, &mf, &es, !lights_on, NULL, NULL, NULL,
+                                   out->linear_other + r0 * 3);
+        }
     }
     free(es.rows);
     free(depth);
     free(normal);
     free(opac);
     free(flags);
+    free(flags_other);
     esr_trace_free(&t);
     esr_material_fields_free(&mf);
     free(view);

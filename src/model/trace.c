@@ -119,10 +119,19 @@ int esr_trace_fwd(struct esr_trace *t, const struct esr_model *m, const float *s
     rays.dirs = dirs;
     rays.seed = seed;
     rays.jitter = t->train;
-    t->lights_on = lights_on;
     ESR_TRY(esr_march_fwd(&t->march, &geom, &rays));
+    t->dirs = dirs;
+    return esr_trace_shade(t, m, sdf, lights_on);
+}
+
+int esr_trace_shade(struct esr_trace *t, const struct esr_model *m, const float *sdf,
+                    const uint8_t *lights_on)
+{
     const struct esr_march *mc = &t->march;
     const size_t nk = mc->n_kept;
+    const int n = mc->n_rays;
+    const float *dirs = t->dirs;
+    t->lights_on = lights_on;
     if (nk > t->cap_rows)
         ESR_TRY(grow_rows(t, nk + nk / 4));
 #pragma omp parallel for schedule(static)
@@ -131,7 +140,6 @@ int esr_trace_fwd(struct esr_trace *t, const struct esr_model *m, const float *s
     struct esr_point_query q = {nk, mc->kpos3, mc->kdir3, t->row_on};
     ESR_TRY(esr_point_fields_fwd(&t->fields, m, sdf, &q));
     t->has_bg = esr_model_has(m, ESR_COMP_BACKGROUND);
-    t->dirs = dirs;
     if (t->has_bg) {
         esr_background_fwd(esr_model_values(m, ESR_COMP_BACKGROUND), dirs, lights_on, n, t->bg3);
         for (int i = 0; i < n * 3; i++)

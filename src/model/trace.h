@@ -57,6 +57,11 @@ void esr_trace_geometry(const struct esr_model *m, const float *sdf, struct esr_
 int esr_trace_fwd(struct esr_trace *t, const struct esr_model *m, const float *sdf,
                   const float *origins, const float *dirs, const uint8_t *lights_on, int n,
                   uint64_t seed);
+/* Layers 2 and 3 again on the last forward's march with other lighting flags (n of that
+ * forward): both lightings of one view from one march (the geometry does not depend on the
+ * lights). Replaces rgb3, lin_rgb3 and the layers' state: a backward then runs for these flags. */
+int esr_trace_shade(struct esr_trace *t, const struct esr_model *m, const float *sdf,
+                    const uint8_t *lights_on);
 /* Backward of the last forward given d loss/d rgb and d loss/d lin (per ray x3; lin may be NULL)
  * and t->d_t_last when set:
  * adds into g_sdf (SDF gradient w.r.t. the values passed to forward; the density gradient in

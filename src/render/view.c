@@ -46,17 +46,12 @@ int esr_view_render(const struct esr_model *m, const struct esr_camera *cam, int
                                    .depth = out->depth.data,     .normal = out->normal.data,
                                    .opacity = out->opacity.data, .emission = out->emission.data,
                                    .emitted = out->emitted.data, .material = out->material,
-                                   .light_id = out->light_id};
+                                   .light_id = out->light_id,
+                                   .linear_other = out->emo.data}; /* lights off, for emo */
         status = esr_model_render_rays(m, origins, dirs, n, lights_on, &o);
     }
-    if (status == ESR_OK && out->emo.data) { /* the same view with the lights off */
-        struct esr_render_out o;
-        memset(&o, 0, sizeof o);
-        o.linear = out->emo.data;
-        status = esr_model_render_rays(m, origins, dirs, n, 0, &o);
-        for (size_t i = 0; status == ESR_OK && i < n * 3; i++)
-            out->emo.data[i] = out->linear.data[i] - out->emo.data[i];
-    }
+    for (size_t i = 0; status == ESR_OK && out->emo.data && i < n * 3; i++)
+        out->emo.data[i] = out->linear.data[i] - out->emo.data[i];
     free(origins);
     free(dirs);
     return status;
