@@ -22,6 +22,7 @@
 #include "io/camera.h"
 #include "io/colmap.h"
 #include "io/colmap_camera.h"
+#include "io/colmap_scene.h"
 #include "io/colmap_undistort.h"
 #include "io/dataset.h"
 #include "io/exif.h"
@@ -324,6 +325,22 @@ static void test_pose_conversion_round_trip(void **state)
     assert_false(esr_camera_project(&e, fb, &ex, &ey));
 }
 
+/* Cameras whose distance from the centre overflows (finite positions near 1e308) gave scale 0,
+ * which put every camera at the centre; now the placement is refused. */
+static void test_scene_placement_needs_a_scale(void **state)
+{
+    (void)state;
+    double c2w[2][3][4] = {{{1, 0, 0, 4}, {0, 1, 0, 0}, {0, 0, 1, 0}}, {{1, 0, 0, 0}, {0, 1, 0, 4}, {0, 0, 1, 0}}};
+    struct esr_scene_frame f = {.centre = {0, 0, 0}, .radius = 0.5};
+    assert_int_equal(esr_scene_frame_place((const double (*)[3][4])c2w, 2, &f), ESR_OK);
+    assert_true(f.scale == 1.0); /* min(1 / 0.5, 4 / 4) */
+    c2w[0][0][3] = 1e308, c2w[1][1][3] = -1e308;
+    esr_error_clear();
+    assert_int_equal(esr_scene_frame_place((const double (*)[3][4])c2w, 2, &f), ESR_ERR);
+    assert_non_null(strstr(esr_error_message(), "give no usable scale"));
+    esr_error_clear();
+}
+
 /* ---- readers ---- */
 
 /* Two cameras (one OPENCV), three images, four points. */
@@ -392,6 +409,38 @@ static void test_text_and_binary_readers(void **state)
         assert_null(esr_colmap_find_camera(&got, 4));
         esr_colmap_model_free(&got);
     }
+}
+
+/* The parsers read the files from memory, never writing to them: what the fuzz harnesses call. */
+static void test_parse_from_memory(void **state)
+{
+    (void)state;
+    static const char cameras[] = "# c\n1 PINHOLE 8 6 10 10 4 3", /* no final newline */
+                      images[] = "5 1 0 0 0 0 0 1 1 off/x.jpg\r\n\r\n", points[] = "";
+    struct esr_colmap_file files[ESR_COLMAP_FILES] = {{cameras, sizeof cameras - 1, "c.txt"},
+                                                      {images, sizeof images - 1, "i.txt"},
+                                                      {points, 0, "p.txt"}};
+    struct esr_colmap_model m;
+    assert_int_equal(esr_colmap_model_parse_text(files, &m), ESR_OK);
+    assert_int_equal(m.n_cameras, 1);
+    assert_int_equal(m.n_images, 1);
+    assert_int_equal(m.n_points, 0);
+    assert_string_equal(m.images[0].name, "off/x.jpg");
+    assert_int_equal(m.cameras[0].height, 6);
+    esr_colmap_model_free(&m);
+    /* a NUL byte: not a text file, named as given */
+    static const char nul[] = "1 PINHOLE 8 6 10 10 4 3\n\0";
+    files[ESR_COLMAP_CAMERAS] = (struct esr_colmap_file){nul, sizeof nul - 1, "c.txt"};
+    esr_error_clear();
+    assert_int_equal(esr_colmap_model_parse_text(files, &m), ESR_ERR);
+    assert_non_null(strstr(esr_error_message(), "'c.txt' is not a text file"));
+    assert_null(m.cameras);
+    /* binary: an empty cameras file is refused, naming it */
+    files[ESR_COLMAP_CAMERAS] = (struct esr_colmap_file){NULL, 0, "c.bin"};
+    esr_error_clear();
+    assert_int_equal(esr_colmap_model_parse_binary(files, &m), ESR_ERR);
+    assert_non_null(strstr(esr_error_message(), "'c.bin' is truncated or corrupt"));
+    esr_error_clear();
 }
 
 /* Reading dir fails with a message containing `what`. */
@@ -482,6 +531,18 @@ static void test_bad_models(void **state)
         snprintf(dir, sizeof dir, "%s/dup_camera_%d", test_tmpdir, text);
         write_model(dir, &m, text);
         assert_read_fails(dir, "camera id 3 appears twice");
+        /* a 3D point that is not finite (the scene's placement takes quantiles of the points) */
+        small_model(&m, cams, ims, pts);
+        pts[4] = NAN;
+        snprintf(dir, sizeof dir, "%s/nan_point_%d", test_tmpdir, text);
+        write_model(dir, &m, text);
+        assert_read_fails(dir, "3D point 2 of 4 has a non-finite position");
+        /* a quaternion whose squared norm overflows (it would normalise to the identity) */
+        small_model(&m, cams, ims, pts);
+        ims[2].q[0] = 1e200;
+        snprintf(dir, sizeof dir, "%s/huge_quaternion_%d", test_tmpdir, text);
+        write_model(dir, &m, text);
+        assert_read_fails(dir, "image 12 ('on/p2.jpg') has a non-finite or zero pose");
     }
     /* a binary count far beyond the file */
     small_model(&m, cams, ims, pts);
@@ -1113,7 +1174,9 @@ int main(void)
         cmocka_unit_test(test_camera_model_projections),
         cmocka_unit_test(test_undistort_inverts_distortion),
         cmocka_unit_test(test_pose_conversion_round_trip),
+        cmocka_unit_test(test_scene_placement_needs_a_scale),
         cmocka_unit_test(test_text_and_binary_readers),
+        cmocka_unit_test(test_parse_from_memory),
         cmocka_unit_test(test_binary_truncated_everywhere),
         cmocka_unit_test(test_bad_models),
         cmocka_unit_test(test_jpeg_round_trip_and_orientation),

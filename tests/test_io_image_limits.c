@@ -1,6 +1,7 @@
 /* Image headers that claim more pixels than esr reads (esr_limits()->image_pixels, 2^28 by
  * default) are refused with a message before any pixel is allocated: a PNG and an EXR claiming
- * 100000 x 100000 pixels in a few hundred bytes, and the limit itself. */
+ * 100000 x 100000 pixels and a JPEG claiming 60000 x 60000 in a few hundred bytes, and the limit
+ * itself. */
 #define _GNU_SOURCE /* memmem */
 #include <setjmp.h>
 #include <stdarg.h>
@@ -11,6 +12,8 @@
 #include <stdlib.h>
 #include <string.h>
 #include <zlib.h>
+
+#include <jpeglib.h> /* after stdio.h, which it needs */
 
 #include "core/error.h"
 #include "core/limits.h"
@@ -80,6 +83,48 @@ static void test_exr_claims_too_much(void **state)
     free(exr);
 }
 
+/* An 8x8 grey JPEG (libjpeg into memory) whose frame header (SOF0) then claims w x h pixels. */
+static unsigned char *jpeg_claiming(unsigned w, unsigned h, unsigned long *n)
+{
+    struct jpeg_compress_struct c;
+    struct jpeg_error_mgr err;
+    c.err = jpeg_std_error(&err);
+    jpeg_create_compress(&c);
+    unsigned char *out = NULL;
+    jpeg_mem_dest(&c, &out, n);
+    c.image_width = c.image_height = 8;
+    c.input_components = 1;
+    c.in_color_space = JCS_GRAYSCALE;
+    jpeg_set_defaults(&c);
+    jpeg_start_compress(&c, TRUE);
+    JSAMPLE row[8] = {0, 32, 64, 96, 128, 160, 192, 224};
+    JSAMPROW rows[1] = {row};
+    while (c.next_scanline < 8)
+        jpeg_write_scanlines(&c, rows, 1);
+    jpeg_finish_compress(&c);
+    jpeg_destroy_compress(&c);
+    unsigned char *sof = memmem(out, *n, "\xff\xc0", 2); /* then length, precision, height, width */
+    assert_non_null(sof);
+    sof[5] = (unsigned char)(h >> 8), sof[6] = (unsigned char)h, sof[7] = (unsigned char)(w >> 8), sof[8] = (unsigned char)w;
+    return out;
+}
+
+static void test_jpeg_claims_too_much(void **state)
+{
+    (void)state;
+    unsigned long n;
+    unsigned char *jpeg = jpeg_claiming(60000, 60000, &n); /* libjpeg's own maximum is 65500 */
+    struct esr_image img;
+    expect_refused(esr_jpeg_decode(jpeg, n, "huge.jpg", 1, &img), "'huge.jpg': JPEG claims 60000x60000 pixels");
+    assert_null(img.data);
+    free(jpeg);
+    /* within the limit but its data ends after the first 8x8 block: refused as truncated */
+    jpeg = jpeg_claiming(4096, 4096, &n);
+    expect_refused(esr_jpeg_decode(jpeg, n, "short.jpg", 0, &img), "'short.jpg' is a corrupt or truncated JPEG");
+    assert_null(img.data);
+    free(jpeg);
+}
+
 /* The limit is a setting: 16 pixels admit a 4x4 image and refuse a 5x4 one. */
 static void test_limit_is_a_setting(void **state)
 {
@@ -95,6 +140,10 @@ static void test_limit_is_a_setting(void **state)
     assert_int_equal(esr_png_decode(png, n, "four.png", &img), ESR_ERR);
     assert_null(strstr(esr_error_message(), "esr reads"));
     esr_error_clear();
+    unsigned long jn;
+    unsigned char *jpeg = jpeg_claiming(5, 4, &jn);
+    expect_refused(esr_jpeg_decode(jpeg, jn, "five.jpg", 1, &img), "more than the 16 esr reads");
+    free(jpeg);
     esr_limits_set(&saved);
 }
 
@@ -103,6 +152,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_png_claims_too_much),
         cmocka_unit_test(test_exr_claims_too_much),
+        cmocka_unit_test(test_jpeg_claims_too_much),
         cmocka_unit_test(test_limit_is_a_setting),
     };
     return cmocka_run_group_tests(tests, test_setup_tmpdir, test_teardown_tmpdir);

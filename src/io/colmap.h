@@ -5,6 +5,7 @@
 #ifndef ESR_IO_COLMAP_H
 #define ESR_IO_COLMAP_H
 
+#include <stddef.h>
 #include <stdint.h>
 
 /* The camera models esr reads, numbered as COLMAP numbers them (the binary files store the
@@ -51,6 +52,21 @@ struct esr_colmap_model {
 int esr_colmap_model_read(const char *dir, struct esr_colmap_model *m);
 int esr_colmap_model_read_text(const char *dir, struct esr_colmap_model *m);
 int esr_colmap_model_read_binary(const char *dir, struct esr_colmap_model *m);
+
+/* One model file in memory: its bytes and the name messages give it. */
+struct esr_colmap_file {
+    const void *data;
+    size_t size;
+    const char *name;
+};
+enum { ESR_COLMAP_CAMERAS, ESR_COLMAP_IMAGES, ESR_COLMAP_POINTS, ESR_COLMAP_FILES };
+
+/* The same from the three files' contents in memory (files[ESR_COLMAP_CAMERAS] ...), what the
+ * readers above call once they have read DIR's files; the parsers never write to the bytes. An
+ * empty file holds no records (the path readers refuse empty files before parsing). */
+int esr_colmap_model_parse_text(const struct esr_colmap_file files[ESR_COLMAP_FILES], struct esr_colmap_model *m);
+int esr_colmap_model_parse_binary(const struct esr_colmap_file files[ESR_COLMAP_FILES],
+                                  struct esr_colmap_model *m);
 void esr_colmap_model_free(struct esr_colmap_model *m);
 
 /* The camera with this id, or NULL. */
@@ -63,9 +79,17 @@ int esr_colmap_model_from_name(const char *name);
 int esr_colmap_model_n_params(enum esr_colmap_model_id model);
 
 /* Checks the parts every reader shares once the three files are parsed: unique camera ids,
- * positive sizes, finite parameters and poses, every image's camera present. `images_file` names
- * the file in messages. */
-int esr_colmap_model_validate(const struct esr_colmap_model *m, const char *cameras_file,
-                              const char *images_file);
+ * positive sizes, finite parameters and poses (a quaternion whose squared norm is neither ~0 nor
+ * overflows), finite 3D points, every image's camera present. The names are the files' in
+ * messages. */
+int esr_colmap_model_validate(const struct esr_colmap_model *m, const char *cameras_file, const char *images_file,
+                              const char *points_file);
+
+/* How both parsers end: m (format "text" or "binary") takes the three files' records (cameras,
+ * images, points3D: arrays of count[i] records, owned from here on), is validated when status is
+ * ESR_OK, and is freed when anything failed. Returns the final status. */
+int esr_colmap_model_assemble(struct esr_colmap_model *m, const char *format, void *const records[ESR_COLMAP_FILES],
+                              const size_t count[ESR_COLMAP_FILES], const struct esr_colmap_file files[ESR_COLMAP_FILES],
+                              int status);
 
 #endif

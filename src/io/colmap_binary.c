@@ -12,7 +12,6 @@
 
 #include "core/error.h"
 #include "io/colmap.h"
-#include "io/file.h"
 
 struct reader {
     const unsigned char *p, *end;
@@ -144,75 +143,49 @@ static int read_point(struct reader *r, void *record)
     return skip(r, track, 8, "track entries");
 }
 
-/* Opens DIR/NAME into a reader over its bytes (*bytes owned by the caller). */
-static int open_file(const char *dir, const char *name, char *path, size_t n, unsigned char **bytes,
-                     struct reader *r)
-{
-    snprintf(path, n, "%s/%s", dir, name);
-    size_t size;
-    ESR_TRY(esr_file_read_all(path, bytes, &size));
-    r->p = *bytes;
-    r->end = *bytes + size;
-    r->path = path;
-    return ESR_OK;
-}
-
 /* One file of a binary model: a count, then that many records of at least min_bytes each. */
 struct record_file {
-    const char *name, *what;
+    const char *what;
     size_t min_bytes, size; /* least bytes of a record in the file; bytes of one in memory */
     uint64_t max;
     int (*read_one)(struct reader *r, void *record);
 };
 
-/* Reads DIR/f->name (its path into path) into *records (allocated, *count of them). */
-static int read_records(const char *dir, const struct record_file *f, char *path, size_t n,
-                        void **records, uint64_t *count)
+/* Parses one file (in) of format f into *records (allocated, *count of them). */
+static int read_records(const struct esr_colmap_file *in, const struct record_file *f, void **records,
+                        size_t *count)
 {
-    unsigned char *bytes;
-    struct reader r;
-    ESR_TRY(open_file(dir, f->name, path, n, &bytes, &r));
-    int status = read_count(&r, f->min_bytes, f->max, f->what, count);
+    struct reader r = {in->data, in->data, in->name};
+    if (in->size) /* (no arithmetic on the NULL of an empty file) */
+        r.end = r.p + in->size;
+    uint64_t n = 0;
+    int status = read_count(&r, f->min_bytes, f->max, f->what, &n);
     unsigned char *out = NULL;
-    if (status == ESR_OK && !(out = calloc(*count ? *count : 1, f->size)))
-        status = ESR_FAIL("out of memory reading '%s'", path);
-    for (uint64_t i = 0; i < *count && status == ESR_OK; i++)
+    if (status == ESR_OK && !(out = calloc(n ? n : 1, f->size)))
+        status = ESR_FAIL("out of memory reading '%s'", in->name);
+    for (uint64_t i = 0; i < n && status == ESR_OK; i++)
         status = f->read_one(&r, out + i * f->size);
     if (status == ESR_OK)
         status = finish(&r);
-    free(bytes);
-    if (status != ESR_OK)
+    if (status != ESR_OK) {
         free(out);
-    else
-        *records = out;
-    return status;
+        return status;
+    }
+    *records = out;
+    *count = (size_t)n; /* at most f->max */
+    return ESR_OK;
 }
 
-int esr_colmap_model_read_binary(const char *dir, struct esr_colmap_model *m)
+int esr_colmap_model_parse_binary(const struct esr_colmap_file files[ESR_COLMAP_FILES], struct esr_colmap_model *m)
 {
-    memset(m, 0, sizeof *m);
-    m->format = "binary";
-    static const struct record_file files[3] = {
-        {"cameras.bin", "cameras", 24, sizeof(struct esr_colmap_camera), 1u << 20, read_camera},
-        {"images.bin", "images", 73, sizeof(struct esr_colmap_image), 1u << 24, read_image},
-        {"points3D.bin", "3D points", 51, 3 * sizeof(double), 1u << 30, read_point}};
-    char cameras[ESR_COLMAP_NAME_MAX * 2], images[ESR_COLMAP_NAME_MAX * 2], points[ESR_COLMAP_NAME_MAX * 2];
-    void *cam = NULL, *img = NULL, *pts = NULL;
-    uint64_t n_cam = 0, n_img = 0, n_pts = 0; /* within read_records' maxima, so they fit */
-    int status = read_records(dir, &files[0], cameras, sizeof cameras, &cam, &n_cam);
-    if (status == ESR_OK)
-        status = read_records(dir, &files[1], images, sizeof images, &img, &n_img);
-    if (status == ESR_OK)
-        status = read_records(dir, &files[2], points, sizeof points, &pts, &n_pts);
-    m->cameras = cam;
-    m->images = img;
-    m->points = pts;
-    m->n_cameras = (int)n_cam;
-    m->n_images = (int)n_img;
-    m->n_points = (long)n_pts;
-    if (status == ESR_OK)
-        status = esr_colmap_model_validate(m, cameras, images);
-    if (status != ESR_OK)
-        esr_colmap_model_free(m);
-    return status;
+    static const struct record_file formats[ESR_COLMAP_FILES] = {
+        [ESR_COLMAP_CAMERAS] = {"cameras", 24, sizeof(struct esr_colmap_camera), 1u << 20, read_camera},
+        [ESR_COLMAP_IMAGES] = {"images", 73, sizeof(struct esr_colmap_image), 1u << 24, read_image},
+        [ESR_COLMAP_POINTS] = {"3D points", 51, 3 * sizeof(double), 1u << 30, read_point}};
+    void *records[ESR_COLMAP_FILES] = {NULL, NULL, NULL};
+    size_t count[ESR_COLMAP_FILES] = {0, 0, 0}; /* within each format's maximum */
+    int status = ESR_OK;
+    for (int i = 0; i < ESR_COLMAP_FILES && status == ESR_OK; i++)
+        status = read_records(&files[i], &formats[i], &records[i], &count[i]);
+    return esr_colmap_model_assemble(m, "binary", records, count, files, status);
 }

@@ -61,7 +61,8 @@ static int all_finite(const double *v, int n)
     return 1;
 }
 
-int esr_colmap_model_validate(const struct esr_colmap_model *m, const char *cameras_file, const char *images_file)
+int esr_colmap_model_validate(const struct esr_colmap_model *m, const char *cameras_file, const char *images_file,
+                              const char *points_file)
 {
     for (int i = 0; i < m->n_cameras; i++) {
         const struct esr_colmap_camera *c = &m->cameras[i];
@@ -78,7 +79,7 @@ int esr_colmap_model_validate(const struct esr_colmap_model *m, const char *came
     for (int i = 0; i < m->n_images; i++) {
         const struct esr_colmap_image *im = &m->images[i];
         double qn = im->q[0] * im->q[0] + im->q[1] * im->q[1] + im->q[2] * im->q[2] + im->q[3] * im->q[3];
-        if (!all_finite(im->q, 4) || !all_finite(im->t, 3) || !(qn > 1e-12))
+        if (!all_finite(im->q, 4) || !all_finite(im->t, 3) || !(qn > 1e-12) || !isfinite(qn))
             return ESR_FAIL("'%s': image %u ('%s') has a non-finite or zero pose", images_file, im->id, im->name);
         if (!im->name[0])
             return ESR_FAIL("'%s': image %u has an empty name", images_file, im->id);
@@ -86,7 +87,69 @@ int esr_colmap_model_validate(const struct esr_colmap_model *m, const char *came
             return ESR_FAIL("'%s': image %u ('%s') refers to camera %u, which is not in '%s'", images_file, im->id,
                             im->name, im->camera_id, cameras_file);
     }
+    /* (the scene's placement takes medians and quantiles of the points) */
+    for (long i = 0; i < m->n_points; i++)
+        if (!all_finite(m->points + 3 * i, 3))
+            return ESR_FAIL("'%s': 3D point %ld of %ld has a non-finite position", points_file, i + 1, m->n_points);
     return ESR_OK;
+}
+
+int esr_colmap_model_assemble(struct esr_colmap_model *m, const char *format, void *const records[ESR_COLMAP_FILES],
+                              const size_t count[ESR_COLMAP_FILES], const struct esr_colmap_file files[ESR_COLMAP_FILES],
+                              int status)
+{
+    memset(m, 0, sizeof *m);
+    m->format = format;
+    m->cameras = records[ESR_COLMAP_CAMERAS];
+    m->images = records[ESR_COLMAP_IMAGES];
+    m->points = records[ESR_COLMAP_POINTS];
+    m->n_cameras = (int)count[ESR_COLMAP_CAMERAS];
+    m->n_images = (int)count[ESR_COLMAP_IMAGES];
+    m->n_points = (long)count[ESR_COLMAP_POINTS];
+    if (status == ESR_OK)
+        status = esr_colmap_model_validate(m, files[ESR_COLMAP_CAMERAS].name, files[ESR_COLMAP_IMAGES].name,
+                                           files[ESR_COLMAP_POINTS].name);
+    if (status != ESR_OK)
+        esr_colmap_model_free(m);
+    return status;
+}
+
+typedef int (*model_parser)(const struct esr_colmap_file files[ESR_COLMAP_FILES], struct esr_colmap_model *m);
+
+/* Reads DIR's three files (names: cameras, images, points3D) whole and parses them from memory,
+ * so the readers run exactly the parsers the fuzz harnesses exercise. */
+static int read_model(const char *dir, const char *const names[ESR_COLMAP_FILES], model_parser parse,
+                      struct esr_colmap_model *m)
+{
+    char path[ESR_COLMAP_FILES][ESR_COLMAP_NAME_MAX * 2];
+    unsigned char *bytes[ESR_COLMAP_FILES] = {NULL, NULL, NULL};
+    struct esr_colmap_file files[ESR_COLMAP_FILES];
+    int status = ESR_OK;
+    for (int i = 0; i < ESR_COLMAP_FILES && status == ESR_OK; i++) {
+        snprintf(path[i], sizeof path[i], "%s/%s", dir, names[i]);
+        files[i].name = path[i];
+        status = esr_file_read_all(path[i], &bytes[i], &files[i].size);
+        files[i].data = bytes[i];
+    }
+    if (status == ESR_OK)
+        status = parse(files, m);
+    else
+        memset(m, 0, sizeof *m);
+    for (int i = 0; i < ESR_COLMAP_FILES; i++)
+        free(bytes[i]);
+    return status;
+}
+
+int esr_colmap_model_read_text(const char *dir, struct esr_colmap_model *m)
+{
+    static const char *const names[ESR_COLMAP_FILES] = {"cameras.txt", "images.txt", "points3D.txt"};
+    return read_model(dir, names, esr_colmap_model_parse_text, m);
+}
+
+int esr_colmap_model_read_binary(const char *dir, struct esr_colmap_model *m)
+{
+    static const char *const names[ESR_COLMAP_FILES] = {"cameras.bin", "images.bin", "points3D.bin"};
+    return read_model(dir, names, esr_colmap_model_parse_binary, m);
 }
 
 int esr_colmap_model_read(const char *dir, struct esr_colmap_model *m)

@@ -105,6 +105,10 @@ int esr_scene_frame_place(const double (*c2w)[3][4], int n, struct esr_scene_fra
     f->scale = 1.0 / f->radius;
     if (cam_dist > 0.0 && 4.0 / cam_dist < f->scale)
         f->scale = 4.0 / cam_dist;
+    /* cameras so far out that their distance overflows would put every camera at the centre */
+    if (!(f->scale > 0.0) || !isfinite(f->scale))
+        return ESR_FAIL("the cameras' median distance from the scene's centre (%g) and its radius (%g) give no "
+                        "usable scale", cam_dist, f->radius);
     double up[3];
     mean_up(c2w, n, up);
     rotation_to_z(up, f->rotation);

@@ -23,7 +23,8 @@ int esr_colmap_scene_frame(const struct esr_colmap_model *m, struct esr_scene_fr
 
 /* Given f->centre and f->radius, the rest from the cameras (camera-to-world matrices in esr's
  * convention, source world): scale = min(1 / radius, 4 / the cameras' median distance from the
- * centre), rotation taking the cameras' mean image-up to +Z (none when they disagree). */
+ * centre), rotation taking the cameras' mean image-up to +Z (none when they disagree). Fails when
+ * the scale is not finite and positive (a zero or non-finite radius, distances that overflow). */
 int esr_scene_frame_place(const double (*c2w)[3][4], int n, struct esr_scene_frame *f);
 
 /* A camera-to-world matrix (esr's convention, COLMAP world) moved into esr's world. */

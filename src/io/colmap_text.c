@@ -10,7 +10,6 @@
 
 #include "core/error.h"
 #include "io/colmap.h"
-#include "io/file.h"
 
 /* A growing array of fixed-size records. */
 struct records {
@@ -32,60 +31,63 @@ static int records_push(struct records *r, const void *item, size_t size, const 
     return ESR_OK;
 }
 
-/* A text file split into lines in place. */
+/* A text file's lines, read without writing to its bytes: each data line is copied into buf
+ * (NUL-terminated) for the field splitting; the long keypoint lines are skipped uncopied. */
 struct lines {
-    char *text, *next;
+    const char *next, *end;
     const char *path;
-    int line; /* number of the line last returned */
+    long line; /* number of the line last returned */
+    char *buf;
+    size_t cap;
 };
 
-static int lines_open(const char *path, struct lines *l)
+/* The next line (without its end-of-line) as start and length; 0 at the end of the file. */
+static int lines_next(struct lines *l, const char **start, size_t *len)
 {
-    unsigned char *bytes;
-    size_t size;
-    l->text = l->next = NULL;
-    l->path = path;
-    l->line = 0;
-    ESR_TRY(esr_file_read_all(path, &bytes, &size));
-    if (memchr(bytes, '\0', size))
-        free(bytes);
-    else
-        l->text = l->next = (char *)bytes;
-    return l->text ? ESR_OK : ESR_FAIL("'%s' is not a text file (it holds NUL bytes)", path);
-}
-
-/* The next line (without its end-of-line), or NULL at the end of the file. */
-static char *lines_next(struct lines *l)
-{
-    if (!l->next || !*l->next)
-        return NULL;
-    char *line = l->next, *eol = strchr(line, '\n');
-    l->next = eol ? eol + 1 : line + strlen(line);
-    if (eol)
-        *eol = '\0';
-    size_t n = strlen(line);
+    if (l->next >= l->end)
+        return 0;
+    const char *line = l->next, *eol = memchr(line, '\n', (size_t)(l->end - line));
+    size_t n = eol ? (size_t)(eol - line) : (size_t)(l->end - line);
+    l->next = eol ? eol + 1 : l->end;
     if (n && line[n - 1] == '\r')
-        line[n - 1] = '\0';
+        n--;
     l->line++;
-    return line;
+    *start = line;
+    *len = n;
+    return 1;
 }
 
-/* The next line that is neither blank nor a comment, or NULL at the end. */
-static char *lines_next_data(struct lines *l)
+/* The next line that is neither blank nor a comment, copied into l->buf (*line NULL at the end). */
+static int lines_next_data(struct lines *l, char **line)
 {
-    char *line;
-    while ((line = lines_next(l))) {
-        const char *p = line + strspn(line, " \t");
-        if (*p && *p != '#')
-            return line;
+    const char *start;
+    size_t n;
+    *line = NULL;
+    while (lines_next(l, &start, &n)) {
+        size_t lead = 0;
+        while (lead < n && (start[lead] == ' ' || start[lead] == '\t'))
+            lead++;
+        if (lead == n || start[lead] == '#')
+            continue;
+        if (n + 1 > l->cap) {
+            char *grown = realloc(l->buf, n + 1);
+            if (!grown)
+                return ESR_FAIL("out of memory reading '%s'", l->path);
+            l->buf = grown;
+            l->cap = n + 1;
+        }
+        memcpy(l->buf, start, n);
+        l->buf[n] = '\0';
+        *line = l->buf;
+        return ESR_OK;
     }
-    return NULL;
+    return ESR_OK;
 }
 
 #define LINE_FAIL(l, ...) line_fail(l, __FILE__, __LINE__, __VA_ARGS__)
 static int line_fail(const struct lines *l, const char *src, int line, const char *what)
 {
-    return esr_error_set(src, line, "'%s', line %d: %s", l->path, l->line, what);
+    return esr_error_set(src, line, "'%s', line %ld: %s", l->path, l->line, what);
 }
 
 /* Whitespace-separated fields of one line. */
@@ -117,8 +119,9 @@ static int parse_u32(const char *s, uint32_t *v)
     return ESR_OK;
 }
 
-static int parse_camera(struct lines *l, char *line, struct esr_colmap_camera *c)
+static int parse_camera(struct lines *l, char *line, void *record)
 {
+    struct esr_colmap_camera *c = record;
     char *f[4 + ESR_COLMAP_MAX_PARAMS + 1];
     int n = split(line, f, 4 + ESR_COLMAP_MAX_PARAMS + 1);
     uint32_t w, h;
@@ -147,8 +150,9 @@ static int parse_camera(struct lines *l, char *line, struct esr_colmap_camera *c
     return ESR_OK;
 }
 
-static int parse_image(struct lines *l, char *line, struct esr_colmap_image *im)
+static int parse_image(struct lines *l, char *line, void *record)
 {
+    struct esr_colmap_image *im = record;
     char *f[10];
     /* the name is the rest of the line after nine fields (it may not contain blanks in COLMAP's
      * own files, but nothing here needs it not to) */
@@ -182,8 +186,9 @@ static int parse_image(struct lines *l, char *line, struct esr_colmap_image *im)
     return ESR_OK;
 }
 
-static int parse_point(struct lines *l, char *line, double xyz[3])
+static int parse_point(struct lines *l, char *line, void *record)
 {
+    double *xyz = record; /* x, y, z */
     char *f[8];
     int n = split(line, f, 8);
     if (n < 8 || parse_double(f[1], &xyz[0]) || parse_double(f[2], &xyz[1]) || parse_double(f[3], &xyz[2]))
@@ -191,83 +196,63 @@ static int parse_point(struct lines *l, char *line, double xyz[3])
     return ESR_OK;
 }
 
-static int read_cameras(struct lines *l, struct esr_colmap_model *m)
+/* One of the three files: a record per data line, of `size` bytes, filled by `parse` (zeroed
+ * first); in images.txt each record's line is followed by its keypoint line. */
+struct text_file {
+    size_t size;
+    int (*parse)(struct lines *l, char *line, void *record);
+    int keypoint_lines;
+};
+
+union any_record {
+    struct esr_colmap_camera camera;
+    struct esr_colmap_image image;
+    double xyz[3];
+};
+
+static int read_lines(struct lines *l, const struct text_file *f, struct records *out)
 {
-    struct records cams = {0};
-    char *line;
-    int status = ESR_OK;
-    while (status == ESR_OK && (line = lines_next_data(l))) {
-        struct esr_colmap_camera c;
-        memset(&c, 0, sizeof c);
-        status = parse_camera(l, line, &c);
-        if (status == ESR_OK)
-            status = records_push(&cams, &c, sizeof c, l->path);
+    for (;;) {
+        char *line;
+        ESR_TRY(lines_next_data(l, &line));
+        if (!line)
+            return ESR_OK;
+        union any_record record;
+        memset(&record, 0, sizeof record);
+        ESR_TRY(f->parse(l, line, &record));
+        ESR_TRY(records_push(out, &record, f->size, l->path));
+        const char *keypoints;
+        size_t n;
+        if (f->keypoint_lines)
+            lines_next(l, &keypoints, &n); /* consumed unread, even when empty */
     }
-    m->cameras = cams.data;
-    m->n_cameras = (int)cams.count;
+}
+
+static int read_file(const struct esr_colmap_file *in, const struct text_file *f, struct records *out)
+{
+    if (in->size && memchr(in->data, '\0', in->size))
+        return ESR_FAIL("'%s' is not a text file (it holds NUL bytes)", in->name);
+    struct lines l = {in->data, in->data, in->name, 0, NULL, 0};
+    if (in->size) /* (no arithmetic on the NULL of an empty file) */
+        l.end = l.next + in->size;
+    int status = read_lines(&l, f, out);
+    free(l.buf);
     return status;
 }
 
-static int read_images(struct lines *l, struct esr_colmap_model *m)
+int esr_colmap_model_parse_text(const struct esr_colmap_file files[ESR_COLMAP_FILES], struct esr_colmap_model *m)
 {
-    struct records imgs = {0};
-    char *line;
+    static const struct text_file formats[ESR_COLMAP_FILES] = {
+        [ESR_COLMAP_CAMERAS] = {sizeof(struct esr_colmap_camera), parse_camera, 0},
+        [ESR_COLMAP_IMAGES] = {sizeof(struct esr_colmap_image), parse_image, 1},
+        [ESR_COLMAP_POINTS] = {3 * sizeof(double), parse_point, 0}};
+    struct records r[ESR_COLMAP_FILES] = {{0}};
     int status = ESR_OK;
-    while (status == ESR_OK && (line = lines_next_data(l))) {
-        struct esr_colmap_image im;
-        memset(&im, 0, sizeof im);
-        status = parse_image(l, line, &im);
-        if (status == ESR_OK)
-            status = records_push(&imgs, &im, sizeof im, l->path);
-        lines_next(l); /* the keypoint line */
-    }
-    m->images = imgs.data;
-    m->n_images = (int)imgs.count;
-    return status;
-}
-
-static int read_points(struct lines *l, struct esr_colmap_model *m)
-{
-    struct records pts = {0};
-    char *line;
-    int status = ESR_OK;
-    while (status == ESR_OK && (line = lines_next_data(l))) {
-        double xyz[3];
-        status = parse_point(l, line, xyz);
-        if (status == ESR_OK)
-            status = records_push(&pts, xyz, sizeof xyz, l->path);
-    }
-    m->points = pts.data;
-    m->n_points = (long)pts.count;
-    return status;
-}
-
-typedef int (*file_reader)(struct lines *l, struct esr_colmap_model *m);
-
-static int read_file(const char *dir, const char *name, file_reader fn, char *path, size_t n,
-                     struct esr_colmap_model *m)
-{
-    snprintf(path, n, "%s/%s", dir, name);
-    struct lines l;
-    ESR_TRY(lines_open(path, &l));
-    int status = fn(&l, m);
-    free(l.text);
-    return status;
-}
-
-int esr_colmap_model_read_text(const char *dir, struct esr_colmap_model *m)
-{
-    memset(m, 0, sizeof *m);
-    m->format = "text";
-    char cameras[ESR_COLMAP_NAME_MAX * 2], images[ESR_COLMAP_NAME_MAX * 2], points[ESR_COLMAP_NAME_MAX * 2];
-    int status = read_file(dir, "cameras.txt", read_cameras, cameras, sizeof cameras, m);
-    if (status == ESR_OK)
-        status = read_file(dir, "images.txt", read_images, images, sizeof images, m);
-    if (status == ESR_OK)
-        status = read_file(dir, "points3D.txt", read_points, points, sizeof points, m);
-    if (status == ESR_OK)
-        status = esr_colmap_model_validate(m, cameras, images);
-    if (status != ESR_OK)
-        esr_colmap_model_free(m);
-    return status;
+    for (int i = 0; i < ESR_COLMAP_FILES && status == ESR_OK; i++)
+        status = read_file(&files[i], &formats[i], &r[i]);
+    void *records[ESR_COLMAP_FILES];
+    size_t count[ESR_COLMAP_FILES];
+    for (int i = 0; i < ESR_COLMAP_FILES; i++)
+        records[i] = r[i].data, count[i] = r[i].count;
+    return esr_colmap_model_assemble(m, "text", records, count, files, status);
 }

@@ -55,6 +55,10 @@ int esr_exr_write(const char *path, const struct esr_image *img, int half);
  * JPEG, is truncated or corrupt, or is CMYK. */
 int esr_jpeg_read(const char *path, struct esr_image *out);
 int esr_jpeg_read_stored(const char *path, struct esr_image *out);
+/* The same from size bytes in memory (name stands for the file in messages): upright 1 as
+ * esr_jpeg_read, 0 as esr_jpeg_read_stored. Both refuse a header that claims more than
+ * esr_limits()->image_pixels pixels before allocating. */
+int esr_jpeg_decode(const void *bytes, size_t size, const char *name, int upright, struct esr_image *out);
 
 /* Dispatch on the extension (.png / .exr / .jpg / .jpeg, case-insensitive). */
 int esr_image_read(const char *path, struct esr_image *out);

@@ -1,8 +1,11 @@
 /* JPEG files through libjpeg(-turbo). libjpeg reports fatal errors by calling error_exit, which
  * by default exits the process; here it longjmps back with the message, so a corrupt file is an
  * error naming it. Warnings that mean the pixels are wrong (data ends early, corrupt entropy
- * data) are errors too: a grey-filled photo would silently train a wrong scene. */
+ * data) are errors too, and stop the decoding at once: a grey-filled photo would silently train
+ * a wrong scene, and a few hundred bytes claiming a large image would otherwise be decoded in
+ * full only to be refused. */
 #include <setjmp.h>
+#include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -11,6 +14,7 @@
 #include <jpeglib.h>
 
 #include "core/error.h"
+#include "core/limits.h"
 #include "io/exif.h"
 #include "io/file.h"
 #include "io/image.h"
@@ -32,26 +36,24 @@ static void on_error(j_common_ptr info)
 static void on_message(j_common_ptr info, int level)
 {
     struct jpeg_failure *f = (struct jpeg_failure *)info->err;
-    if (level >= 0 || f->bad_data)
-        return; /* trace messages, and only the first warning is kept */
-    int harmless = f->mgr.msg_code == JWRN_EXTRANEOUS_DATA; /* junk between markers, pixels intact */
-    if (!harmless) {
-        f->bad_data = 1;
-        f->mgr.format_message(info, f->message);
-    }
+    /* trace messages, and junk between markers (the pixels are intact) */
+    if (level >= 0 || f->mgr.msg_code == JWRN_EXTRANEOUS_DATA)
+        return;
+    f->bad_data = 1;
+    f->mgr.format_message(info, f->message);
+    longjmp(f->back, 1);
 }
 
-/* Pixel data larger than this is refused before decoding (a corrupt header can claim 65535^2). */
-#define JPEG_MAX_PIXELS (256L << 20)
-
-/* The decoder's work once the header is read: grey stays 1 channel, everything else RGB. */
+/* The decoder's work once the header is read: grey stays 1 channel, everything else RGB. A
+ * header claiming more than esr_limits()->image_pixels is refused before anything is allocated. */
 static int decode(struct jpeg_decompress_struct *d, const char *path, struct esr_image *out)
 {
     d->out_color_space = d->num_components == 1 ? JCS_GRAYSCALE : JCS_RGB;
     if (d->jpeg_color_space == JCS_CMYK || d->jpeg_color_space == JCS_YCCK)
         return ESR_FAIL("'%s' is a CMYK JPEG; esr reads grey and colour (RGB/YCbCr) JPEGs", path);
-    if ((long)d->image_width * (long)d->image_height > JPEG_MAX_PIXELS)
-        return ESR_FAIL("'%s': %ux%u pixels is more than esr decodes", path, d->image_width, d->image_height);
+    if ((uint64_t)d->image_width * d->image_height > esr_limits()->image_pixels)
+        return ESR_FAIL("'%s': JPEG claims %ux%u pixels, more than the %zu esr reads", path, d->image_width,
+                        d->image_height, esr_limits()->image_pixels);
     jpeg_start_decompress(d);
     const int w = (int)d->output_width, h = (int)d->output_height, c = d->output_components;
     ESR_TRY(esr_image_alloc(out, w, h, c));
@@ -79,14 +81,10 @@ static int saved_orientation(const struct jpeg_decompress_struct *d)
     return 1;
 }
 
-/* Decodes path; *orientation receives the EXIF orientation. */
-static int jpeg_decode_file(const char *path, struct esr_image *out, int *orientation)
+/* Decodes the stored pixels; *orientation receives the EXIF orientation. */
+static int decode_stored(const void *bytes, size_t size, const char *name, struct esr_image *out, int *orientation)
 {
-    out->data = NULL;
-    out->width = out->height = out->channels = 0;
-    unsigned char *bytes;
-    size_t size;
-    ESR_TRY(esr_file_read_all(path, &bytes, &size));
+    memset(out, 0, sizeof *out); /* a longjmp before the pixels are allocated frees NULL */
     struct jpeg_decompress_struct d;
     struct jpeg_failure fail;
     memset(&fail, 0, sizeof fail);
@@ -98,41 +96,52 @@ static int jpeg_decode_file(const char *path, struct esr_image *out, int *orient
     struct esr_image *volatile target = out;
     if (setjmp(fail.back)) {
         esr_image_free(target);
-        status = ESR_FAIL("'%s' is not a valid JPEG: %s", path, fail.message);
+        status = fail.bad_data ? ESR_FAIL("'%s' is a corrupt or truncated JPEG: %s", name, fail.message)
+                               : ESR_FAIL("'%s' is not a valid JPEG: %s", name, fail.message);
     } else {
         jpeg_create_decompress(&d);
         jpeg_mem_src(&d, bytes, (unsigned long)size);
         jpeg_save_markers(&d, JPEG_APP0 + 1, 0xffff);
         jpeg_read_header(&d, TRUE);
         *orientation = saved_orientation(&d);
-        status = decode(&d, path, target);
-        if (status == ESR_OK && fail.bad_data) {
-            esr_image_free(target);
-            status = ESR_FAIL("'%s' is a corrupt or truncated JPEG: %s", path, fail.message);
-        }
+        status = decode(&d, name, target);
     }
     jpeg_destroy_decompress(&d);
-    free(bytes);
     return status;
 }
 
-int esr_jpeg_read_stored(const char *path, struct esr_image *out)
-{
-    int orientation;
-    return jpeg_decode_file(path, out, &orientation);
-}
-
-int esr_jpeg_read(const char *path, struct esr_image *out)
+int esr_jpeg_decode(const void *bytes, size_t size, const char *name, int upright, struct esr_image *out)
 {
     memset(out, 0, sizeof *out);
     int orientation = 1;
     struct esr_image stored;
-    ESR_TRY(jpeg_decode_file(path, &stored, &orientation));
-    if (orientation == 1) {
+    ESR_TRY(decode_stored(bytes, size, name, &stored, &orientation));
+    if (!upright || orientation == 1) {
         *out = stored;
         return ESR_OK;
     }
     int status = esr_image_orient(&stored, orientation, out);
     esr_image_free(&stored);
     return status;
+}
+
+static int read_file(const char *path, int upright, struct esr_image *out)
+{
+    memset(out, 0, sizeof *out);
+    unsigned char *bytes;
+    size_t size;
+    ESR_TRY(esr_file_read_all(path, &bytes, &size));
+    int status = esr_jpeg_decode(bytes, size, path, upright, out);
+    free(bytes);
+    return status;
+}
+
+int esr_jpeg_read_stored(const char *path, struct esr_image *out)
+{
+    return read_file(path, 0, out);
+}
+
+int esr_jpeg_read(const char *path, struct esr_image *out)
+{
+    return read_file(path, 1, out);
 }
