@@ -1,7 +1,11 @@
 /* Writes the seed corpora (corpus/<harness>/) and the JSON dictionary (json.dict) with esr's own
  * writers, so the seeds follow the formats as esr writes them:
  *   build/fuzz/fuzz_make_seeds fuzz
- * Every seed is small (libFuzzer's default input length follows the largest seed). */
+ * Every seed is small (libFuzzer's default input length follows the largest seed). esr writes no
+ * COLMAP models, so those seeds are written here: text as COLMAP writes it, binary from the
+ * parsed text in COLMAP's binary layout. The JPEG seeds come from fuzz/make_jpeg_seeds.sh. */
+#include "colmap_fuzz.h" /* first: it asks for _GNU_SOURCE */
+
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -173,6 +177,123 @@ static void seed_json(void)
               "\"name\": \"shade\", \"emitted_radiance_on\": [8, 6.4, 4.4]}, {\"name\": \"bulb\"}]}\n");
 }
 
+/* COLMAP text models as COLMAP writes them (its header comments, an empty keypoint line for an
+ * image without keypoints), the three files joined by the harness's separator. */
+static const struct {
+    const char *name, *cameras, *images, *points;
+} colmap_models[] = {
+    {"two_cameras",
+     "# Camera list with one line of data per camera:\n#   CAMERA_ID, MODEL, WIDTH, HEIGHT, PARAMS[]\n"
+     "# Number of cameras: 2\n3 SIMPLE_RADIAL 64 48 60 32 24 -0.05\n9 OPENCV 64 48 61 59 31 25 -0.04 0.01 0.001 -0.001\n",
+     "# Image list with two lines of data per image:\n#   IMAGE_ID, QW, QX, QY, QZ, TX, TY, TZ, CAMERA_ID, NAME\n"
+     "#   POINTS2D[] as (X, Y, POINT3D_ID)\n# Number of images: 3, mean observations per image: 1\n"
+     "10 0.8 0 -0.3 0.2 0.5 0 4 3 off/p0.jpg\n10.5 20.25 1 1 2 -1\n"
+     "11 0.8 0.1 -0.3 0.2 0.5 -0.25 4 3 on/p1.jpg\n\n"
+     "12 0.8 0.2 -0.3 0.2 0.5 -0.5 4 9 on/p2.jpg\n30 40 2\n",
+     "# 3D point list with one line of data per point:\n"
+     "#   POINT3D_ID, X, Y, Z, R, G, B, ERROR, TRACK[] as (IMAGE_ID, POINT2D_IDX)\n"
+     "# Number of points: 2, mean track length: 1.5\n1 -0.5 -0.375 -0.25 16 32 48 0.5 10 0 12 0\n"
+     "2 0.25 0.375 0.5 255 0 7 1.25 11 1\n"},
+    {"every_model",
+     "1 SIMPLE_PINHOLE 640 480 500 320 240\n2 PINHOLE 640 480 500 520 320 240\n"
+     "3 SIMPLE_RADIAL 640 480 500 320 240 -0.12\n4 RADIAL 640 480 500 320 240 -0.12 0.03\n"
+     "5 OPENCV 640 480 500 520 320 240 -0.12 0.03 0.001 -0.002\n",
+     "1 1 0 0 0 0 0 4 1 off/a.png\n\n2 0.7071067811865476 0 0.7071067811865476 0 0 0 4 5 on/b c.jpg\n\n",
+     ""},
+    {"crlf",
+     "# cameras\r\n1 PINHOLE 8 6 10 10 4 3\r\n",
+     "1 1 0 0 0 0 0 1 1 off/x.jpg\r\n1 2 -1\r\n\r\n",
+     "# 3D point list\r\n7 1e-3 -2.5E+2 0 1 2 3 0.1 1 0\r\n"},
+};
+
+/* Little-endian bytes into a seed buffer. */
+struct seed_bytes {
+    unsigned char data[4096];
+    size_t n;
+};
+
+static void put_le(struct seed_bytes *b, uint64_t v, int n)
+{
+    if (b->n + (size_t)n > sizeof b->data)
+        die("COLMAP seed too large");
+    for (int i = 0; i < n; i++)
+        b->data[b->n++] = (unsigned char)(v >> (8 * i));
+}
+
+static void put_doubles(struct seed_bytes *b, const double *v, int n)
+{
+    for (int i = 0; i < n; i++) {
+        uint64_t bits;
+        memcpy(&bits, &v[i], sizeof bits);
+        put_le(b, bits, 8);
+    }
+}
+
+static void put_text(struct seed_bytes *b, const char *s, size_t n)
+{
+    for (size_t i = 0; i < n; i++)
+        put_le(b, (unsigned char)s[i], 1);
+}
+
+/* The parsed model in COLMAP's binary layout (colmap_binary.c's header), one keypoint per image
+ * and a one-entry track per point. */
+static void colmap_binary(const struct esr_colmap_model *m, struct seed_bytes *b)
+{
+    static const char sep[] = FUZZ_COLMAP_SEP;
+    put_le(b, (uint64_t)m->n_cameras, 8);
+    for (int i = 0; i < m->n_cameras; i++) {
+        const struct esr_colmap_camera *c = &m->cameras[i];
+        put_le(b, c->id, 4), put_le(b, (uint64_t)c->model, 4), put_le(b, (uint64_t)c->width, 8);
+        put_le(b, (uint64_t)c->height, 8), put_doubles(b, c->params, esr_colmap_model_n_params(c->model));
+    }
+    put_text(b, sep, sizeof sep - 1);
+    put_le(b, (uint64_t)m->n_images, 8);
+    for (int i = 0; i < m->n_images; i++) {
+        const struct esr_colmap_image *im = &m->images[i];
+        static const double keypoint[2] = {10.5, 20.25};
+        put_le(b, im->id, 4), put_doubles(b, im->q, 4), put_doubles(b, im->t, 3), put_le(b, im->camera_id, 4);
+        put_text(b, im->name, strlen(im->name) + 1);
+        put_le(b, 1, 8), put_doubles(b, keypoint, 2), put_le(b, UINT64_MAX, 8); /* no 3D point */
+    }
+    put_text(b, sep, sizeof sep - 1);
+    put_le(b, (uint64_t)m->n_points, 8);
+    for (long i = 0; i < m->n_points; i++) {
+        static const double error = 0.5;
+        put_le(b, (uint64_t)i + 1, 8), put_doubles(b, m->points + 3 * i, 3), put_le(b, 0x302010, 3);
+        put_doubles(b, &error, 1), put_le(b, 1, 8), put_le(b, 1, 4), put_le(b, 0, 4);
+    }
+}
+
+static void seed_colmap(void)
+{
+    static const char *const names[ESR_COLMAP_FILES] = {"cameras.txt", "images.txt", "points3D.txt"};
+    for (size_t i = 0; i < sizeof colmap_models / sizeof colmap_models[0]; i++) {
+        char name[64], *text;
+        size_t n;
+        FILE *f = open_memstream(&text, &n);
+        if (!f)
+            die("memstream");
+        fprintf(f, "%s%s%s%s%s", colmap_models[i].cameras, FUZZ_COLMAP_SEP, colmap_models[i].images, FUZZ_COLMAP_SEP,
+                colmap_models[i].points);
+        fclose(f);
+        snprintf(name, sizeof name, "%s.txt", colmap_models[i].name);
+        seed_text("colmap_text", name, text);
+        struct esr_colmap_file files[ESR_COLMAP_FILES];
+        struct esr_colmap_model m;
+        fuzz_colmap_split((const uint8_t *)text, n, names, files);
+        if (esr_colmap_model_parse_text(files, &m) != ESR_OK)
+            die(name);
+        struct seed_bytes b = {.n = 0};
+        colmap_binary(&m, &b);
+        esr_colmap_model_free(&m);
+        free(text);
+        snprintf(name, sizeof name, "%s.bin", colmap_models[i].name);
+        FILE *out = fopen(seed_path("colmap_bin", name), "wb");
+        if (!out || fwrite(b.data, 1, b.n, out) != b.n || fclose(out) != 0)
+            die(name);
+    }
+}
+
 /* Every key esr's JSON readers look up: the fixed ones and every option and component name. */
 static void write_dict(void)
 {
@@ -213,6 +334,7 @@ int main(int argc, char **argv)
     seed_ply();
     seed_checkpoints();
     seed_json();
+    seed_colmap();
     write_dict();
     return 0;
 }

@@ -14,8 +14,10 @@ for name in $names; do
   bin=$build/fuzz/fuzz_$name
   [ -x "$bin" ] || { echo "fuzz: $bin is not built"; exit 1; }
   case $name in
-    png|exr|npz) dict="" ;;
+    png|exr|npz|colmap_bin) dict="" ;;
     ply) dict="-dict=$fuzz/ply.dict" ;;
+    colmap_text) dict="-dict=$fuzz/colmap.dict" ;;
+    jpeg) dict="-dict=$fuzz/jpeg.dict" ;;
     *) dict="-dict=$fuzz/json.dict" ;;
   esac
   mkdir -p "$build/corpus/$name" "$build/findings/$name"
