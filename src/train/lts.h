@@ -82,24 +82,27 @@ struct esr_lts {
      * before fine-tuning). Lights-on renders show each light's edited emission analytically
      * (model/lights.h, edited), so the fields learn only how the reflected light changes, as the
      * ratio of the reconstructed transport's estimates with and without the edit:
-     *     L_emo'(x) <- L_emo(x) (D'(x) + K L_emo'(x)) / (D(x) + K L_emo(x))      (per channel)
+     *     L_emo'(x) <- L_emo(x) (D'(x) + K L_emo'(x) + f') / (D(x) + K L_emo(x) + f)  (per channel)
      * D, D': the lights' direct light at x as found and edited (edit_direct, one set of samples);
-     * K L: the reflection of the incident L_emo over hits not on a light; L_emo: the trained
-     * model on the same rows. The trained L_emo is not exactly a fixed point of the reconstructed
-     * transport (calibration, BRDF, normals): fine-tuning towards the plain estimate first drifts
-     * to that transport's own solution (lamp, an edit that changes nothing: 19.6 dB against the
-     * model's own render), and keeping the unexplained rest as an added residual keeps it in the
-     * old colour (lamp test_nvc 26.0 dB: a warm floor under a red lamp). As a ratio, an edit that
-     * changes nothing is a fixed point and all of L_emo follows the lights. The target is fixed
-     * each step (a fixed-point iteration); only the points' L_emo rows get a gradient, nothing
-     * else; points on a light are left out (their L_emo is the saturated emitter); the normals
-     * are computed once (the geometry is frozen). */
+     * f, f': 5% of the step's mean D and D' (the ratio relight's mean term: light that reaches
+     * x by ways the direct light misses follows the scene's average change; +0.4 dB on lamp
+     * test_nvc); K L: the reflection of the incident L_emo over hits not on a light; L_emo: the
+     * trained model on the same rows. The trained L_emo is not exactly a fixed point of the
+     * reconstructed transport (calibration, BRDF, normals): fine-tuning towards the plain
+     * estimate first drifts to that transport's own solution (lamp, an edit that changes
+     * nothing: 19.6 dB against the model's own render), and keeping the unexplained rest as an
+     * added residual keeps it in the old colour (lamp test_nvc 26.0 dB: a warm floor under a red
+     * lamp). As a ratio, an edit that changes nothing is a fixed point and all of L_emo follows
+     * the lights. The target is fixed each step (a fixed-point iteration); only the points' L_emo
+     * rows get a gradient, nothing else; points on a light are left out (their L_emo is the
+     * saturated emitter); the normals are computed once (the geometry is frozen). */
     const struct esr_light_edit *edit;
     const struct esr_model *edit_ref;
     int (*edit_direct)(void *user, const struct esr_lts *l, size_t P,
                        const struct esr_light_edit *edits, float *direct3, float *found3);
     void *edit_user;
     float *edit_direct3, *found_direct3; /* [P*2*3] D' and D per point and outgoing direction */
+    float edit_floor[3], found_floor[3]; /* the step's floors f' and f below */
     uint8_t *on_light;         /* [P*M] the direction's first hit is on a light */
     struct esr_point_fields pf_ref; /* the trained model's rows */
     int has_pf_ref;
