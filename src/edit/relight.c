@@ -289,8 +289,9 @@ static int gather_direct(const struct view_buf *b, const struct shadow *s, const
     return denoise_direct(b, w, h, vox, direct);
 }
 
-/* The ratio method at the pixels that see no light: out (the lights-off view) plus the trained
- * lights-on radiance's reflected light L_on - L_off, per channel times
+/* The ratio method at the pixels that see no light: out (the lights-off view and the edited
+ * emission) plus the trained lights-on radiance's reflected light L_on - L_off - emitted (the
+ * emission a pixel on a light's edge composites is not reflected light), per channel times
  *     (D' + f mean D') / (D + f mean D)
  * D', D: the direct light with the edited and the found emission (same samples and shadow
  * rays); the means over the view's surface pixels that see no light, f = RATIO_FLOOR, so that
@@ -320,7 +321,8 @@ static void transfer_ratio(const struct view_buf *b, const float *edited, const 
         }
         for (int c = 0; c < 3; c++) {
             const double ratio = (edited[p * 3 + c] + mean_e[c]) / (found[p * 3 + c] + mean_f[c]);
-            out[p * 3 + c] += (float)(ratio * (on[p * 3 + c] - b->lin3[p * 3 + c]));
+            out[p * 3 + c] +=
+                (float)(ratio * (on[p * 3 + c] - b->lin3[p * 3 + c] - b->emit3[p * 3 + c]));
         }
     }
 }
@@ -345,13 +347,22 @@ int esr_relight_view(const struct esr_relight *r, const struct esr_model *m,
     int rc = b.o3 && b.d3 && b.lin3 && (b.on3 || !r->ratio) && b.opac && b.depth && b.nrm3 && b.mat5 && b.emit3 && b.ids
                  ? ESR_OK
                  : ESR_FAIL("relight: out of memory for a %dx%d view", cam->width, cam->height);
+    /* m with the edit in place: each sample on a light composites its light's edited emission,
+     * so a pixel on a light's edge shows the edited light in proportion (model/lights.h) */
+    struct esr_model *edited = rc == ESR_OK ? malloc(sizeof *edited) : NULL;
+    if (rc == ESR_OK && !edited)
+        rc = ESR_FAIL("relight: out of memory");
     if (rc == ESR_OK) {
+        *edited = *m;
+        edited->lights.edited = 1;
+        memcpy(edited->lights.edit, edits, (size_t)m->lights.n * sizeof *edits);
         esr_camera_pixel_rays(cam, b.o3, b.d3);
         struct esr_render_out o = {.linear = b.lin3, .depth = b.depth, .opacity = b.opac,
-                                   .emitted = b.emit3, .material = b.mat5, .light_id = b.ids,
+                                   .emitted_lights = b.emit3, .material = b.mat5, .light_id = b.ids,
                                    .linear_other = b.on3};
-        rc = esr_model_render_rays(m, b.o3, b.d3, n, 0, &o);
+        rc = esr_model_render_rays(edited, b.o3, b.d3, n, 0, &o);
     }
+    free(edited);
     if (rc == ESR_OK) { /* surface points, and their normals from the smoothed SDF */
         float *x3 = b.nrm3; /* the points first, overwritten by their normals */
         for (size_t p = 0; p < n; p++)
@@ -378,13 +389,8 @@ int esr_relight_view(const struct esr_relight *r, const struct esr_model *m,
         rc = esr_image_alloc(out, cam->width, cam->height, 3);
     if (rc == ESR_OK) {
         /* the lights-off view, the edited lights where the camera sees them, the direct light */
-        for (size_t p = 0; p < n; p++) {
-            float e[3] = {0, 0, 0};
-            if (b.ids[p] >= 0 && b.ids[p] < r->n_lights)
-                esr_light_edit_apply(&edits[b.ids[p]], b.emit3 + p * 3, e);
-            for (int c = 0; c < 3; c++)
-                out->data[p * 3 + c] = b.lin3[p * 3 + c] + e[c];
-        }
+        for (size_t i = 0; i < n * 3; i++)
+            out->data[i] = b.lin3[i] + b.emit3[i];
         float *direct = calloc(n * 3, sizeof(float));
         float *found = r->ratio ? calloc(n * 3, sizeof(float)) : NULL;
         if (!direct || (r->ratio && !found))

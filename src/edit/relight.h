@@ -1,7 +1,9 @@
 /* Relighting by direct illumination (the seed's "direct" method, Tables 5 and 7; absent from the
  * authors' code): a view with every light edited is
  *     L(x) = L_off(x) + sum_K sum over light K's surface of E'_K(y) R(x, wo, wi) |n_y . wi| / d^2 dA
- *            + the edited emission where the camera sees a light
+ *            + the lights' edited emission as the camera sees it (each sample on a light
+ *              composites its light's edited emission: a pixel on a light's edge shows it in
+ *              proportion)
  * with L_off the lights-off radiance field, R the reconstructed BRDF (cosine included) at the
  * camera ray's surface point x (its expected depth), y area-sampled over light K's surface
  * samples (train/lights.h) with a shadow ray to each (first hit of the SDF before y: occluded),
@@ -11,9 +13,12 @@
  *
  * The ratio method (esr's own) keeps what the model learned of the lights-on scene instead: at
  * a pixel that sees no light,
- *     L(x) = L_off(x) + (L_on(x) - L_off(x)) (D'(x) + f mean D') / (D(x) + f mean D)
- * per channel, with D' and D the direct light above with the edited and the found emission
- * (the same samples and shadow rays), the means over the view's surface, f = 0.1. Unedited it
+ *     L(x) = L_off(x) + emitted'(x) + (L_on(x) - L_off(x) - emitted(x)) (D'(x) + f mean D') /
+ *                                                                       (D(x) + f mean D)
+ * per channel (emitted, emitted': the lights' composited emission as found and edited; what is
+ * left of L_on - L_off is reflected light), with D' and D the direct light above with the edited
+ * and the found emission (the same samples and shadow rays), the means over the view's surface,
+ * f = 0.1. Unedited it
  * is the model's own lights-on render; the strength calibration's error cancels in the ratio
  * (only the lights' relative strengths matter), and light after bounces follows the edit as
  * the direct light at the pixel does. A pixel that sees a light renders as in direct. */

@@ -88,6 +88,14 @@ void esr_lights_scale_emission(const struct esr_lights *L, const float *pos3, si
     }
 }
 
+void esr_lights_keep_lit(const struct esr_lights *L, const float *pos3, size_t n, float *emit3)
+{
+#pragma omp parallel for schedule(static)
+    for (size_t i = 0; i < n; i++)
+        if (esr_lights_id_at(L, pos3 + i * 3) < 0)
+            emit3[i * 3] = emit3[i * 3 + 1] = emit3[i * 3 + 2] = 0.0f;
+}
+
 void esr_light_edit_apply(const struct esr_light_edit *ed, const float e[3], float out[3])
 {
     const float v[3] = {ed->intensity * e[0], ed->intensity * e[1], ed->intensity * e[2]};

@@ -70,6 +70,9 @@ int esr_lights_id_at(const struct esr_lights *L, const float pos[3]);
  * point's light, then edited by its edit when one is in place (points on no light keep E). */
 void esr_lights_scale_emission(const struct esr_lights *L, const float *pos3, size_t n, float *emit3);
 
+/* Sets emit3 [n*3] to 0 at the points on no light. */
+void esr_lights_keep_lit(const struct esr_lights *L, const float *pos3, size_t n, float *emit3);
+
 #ifdef __cplusplus
 }
 #endif

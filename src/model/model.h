@@ -127,6 +127,8 @@ struct esr_render_out {
                         (model/lights.h; = emission for a model without lights), like emission.
                         A model with lights also adds emitted - emission to `linear` of
                         lights-on renders: the emitters at their calibrated strength */
+    float *emitted_lights; /* [n*3] as emitted, from the samples on a light only (E elsewhere
+                              is not a light's: none of it) */
     float *material; /* [n*5] composited BRDF: base colour (3, linear), roughness, metallic (no
                         background: multiply out by opacity); lts stage on, like emission */
     int32_t *light_id; /* [n] the light (model/lights.h) at the ray's strongest kept sample, -1

@@ -44,46 +44,55 @@ int esr_model_normal_sdf(const struct esr_model *m, float **out)
     return rc;
 }
 
-/* Per-call scratch of the emitted-radiance rows (grown to the kept rows of a chunk). */
+/* Per-call scratch of the emitted-radiance rows and their copy on lights only (grown to the kept
+ * rows of a chunk). */
 struct emit_scratch {
     float *rows;
     size_t cap;
 };
 
-/* Composited emission (3), emitted radiance (3) and BRDF (5, unless mf is emission-only) of the
- * last trace forward's rays (no background); any output may be NULL. For a lights-on render of a
- * model with lights, lin3 (the chunk's linear radiance) gains the emitted radiance beyond E. */
+/* What material_rows composites for a chunk's rays; any pointer may be NULL. */
+struct rows_out {
+    float *emission3, *emitted3, *emitted_lights3, *material5;
+    float *lin3; /* the chunk's linear radiance: a lights-on render gains emitted - E */
+};
+
+/* Composited emission (3), emitted radiance (3; on lights only: emitted_lights3) and BRDF (5,
+ * unless mf is emission-only) of the last trace forward's rays (no background). For a lights-on
+ * render of a model with lights, lin3 gains the emitted radiance beyond E. */
 static int material_rows(struct esr_trace *t, const struct esr_model *m, const float *sdf,
                          struct esr_material_fields *mf, struct emit_scratch *es, int lights_on,
-                         float *emission3, float *emitted3, float *material5, float *lin3)
+                         const struct rows_out *o)
 {
     const struct esr_march *mc = &t->march;
     const size_t nk = mc->n_kept;
     ESR_TRY(esr_material_fields_fwd(mf, m, sdf, mc->kpos3, nk));
     struct esr_composite_args a;
-    if (emission3) {
+    if (o->emission3) {
         esr_march_composite_args(mc, mf->emit3, 3, NULL, 0, &a);
-        esr_composite_fwd(&a, emission3);
+        esr_composite_fwd(&a, o->emission3);
     }
-    if (material5 && !mf->emission_only) {
+    if (o->material5 && !mf->emission_only) {
         esr_march_composite_args(mc, mf->brdf5, ESR_BRDF_CHANNELS, NULL, 0, &a);
-        esr_composite_fwd(&a, material5);
+        esr_composite_fwd(&a, o->material5);
     }
     const int calibrated = m->lights.n > 0;
-    if (!emitted3 && !(calibrated && lights_on && lin3))
+    if (!o->emitted3 && !o->emitted_lights3 && !(calibrated && lights_on && o->lin3))
         return ESR_OK;
     if (!calibrated) {
-        if (emitted3 && emission3)
-            memcpy(emitted3, emission3, (size_t)mc->n_rays * 3 * sizeof(float));
-        else if (emitted3) {
+        if (o->emitted_lights3) /* no lights: no sample is on one */
+            memset(o->emitted_lights3, 0, (size_t)mc->n_rays * 3 * sizeof(float));
+        if (o->emitted3 && o->emission3)
+            memcpy(o->emitted3, o->emission3, (size_t)mc->n_rays * 3 * sizeof(float));
+        else if (o->emitted3) {
             esr_march_composite_args(mc, mf->emit3, 3, NULL, 0, &a);
-            esr_composite_fwd(&a, emitted3);
+            esr_composite_fwd(&a, o->emitted3);
         }
         return ESR_OK;
     }
-    if (nk * 3 > es->cap) {
+    if (nk * 6 > es->cap) { /* the emitted rows, and those on lights */
         free(es->rows);
-        es->cap = nk * 3 + nk;
+        es->cap = nk * 6;
         if (!(es->rows = malloc(es->cap * sizeof(float)))) {
             es->cap = 0;
             return ESR_FAIL("render: out of memory for %zu emission rows", nk);
@@ -92,15 +101,23 @@ static int material_rows(struct esr_trace *t, const struct esr_model *m, const f
     memcpy(es->rows, mf->emit3, nk * 3 * sizeof(float));
     esr_lights_scale_emission(&m->lights, mc->kpos3, nk, es->rows);
     esr_march_composite_args(mc, es->rows, 3, NULL, 0, &a);
-    if (emitted3)
-        esr_composite_fwd(&a, emitted3);
-    if (lights_on && lin3) { /* the linear radiance's emission at the calibrated strength */
+    if (o->emitted3)
+        esr_composite_fwd(&a, o->emitted3);
+    if (o->emitted_lights3) {
+        float *lit = es->rows + nk * 3;
+        memcpy(lit, es->rows, nk * 3 * sizeof(float));
+        esr_lights_keep_lit(&m->lights, mc->kpos3, nk, lit);
+        struct esr_composite_args al;
+        esr_march_composite_args(mc, lit, 3, NULL, 0, &al);
+        esr_composite_fwd(&al, o->emitted_lights3);
+    }
+    if (lights_on && o->lin3) { /* the linear radiance's emission at the calibrated strength */
         for (size_t i = 0; i < nk * 3; i++)
             es->rows[i] -= mf->emit3[i];
         float extra[3 * RENDER_CHUNK];
         esr_composite_fwd(&a, extra);
         for (int i = 0; i < mc->n_rays * 3; i++)
-            lin3[i] += extra[i];
+            o->lin3[i] += extra[i];
     }
     return ESR_OK;
 }
@@ -164,7 +181,7 @@ int esr_model_render_rays(const struct esr_model *m, const float *origins, const
     float *depth = NULL, *normal = NULL, *opac = NULL;
     uint8_t *flags = NULL, *flags_other = NULL;
     struct esr_material_fields mf;
-    const int fields = (out->emission || out->emitted || out->material ||
+    const int fields = (out->emission || out->emitted || out->emitted_lights || out->material ||
                         (((lights_on && out->linear) || out->linear_other) && m->lights.n > 0)) &&
                        esr_model_has(m, ESR_COMP_EMIT_MLP);
     struct emit_scratch es = {NULL, 0};
@@ -201,11 +218,13 @@ int esr_model_render_rays(const struct esr_model *m, const float *origins, const
         if (out->light_id)
             light_ids(&t.march, &m->lights, out->light_id + r0);
         if (fields) {
-            rc = material_rows(&t, m, sdf, &mf, &es, lights_on,
-                               out->emission ? out->emission + r0 * 3 : NULL,
-                               out->emitted ? out->emitted + r0 * 3 : NULL,
-                               out->material ? out->material + r0 * ESR_BRDF_CHANNELS : NULL,
-                               out->linear ? out->linear + r0 * 3 : NULL);
+            const struct rows_out ro = {
+                out->emission ? out->emission + r0 * 3 : NULL,
+                out->emitted ? out->emitted + r0 * 3 : NULL,
+                out->emitted_lights ? out->emitted_lights + r0 * 3 : NULL,
+                out->material ? out->material + r0 * ESR_BRDF_CHANNELS : NULL,
+                out->linear ? out->linear + r0 * 3 : NULL};
+            rc = material_rows(&t, m, sdf, &mf, &es, lights_on, &ro);
             if (rc != ESR_OK)
                 break;
         }
@@ -214,9 +233,10 @@ int esr_model_render_rays(const struct esr_model *m, const float *origins, const
             if (rc != ESR_OK)
                 break;
             copy_linear(&t, out->linear_other + r0 * 3, (size_t)c);
-            if (fields)
-                rc = material_rows(&t, m, sdf, &mf, &es, !lights_on, NULL, NULL, NULL,
-                                   out->linear_other + r0 * 3);
+            if (fields) {
+                const struct rows_out ro = {.lin3 = out->linear_other + r0 * 3};
+                rc = material_rows(&t, m, sdf, &mf, &es, !lights_on, &ro);
+            }
         }
     }
     free(es.rows);
