@@ -303,7 +303,8 @@ static void write_dict(void)
         "emitted_radiance_on", "name", "stage", "step", "done", "scene_min", "scene_max", "config", "params",
         "components", "offset", "count", "mask", "dims", "bmin", "bmax", "table", "centroid", "area", "points",
         "field_rgb", "scale", "radiance", "power", "calib_points", "alphamask", "coarse", "fine", "lts", "pdra",
-        "preset", "fast", "paper"};
+        "preset", "fast", "paper", "data", "data_dir", "dataset", "loss", "psnr", "tight_min", "tight_max",
+        "iter"};
     char path[2048];
     snprintf(path, sizeof path, "%s/json.dict", root);
     FILE *f = fopen(path, "w");

@@ -28,31 +28,36 @@ static int append_point(struct esr_curve *c, int *cap, double x, double y)
     return ESR_OK;
 }
 
-static int parse_lines(char *text, const char *path, const char *key, struct esr_curve *c)
+/* Lines are cut by length, not by NUL: the text need not be NUL-terminated (a fuzzer's input,
+ * a buffer), and each line is parsed with cJSON_ParseWithLength. */
+int esr_curve_parse_jsonl(const char *text, size_t size, const char *name, const char *key, struct esr_curve *c)
 {
-    int cap = 0, record = 0, line_no = 0;
-    for (char *line = text; line && *line;) {
-        char *next = strchr(line, '\n');
-        if (next)
-            *next++ = '\0';
+    memset(c, 0, sizeof *c);
+    int cap = 0, record = 0, line_no = 0, status = ESR_OK;
+    for (size_t at = 0; at < size && status == ESR_OK;) {
+        const char *line = text + at, *nl = memchr(line, '\n', size - at);
+        size_t len = nl ? (size_t)(nl - line) : size - at;
+        at += len + 1;
         line_no++;
-        if (line[strspn(line, " \t\r")] != '\0') {
-            cJSON *obj = cJSON_Parse(line);
-            if (!cJSON_IsObject(obj)) {
-                cJSON_Delete(obj);
-                return ESR_FAIL("'%s' line %d is not a JSON object", path, line_no);
-            }
+        size_t blank = 0;
+        while (blank < len && strchr(" \t\r", line[blank]) && line[blank])
+            blank++;
+        if (blank == len)
+            continue;
+        cJSON *obj = cJSON_ParseWithLength(line, len);
+        if (!cJSON_IsObject(obj)) {
+            status = ESR_FAIL("'%s' line %d is not a JSON object", name, line_no);
+        } else {
             const cJSON *v = cJSON_GetObjectItemCaseSensitive(obj, key);
-            int status = ESR_OK;
             if (cJSON_IsNumber(v) && isfinite(v->valuedouble))
                 status = append_point(c, &cap, record, v->valuedouble);
-            cJSON_Delete(obj);
-            ESR_TRY(status);
             record++;
         }
-        line = next;
+        cJSON_Delete(obj);
     }
-    return ESR_OK;
+    if (status != ESR_OK)
+        esr_curve_free(c);
+    return status;
 }
 
 int esr_curve_load_jsonl(const char *path, const char *key, struct esr_curve *c)
@@ -61,10 +66,8 @@ int esr_curve_load_jsonl(const char *path, const char *key, struct esr_curve *c)
     unsigned char *text;
     size_t size;
     ESR_TRY(esr_file_read_all(path, &text, &size));
-    int status = parse_lines((char *)text, path, key, c);
+    int status = esr_curve_parse_jsonl((const char *)text, size, path, key, c);
     free(text);
-    if (status != ESR_OK)
-        esr_curve_free(c);
     return status;
 }
 

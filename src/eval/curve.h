@@ -13,6 +13,8 @@ struct esr_curve {
  * records whose member `key` is a finite number. Fails naming the file and line on a line that
  * is not a JSON object. An absent key gives an empty curve (n = 0). Free with esr_curve_free. */
 int esr_curve_load_jsonl(const char *path, const char *key, struct esr_curve *c);
+/* The same on text in memory (size bytes, no NUL needed); name is the file named in errors. */
+int esr_curve_parse_jsonl(const char *text, size_t size, const char *name, const char *key, struct esr_curve *c);
 void esr_curve_free(struct esr_curve *c);
 
 /* Writes the curve as an inline <svg> element of width x height pixels: a polyline, the y range

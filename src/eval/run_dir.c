@@ -11,18 +11,10 @@
 #include "eval/select.h"
 #include "io/file.h"
 
-/* The first of the dataset keys that `file` (a JSON object) has as a string, copied to out. */
-static int data_key_of(const char *file, char *out, size_t n)
+int esr_run_data_key(const char *text, size_t size, char *out, size_t n)
 {
     static const char *const keys[] = {"data", "data_dir", "dataset"};
-    unsigned char *text;
-    size_t size;
-    if (!esr_file_exists(file))
-        return 0;
-    if (esr_file_read_all(file, &text, &size) != ESR_OK)
-        return 0;
-    cJSON *root = cJSON_Parse((char *)text);
-    free(text);
+    cJSON *root = cJSON_ParseWithLength(text, size);
     int found = 0;
     for (size_t k = 0; k < sizeof keys / sizeof keys[0] && !found; k++) {
         const cJSON *v = cJSON_GetObjectItemCaseSensitive(root, keys[k]);
@@ -32,6 +24,20 @@ static int data_key_of(const char *file, char *out, size_t n)
         }
     }
     cJSON_Delete(root);
+    return found;
+}
+
+/* esr_run_data_key on `file`; 0 when it is absent or unreadable. */
+static int data_key_of(const char *file, char *out, size_t n)
+{
+    unsigned char *text;
+    size_t size;
+    if (!esr_file_exists(file))
+        return 0;
+    if (esr_file_read_all(file, &text, &size) != ESR_OK)
+        return 0;
+    int found = esr_run_data_key((const char *)text, size, out, n);
+    free(text);
     return found;
 }
 

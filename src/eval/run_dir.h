@@ -11,6 +11,9 @@
  * (or "data_dir", "dataset") of RUN/run.json or RUN/config.json, first found. Fails naming the
  * run and the files looked at when none is recorded (then --data must be given). */
 int esr_run_data_dir(const char *run, const char *override, char *out, size_t n);
+/* The first of "data", "data_dir", "dataset" that the JSON object in text (size bytes, no NUL
+ * needed) has as a non-empty string shorter than n, copied to out: 1, else 0 (out untouched). */
+int esr_run_data_key(const char *text, size_t size, char *out, size_t n);
 
 /* A loaded dataset, a phase of it and the selected frames of that phase. */
 struct esr_run_selection {

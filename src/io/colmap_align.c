@@ -38,8 +38,35 @@ static void median_max(double *v, int n, double *median, double *max)
     *max = v[n - 1];
 }
 
-/* Half the largest side of scene.json's tight box, or 1 without one (see colmap_align.h). A
- * malformed tight box is an error: the figures would silently change unit otherwise. */
+int esr_colmap_scene_radius_parse(const char *text, size_t size, const char *name, double *radius)
+{
+    *radius = 1.0;
+    cJSON *root = cJSON_ParseWithLength(text, size);
+    if (!root)
+        return ESR_FAIL("'%s' is not valid JSON", name);
+    const cJSON *box = cJSON_GetObjectItemCaseSensitive(root, "bounding_box");
+    const cJSON *lo = cJSON_GetObjectItemCaseSensitive(box, "tight_min");
+    const cJSON *hi = cJSON_GetObjectItemCaseSensitive(box, "tight_max");
+    int status = ESR_OK;
+    if (lo || hi) {
+        double half = 0.0;
+        for (int k = 0; k < 3 && status == ESR_OK; k++) {
+            const cJSON *a = cJSON_GetArrayItem(lo, k), *b = cJSON_GetArrayItem(hi, k);
+            /* a finite, positive half side: 1e308 - -1e308 is not finite, 0.5 * 5e-324 is 0 */
+            double side = cJSON_IsNumber(a) && cJSON_IsNumber(b) ? 0.5 * (b->valuedouble - a->valuedouble) : 0.0;
+            if (!(side > 0.0 && isfinite(side)))
+                status = ESR_FAIL("'%s': bounding_box.tight_min/tight_max must be two 3-vectors, min below max", name);
+            else
+                half = fmax(half, side);
+        }
+        if (status == ESR_OK)
+            *radius = half;
+    }
+    cJSON_Delete(root);
+    return status;
+}
+
+/* esr_colmap_scene_radius_parse on truth's scene.json, 1 without one. */
 static int scene_radius(const struct esr_dataset *truth, double *radius)
 {
     *radius = 1.0;
@@ -50,27 +77,8 @@ static int scene_radius(const struct esr_dataset *truth, double *radius)
     unsigned char *text;
     size_t size;
     ESR_TRY(esr_file_read_all(path, &text, &size));
-    cJSON *root = cJSON_ParseWithLength((const char *)text, size);
+    int status = esr_colmap_scene_radius_parse((const char *)text, size, path, radius);
     free(text);
-    if (!root)
-        return ESR_FAIL("'%s' is not valid JSON", path);
-    const cJSON *box = cJSON_GetObjectItemCaseSensitive(root, "bounding_box");
-    const cJSON *lo = cJSON_GetObjectItemCaseSensitive(box, "tight_min");
-    const cJSON *hi = cJSON_GetObjectItemCaseSensitive(box, "tight_max");
-    int status = ESR_OK;
-    if (lo || hi) {
-        double half = 0.0;
-        for (int k = 0; k < 3 && status == ESR_OK; k++) {
-            const cJSON *a = cJSON_GetArrayItem(lo, k), *b = cJSON_GetArrayItem(hi, k);
-            if (!cJSON_IsNumber(a) || !cJSON_IsNumber(b) || !(b->valuedouble > a->valuedouble))
-                status = ESR_FAIL("'%s': bounding_box.tight_min/tight_max must be two 3-vectors, min below max", path);
-            else
-                half = fmax(half, 0.5 * (b->valuedouble - a->valuedouble));
-        }
-        if (status == ESR_OK)
-            *radius = half;
-    }
-    cJSON_Delete(root);
     return status;
 }
 

@@ -47,6 +47,11 @@ int esr_colmap_align(const struct esr_colmap_model *m, const struct esr_dataset 
 
 /* The placement (esr = scale * rotation * (colmap - centre)) equal to the alignment, so the
  * imported world is the true world. */
+/* The scene radius from scene.json's text (size bytes, no NUL needed; name in errors): half the
+ * largest side of bounding_box.tight_min/tight_max, 1 without them; a malformed box (not two
+ * 3-vectors, min not below max, a side not finite) is an error. */
+int esr_colmap_scene_radius_parse(const char *text, size_t size, const char *name, double *radius);
+
 void esr_colmap_alignment_frame(const struct esr_colmap_alignment *a, struct esr_scene_frame *f);
 
 #endif

@@ -4,6 +4,7 @@
 #ifndef ESR_RENDER_VIEW_H
 #define ESR_RENDER_VIEW_H
 
+#include <cjson/cJSON.h>
 #include <stdint.h>
 
 #include "io/camera.h"
@@ -99,5 +100,9 @@ int esr_view_render_frames(const struct esr_model *m, const struct esr_dataset *
 /* 1 when frame `name`'s outputs exist in dir and dir/render.json says this model (stage, step
  * and lights) rendered them, else 0 (render again). */
 int esr_view_is_current(const char *dir, const struct esr_model *m, const char *name);
+/* A stamp's text (size bytes, no NUL needed) read for a model of this stage, step and lights
+ * fingerprint: its "frames" array (the caller deletes it) when the stamp names that model, else
+ * NULL (unparsable or another model's: render again). Never an error. */
+cJSON *esr_view_stamp_frames(const char *text, size_t size, const char *stage, long step, const char *lights);
 
 #endif

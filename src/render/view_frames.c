@@ -45,6 +45,24 @@ static void lights_fingerprint(const struct esr_model *m, char out[24])
     snprintf(out, 24, "%016llx", (unsigned long long)esr_lights_fingerprint(&m->lights));
 }
 
+cJSON *esr_view_stamp_frames(const char *text, size_t size, const char *stage, long step, const char *lights)
+{
+    cJSON *root = cJSON_ParseWithLength(text, size);
+    const cJSON *st = cJSON_GetObjectItemCaseSensitive(root, "stage");
+    const cJSON *sp = cJSON_GetObjectItemCaseSensitive(root, "step");
+    const cJSON *li = cJSON_GetObjectItemCaseSensitive(root, "lights");
+    cJSON *frames = cJSON_DetachItemFromObjectCaseSensitive(root, "frames");
+    int match = cJSON_IsString(st) && cJSON_IsNumber(sp) && cJSON_IsArray(frames) && cJSON_IsString(li) &&
+                !strcmp(st->valuestring, stage) && sp->valuedouble == (double)step &&
+                !strcmp(li->valuestring, lights);
+    cJSON_Delete(root);
+    if (!match) {
+        cJSON_Delete(frames);
+        return NULL;
+    }
+    return frames;
+}
+
 /* The frame list of dir's stamp when the stamp names this model; NULL otherwise (no stamp, an
  * unreadable one, or one of another model: those renders are stale). */
 static cJSON *current_frames(const char *dir, const struct esr_model *m)
@@ -58,23 +76,11 @@ static cJSON *current_frames(const char *dir, const struct esr_model *m)
         esr_error_clear(); /* an unreadable stamp only means "render again" */
         return NULL;
     }
-    cJSON *root = cJSON_Parse((char *)text);
-    free(text);
-    const cJSON *stage = cJSON_GetObjectItemCaseSensitive(root, "stage");
-    const cJSON *step = cJSON_GetObjectItemCaseSensitive(root, "step");
-    const cJSON *lights = cJSON_GetObjectItemCaseSensitive(root, "lights");
-    cJSON *frames = cJSON_DetachItemFromObjectCaseSensitive(root, "frames");
     char fp[24];
     lights_fingerprint(m, fp);
-    int match = cJSON_IsString(stage) && cJSON_IsNumber(step) && cJSON_IsArray(frames) &&
-                cJSON_IsString(lights) &&
-                !strcmp(stage->valuestring, esr_stage_name((enum esr_stage)m->stage)) &&
-                step->valuedouble == (double)m->step && !strcmp(lights->valuestring, fp);
-    cJSON_Delete(root);
-    if (!match) {
-        cJSON_Delete(frames);
-        return NULL;
-    }
+    cJSON *frames =
+        esr_view_stamp_frames((const char *)text, size, esr_stage_name((enum esr_stage)m->stage), m->step, fp);
+    free(text);
     return frames;
 }
 
