@@ -70,33 +70,19 @@ int esr_editor_view(struct esr_editor *e, const struct esr_camera *cam, uint64_t
         return ESR_FAIL("edit: no edit set before rendering");
     if (e->method != ESR_EDIT_FINETUNE)
         return esr_relight_view(&e->direct, e->m, e->edits, cam, seed, out);
-    /* the fine-tuned model's lights-on radiance; where the camera sees a light, the lights-off
-     * radiance plus the light's edited emission (the model's lights carry the edit): L_emo on
-     * a light is the saturated emitter, not something an edit can scale */
+    /* the fine-tuned model's lights-on radiance; at the samples on a light, the lights-off
+     * radiance plus the light's edited emission (the model's lights carry the edit): L_emo on a
+     * light is the saturated emitter, which fine-tuning does not train (train/lts.c) */
     const size_t n = (size_t)cam->width * (size_t)cam->height;
     ESR_TRY(esr_image_alloc(out, cam->width, cam->height, 3));
     float *o = malloc(n * 3 * sizeof(float)), *d = malloc(n * 3 * sizeof(float));
-    float *off = malloc(n * 3 * sizeof(float)), *em = malloc(n * 3 * sizeof(float));
-    int32_t *ids = malloc(n * sizeof(int32_t));
-    int rc = o && d && off && em && ids ? ESR_OK
-                                        : ESR_FAIL("edit: out of memory for a %zu-pixel view", n);
+    int rc = o && d ? ESR_OK : ESR_FAIL("edit: out of memory for a %zu-pixel view", n);
     if (rc == ESR_OK) {
         esr_camera_pixel_rays(cam, o, d);
-        struct esr_render_out r = {.linear = out->data, .light_id = ids};
+        struct esr_render_out r = {.linear = out->data, .lights_emitted_only = 1};
         rc = esr_model_render_rays(e->m, o, d, n, 1, &r);
     }
-    size_t seen = 0;
-    for (size_t p = 0; rc == ESR_OK && p < n; p++)
-        seen += ids[p] >= 0;
-    if (rc == ESR_OK && seen > 0) {
-        struct esr_render_out r = {.linear = off, .emitted = em};
-        rc = esr_model_render_rays(e->m, o, d, n, 0, &r);
-        for (size_t p = 0; rc == ESR_OK && p < n; p++)
-            if (ids[p] >= 0)
-                for (int c = 0; c < 3; c++)
-                    out->data[p * 3 + c] = off[p * 3 + c] + em[p * 3 + c];
-    }
-    free(o), free(d), free(off), free(em), free(ids);
+    free(o), free(d);
     if (rc != ESR_OK)
         esr_image_free(out);
     return rc;

@@ -277,6 +277,15 @@ static int radiance_fwd(struct esr_point_fields *pf, const struct esr_model *m, 
     return ESR_OK;
 }
 
+void esr_point_fields_emo(const struct esr_point_fields *pf, float *emo3)
+{
+#pragma omp parallel for schedule(static)
+    for (size_t j = 0; j < pf->n; j++)
+        for (int c = 0; c < 3; c++)
+            emo3[(size_t)pf->order[j] * 3 + c] =
+                j >= pf->n_off ? pf->y_b3[(j - pf->n_off) * 3 + c] : 0.0f;
+}
+
 static int radiance_bwd(struct esr_point_fields *pf, const struct esr_model *m, const float *sdf,
                         float *g_sdf, float *grads)
 {

@@ -60,6 +60,9 @@ void esr_point_fields_free(struct esr_point_fields *pf);
  * the renderer sees). Fills pf->tone3 (and pf->lin3 for the radiance head). */
 int esr_point_fields_fwd(struct esr_point_fields *pf, const struct esr_model *m, const float *sdf,
                          const struct esr_point_query *q);
+/* The emo branch's part of the last forward's linear radiance, caller row order: L_on - L_off
+ * for lights-on rows, 0 for lights-off rows (radiance head only). */
+void esr_point_fields_emo(const struct esr_point_fields *pf, float *emo3);
 /* Backward of the last forward from d loss/d tone3 and d loss/d lin3 (caller row order; lin may
  * be NULL): ADDS parameter gradients into grads (the flat gradient base) and the geometry
  * feature's SDF gradient into g_sdf. Overwrites pf's internal buffers. */

@@ -55,6 +55,7 @@ struct emit_scratch {
 struct rows_out {
     float *emission3, *emitted3, *emitted_lights3, *material5;
     float *lin3; /* the chunk's linear radiance: a lights-on render gains emitted - E */
+    int lights_emitted_only; /* ... or, on lights, emitted - L_emo (esr_render_out) */
 };
 
 /* Composited emission (3), emitted radiance (3; on lights only: emitted_lights3) and BRDF (5,
@@ -90,9 +91,9 @@ static int material_rows(struct esr_trace *t, const struct esr_model *m, const f
         }
         return ESR_OK;
     }
-    if (nk * 6 > es->cap) { /* the emitted rows, and those on lights */
+    if (nk * 9 > es->cap) { /* the emitted rows, those on lights, and the rows' L_emo */
         free(es->rows);
-        es->cap = nk * 6;
+        es->cap = nk * 9;
         if (!(es->rows = malloc(es->cap * sizeof(float)))) {
             es->cap = 0;
             return ESR_FAIL("render: out of memory for %zu emission rows", nk);
@@ -114,6 +115,15 @@ static int material_rows(struct esr_trace *t, const struct esr_model *m, const f
     if (lights_on && o->lin3) { /* the linear radiance's emission at the calibrated strength */
         for (size_t i = 0; i < nk * 3; i++)
             es->rows[i] -= mf->emit3[i];
+        if (o->lights_emitted_only) { /* and on lights, minus L_emo - E */
+            float *emo = es->rows + nk * 6;
+            esr_point_fields_emo(&t->fields, emo);
+            for (size_t i = 0; i < nk * 3; i++)
+                emo[i] -= mf->emit3[i];
+            esr_lights_keep_lit(&m->lights, mc->kpos3, nk, emo);
+            for (size_t i = 0; i < nk * 3; i++)
+                es->rows[i] -= emo[i];
+        }
         float extra[3 * RENDER_CHUNK];
         esr_composite_fwd(&a, extra);
         for (int i = 0; i < mc->n_rays * 3; i++)
@@ -223,7 +233,7 @@ int esr_model_render_rays(const struct esr_model *m, const float *origins, const
                 out->emitted ? out->emitted + r0 * 3 : NULL,
                 out->emitted_lights ? out->emitted_lights + r0 * 3 : NULL,
                 out->material ? out->material + r0 * ESR_BRDF_CHANNELS : NULL,
-                out->linear ? out->linear + r0 * 3 : NULL};
+                out->linear ? out->linear + r0 * 3 : NULL, out->lights_emitted_only};
             rc = material_rows(&t, m, sdf, &mf, &es, lights_on, &ro);
             if (rc != ESR_OK)
                 break;
@@ -234,7 +244,8 @@ int esr_model_render_rays(const struct esr_model *m, const float *origins, const
                 break;
             copy_linear(&t, out->linear_other + r0 * 3, (size_t)c);
             if (fields) {
-                const struct rows_out ro = {.lin3 = out->linear_other + r0 * 3};
+                const struct rows_out ro = {.lin3 = out->linear_other + r0 * 3,
+                                            .lights_emitted_only = out->lights_emitted_only};
                 rc = material_rows(&t, m, sdf, &mf, &es, !lights_on, &ro);
             }
         }
