@@ -24,9 +24,9 @@ void esr_finetune_default_opts(struct esr_finetune_opts *o)
 {
     o->iters = 300;
     o->rays = 512;
-    o->points = 2048;
-    o->dirs = 16;
-    o->light_spp = 8;
+    o->points = 1024;
+    o->dirs = 4;
+    o->light_spp = 48;
     o->lr_feat = 0.06f;
     o->lr_mlp = 3e-3f;
     o->lr_final = 0.1f;
