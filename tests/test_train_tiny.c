@@ -668,8 +668,9 @@ static void test_render_other_lighting(void **state)
 
 /* lights_emitted_only (model.h): a lights-on render whose samples on a light show the lights-off
  * radiance plus the light's emission. Raising L_emo everywhere (the emo MLP's output bias +1:
- * L_emo = softplus, about x e where it is small) then barely moves the pixels whose strongest sample is on a light,
- * which the plain render moves with their L_emo; pixels with no sample on a light render as without the flag, bit for bit. */
+ * L_emo = softplus, about x e where it is small) then barely moves the pixels whose strongest
+ * sample is on a light, which the plain render moves with their L_emo; pixels with no sample on
+ * a light render as without the flag, bit for bit. */
 static void test_render_lights_emitted_only(void **state)
 {
     (void)state;

@@ -135,10 +135,11 @@ struct esr_render_out {
                           where none (also for a model without lights) */
     float *linear_other; /* [n*3] `linear` of the other lighting (lights off for a lights-on
                             render and on for off), from the same march: both for one march */
-    int lights_emitted_only; /* 1: in a lights-on `linear`, a sample on a light shows the
-                                lights-off radiance plus its light's emitted radiance (edited
-                                when the model's lights carry an edit) instead of L_emo + the
-                                emitted - E: fine-tuning for an edit never trains L_emo there */
+    int lights_emitted_only; /* 1: in a lights-on radiance (`linear`, or `linear_other` of a
+                                lights-off render), a sample on a light shows the lights-off
+                                radiance plus its light's emitted radiance (edited when the
+                                model's lights carry an edit) instead of L_emo + the emitted -
+                                E: fine-tuning for an edit never trains L_emo there */
 };
 
 /* Renders n rays (origins/dirs [n*3], dirs unit length) with lights on (1) or off (0). Only

@@ -60,7 +60,8 @@ struct rows_out {
 
 /* Composited emission (3), emitted radiance (3; on lights only: emitted_lights3) and BRDF (5,
  * unless mf is emission-only) of the last trace forward's rays (no background). For a lights-on
- * render of a model with lights, lin3 gains the emitted radiance beyond E. */
+ * render of a model with lights, lin3 gains the emitted radiance beyond E (with
+ * lights_emitted_only, on lights also loses L_emo - E). */
 static int material_rows(struct esr_trace *t, const struct esr_model *m, const float *sdf,
                          struct esr_material_fields *mf, struct emit_scratch *es, int lights_on,
                          const struct rows_out *o)
@@ -91,9 +92,9 @@ static int material_rows(struct esr_trace *t, const struct esr_model *m, const f
         }
         return ESR_OK;
     }
-    if (nk * 9 > es->cap) { /* the emitted rows, those on lights, and the rows' L_emo */
+    if (nk * 6 > es->cap) { /* the emitted rows, and those on lights (or the rows' L_emo) */
         free(es->rows);
-        es->cap = nk * 9;
+        es->cap = nk * 6;
         if (!(es->rows = malloc(es->cap * sizeof(float)))) {
             es->cap = 0;
             return ESR_FAIL("render: out of memory for %zu emission rows", nk);
@@ -116,7 +117,7 @@ static int material_rows(struct esr_trace *t, const struct esr_model *m, const f
         for (size_t i = 0; i < nk * 3; i++)
             es->rows[i] -= mf->emit3[i];
         if (o->lights_emitted_only) { /* and on lights, minus L_emo - E */
-            float *emo = es->rows + nk * 6;
+            float *emo = es->rows + nk * 3; /* the rows on lights are composited by now */
             esr_point_fields_emo(&t->fields, emo);
             for (size_t i = 0; i < nk * 3; i++)
                 emo[i] -= mf->emit3[i];
