@@ -42,6 +42,12 @@ int esr_relight_init(struct esr_relight *r, const struct esr_model *m, int spp, 
     int rc0 = esr_model_normal_sdf(m, &r->normal_sdf);
     if (rc0 != ESR_OK)
         return rc0;
+    /* shadow rays only ask whether anything is in the way: no refinement of the hit */
+    const struct esr_grid *g = esr_model_grid(m, ESR_COMP_SDF);
+    esr_first_hit_params_init(&r->shadow_params, g);
+    r->shadow_params.refine_iters = 0;
+    esr_first_hit_grid_prepare(&r->shadow_grid, g, esr_model_values(m, ESR_COMP_SDF),
+                               r->shadow_params.global_bound);
     for (int k = 0; k < m->lights.n; k++) {
         int rc = esr_light_samples_get(m, k, &r->samples[k]);
         if (rc != ESR_OK) {
@@ -74,21 +80,6 @@ static void view_buf_free(struct view_buf *b)
     free(b->mat5), free(b->emit3), free(b->ids);
 }
 
-/* Shadow rays of every (surface pixel, light, sample), built then traced in one batch. */
-struct shadow {
-    size_t n;
-    float *o3, *d3, *tmax, *weight3; /* weight: E' R |n_y.wi| A N / (spp d^2), per channel */
-    float *found3;                   /* the same with the emission as found (ratio), or NULL */
-    uint32_t *pixel;
-    uint8_t *flags;
-};
-
-static void shadow_free(struct shadow *s)
-{
-    free(s->o3), free(s->d3), free(s->tmax), free(s->weight3), free(s->found3), free(s->pixel);
-    free(s->flags);
-}
-
 /* Whether light k sends any light under its edit (on, with samples, a strength above 0); the
  * ratio method also needs the light as found. */
 static int lights_up(const struct esr_relight *r, const struct esr_light_edit *edits, int k)
@@ -97,39 +88,19 @@ static int lights_up(const struct esr_relight *r, const struct esr_light_edit *e
            r->samples[k].max_emit > 0.0f;
 }
 
-/* Pixel p's rays take the fixed slots [p * per_px, (p + 1) * per_px) (so pixels fill them in
- * parallel); an unused slot has weight 0 and a zero-length ray. */
-static int build_shadow(const struct esr_relight *r, const struct esr_model *m,
-                        const struct esr_light_edit *edits, const struct view_buf *b, size_t n_px,
-                        uint64_t seed, struct shadow *s)
+/* The direct light at every surface pixel into edited3 (with the edited emission) and found3
+ * (with the emission as found; the ratio method's, else NULL), both zeroed by the caller: spp
+ * area samples per light, each with its shadow ray traced on the spot. A pixel's samples draw
+ * from their own stream and add in a fixed order, so the result does not depend on the schedule;
+ * nothing is allocated (a view's ~600k shadow rays kept in arrays cost more in page faults than
+ * in marching). */
+ESR_HOT static void direct_light(const struct esr_relight *r, const struct esr_model *m,
+                                 const struct esr_light_edit *edits, const struct view_buf *b,
+                                 size_t n_px, uint64_t seed, float *edited3, float *found3)
 {
     const float h = esr_grid_voxel_size(esr_model_grid(m, ESR_COMP_SDF), 0);
-    size_t per_px = 0;
-    for (int k = 0; k < r->n_lights; k++)
-        if (lights_up(r, edits, k))
-            per_px += (size_t)r->spp;
-    memset(s, 0, sizeof(*s));
-    const size_t cap = per_px * n_px;
-    if (cap == 0)
-        return ESR_OK;
-    s->o3 = calloc(cap * 3, sizeof(float));
-    s->d3 = calloc(cap * 3, sizeof(float));
-    s->tmax = calloc(cap, sizeof(float));
-    s->weight3 = calloc(cap * 3, sizeof(float));
-    s->found3 = r->ratio ? calloc(cap * 3, sizeof(float)) : NULL;
-    s->pixel = malloc(cap * sizeof(uint32_t));
-    s->flags = malloc(cap);
-    if (!s->o3 || !s->d3 || !s->tmax || !s->weight3 || (r->ratio && !s->found3) || !s->pixel ||
-        !s->flags)
-        return ESR_FAIL("relight: out of memory for %zu shadow rays", cap);
-    s->n = cap;
-#pragma omp parallel for schedule(dynamic, 64)
+#pragma omp parallel for schedule(dynamic, 16)
     for (size_t p = 0; p < n_px; p++) {
-        size_t i = p * per_px;
-        for (size_t q = i; q < i + per_px; q++) {
-            s->pixel[q] = (uint32_t)p;
-            s->d3[q * 3 + 2] = 1.0f; /* a valid direction for the unused slots */
-        }
         const float a = b->opac[p];
         struct esr_vec3 n = esr_v3(b->nrm3[p * 3], b->nrm3[p * 3 + 1], b->nrm3[p * 3 + 2]);
         if (a <= SURFACE_OPACITY || esr_v3_length(n) < 1e-6f)
@@ -141,12 +112,13 @@ static int build_shadow(const struct esr_relight *r, const struct esr_model *m,
         const struct esr_vec3 wo = esr_v3_scale(d, -1.0f);
         const struct esr_material mat = esr_material_of_row(b->mat5 + p * ESR_BRDF_CHANNELS, a);
         const struct esr_vec3 o = esr_v3_add(x, esr_v3_scale(n, SHADOW_OFFSET_VOX * h));
+        const float o3[3] = {o.x, o.y, o.z};
         struct esr_rng rng = esr_rng_init(seed, p);
         for (int k = 0; k < r->n_lights; k++) {
             const struct esr_light_samples *ls = &r->samples[k];
             if (!lights_up(r, edits, k))
                 continue;
-            for (int j = 0; j < r->spp; j++, i++) {
+            for (int j = 0; j < r->spp; j++) {
                 /* stratified over the light's points (stored in lattice order, so the strata
                  * are patches of its surface) */
                 size_t q = (size_t)(((double)j + esr_rng_float(&rng)) * (double)ls->n / r->spp);
@@ -162,58 +134,25 @@ static int build_shadow(const struct esr_relight *r, const struct esr_model *m,
                 esr_brdf_eval(&mat, n, wo, wi, R);
                 if (R[0] + R[1] + R[2] <= 0.0f)
                     continue; /* below the surface */
+                const float wi3[3] = {wi.x, wi.y, wi.z};
+                float t_hit;
+                if (esr_first_hit_ray(&r->shadow_grid, &r->shadow_params, o3, wi3, 0.0f,
+                                      dist - SHADOW_STOP_VOX * h, &t_hit) &
+                    ESR_FIRST_HIT_HIT)
+                    continue; /* occluded */
                 const struct esr_vec3 ny = esr_v3(ls->nrm3[q * 3], ls->nrm3[q * 3 + 1], ls->nrm3[q * 3 + 2]);
                 const float g = fabsf(esr_v3_dot(ny, wi)) * ls->area[q] * (float)ls->n /
                                 ((float)r->spp * dist * dist);
                 float e[3];
                 esr_light_edit_apply(&edits[k], ls->emit3 + q * 3, e);
-                memcpy(s->o3 + i * 3, &o, 3 * sizeof(float));
-                memcpy(s->d3 + i * 3, &wi, 3 * sizeof(float));
-                s->tmax[i] = dist - SHADOW_STOP_VOX * h;
                 for (int c = 0; c < 3; c++)
-                    s->weight3[i * 3 + c] = a * e[c] * R[c] * g;
-                if (s->found3)
+                    edited3[p * 3 + c] += a * e[c] * R[c] * g;
+                if (found3)
                     for (int c = 0; c < 3; c++)
-                        s->found3[i * 3 + c] = a * ls->emit3[q * 3 + c] * R[c] * g;
+                        found3[p * 3 + c] += a * ls->emit3[q * 3 + c] * R[c] * g;
             }
         }
     }
-    return ESR_OK;
-}
-
-/* Traces the used slots of s (a compacted copy: most slots of a view are background), setting
- * s->flags of every slot (an unused one is never read). */
-static int trace_shadow(const struct esr_model *m, struct shadow *s)
-{
-    size_t nv = 0;
-    for (size_t i = 0; i < s->n; i++)
-        nv += s->tmax[i] > 0.0f;
-    if (nv == 0)
-        return ESR_OK;
-    float *o3 = malloc(nv * 3 * sizeof(float)), *d3 = malloc(nv * 3 * sizeof(float));
-    float *tmax = malloc(nv * sizeof(float));
-    uint8_t *flags = malloc(nv);
-    int rc = o3 && d3 && tmax && flags ? ESR_OK
-                                       : ESR_FAIL("relight: out of memory for %zu shadow rays", nv);
-    for (size_t i = 0, j = 0; rc == ESR_OK && i < s->n; i++)
-        if (s->tmax[i] > 0.0f) {
-            memcpy(o3 + j * 3, s->o3 + i * 3, 3 * sizeof(float));
-            memcpy(d3 + j * 3, s->d3 + i * 3, 3 * sizeof(float));
-            tmax[j++] = s->tmax[i];
-        }
-    if (rc == ESR_OK) {
-        const struct esr_grid *g = esr_model_grid(m, ESR_COMP_SDF);
-        struct esr_first_hit_params hp;
-        esr_first_hit_params_init(&hp, g);
-        struct esr_first_hit_rays hr = {o3, d3, NULL, tmax, nv};
-        struct esr_first_hit_out ho = {NULL, flags, NULL, NULL};
-        rc = esr_first_hit(g, esr_model_values(m, ESR_COMP_SDF), &hp, &hr, &ho);
-    }
-    for (size_t i = 0, j = 0; rc == ESR_OK && i < s->n; i++)
-        if (s->tmax[i] > 0.0f)
-            s->flags[i] = flags[j++];
-    free(o3), free(d3), free(tmax), free(flags);
-    return rc;
 }
 
 /* A joint bilateral filter on the direct light (a few light samples per pixel leave speckle):
@@ -275,18 +214,6 @@ static int denoise_direct(const struct view_buf *b, int w, int h, float vox, flo
         }
     free(demod), free(nrm);
     return ESR_OK;
-}
-
-/* The direct light per pixel from the slots' weights w3 (the edited or the found emission's),
- * denoised. */
-static int gather_direct(const struct view_buf *b, const struct shadow *s, const float *w3, int w,
-                         int h, float vox, float *direct)
-{
-    for (size_t i = 0; i < s->n; i++) /* a pixel's slots add in a fixed order */
-        if (!(s->flags[i] & ESR_FIRST_HIT_HIT) && s->tmax[i] > 0.0f)
-            for (int c = 0; c < 3; c++)
-                direct[(size_t)s->pixel[i] * 3 + c] += w3[i * 3 + c];
-    return denoise_direct(b, w, h, vox, direct);
 }
 
 /* The ratio method at the pixels that see no light: out (the lights-off view and the edited
@@ -379,12 +306,6 @@ int esr_relight_view(const struct esr_relight *r, const struct esr_model *m,
             free(tmp);
         }
     }
-    struct shadow s;
-    memset(&s, 0, sizeof s);
-    if (rc == ESR_OK)
-        rc = build_shadow(r, m, edits, &b, n, seed, &s);
-    if (rc == ESR_OK && s.n > 0)
-        rc = trace_shadow(m, &s);
     if (rc == ESR_OK)
         rc = esr_image_alloc(out, cam->width, cam->height, 3);
     if (rc == ESR_OK) {
@@ -397,9 +318,11 @@ int esr_relight_view(const struct esr_relight *r, const struct esr_model *m,
             rc = ESR_FAIL("relight: out of memory for the direct light");
         const float vox = esr_grid_voxel_size(esr_model_grid(m, ESR_COMP_SDF), 0);
         if (rc == ESR_OK)
-            rc = gather_direct(&b, &s, s.weight3, cam->width, cam->height, vox, direct);
+            direct_light(r, m, edits, &b, n, seed, direct, found);
+        if (rc == ESR_OK)
+            rc = denoise_direct(&b, cam->width, cam->height, vox, direct);
         if (rc == ESR_OK && found)
-            rc = gather_direct(&b, &s, s.found3, cam->width, cam->height, vox, found);
+            rc = denoise_direct(&b, cam->width, cam->height, vox, found);
         if (rc == ESR_OK && found)
             transfer_ratio(&b, direct, found, n, out->data);
         else if (rc == ESR_OK)
@@ -408,7 +331,6 @@ int esr_relight_view(const struct esr_relight *r, const struct esr_model *m,
                     out->data[p * 3 + c] += direct[p * 3 + c];
         free(direct), free(found);
     }
-    shadow_free(&s);
     view_buf_free(&b);
     if (rc != ESR_OK)
         esr_image_free(out);

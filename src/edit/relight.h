@@ -31,18 +31,22 @@
 #include "io/image.h"
 #include "model/model.h"
 #include "train/lights.h"
+#include "volume/first_hit.h"
 
 #ifdef __cplusplus
 extern "C" {
 #endif
 
-/* What a relight needs once per model: each light's surface samples. */
+/* What a relight needs once per model: each light's surface samples, the smoothed SDF for
+ * normals, the SDF prepared for shadow rays (its global bound: a pass over the grid). */
 struct esr_relight {
     int n_lights;
     struct esr_light_samples samples[ESR_MAX_LIGHTS];
     int spp;            /* light samples per pixel and light */
     int ratio;          /* 1: the ratio method */
     float *normal_sdf;  /* the smoothed SDF the normals come from (model/render_sdf.h), once */
+    struct esr_first_hit_grid shadow_grid;      /* the SDF as shadow rays march it */
+    struct esr_first_hit_params shadow_params;
 };
 
 int esr_relight_init(struct esr_relight *r, const struct esr_model *m, int spp, int ratio);
