@@ -53,7 +53,8 @@ void esr_finetune_default_opts(struct esr_finetune_opts *o);
 
 struct esr_finetune_stats {
     int iters;
-    double mse_first, mse_last; /* LTS emo MSE of the first and the last 10% of the steps */
+    double mse_first, mse_last; /* LTS emo MSE (sRGB-slope weighted) of the first and the last
+                                   10% of the steps */
     double seconds;
 };
 

@@ -40,7 +40,7 @@ enum esr_lts_estimator { ESR_LTS_FIRST_HIT = 0, ESR_LTS_VOLUME = 1 };
 
 struct esr_lts_stats {
     double loss;            /* weighted loss added */
-    double mse_off, mse_emo;
+    double mse_off, mse_emo; /* an edit's mse_emo: weighted as its loss (lts.c, EDIT_TONE_FLOOR) */
     size_t points, secondary, hits; /* hits: secondary rays that reached a surface (first hit)
                                         or whose final transmittance is below 1/2 (volume) */
 };
