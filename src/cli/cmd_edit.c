@@ -41,7 +41,7 @@ const struct esr_command cmd_edit = {
     "             shadow rays as direct): light after bounces included, the lights' absolute\n"
     "             strength cancels; as fast as direct\n"
     "  finetune   the paper's radiance fine-tuning (edit/finetune.h): L_emo trained towards the\n"
-    "             light transport with the edited emission (about a minute per edit on 2 cores),\n"
+    "             light transport with the edited emission (about 40 s per edit on 2 cores),\n"
     "             then the fine-tuned lights-on radiance rendered: interreflections included\n"
     "\n"
     "options:\n"

@@ -26,7 +26,7 @@ void esr_finetune_default_opts(struct esr_finetune_opts *o)
     o->rays = 512;
     o->points = 1024;
     o->dirs = 4;
-    o->light_spp = 48;
+    o->light_spp = 32;
     o->lr_feat = 0.06f;
     o->lr_mlp = 3e-3f;
     o->lr_final = 0.1f;
