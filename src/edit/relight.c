@@ -134,11 +134,9 @@ ESR_HOT static void direct_light(const struct esr_relight *r, const struct esr_m
                 esr_brdf_eval(&mat, n, wo, wi, R);
                 if (R[0] + R[1] + R[2] <= 0.0f)
                     continue; /* below the surface */
-                const float wi3[3] = {wi.x, wi.y, wi.z};
-                float t_hit;
-                if (esr_first_hit_ray(&r->shadow_grid, &r->shadow_params, o3, wi3, 0.0f,
-                                      dist - SHADOW_STOP_VOX * h, &t_hit) &
-                    ESR_FIRST_HIT_HIT)
+                const struct esr_vec3 end = esr_v3_add(o, esr_v3_scale(wi, dist - SHADOW_STOP_VOX * h));
+                const float end3[3] = {end.x, end.y, end.z};
+                if (esr_first_hit_segment_blocked(&r->shadow_grid, &r->shadow_params, o3, end3))
                     continue; /* occluded */
                 const struct esr_vec3 ny = esr_v3(ls->nrm3[q * 3], ls->nrm3[q * 3 + 1], ls->nrm3[q * 3 + 2]);
                 const float g = fabsf(esr_v3_dot(ny, wi)) * ls->area[q] * (float)ls->n /

@@ -20,12 +20,15 @@
 extern "C" {
 #endif
 
+/* outgoing directions per point at most (the LTS points' two: the camera's and one more) */
+#define ESR_DIRECT_MAX_WO 2
+
 struct esr_direct_points {
     size_t n;
     const float *pos3, *nrm3; /* [n*3] surface points and their unit normals */
     const float *brdf5;       /* [n*ESR_BRDF_CHANNELS] their BRDF rows (material fields) */
     const float *wo3;         /* [n*n_wo*3] unit outgoing directions, away from the surface */
-    int n_wo;
+    int n_wo;                 /* 1..ESR_DIRECT_MAX_WO */
 };
 
 /* out[((p * n_wo + o) * ESR_MAX_LIGHTS + K) * 3 + c] = D_K (per channel) for the n_lights lights
