@@ -810,6 +810,66 @@ static void test_ratio_edits(void **state)
     pdra_view_close(&v);
 }
 
+/* A fine-tuned model's view through the editor (edit/relight.h, the model mode): where no light
+ * is seen, the fine-tuned lights-on render bit for bit; where a light is seen, the lights-off
+ * radiance plus the light's edited emission plus the lights' direct light, which is never
+ * negative and, with every light at twice its strength, lights some of those pixels. */
+static void test_finetune_view(void **state)
+{
+    (void)state;
+    struct pdra_view v;
+    pdra_view_open(&v);
+    struct esr_model *m = &v.m;
+    const size_t px = v.px, n = px * 3;
+    struct esr_finetune_opts o;
+    esr_finetune_default_opts(&o);
+    o.iters = 20;
+    o.rays = 128;
+    o.points = 256;
+    o.light_spp = 4;
+    struct esr_editor ed;
+    if (esr_editor_init(&ed, m, &v.ds, ESR_EDIT_FINETUNE, 8, &o) != ESR_OK)
+        fail_msg("%s", esr_error_message());
+    struct esr_light_edit e[ESR_MAX_LIGHTS];
+    for (int k = 0; k < ESR_MAX_LIGHTS; k++)
+        e[k] = (struct esr_light_edit){2.0f, 0, 0.0f, 0.0f};
+    assert_int_equal(esr_editor_set(&ed, e, 5), ESR_OK);
+    struct esr_image img;
+    assert_int_equal(esr_editor_view(&ed, v.cam, 3, &img), ESR_OK);
+    float *o3 = malloc(n * sizeof(float)), *d3 = malloc(n * sizeof(float));
+    float *on = malloc(n * sizeof(float)), *off = malloc(n * sizeof(float));
+    float *lit = malloc(n * sizeof(float));
+    assert_true(o3 && d3 && on && off && lit);
+    esr_camera_pixel_rays(v.cam, o3, d3);
+    struct esr_render_out ro = {.linear = on, .lights_emitted_only = 1};
+    assert_int_equal(esr_model_render_rays(m, o3, d3, px, 1, &ro), ESR_OK);
+    struct esr_render_out rf = {.linear = off, .emitted_lights = lit};
+    assert_int_equal(esr_model_render_rays(m, o3, d3, px, 0, &rf), ESR_OK);
+    size_t seen = 0, on_light = 0, lit_up = 0;
+    for (size_t p = 0; p < px; p++) {
+        if (v.ids[p] < 0) {
+            assert_memory_equal(img.data + p * 3, on + p * 3, 3 * sizeof(float));
+            seen++;
+            continue;
+        }
+        on_light++;
+        int up = 0;
+        for (int c = 0; c < 3; c++) {
+            const float base = off[p * 3 + c] + lit[p * 3 + c];
+            assert_true(img.data[p * 3 + c] >= base - 1e-5f * (1.0f + fabsf(base)));
+            up |= img.data[p * 3 + c] > base + 1e-4f;
+        }
+        lit_up += up;
+    }
+    print_message("finetune view: %zu pixels see no light (the fine-tuned render), %zu see one, "
+                  "%zu of them lit by the lights\n", seen, on_light, lit_up);
+    assert_true(seen > 0 && on_light > 0 && lit_up > 0);
+    free(o3), free(d3), free(on), free(off), free(lit);
+    esr_image_free(&img);
+    esr_editor_free(&ed);
+    pdra_view_close(&v);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -823,6 +883,7 @@ int main(void)
         cmocka_unit_test(test_pdra_finds_lights),
         cmocka_unit_test(test_finetune_edits),
         cmocka_unit_test(test_finetune_start),
+        cmocka_unit_test(test_finetune_view),
         cmocka_unit_test(test_render_other_lighting),
         cmocka_unit_test(test_render_lights_emitted_only),
         cmocka_unit_test(test_ratio_edits),

@@ -277,7 +277,7 @@ static int relight_timing(const char *run, const struct esr_model *m, const stru
         edits[k] = (struct esr_light_edit){1.0f, 0, 0.0f, 0.0f};
     const int spp = 8, reps = 3;
     const double t_init = omp_get_wtime();
-    ESR_TRY(esr_relight_init(&rl, m, spp, ratio));
+    ESR_TRY(esr_relight_init(&rl, m, spp, ratio ? ESR_RELIGHT_RATIO : ESR_RELIGHT_DIRECT));
     const double init_s = omp_get_wtime() - t_init;
     double secs = 0.0;
     int rc = ESR_OK;

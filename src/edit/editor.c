@@ -1,8 +1,6 @@
 /* The relighting methods behind one interface (see editor.h). */
 #include "edit/editor.h"
 
-#include <stdio.h>
-#include <stdlib.h>
 #include <string.h>
 
 #include "core/error.h"
@@ -31,18 +29,25 @@ int esr_editor_init(struct esr_editor *e, struct esr_model *m, const struct esr_
     memset(e, 0, sizeof(*e));
     e->method = method;
     e->m = m;
+    const enum esr_relight_mode mode = method == ESR_EDIT_FINETUNE ? ESR_RELIGHT_MODEL
+                                       : method == ESR_EDIT_RATIO  ? ESR_RELIGHT_RATIO
+                                                                   : ESR_RELIGHT_DIRECT;
+    /* before any fine-tune: the lights' samples carry the emission as trained */
+    ESR_TRY(esr_relight_init(&e->direct, m, spp, mode));
     if (method != ESR_EDIT_FINETUNE)
-        return esr_relight_init(&e->direct, m, spp, method == ESR_EDIT_RATIO);
+        return ESR_OK;
     struct esr_finetune_opts defaults;
     esr_finetune_default_opts(&defaults);
-    return esr_finetune_init(&e->ft, m, ds, ft ? ft : &defaults);
+    int rc = esr_finetune_init(&e->ft, m, ds, ft ? ft : &defaults);
+    if (rc != ESR_OK)
+        esr_relight_free(&e->direct);
+    return rc;
 }
 
 void esr_editor_free(struct esr_editor *e)
 {
-    if (e->method != ESR_EDIT_FINETUNE) {
-        esr_relight_free(&e->direct);
-    } else if (e->m) {
+    esr_relight_free(&e->direct);
+    if (e->method == ESR_EDIT_FINETUNE && e->m) {
         esr_finetune_restore(&e->ft, e->m);
         esr_finetune_free(&e->ft);
     }
@@ -68,22 +73,8 @@ int esr_editor_view(struct esr_editor *e, const struct esr_camera *cam, uint64_t
 {
     if (!e->has_edit)
         return ESR_FAIL("edit: no edit set before rendering");
-    if (e->method != ESR_EDIT_FINETUNE)
-        return esr_relight_view(&e->direct, e->m, e->edits, cam, seed, out);
-    /* the fine-tuned model's lights-on radiance; at the samples on a light, the lights-off
-     * radiance plus the light's edited emission (the model's lights carry the edit): L_emo on a
-     * light is the saturated emitter, which fine-tuning does not train (train/lts.c) */
-    const size_t n = (size_t)cam->width * (size_t)cam->height;
-    ESR_TRY(esr_image_alloc(out, cam->width, cam->height, 3));
-    float *o = malloc(n * 3 * sizeof(float)), *d = malloc(n * 3 * sizeof(float));
-    int rc = o && d ? ESR_OK : ESR_FAIL("edit: out of memory for a %zu-pixel view", n);
-    if (rc == ESR_OK) {
-        esr_camera_pixel_rays(cam, o, d);
-        struct esr_render_out r = {.linear = out->data, .lights_emitted_only = 1};
-        rc = esr_model_render_rays(e->m, o, d, n, 1, &r);
-    }
-    free(o), free(d);
-    if (rc != ESR_OK)
-        esr_image_free(out);
-    return rc;
+    /* finetune: the fine-tuned model's lights-on radiance, each sample on a light as the
+     * lights-off radiance plus the light's edited emission, and where a pixel sees a light the
+     * edited lights' direct light (edit/relight.h, the model mode) */
+    return esr_relight_view(&e->direct, e->m, e->edits, cam, seed, out);
 }

@@ -1,7 +1,8 @@
 /* One entry point for the relighting methods: set an edit of the lights, then render views of
  * the edited scene. `direct` and `ratio` (edit/relight.h) render any edit straight away; `finetune`
  * (edit/finetune.h) fine-tunes L_emo once per distinct edit (setting the edit the model already
- * shows costs nothing) and renders the lights-on radiance of the fine-tuned model. */
+ * shows costs nothing) and renders the lights-on radiance of the fine-tuned model, with the
+ * direct light where a pixel sees a light (edit/relight.h, the model mode). */
 #ifndef ESR_EDIT_EDITOR_H
 #define ESR_EDIT_EDITOR_H
 
@@ -27,7 +28,7 @@ int esr_edit_method_from_name(const char *name, enum esr_edit_method *out);
 struct esr_editor {
     enum esr_edit_method method;
     struct esr_model *m;
-    struct esr_relight direct;   /* direct and ratio */
+    struct esr_relight direct;   /* renders every method's views */
     struct esr_finetune ft;
     struct esr_light_edit edits[ESR_MAX_LIGHTS]; /* the current edit */
     int has_edit;

@@ -29,10 +29,11 @@
 /* ratio method: the share of the view's mean direct light added to each pixel's (edit/relight.h) */
 #define RATIO_FLOOR 0.1
 
-int esr_relight_init(struct esr_relight *r, const struct esr_model *m, int spp, int ratio)
+int esr_relight_init(struct esr_relight *r, const struct esr_model *m, int spp,
+                     enum esr_relight_mode mode)
 {
     memset(r, 0, sizeof(*r));
-    r->ratio = ratio;
+    r->mode = mode;
     if (m->lights.n == 0)
         return ESR_FAIL("relight: the model has no lights (the pdra stage finds them; run `esr "
                         "lights RUN --recompute` for an older checkpoint)");
@@ -69,7 +70,7 @@ void esr_relight_free(struct esr_relight *r)
 
 /* Per-pixel buffers of one view. */
 struct view_buf {
-    float *o3, *d3, *lin3, *on3, *opac, *depth, *nrm3, *mat5, *emit3; /* on3: ratio only */
+    float *o3, *d3, *lin3, *on3, *opac, *depth, *nrm3, *mat5, *emit3; /* on3: not in direct */
     int32_t *ids;
 };
 
@@ -84,8 +85,14 @@ static void view_buf_free(struct view_buf *b)
  * ratio method also needs the light as found. */
 static int lights_up(const struct esr_relight *r, const struct esr_light_edit *edits, int k)
 {
-    return (edits[k].intensity > 0.0f || r->ratio) && r->samples[k].n > 0 &&
+    return (edits[k].intensity > 0.0f || r->mode == ESR_RELIGHT_RATIO) && r->samples[k].n > 0 &&
            r->samples[k].max_emit > 0.0f;
+}
+
+/* Whether pixel p gets the direct light: a surface, and in the model mode one that sees a light. */
+static int lit_pixel(const struct esr_relight *r, const struct view_buf *b, size_t p)
+{
+    return b->opac[p] > SURFACE_OPACITY && (r->mode != ESR_RELIGHT_MODEL || b->ids[p] >= 0);
 }
 
 /* The direct light at every surface pixel into edited3 (with the edited emission) and found3
@@ -103,7 +110,7 @@ ESR_HOT static void direct_light(const struct esr_relight *r, const struct esr_m
     for (size_t p = 0; p < n_px; p++) {
         const float a = b->opac[p];
         struct esr_vec3 n = esr_v3(b->nrm3[p * 3], b->nrm3[p * 3 + 1], b->nrm3[p * 3 + 2]);
-        if (a <= SURFACE_OPACITY || esr_v3_length(n) < 1e-6f)
+        if (!lit_pixel(r, b, p) || esr_v3_length(n) < 1e-6f)
             continue;
         n = esr_v3_normalize(n);
         struct esr_vec3 d = esr_v3(b->d3[p * 3], b->d3[p * 3 + 1], b->d3[p * 3 + 2]);
@@ -157,7 +164,8 @@ ESR_HOT static void direct_light(const struct esr_relight *r, const struct esr_m
  * over a (2 DENOISE_R + 1)^2 window of surface pixels, weighted by depth (DENOISE_DEPTH_VOX
  * voxels) and normal agreement (cos^DENOISE_NPOW), on the light divided by the base colour so the
  * texture is not blurred, then multiplied back. */
-static int denoise_direct(const struct view_buf *b, int w, int h, float vox, float *direct)
+static int denoise_direct(const struct esr_relight *r, const struct view_buf *b, int w, int h,
+                          float vox, float *direct)
 {
     const size_t n = (size_t)w * (size_t)h;
     float *demod = malloc(n * 3 * sizeof(float)), *nrm = malloc(n * 3 * sizeof(float));
@@ -181,7 +189,7 @@ static int denoise_direct(const struct view_buf *b, int w, int h, float vox, flo
     for (int y = 0; y < h; y++)
         for (int x = 0; x < w; x++) {
             const size_t p = (size_t)y * (size_t)w + (size_t)x;
-            if (b->opac[p] <= SURFACE_OPACITY)
+            if (!lit_pixel(r, b, p))
                 continue;
             double sum[3] = {0, 0, 0}, wsum = 0.0;
             for (int dy = -DENOISE_R; dy <= DENOISE_R; dy++)
@@ -190,7 +198,7 @@ static int denoise_direct(const struct view_buf *b, int w, int h, float vox, flo
                     if (u < 0 || v < 0 || u >= w || v >= h)
                         continue;
                     const size_t q = (size_t)v * (size_t)w + (size_t)u;
-                    if (b->opac[q] <= SURFACE_OPACITY)
+                    if (!lit_pixel(r, b, q))
                         continue;
                     const float dd = b->depth[q] - b->depth[p];
                     const float cn = nrm[p * 3] * nrm[q * 3] + nrm[p * 3 + 1] * nrm[q * 3 + 1] +
@@ -262,14 +270,15 @@ int esr_relight_view(const struct esr_relight *r, const struct esr_model *m,
     b.o3 = malloc(n * 3 * sizeof(float));
     b.d3 = malloc(n * 3 * sizeof(float));
     b.lin3 = malloc(n * 3 * sizeof(float));
-    b.on3 = r->ratio ? malloc(n * 3 * sizeof(float)) : NULL;
+    const int ratio = r->mode == ESR_RELIGHT_RATIO, with_on = r->mode != ESR_RELIGHT_DIRECT;
+    b.on3 = with_on ? malloc(n * 3 * sizeof(float)) : NULL;
     b.opac = malloc(n * sizeof(float));
     b.depth = malloc(n * sizeof(float));
     b.nrm3 = malloc(n * 3 * sizeof(float));
     b.mat5 = malloc(n * 5 * sizeof(float));
     b.emit3 = malloc(n * 3 * sizeof(float));
     b.ids = malloc(n * sizeof(int32_t));
-    int rc = b.o3 && b.d3 && b.lin3 && (b.on3 || !r->ratio) && b.opac && b.depth && b.nrm3 && b.mat5 && b.emit3 && b.ids
+    int rc = b.o3 && b.d3 && b.lin3 && (b.on3 || !with_on) && b.opac && b.depth && b.nrm3 && b.mat5 && b.emit3 && b.ids
                  ? ESR_OK
                  : ESR_FAIL("relight: out of memory for a %dx%d view", cam->width, cam->height);
     /* m with the edit in place: each sample on a light composites its light's edited emission,
@@ -284,7 +293,8 @@ int esr_relight_view(const struct esr_relight *r, const struct esr_model *m,
         esr_camera_pixel_rays(cam, b.o3, b.d3);
         struct esr_render_out o = {.linear = b.lin3, .depth = b.depth, .opacity = b.opac,
                                    .emitted_lights = b.emit3, .material = b.mat5, .light_id = b.ids,
-                                   .linear_other = b.on3};
+                                   .linear_other = b.on3,
+                                   .lights_emitted_only = r->mode == ESR_RELIGHT_MODEL};
         rc = esr_model_render_rays(edited, b.o3, b.d3, n, 0, &o);
     }
     free(edited);
@@ -311,18 +321,23 @@ int esr_relight_view(const struct esr_relight *r, const struct esr_model *m,
         for (size_t i = 0; i < n * 3; i++)
             out->data[i] = b.lin3[i] + b.emit3[i];
         float *direct = calloc(n * 3, sizeof(float));
-        float *found = r->ratio ? calloc(n * 3, sizeof(float)) : NULL;
-        if (!direct || (r->ratio && !found))
+        float *found = ratio ? calloc(n * 3, sizeof(float)) : NULL;
+        if (!direct || (ratio && !found))
             rc = ESR_FAIL("relight: out of memory for the direct light");
         const float vox = esr_grid_voxel_size(esr_model_grid(m, ESR_COMP_SDF), 0);
         if (rc == ESR_OK)
             direct_light(r, m, edits, &b, n, seed, direct, found);
         if (rc == ESR_OK)
-            rc = denoise_direct(&b, cam->width, cam->height, vox, direct);
+            rc = denoise_direct(r, &b, cam->width, cam->height, vox, direct);
         if (rc == ESR_OK && found)
-            rc = denoise_direct(&b, cam->width, cam->height, vox, found);
+            rc = denoise_direct(r, &b, cam->width, cam->height, vox, found);
         if (rc == ESR_OK && found)
             transfer_ratio(&b, direct, found, n, out->data);
+        else if (rc == ESR_OK && r->mode == ESR_RELIGHT_MODEL)
+            for (size_t p = 0; p < n; p++)
+                for (int c = 0; c < 3; c++)
+                    out->data[p * 3 + c] = b.ids[p] >= 0 ? out->data[p * 3 + c] + direct[p * 3 + c]
+                                                         : b.on3[p * 3 + c];
         else if (rc == ESR_OK)
             for (size_t p = 0; p < n; p++)
                 for (int c = 0; c < 3; c++)

@@ -21,7 +21,14 @@
  * f = 0.1. Unedited it
  * is the model's own lights-on render; the strength calibration's error cancels in the ratio
  * (only the lights' relative strengths matter), and light after bounces follows the edit as
- * the direct light at the pixel does. A pixel that sees a light renders as in direct. */
+ * the direct light at the pixel does. A pixel that sees a light renders as in direct.
+ *
+ * The model mode is how a fine-tuned model (edit/finetune.h) is rendered: the model's own
+ * lights-on radiance (each sample on a light as the lights-off radiance plus its light's edited
+ * emission), and a pixel that sees a light as in direct. Fine-tuning leaves the points on a light
+ * out (their L_emo is the saturated emitter), so without the direct light a light's surface
+ * would show none of the other lights' light: a blue lampshade under a yellow bulb at twice its
+ * strength is white in the truth where the bulb lights it. */
 #ifndef ESR_EDIT_RELIGHT_H
 #define ESR_EDIT_RELIGHT_H
 
@@ -37,19 +44,26 @@
 extern "C" {
 #endif
 
+enum esr_relight_mode {
+    ESR_RELIGHT_DIRECT, /* lights-off radiance + the edited lights' direct light */
+    ESR_RELIGHT_RATIO,  /* the model's reflected light times the edited over the found direct light */
+    ESR_RELIGHT_MODEL,  /* the model's lights-on radiance; direct where a pixel sees a light */
+};
+
 /* What a relight needs once per model: each light's surface samples, the smoothed SDF for
  * normals, the SDF prepared for shadow rays (its global bound: a pass over the grid). */
 struct esr_relight {
     int n_lights;
     struct esr_light_samples samples[ESR_MAX_LIGHTS];
     int spp;            /* light samples per pixel and light */
-    int ratio;          /* 1: the ratio method */
+    int mode;           /* enum esr_relight_mode */
     float *normal_sdf;  /* the smoothed SDF the normals come from (model/render_sdf.h), once */
     struct esr_first_hit_grid shadow_grid;      /* the SDF as shadow rays march it */
     struct esr_first_hit_params shadow_params;
 };
 
-int esr_relight_init(struct esr_relight *r, const struct esr_model *m, int spp, int ratio);
+int esr_relight_init(struct esr_relight *r, const struct esr_model *m, int spp,
+                     enum esr_relight_mode mode);
 void esr_relight_free(struct esr_relight *r);
 
 /* The edited view of cam: linear RGB on white into *out (allocated, 3 channels). edits has one

@@ -24,8 +24,8 @@
  *
  * Rays whose first sample (t_min clipped to the box) has f <= 0 "start inside". Mode REPORT (the
  * default) reports a hit at that t flagged STARTED_INSIDE, so a caller sees self-intersection
- * instead of a silently wrong distance (shadow rays start at a surface point offset along the
- * normal, where f > 0). Mode SKIP marches through the inside region (same safe step on |f|) and
+ * instead of a silently wrong distance (a shadow ray whose end lies inside a surface is
+ * blocked). Mode SKIP marches through the inside region (same safe step on |f|) and
  * returns the next entry into the surface after it, still flagged STARTED_INSIDE.
  *
  * Per-ray code is below as pure inline functions (C/C++ common subset, one thread per ray on a
