@@ -235,7 +235,7 @@ static int finetune_timing(struct esr_model *m, const struct esr_dataset *ds, cJ
     struct esr_finetune_opts o;
     esr_finetune_default_opts(&o);
     struct esr_editor ed;
-    ESR_TRY(esr_editor_init(&ed, m, ds, ESR_EDIT_FINETUNE, 1, &o));
+    ESR_TRY(esr_editor_init(&ed, m, ds, ESR_EDIT_FINETUNE, 8, &o)); /* 8: esr edit's --spp */
     struct esr_light_edit half[ESR_MAX_LIGHTS];
     for (int k = 0; k < ESR_MAX_LIGHTS; k++)
         half[k] = (struct esr_light_edit){0.5f, 0, 0.0f, 0.0f};

@@ -52,8 +52,8 @@ const struct esr_command cmd_eval = {
     "  --rerender       render every selected frame again\n"
     "  --method M       edit phases: direct (default), ratio (edit/relight.h) or finetune (one\n"
     "                   radiance fine-tune per distinct edit of the phase, edit/finetune.h)\n"
-    "  --spp N          edit phases, direct and ratio: light samples per pixel and light\n"
-    "                   (default 8)\n"
+    "  --spp N          edit phases: light samples per pixel and light (default 8; finetune:\n"
+    "                   on the lights' pixels)\n"
     "  --iters N        edit phases, finetune: steps per fine-tune (default 300)\n"
     "  -h, --help       this text\n",
     run_eval,
