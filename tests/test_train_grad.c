@@ -360,6 +360,62 @@ static void test_lts_volume_gradients(void **state)
     check_lts_gradients(ESR_LTS_VOLUME);
 }
 
+/* The fine-tune's direct-light hook for the edit test: fixed values per point and outgoing
+ * direction (the edited light brighter and bluer than the found one), whatever the weights. */
+static int fixed_direct(void *user, const struct esr_lts *l, size_t P,
+                        const struct esr_light_edit *edits, float *direct3, float *found3)
+{
+    (void)user, (void)l, (void)edits;
+    for (size_t i = 0; i < P * 2; i++)
+        for (int c = 0; c < 3; c++) {
+            found3[i * 3 + c] = 0.2f + 0.05f * (float)c + 0.02f * (float)(i % 3);
+            direct3[i * 3 + c] = found3[i * 3 + c] * (3.0f + 1.5f * (float)c);
+        }
+    return ESR_OK;
+}
+
+/* Radiance fine-tuning's edit loss (train/lts.c point_loss_edit): the points' L_emo towards the
+ * trained model's L_emo times the ratio of the edited and found transport estimates, each
+ * channel's squared error weighted by the sRGB slope at the target. Its target and weights are
+ * held (stop-gradient), so the fixture makes them constants of the tuned components: the sphere
+ * alone (every secondary ray escapes, so no reflected L_emo enters the ratio), a direct-light hook
+ * with fixed values, the trained model a copy of the weights, and lights-off primary rays (the
+ * rendering loss does not read L_emo); then the emo grid and MLP, all that fine-tuning trains,
+ * must match finite differences entry by entry. */
+static void test_finetune_edit_gradients(void **state)
+{
+    (void)state;
+    struct fixture fx;
+    const uint8_t lights[N_RAYS] = {0, 0};
+    setup_stage(&fx, ESR_STAGE_LTS, lights, ESR_LTS_FIRST_HIT);
+    struct esr_model trained = fx.m;
+    float *trained_w = malloc(fx.m.params.count * sizeof(float));
+    assert_non_null(trained_w);
+    memcpy(trained_w, fx.m.params.w, fx.m.params.count * sizeof(float));
+    trained.params.w = trained_w;
+    /* the model moves off the trained one, so the error is not the ratio's alone */
+    test_randomise(&fx.m, ESR_COMP_EMO_FEAT, 0.3f, 41);
+    struct esr_light_edit edits[ESR_MAX_LIGHTS];
+    for (int k = 0; k < ESR_MAX_LIGHTS; k++)
+        edits[k] = (struct esr_light_edit){2.0f, 0, 0.0f, 0.0f};
+    fx.st.lts.edit = edits;
+    fx.st.lts.edit_ref = &trained;
+    fx.st.lts.edit_direct = fixed_direct;
+    analytic_gradient(&fx);
+    const struct esr_lts_stats *ls = &fx.st.lts_stats;
+    print_message("finetune edit loss: %zu points, %zu secondary rays, %zu hits, weighted mse "
+                  "emo %.4g; largest gradient: emo grid %.3g, emo MLP %.3g\n", ls->points,
+                  ls->secondary, ls->hits, ls->mse_emo, max_abs(&fx, ESR_COMP_EMO_FEAT),
+                  max_abs(&fx, ESR_COMP_EMO_MLP));
+    assert_true(ls->points > 0 && ls->hits == 0 && ls->mse_emo > 0.0);
+    assert_true(max_abs(&fx, ESR_COMP_EMO_MLP) > 1e-3);
+    check_component(&fx, ESR_COMP_EMO_FEAT, eps_of(ESR_COMP_EMO_FEAT));
+    check_component(&fx, ESR_COMP_EMO_MLP, eps_of(ESR_COMP_EMO_MLP));
+    fx.st.lts.edit = NULL; /* the lts frees its reference fields; the copy is ours */
+    teardown(&fx);
+    free(trained_w);
+}
+
 /* The pdra stage: the lts terms with ray groups (one certain ray whose LTS points drop E and
  * whose composited E is suppressed, one uncertain ray) — every component but the SDF (as lts). */
 static void test_pdra_gradients(void **state)
@@ -557,6 +613,7 @@ int main(void)
         cmocka_unit_test(test_background_gradients),
         cmocka_unit_test(test_lts_gradients),
         cmocka_unit_test(test_lts_volume_gradients),
+        cmocka_unit_test(test_finetune_edit_gradients),
         cmocka_unit_test(test_pdra_gradients),
         cmocka_unit_test(test_pdra_regulariser_gradients),
         cmocka_unit_test(test_normal_smoothness_gradient),
