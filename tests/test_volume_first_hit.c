@@ -91,6 +91,17 @@ static struct shape sphere(float cx, float cy, float cz, float r)
     return s;
 }
 
+/* Two spheres centred in the plane z = 0: (ax, 0) radius ar and (bx, by) radius br. */
+static struct shape two_spheres(float ax, float ar, float bx, float by, float br)
+{
+    struct shape s = sphere(ax, 0.0f, 0.0f, ar);
+    s.kind = 4;
+    s.c2[0] = bx;
+    s.c2[1] = by;
+    s.r2 = br;
+    return s;
+}
+
 /* Fills a RES^3 grid on [-1, 1]^3 from the analytic SDF at the lattice points. */
 static float *make_grid(struct esr_grid *g, const struct shape *s)
 {
@@ -503,14 +514,7 @@ static void test_grazing(void **state)
 static void test_inside_and_shadow_rays(void **state)
 {
     (void)state;
-    struct shape s;
-    memset(&s, 0, sizeof(s));
-    s.kind = 4;
-    s.c[0] = -0.45f;
-    s.r = 0.3f;
-    s.c2[0] = 0.45f;
-    s.r2 = 0.3f;
-    s.scale = 1.0f;
+    const struct shape s = two_spheres(-0.45f, 0.3f, 0.45f, 0.0f, 0.3f);
     struct esr_grid g;
     float *v = make_grid(&g, &s);
     struct esr_first_hit_params p;
@@ -613,15 +617,7 @@ static float segment_distance(const float c[3], const float a[3], const float b[
 static void test_segment_blocked(void **state)
 {
     (void)state;
-    struct shape s;
-    memset(&s, 0, sizeof(s));
-    s.kind = 4;
-    s.c[0] = -0.4f;
-    s.r = 0.3f;
-    s.c2[0] = 0.4f;
-    s.c2[1] = 0.2f;
-    s.r2 = 0.25f;
-    s.scale = 1.0f;
+    const struct shape s = two_spheres(-0.4f, 0.3f, 0.4f, 0.2f, 0.25f);
     struct esr_grid g;
     float *v = make_grid(&g, &s);
     struct esr_first_hit_params p;
