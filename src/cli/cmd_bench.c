@@ -279,14 +279,18 @@ static int relight_timing(const char *run, const struct esr_model *m, const stru
     const double t_init = omp_get_wtime();
     ESR_TRY(esr_relight_init(&rl, m, spp, ratio ? ESR_RELIGHT_RATIO : ESR_RELIGHT_DIRECT));
     const double init_s = omp_get_wtime() - t_init;
-    double secs = 0.0;
+    double secs = 0.0, direct_s = 0.0, shadow_rays = 0.0;
     int rc = ESR_OK;
     for (int i = 0; rc == ESR_OK && i <= reps; i++) {
         struct esr_image img;
+        struct esr_relight_stats st;
         const double t0 = omp_get_wtime();
-        rc = esr_relight_view(&rl, m, edits, c, (uint64_t)i, &img);
-        if (i > 0) /* the first view warms up */
+        rc = esr_relight_view(&rl, m, edits, c, (uint64_t)i, &img, &st);
+        if (i > 0) { /* the first view warms up */
             secs += omp_get_wtime() - t0;
+            direct_s += st.direct_seconds;
+            shadow_rays += (double)st.shadow_rays;
+        }
         esr_image_free(&img);
     }
     esr_relight_free(&rl);
@@ -302,9 +306,14 @@ static int relight_timing(const char *run, const struct esr_model *m, const stru
     cJSON_AddNumberToObject(j, "spp", spp);
     cJSON_AddNumberToObject(j, "seconds_per_view", secs / reps);
     cJSON_AddNumberToObject(j, "setup_seconds", init_s);
+    cJSON_AddNumberToObject(j, "shadow_rays_per_view", shadow_rays / reps);
+    cJSON_AddNumberToObject(j, "direct_light_seconds_per_view", direct_s / reps);
+    cJSON_AddNumberToObject(j, "shadow_rays_per_s", direct_s > 0 ? shadow_rays / direct_s : 0.0);
     printf("\n%s relight (%s): %dx%d view, %d lights, %d light samples per pixel: %.3f s per view "
-           "(setup %.2f s once)\n",
-           name, run, c->width, c->height, m->lights.n, spp, secs / reps, init_s);
+           "(setup %.2f s once); its direct light %.3f s: %.0fk shadow rays, %.0fk per s with "
+           "sampling and BRDF\n",
+           name, run, c->width, c->height, m->lights.n, spp, secs / reps, init_s, direct_s / reps,
+           shadow_rays / reps / 1e3, direct_s > 0 ? shadow_rays / direct_s / 1e3 : 0.0);
     return ESR_OK;
 }
 

@@ -76,5 +76,5 @@ int esr_editor_view(struct esr_editor *e, const struct esr_camera *cam, uint64_t
     /* finetune: the fine-tuned model's lights-on radiance, each sample on a light as the
      * lights-off radiance plus the light's edited emission, and where a pixel sees a light the
      * edited lights' direct light (edit/relight.h, the model mode) */
-    return esr_relight_view(&e->direct, e->m, e->edits, cam, seed, out);
+    return esr_relight_view(&e->direct, e->m, e->edits, cam, seed, out, NULL);
 }

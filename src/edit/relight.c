@@ -2,6 +2,7 @@
 #include "edit/relight.h"
 
 #include <math.h>
+#include <omp.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -95,18 +96,19 @@ static int lit_pixel(const struct esr_relight *r, const struct view_buf *b, size
     return b->opac[p] > SURFACE_OPACITY && (r->mode != ESR_RELIGHT_MODEL || b->ids[p] >= 0);
 }
 
-/* The direct light at every surface pixel into edited3 (with the edited emission) and found3
- * (with the emission as found; the ratio method's, else NULL), both zeroed by the caller: spp
- * area samples per light, each with its shadow ray traced on the spot. A pixel's samples draw
- * from their own stream and add in a fixed order, so the result does not depend on the schedule;
- * nothing is allocated (a view's ~600k shadow rays kept in arrays cost more in page faults than
- * in marching). */
-ESR_HOT static void direct_light(const struct esr_relight *r, const struct esr_model *m,
-                                 const struct esr_light_edit *edits, const struct view_buf *b,
-                                 size_t n_px, uint64_t seed, float *edited3, float *found3)
+/* The direct light at every lit pixel (lit_pixel) into edited3 (with the edited emission) and
+ * found3 (with the emission as found; the ratio method's, else NULL), both zeroed by the caller:
+ * spp area samples per light, each with its shadow ray traced on the spot; returns how many
+ * shadow rays were traced. A pixel's samples draw from their own stream and add in a fixed
+ * order, so the result does not depend on the schedule; nothing is allocated (a view's ~600k
+ * shadow rays kept in arrays cost more in page faults than in marching). */
+ESR_HOT static size_t direct_light(const struct esr_relight *r, const struct esr_model *m,
+                                   const struct esr_light_edit *edits, const struct view_buf *b,
+                                   size_t n_px, uint64_t seed, float *edited3, float *found3)
 {
     const float h = esr_grid_voxel_size(esr_model_grid(m, ESR_COMP_SDF), 0);
-#pragma omp parallel for schedule(dynamic, 16)
+    size_t traced = 0;
+#pragma omp parallel for schedule(dynamic, 16) reduction(+ : traced)
     for (size_t p = 0; p < n_px; p++) {
         const float a = b->opac[p];
         struct esr_vec3 n = esr_v3(b->nrm3[p * 3], b->nrm3[p * 3 + 1], b->nrm3[p * 3 + 2]);
@@ -143,6 +145,7 @@ ESR_HOT static void direct_light(const struct esr_relight *r, const struct esr_m
                     continue; /* below the surface */
                 const struct esr_vec3 end = esr_v3_add(o, esr_v3_scale(wi, dist - SHADOW_STOP_VOX * h));
                 const float end3[3] = {end.x, end.y, end.z};
+                traced++;
                 if (esr_first_hit_segment_blocked(&r->shadow_grid, &r->shadow_params, o3, end3))
                     continue; /* occluded */
                 const struct esr_vec3 ny = esr_v3(ls->nrm3[q * 3], ls->nrm3[q * 3 + 1], ls->nrm3[q * 3 + 2]);
@@ -158,6 +161,7 @@ ESR_HOT static void direct_light(const struct esr_relight *r, const struct esr_m
             }
         }
     }
+    return traced;
 }
 
 /* A joint bilateral filter on the direct light (a few light samples per pixel leave speckle):
@@ -262,9 +266,11 @@ static void transfer_ratio(const struct view_buf *b, const float *edited, const 
 
 int esr_relight_view(const struct esr_relight *r, const struct esr_model *m,
                      const struct esr_light_edit *edits, const struct esr_camera *cam,
-                     uint64_t seed, struct esr_image *out)
+                     uint64_t seed, struct esr_image *out, struct esr_relight_stats *stats)
 {
     memset(out, 0, sizeof(*out));
+    if (stats)
+        memset(stats, 0, sizeof(*stats));
     const size_t n = (size_t)cam->width * (size_t)cam->height;
     struct view_buf b;
     b.o3 = malloc(n * 3 * sizeof(float));
@@ -325,8 +331,14 @@ int esr_relight_view(const struct esr_relight *r, const struct esr_model *m,
         if (!direct || (ratio && !found))
             rc = ESR_FAIL("relight: out of memory for the direct light");
         const float vox = esr_grid_voxel_size(esr_model_grid(m, ESR_COMP_SDF), 0);
-        if (rc == ESR_OK)
-            direct_light(r, m, edits, &b, n, seed, direct, found);
+        if (rc == ESR_OK) {
+            const double t0 = omp_get_wtime();
+            const size_t traced = direct_light(r, m, edits, &b, n, seed, direct, found);
+            if (stats) {
+                stats->shadow_rays = traced;
+                stats->direct_seconds = omp_get_wtime() - t0;
+            }
+        }
         if (rc == ESR_OK)
             rc = denoise_direct(r, &b, cam->width, cam->height, vox, direct);
         if (rc == ESR_OK && found)

@@ -66,11 +66,17 @@ int esr_relight_init(struct esr_relight *r, const struct esr_model *m, int spp,
                      enum esr_relight_mode mode);
 void esr_relight_free(struct esr_relight *r);
 
+/* What a view's direct light cost (esr bench reports it). */
+struct esr_relight_stats {
+    size_t shadow_rays;    /* shadow rays traced */
+    double direct_seconds; /* the direct light's pass: sampling, shadow rays, BRDF */
+};
+
 /* The edited view of cam: linear RGB on white into *out (allocated, 3 channels). edits has one
- * entry per light of m. Deterministic in seed. */
+ * entry per light of m. Deterministic in seed. stats: NULL, or filled. */
 int esr_relight_view(const struct esr_relight *r, const struct esr_model *m,
                      const struct esr_light_edit *edits, const struct esr_camera *cam,
-                     uint64_t seed, struct esr_image *out);
+                     uint64_t seed, struct esr_image *out, struct esr_relight_stats *stats);
 
 #ifdef __cplusplus
 }
