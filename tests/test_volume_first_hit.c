@@ -621,10 +621,8 @@ static void test_segment_blocked(void **state)
     struct esr_grid g;
     float *v = make_grid(&g, &s);
     struct esr_first_hit_params p;
-    esr_first_hit_params_init(&p, &g);
-    p.refine_iters = 0;
     struct esr_first_hit_grid fg;
-    esr_first_hit_grid_prepare(&fg, &g, v, 1);
+    assert_int_equal(esr_first_hit_shadow_setup(&fg, &p, &g, v), ESR_OK);
     struct esr_rng rng = esr_rng_init(31, 0);
     int blocked = 0, clear = 0;
     for (int i = 0; i < 4000; i++) {

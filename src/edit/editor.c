@@ -33,20 +33,20 @@ int esr_editor_init(struct esr_editor *e, struct esr_model *m, const struct esr_
                                        : method == ESR_EDIT_RATIO  ? ESR_RELIGHT_RATIO
                                                                    : ESR_RELIGHT_DIRECT;
     /* before any fine-tune: the lights' samples carry the emission as trained */
-    ESR_TRY(esr_relight_init(&e->direct, m, spp, mode));
+    ESR_TRY(esr_relight_init(&e->relight, m, spp, mode));
     if (method != ESR_EDIT_FINETUNE)
         return ESR_OK;
     struct esr_finetune_opts defaults;
     esr_finetune_default_opts(&defaults);
     int rc = esr_finetune_init(&e->ft, m, ds, ft ? ft : &defaults);
     if (rc != ESR_OK)
-        esr_relight_free(&e->direct);
+        esr_relight_free(&e->relight);
     return rc;
 }
 
 void esr_editor_free(struct esr_editor *e)
 {
-    esr_relight_free(&e->direct);
+    esr_relight_free(&e->relight);
     if (e->method == ESR_EDIT_FINETUNE && e->m) {
         esr_finetune_restore(&e->ft, e->m);
         esr_finetune_free(&e->ft);
@@ -76,5 +76,5 @@ int esr_editor_view(struct esr_editor *e, const struct esr_camera *cam, uint64_t
     /* finetune: the fine-tuned model's lights-on radiance, each sample on a light as the
      * lights-off radiance plus the light's edited emission, and where a pixel sees a light the
      * edited lights' direct light (edit/relight.h, the model mode) */
-    return esr_relight_view(&e->direct, e->m, e->edits, cam, seed, out, NULL);
+    return esr_relight_view(&e->relight, e->m, e->edits, cam, seed, out, NULL);
 }

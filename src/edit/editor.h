@@ -28,7 +28,7 @@ int esr_edit_method_from_name(const char *name, enum esr_edit_method *out);
 struct esr_editor {
     enum esr_edit_method method;
     struct esr_model *m;
-    struct esr_relight direct;   /* renders every method's views */
+    struct esr_relight relight;  /* renders every method's views */
     struct esr_finetune ft;
     struct esr_light_edit edits[ESR_MAX_LIGHTS]; /* the current edit */
     int has_edit;

@@ -41,15 +41,12 @@ int esr_relight_init(struct esr_relight *r, const struct esr_model *m, int spp,
     if (spp < 1)
         return ESR_FAIL("relight: %d light samples per pixel (need at least 1)", spp);
     r->spp = spp;
+    ESR_TRY(esr_first_hit_shadow_setup(&r->shadow_grid, &r->shadow_params,
+                                       esr_model_grid(m, ESR_COMP_SDF),
+                                       esr_model_values(m, ESR_COMP_SDF)));
     int rc0 = esr_model_normal_sdf(m, &r->normal_sdf);
     if (rc0 != ESR_OK)
         return rc0;
-    /* shadow rays only ask whether anything is in the way: no refinement of the hit */
-    const struct esr_grid *g = esr_model_grid(m, ESR_COMP_SDF);
-    esr_first_hit_params_init(&r->shadow_params, g);
-    r->shadow_params.refine_iters = 0;
-    esr_first_hit_grid_prepare(&r->shadow_grid, g, esr_model_values(m, ESR_COMP_SDF),
-                               r->shadow_params.global_bound);
     for (int k = 0; k < m->lights.n; k++) {
         int rc = esr_light_samples_get(m, k, &r->samples[k]);
         if (rc != ESR_OK) {

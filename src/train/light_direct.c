@@ -23,20 +23,15 @@ ESR_HOT int esr_lights_direct(const struct esr_model *m, const struct esr_light_
     if (out_found)
         memset(out_found, 0, P * W * ESR_MAX_LIGHTS * 3 * sizeof(double));
     const struct esr_grid *g = esr_model_grid(m, ESR_COMP_SDF);
-    if (g->channels != 1)
-        return ESR_FAIL("lights: the SDF grid must have 1 channel, not %d", g->channels);
     if (pts->n_wo < 1 || pts->n_wo > ESR_DIRECT_MAX_WO)
         return ESR_FAIL("lights: %d outgoing directions per point (1 to %d)", pts->n_wo,
                         ESR_DIRECT_MAX_WO);
     const float h = esr_grid_voxel_size(g, 0);
     if (P * K * (size_t)spp == 0)
         return ESR_OK;
-    /* shadow rays only ask whether anything is in the way: no refinement of the hit */
     struct esr_first_hit_params hp;
-    esr_first_hit_params_init(&hp, g);
-    hp.refine_iters = 0;
     struct esr_first_hit_grid fg;
-    esr_first_hit_grid_prepare(&fg, g, esr_model_values(m, ESR_COMP_SDF), hp.global_bound);
+    ESR_TRY(esr_first_hit_shadow_setup(&fg, &hp, g, esr_model_values(m, ESR_COMP_SDF)));
     /* each shadow ray is traced where its sample is drawn; a point's sums run over its own
      * samples in a fixed order from its own stream: deterministic, nothing allocated */
 #pragma omp parallel for schedule(dynamic, 16)

@@ -50,6 +50,17 @@ void esr_first_hit_grid_prepare(struct esr_first_hit_grid *fg, const struct esr_
         global_bound(g, data, fg->gmax);
 }
 
+int esr_first_hit_shadow_setup(struct esr_first_hit_grid *fg, struct esr_first_hit_params *p,
+                               const struct esr_grid *g, const float *sdf)
+{
+    if (g->channels != 1)
+        return ESR_FAIL("shadow rays: the SDF grid must have 1 channel, not %d", g->channels);
+    esr_first_hit_params_init(p, g);
+    p->refine_iters = 0;
+    esr_first_hit_grid_prepare(fg, g, sdf, p->global_bound);
+    return ESR_OK;
+}
+
 ESR_HOT static void first_hit_batch(const struct esr_grid *g, const struct esr_first_hit_grid *fg,
                                     const struct esr_first_hit_params *p,
                                     const struct esr_first_hit_rays *rays,

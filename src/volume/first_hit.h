@@ -282,13 +282,19 @@ ESR_INLINE unsigned esr_first_hit_ray(const struct esr_first_hit_grid *fg,
     return t < t1 ? flags | ESR_FIRST_HIT_OUT_OF_STEPS : flags;
 }
 
+/* fg and p for shadow rays (esr_first_hit_segment_blocked) on the 1-channel grid g with values
+ * sdf: the defaults with no refinement of the hit (a shadow ray only asks whether anything is in
+ * the way), G computed once. Fails on a grid with channels != 1. */
+int esr_first_hit_shadow_setup(struct esr_first_hit_grid *fg, struct esr_first_hit_params *p,
+                               const struct esr_grid *g, const float *sdf);
+
 /* Whether the SDF has a surface on the segment from a (a lit point, already offset off its
  * surface) to b (a light sample, already pulled back off the light): a shadow ray. It is
  * marched from b towards a, because most blocked shadow rays are blocked by the light's own
  * body (samples on the far side of a lampshade, a bulb seen through its shade) within a few
  * voxels of b, while from a the march first runs across the scene hugging surfaces; on lamp's
  * shadow rays (85% blocked) that is a third of the probes. An end inside the surface counts as
- * blocked either way. p should have refine_iters 0: only the flag is used. */
+ * blocked either way. fg and p: from esr_first_hit_shadow_setup. */
 ESR_INLINE int esr_first_hit_segment_blocked(const struct esr_first_hit_grid *fg,
                                              const struct esr_first_hit_params *p,
                                              const float a[3], const float b[3])
