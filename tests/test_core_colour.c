@@ -114,6 +114,28 @@ static void test_srgb_gradient_matches_finite_difference(void **state)
     }
 }
 
+/* The image error scale is the encoding's slope at the radiance floored at 0.01 linear: values
+ * from the OETF's derivative written out here (1.055 / 2.4 x^(1/2.4 - 1)); constant below the
+ * floor, falling above it (a bright channel's error shows less). */
+static void test_image_error_scale(void **state)
+{
+    (void)state;
+    const double floor_slope = 1.055 / 2.4 * pow(0.01, 1 / 2.4 - 1); /* 6.452 */
+    const float below[] = {-1.0f, 0.0f, 0.002f, 0.0099f};
+    for (size_t i = 0; i < N_OF(below); i++)
+        assert_true(fabs(esr_image_error_scale(below[i]) - floor_slope) <= 1e-5 * floor_slope);
+    const float xs[] = {0.01f, 0.05f, 0.5f, 1.0f, 8.0f};
+    double prev = INFINITY;
+    for (size_t i = 0; i < N_OF(xs); i++) {
+        const double want = 1.055 / 2.4 * pow(xs[i], 1 / 2.4 - 1), got = esr_image_error_scale(xs[i]);
+        if (fabs(got - want) > 1e-5 * want)
+            fail_msg("x %g: %g, expected %g", (double)xs[i], got, want);
+        assert_true(got < prev);
+        prev = got;
+    }
+    assert_true(fabs(esr_image_error_scale(1.0f) - 1.055 / 2.4) <= 1e-6);
+}
+
 /* The decoding's gradient against a central difference of the sRGB EOTF written out in double. */
 static void test_srgb_decode_gradient_matches_finite_difference(void **state)
 {
@@ -282,6 +304,7 @@ int main(void)
         cmocka_unit_test(test_srgb_continuous_at_knee),
         cmocka_unit_test(test_srgb_gradient_matches_finite_difference),
         cmocka_unit_test(test_srgb_decode_gradient_matches_finite_difference),
+        cmocka_unit_test(test_image_error_scale),
         cmocka_unit_test(test_rgb_to_hsv_matches_colorsys),
         cmocka_unit_test(test_hsv_to_rgb_matches_colorsys),
         cmocka_unit_test(test_hsv_hue_wraps),

@@ -30,6 +30,11 @@ float esr_srgb_from_linear_grad(float linear)
     return (1.055f / 2.4f) * powf(linear, 1.0f / 2.4f - 1.0f);
 }
 
+float esr_image_error_scale(float linear)
+{
+    return esr_srgb_from_linear_grad(fmaxf(linear, ESR_IMAGE_ERROR_FLOOR));
+}
+
 void esr_rgb_to_hsv(const float rgb[3], float hsv[3])
 {
     float r = rgb[0], g = rgb[1], b = rgb[2];

@@ -12,6 +12,15 @@ float esr_linear_from_srgb_grad(float encoded);
 /* Derivative of esr_srgb_from_linear, for backward passes. */
 float esr_srgb_from_linear_grad(float linear);
 
+/* How much an error in linear radiance shows in an image: the sRGB curve's slope at `linear`,
+ * floored at ESR_IMAGE_ERROR_FLOOR linear (the slope is 12.92 at 0 and grows without bound
+ * just above it). A least-squares fit judged as images weights its squared errors by this
+ * squared: relighting is scored in sRGB, where a residual of 0.02 linear is 0.15 on a channel
+ * near 0 and next to nothing on one near 1. Used by the fine-tune's loss (train/lts.c) and the
+ * lights' strength calibration (train/lights.c). */
+#define ESR_IMAGE_ERROR_FLOOR 0.01f
+float esr_image_error_scale(float linear);
+
 /* RGB (linear, V unbounded) -> HSV with H, S in [0,1], V = max(R,G,B) (seed eqs. 10-13). */
 void esr_rgb_to_hsv(const float rgb[3], float hsv[3]);
 /* HSV -> RGB (seed eqs. 14-15); H is taken modulo 1. */

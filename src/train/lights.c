@@ -375,7 +375,8 @@ static int point_frame(const struct esr_lts *l, size_t p, struct esr_vec3 *n, st
     return esr_v3_dot(*n, *wo) > 0.0f;
 }
 
-/* Calibration rows, one per point and channel: y = L_emo - B ~ sum_K s_K A_K. */
+/* Calibration rows, one per point and channel: y = L_emo - B ~ sum_K s_K A_K, both sides times
+ * esr_image_error_scale at the point's lights-on radiance (train/lights.h says why). */
 struct calib_rows {
     size_t n, cap;  /* points */
     double *a;      /* [cap * 3 * K]: point p, channel c at (p * 3 + c) * K */
@@ -419,9 +420,10 @@ static void accumulate(const struct esr_model *m, const struct esr_lts *l, size_
         const float *lin = l->pf.lin3;
         for (int c = 0; c < 3; c++) {
             const size_t row = rows->n * 3 + (size_t)c;
-            rows->y[row] = (double)lin[(p * 4 + 1) * 3 + c] - lin[(p * 4) * 3 + c] - B[c];
+            const double w = esr_image_error_scale(L_on[c]); /* row weight: judged as images */
+            rows->y[row] = w * ((double)lin[(p * 4 + 1) * 3 + c] - lin[(p * 4) * 3 + c] - B[c]);
             for (int a = 0; a < K; a++)
-                rows->a[row * (size_t)K + (size_t)a] = A[a * 3 + c];
+                rows->a[row * (size_t)K + (size_t)a] = w * A[a * 3 + c];
         }
         rows->n++;
         for (int a = 0; a < K; a++)

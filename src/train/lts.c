@@ -28,12 +28,10 @@
 #define EDIT_EPS 1e-3f
 #define EDIT_FLOOR_SHARE 0.05f
 #define EDIT_MAX_RATIO 16.0f
-/* Fine-tuning's errors are weighted by the squared slope of the sRGB curve at the target's
- * lights-on radiance (L_off + target), that radiance floored here: edits are judged as images,
- * and a recolour to a saturated hue takes channels near 0, where a residual of 0.02 linear is
- * 0.15 in sRGB but weighs nothing in a linear MSE (a faint colour haze on the floor). Lamp
- * test_nvc, 6 frames of 2 edits: linear 29.92 dB, floor 0.05 30.40, 0.01 30.47, 0.003 30.47. */
-#define EDIT_TONE_FLOOR 0.01f
+/* Fine-tuning's errors are weighted by esr_image_error_scale squared at the target's lights-on
+ * radiance (L_off + target): edits are judged as images, and a recolour to a saturated hue takes
+ * channels near 0 (a faint colour haze on the floor in a linear MSE). Lamp test_nvc, 6 frames of
+ * 2 edits, by the radiance's floor: linear MSE 29.92 dB, 0.05 30.40, 0.01 30.47, 0.003 30.47. */
 
 void esr_lts_free(struct esr_lts *l)
 {
@@ -301,8 +299,8 @@ static void edit_floors(struct esr_lts *l, size_t P)
 }
 
 /* Fine-tuning's loss at point p (lts.h, edit): L_emo' towards sg(L_emo (D' + K L_emo') /
- * (D + K L_emo)) for both outgoing directions, each channel's squared error weighted by the sRGB
- * curve's slope squared (EDIT_TONE_FLOOR); only the points' L_emo' rows get a gradient. A
+ * (D + K L_emo)) for both outgoing directions, each channel's squared error weighted by
+ * esr_image_error_scale squared; only the points' L_emo' rows get a gradient. A
  * point on a light is left out: its trained L_emo is the saturated emitter, not a measured
  * reflection (the editor renders lights from their emission, edit/editor.h), and hits on lights
  * do not read it. */
@@ -331,8 +329,7 @@ static void point_loss_edit(struct esr_lts *l, const struct esr_lights *lights, 
                                           (fmaxf(was, 0.0f) + l->found_floor[c]),
                                       EDIT_MAX_RATIO);
             const float target = L_ref * ratio, e = L - target;
-            const float slope =
-                esr_srgb_from_linear_grad(fmaxf(lin[row_off * 3 + c] + target, EDIT_TONE_FLOOR));
+            const float slope = esr_image_error_scale(lin[row_off * 3 + c] + target);
             const float w = slope * slope;
             *se_emo += (double)(w * e * e);
             l->d_lin3[row_on * 3 + c] += 2.0f * scale * w * e;
