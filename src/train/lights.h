@@ -23,7 +23,7 @@
  * training cameras, per channel, each row weighted as an image would weigh its error (the sRGB
  * curve's slope at the point's lights-on radiance, core/colour.h esr_image_error_scale: a dim
  * floor far from the lights counts as much in a relit image as a bright one beside them; lamp's
- * lampshade 38% -> 21% off, the default scene's 84% -> 65%), with a small ridge towards 1 so
+ * lampshade 40% -> 23% off, the default scene's 88% -> 68%), with a small ridge towards 1 so
  * that a light no point sees keeps its field strength, and no scale below 0 (a light solved
  * negative is set to 0 and the others solved again), made robust by Huber reweighting (points
  * the BRDF cannot explain, a mirror's reflection, pull with a bounded force). A light under
