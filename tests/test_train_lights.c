@@ -240,6 +240,9 @@ static void test_small_light_shares_the_fitted_scale(void **state)
     assert_int_equal(esr_lights_fitted(&L, fit), 2);
     assert_int_equal(fit[0], 0);
     assert_int_equal(fit[1], 1);
+    assert_true(esr_light_strength_fitted(&L, 0) && esr_light_strength_fitted(&L, 1));
+    assert_false(esr_light_strength_fitted(&L, 2));
+    assert_false(esr_light_strength_fitted(&L, 3) || esr_light_strength_fitted(&L, -1)); /* no such light */
     L.light[0].scale[1] = 8.0f, L.light[1].scale[1] = 2.0f, L.light[2].scale[1] = 300.0f;
     esr_lights_share_scale(&L, 1);
     assert_float_equal(L.light[2].scale[1], (8.0f * 0.729f + 2.0f * 0.141f) / 0.870f, 1e-5f);
@@ -247,6 +250,7 @@ static void test_small_light_shares_the_fitted_scale(void **state)
     assert_float_equal(L.light[2].scale[0], 0.0f, 0.0f); /* channel 0 untouched */
     L.light[2].area = 0.05f * 0.92f; /* 5% of the total exactly: fitted */
     assert_int_equal(esr_lights_fitted(&L, fit), 3);
+    assert_true(esr_light_strength_fitted(&L, 2));
 }
 
 int main(void)

@@ -420,6 +420,12 @@ static void test_pdra_finds_lights(void **state)
     free(text);
     assert_non_null(root);
     assert_int_equal(cJSON_GetArraySize(cJSON_GetObjectItem(root, "lights")), m.lights.n);
+    for (int i = 0; i < m.lights.n; i++) { /* each light says whether its strength was fitted */
+        const cJSON *f = cJSON_GetObjectItem(cJSON_GetArrayItem(cJSON_GetObjectItem(root, "lights"), i),
+                                             "strength_fitted");
+        assert_true(cJSON_IsBool(f));
+        assert_int_equal(cJSON_IsTrue(f), esr_light_strength_fitted(&m.lights, i));
+    }
     cJSON_Delete(root);
 
     /* the relightable glTF: one node per light, and valid for the Khronos validator */

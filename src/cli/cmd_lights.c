@@ -25,7 +25,8 @@ const struct esr_command cmd_lights = {
     "ended: the emitting surface split into connected lights, each light's strength fixed by the\n"
     "light it casts on the rest of the scene), prints them and writes RUN/lights.json:\n"
     "  {\"lights\": [{\"id\", \"centroid\", \"area\", \"points\", \"rgb\" (emitted radiance, linear),\n"
-    "               \"hsv\", \"power\", \"field_rgb\", \"strength_scale\", \"calibration_points\"}...],\n"
+    "               \"hsv\", \"power\", \"field_rgb\", \"strength_scale\", \"calibration_points\",\n"
+    "               \"strength_fitted\" (false: too small to fit, the fitted lights' mean scale)}...],\n"
     "   \"emitter_k\", \"checkpoint\"}\n"
     "\n"
     "options:\n"
@@ -78,6 +79,7 @@ static cJSON *lights_json(const struct esr_model *m, const char *ckpt)
         cJSON_AddItemToObject(o, "field_rgb", esr_json_float_array(l->field_rgb, 3));
         cJSON_AddItemToObject(o, "strength_scale", esr_json_float_array(l->scale, 3));
         cJSON_AddNumberToObject(o, "calibration_points", l->calib_points);
+        cJSON_AddBoolToObject(o, "strength_fitted", esr_light_strength_fitted(&m->lights, i));
         cJSON_AddItemToArray(arr, o);
     }
     return root;
@@ -97,6 +99,7 @@ static int lights(const char *run, const char *data_override, int again)
         if (rc == ESR_OK)
             rc = esr_model_save(&m, ckpt);
     }
+    int borrowed = 0;
     if (rc == ESR_OK) {
         printf("%d light%s (emitter threshold k %.3g):\n", m.lights.n, m.lights.n == 1 ? "" : "s",
                (double)m.cfg.emitter_k);
@@ -104,12 +107,19 @@ static int lights(const char *run, const char *data_override, int again)
                "strength scale\n");
         for (int i = 0; i < m.lights.n; i++) {
             const struct esr_light *l = &m.lights.light[i];
-            printf("  %2d  (%6.2f %6.2f %6.2f)  %6.3f  %8.3g %8.3g %8.3g  %8.3g  %.2f %.2f %.2f\n", i,
-                   (double)l->centroid[0], (double)l->centroid[1], (double)l->centroid[2],
+            const int fitted = esr_light_strength_fitted(&m.lights, i);
+            printf("  %2d  (%6.2f %6.2f %6.2f)  %6.3f  %8.3g %8.3g %8.3g  %8.3g  %.2f %.2f %.2f%s\n",
+                   i, (double)l->centroid[0], (double)l->centroid[1], (double)l->centroid[2],
                    (double)l->area, (double)l->radiance[0], (double)l->radiance[1],
                    (double)l->radiance[2], (double)l->power, (double)l->scale[0],
-                   (double)l->scale[1], (double)l->scale[2]);
+                   (double)l->scale[1], (double)l->scale[2], fitted ? "" : " *");
+            borrowed += !fitted;
         }
+        if (borrowed)
+            printf("  * under %.0f%% of the lights' area: too small to fit from the light it casts; it\n"
+                   "    takes the fitted lights' mean scale (a small lamp, or a mirror's reflection\n"
+                   "    of a light that the images cannot tell from one)\n",
+                   100.0 * ESR_LIGHTS_SMALL_SHARE);
         snprintf(out, sizeof out, "%s/lights.json", run);
         rc = esr_json_write_atomic(out, lights_json(&m, ckpt));
         if (rc == ESR_OK)

@@ -12,6 +12,7 @@
 #include "io/dir.h"
 #include "io/file.h"
 #include "render/view.h"
+#include "train/lights.h"
 
 /* Writes text with the HTML special characters escaped. */
 static void put_escaped(FILE *out, const char *text)
@@ -160,16 +161,18 @@ static void put_lights(FILE *out, const struct esr_report_spec *spec)
     if (!L || L->n == 0)
         return;
     fprintf(out, "<h2>Lights found (%d)</h2>\n<table><tr><th>id</th><th>centroid</th><th>area</th>"
-                 "<th>emitted radiance (linear RGB)</th><th>power</th><th>strength scale</th></tr>\n",
+                 "<th>emitted radiance (linear RGB)</th><th>power</th><th>strength scale</th>"
+                 "<th>strength</th></tr>\n",
             L->n);
     for (int i = 0; i < L->n; i++) {
         const struct esr_light *l = &L->light[i];
         fprintf(out, "<tr><td>%d</td><td>%.2f, %.2f, %.2f</td><td>%.3g</td><td>%.3g, %.3g, %.3g</td>"
-                     "<td>%.3g</td><td>%.2f, %.2f, %.2f</td></tr>\n",
+                     "<td>%.3g</td><td>%.2f, %.2f, %.2f</td><td>%s</td></tr>\n",
                 i, (double)l->centroid[0], (double)l->centroid[1], (double)l->centroid[2],
                 (double)l->area, (double)l->radiance[0], (double)l->radiance[1],
                 (double)l->radiance[2], (double)l->power, (double)l->scale[0],
-                (double)l->scale[1], (double)l->scale[2]);
+                (double)l->scale[1], (double)l->scale[2],
+                esr_light_strength_fitted(L, i) ? "fitted" : "too small to fit: the fitted lights' mean");
     }
     fputs("</table>\n<p>Connected emitting surfaces; strength calibrated by the light each casts "
           "on the non-emitting surfaces (<code>esr lights</code>, RUN/lights.json).</p>\n", out);

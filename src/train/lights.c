@@ -552,6 +552,11 @@ int esr_lights_fitted(const struct esr_lights *L, int *fit)
     return nf;
 }
 
+int esr_light_strength_fitted(const struct esr_lights *L, int id)
+{
+    return id >= 0 && id < L->n && is_fitted(L, id, lights_area(L));
+}
+
 void esr_lights_share_scale(struct esr_lights *L, int c)
 {
     const double total = lights_area(L);

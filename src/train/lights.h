@@ -63,6 +63,9 @@ int esr_lights_calibrate(struct esr_model *m, const float *orig3, const float *d
  * the whole floor). */
 #define ESR_LIGHTS_SMALL_SHARE 0.05
 int esr_lights_fitted(const struct esr_lights *L, int *fit);
+/* 1 when light id is one esr_lights_fitted fits, 0 when its scale is borrowed (listings mark it:
+ * a small lamp, or a mirror's reflection of a light that the images cannot tell from one). */
+int esr_light_strength_fitted(const struct esr_lights *L, int id);
 
 /* Gives every light esr_lights_fitted leaves out the fitted lights' area-weighted mean scale in
  * channel c (1 when none is fitted): the images clip every light alike, so that mean is the best
