@@ -39,7 +39,7 @@ static int direct_light(void *user, const struct esr_lts *l, size_t P,
 {
     struct esr_finetune *f = user;
     const struct esr_direct_points dp = {P, l->pos3, l->nrm3, l->mf.brdf5, l->wo3, 2};
-    ESR_TRY(esr_lights_direct(f->m, f->samples, f->m->lights.n, edits, &dp, f->o.light_spp,
+    ESR_TRY(esr_lights_direct(&f->shadows, f->samples, f->m->lights.n, edits, &dp, f->o.light_spp,
                               f->seed ^ (uint64_t)(f->step + 1) * 0x9e3779b97f4a7c15ULL, f->direct,
                               f->found));
     const double *src[2] = {f->direct, f->found};
@@ -118,6 +118,8 @@ int esr_finetune_init(struct esr_finetune *f, struct esr_model *m, const struct 
     }
     for (int k = 0; rc == ESR_OK && k < m->lights.n; k++)
         rc = esr_light_samples_get(m, k, &f->samples[k]);
+    if (rc == ESR_OK)
+        rc = esr_light_shadows_init(&f->shadows, m);
     const size_t nd = (size_t)o->points * 2 * ESR_MAX_LIGHTS * 3;
     if (rc == ESR_OK && (!(f->direct = malloc(nd * sizeof(double))) ||
                          !(f->found = malloc(nd * sizeof(double)))))

@@ -29,6 +29,7 @@
 
 #include "io/dataset.h"
 #include "model/model.h"
+#include "train/light_direct.h"
 #include "train/lights.h"
 #include "train/lts.h"
 #include "train/rays.h"
@@ -66,6 +67,7 @@ struct esr_finetune {
     struct esr_march march;
     struct esr_lts lts;
     struct esr_light_samples samples[ESR_MAX_LIGHTS]; /* calibrated emission */
+    struct esr_light_shadows shadows; /* the frozen SDF, prepared once for the shadow rays */
     double *direct, *found;        /* [points * 2 * ESR_MAX_LIGHTS * 3] edited, as found */
     const struct esr_model *m;     /* for the LTS hook */
     uint64_t seed;

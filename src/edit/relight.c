@@ -41,9 +41,7 @@ int esr_relight_init(struct esr_relight *r, const struct esr_model *m, int spp,
     if (spp < 1)
         return ESR_FAIL("relight: %d light samples per pixel (need at least 1)", spp);
     r->spp = spp;
-    ESR_TRY(esr_first_hit_shadow_setup(&r->shadow_grid, &r->shadow_params,
-                                       esr_model_grid(m, ESR_COMP_SDF),
-                                       esr_model_values(m, ESR_COMP_SDF)));
+    ESR_TRY(esr_light_shadows_init(&r->shadows, m));
     int rc0 = esr_model_normal_sdf(m, &r->normal_sdf);
     if (rc0 != ESR_OK)
         return rc0;
@@ -103,7 +101,7 @@ ESR_HOT static size_t direct_light(const struct esr_relight *r, const struct esr
                                    const struct esr_light_edit *edits, const struct view_buf *b,
                                    size_t n_px, uint64_t seed, float *edited3, float *found3)
 {
-    const float h = esr_grid_voxel_size(esr_model_grid(m, ESR_COMP_SDF), 0);
+    const float h = r->shadows.voxel;
     size_t traced = 0;
 #pragma omp parallel for schedule(dynamic, 16) reduction(+ : traced)
     for (size_t p = 0; p < n_px; p++) {
@@ -143,7 +141,7 @@ ESR_HOT static size_t direct_light(const struct esr_relight *r, const struct esr
                 const struct esr_vec3 end = esr_v3_add(o, esr_v3_scale(wi, dist - SHADOW_STOP_VOX * h));
                 const float end3[3] = {end.x, end.y, end.z};
                 traced++;
-                if (esr_first_hit_segment_blocked(&r->shadow_grid, &r->shadow_params, o3, end3))
+                if (esr_first_hit_segment_blocked(&r->shadows.grid, &r->shadows.params, o3, end3))
                     continue; /* occluded */
                 const struct esr_vec3 ny = esr_v3(ls->nrm3[q * 3], ls->nrm3[q * 3 + 1], ls->nrm3[q * 3 + 2]);
                 const float g = fabsf(esr_v3_dot(ny, wi)) * ls->area[q] * (float)ls->n /

@@ -37,8 +37,8 @@
 #include "io/camera.h"
 #include "io/image.h"
 #include "model/model.h"
+#include "train/light_direct.h"
 #include "train/lights.h"
-#include "volume/first_hit.h"
 
 #ifdef __cplusplus
 extern "C" {
@@ -58,8 +58,7 @@ struct esr_relight {
     int spp;            /* light samples per pixel and light */
     int mode;           /* enum esr_relight_mode */
     float *normal_sdf;  /* the smoothed SDF the normals come from (model/render_sdf.h), once */
-    struct esr_first_hit_grid shadow_grid;      /* the SDF as shadow rays march it */
-    struct esr_first_hit_params shadow_params;
+    struct esr_light_shadows shadows; /* the SDF as shadow rays march it, prepared once */
 };
 
 int esr_relight_init(struct esr_relight *r, const struct esr_model *m, int spp,

@@ -13,7 +13,14 @@
 #include "model/material_fields.h"
 #include "volume/first_hit.h"
 
-ESR_HOT int esr_lights_direct(const struct esr_model *m, const struct esr_light_samples *ls,
+int esr_light_shadows_init(struct esr_light_shadows *s, const struct esr_model *m)
+{
+    const struct esr_grid *g = esr_model_grid(m, ESR_COMP_SDF);
+    s->voxel = esr_grid_voxel_size(g, 0);
+    return esr_first_hit_shadow_setup(&s->grid, &s->params, g, esr_model_values(m, ESR_COMP_SDF));
+}
+
+ESR_HOT int esr_lights_direct(const struct esr_light_shadows *sh, const struct esr_light_samples *ls,
                               int n_lights, const struct esr_light_edit *edits,
                               const struct esr_direct_points *pts, int spp, uint64_t seed,
                               double *out, double *out_found)
@@ -22,16 +29,12 @@ ESR_HOT int esr_lights_direct(const struct esr_model *m, const struct esr_light_
     memset(out, 0, P * W * ESR_MAX_LIGHTS * 3 * sizeof(double));
     if (out_found)
         memset(out_found, 0, P * W * ESR_MAX_LIGHTS * 3 * sizeof(double));
-    const struct esr_grid *g = esr_model_grid(m, ESR_COMP_SDF);
     if (pts->n_wo < 1 || pts->n_wo > ESR_DIRECT_MAX_WO)
         return ESR_FAIL("lights: %d outgoing directions per point (1 to %d)", pts->n_wo,
                         ESR_DIRECT_MAX_WO);
-    const float h = esr_grid_voxel_size(g, 0);
+    const float h = sh->voxel;
     if (P * K * (size_t)spp == 0)
         return ESR_OK;
-    struct esr_first_hit_params hp;
-    struct esr_first_hit_grid fg;
-    ESR_TRY(esr_first_hit_shadow_setup(&fg, &hp, g, esr_model_values(m, ESR_COMP_SDF)));
     /* each shadow ray is traced where its sample is drawn; a point's sums run over its own
      * samples in a fixed order from its own stream: deterministic, nothing allocated */
 #pragma omp parallel for schedule(dynamic, 16)
@@ -74,7 +77,7 @@ ESR_HOT int esr_lights_direct(const struct esr_model *m, const struct esr_light_
                 }
                 const struct esr_vec3 end = esr_v3_add(o, esr_v3_scale(wi, dist - 1.5f * h));
                 const float end3[3] = {end.x, end.y, end.z};
-                if (!any || esr_first_hit_segment_blocked(&fg, &hp, o3, end3))
+                if (!any || esr_first_hit_segment_blocked(&sh->grid, &sh->params, o3, end3))
                     continue;
                 for (size_t w = 0; w < W; w++)
                     for (int c = 0; c < 3; c++) {

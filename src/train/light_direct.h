@@ -15,6 +15,7 @@
 
 #include "model/model.h"
 #include "train/lights.h"
+#include "volume/first_hit.h"
 
 #ifdef __cplusplus
 extern "C" {
@@ -31,12 +32,22 @@ struct esr_direct_points {
     int n_wo;                 /* 1..ESR_DIRECT_MAX_WO */
 };
 
+/* A model's SDF as shadow rays march it (volume/first_hit.h: the grid's global bound G takes a
+ * pass over the grid), prepared once for every call while the SDF stays the same: a fine-tune
+ * (geometry frozen) or a calibration. Points into the model's SDF values. */
+struct esr_light_shadows {
+    struct esr_first_hit_grid grid;
+    struct esr_first_hit_params params;
+    float voxel; /* the SDF grid's voxel edge along x: shadow rays start and stop 1.5 off */
+};
+int esr_light_shadows_init(struct esr_light_shadows *s, const struct esr_model *m);
+
 /* out[((p * n_wo + o) * ESR_MAX_LIGHTS + K) * 3 + c] = D_K (per channel) for the n_lights lights
  * whose surface samples ls[] are given, each sample's emission edited by edits[K] (NULL: as the
  * samples carry it); out_found (or NULL), the same for the emission as found, from the same
  * samples and shadow rays (what fine-tuning compares). Zero for a back-facing wo.
  * Deterministic in seed. */
-int esr_lights_direct(const struct esr_model *m, const struct esr_light_samples *ls, int n_lights,
+int esr_lights_direct(const struct esr_light_shadows *sh, const struct esr_light_samples *ls, int n_lights,
                       const struct esr_light_edit *edits, const struct esr_direct_points *pts,
                       int spp, uint64_t seed, double *out, double *out_found);
 

@@ -476,6 +476,9 @@ int esr_lights_calibrate(struct esr_model *m, const float *orig3, const float *d
         rc = esr_material_fields_init(&mf, m, (size_t)CALIB_CHUNK * CALIB_DIRS,
                                       ESR_MATERIAL_EMISSION_ONLY);
     const float *sdf = esr_model_values(m, ESR_COMP_SDF);
+    struct esr_light_shadows shadows;
+    if (rc == ESR_OK)
+        rc = esr_light_shadows_init(&shadows, m);
     for (int p0 = 0; rc == ESR_OK && p0 < got; p0 += CALIB_CHUNK) {
         const size_t P = (size_t)(got - p0 < CALIB_CHUNK ? got - p0 : CALIB_CHUNK);
         struct esr_march pts; /* the points as a kept list: the LTS takes each once */
@@ -490,7 +493,7 @@ int esr_lights_calibrate(struct esr_model *m, const float *orig3, const float *d
         /* A_K: the samples carry the field's E (scales 1), the scale is what is solved for */
         const struct esr_direct_points dp = {P, l.pos3, l.nrm3, l.mf.brdf5, l.wo3, 2};
         if (rc == ESR_OK)
-            rc = esr_lights_direct(m, ls, K, NULL, &dp, CALIB_LIGHT_SPP,
+            rc = esr_lights_direct(&shadows, ls, K, NULL, &dp, CALIB_LIGHT_SPP,
                                    seed ^ (uint64_t)(p0 + 1) * 0x9e3779b97f4a7c15ULL, Abuf, NULL);
         if (rc == ESR_OK)
             accumulate(m, &l, P, mf.emit3, Abuf, &rows, seen);
