@@ -188,7 +188,30 @@ static void test_lights_survive_a_checkpoint(void **state)
     const int id = esr_lights_id_at(&back.lights, pos);
     esr_lights_scale_emission(&back.lights, pos, 1, e);
     assert_true(e[2] == back.lights.light[id].scale[2] && e[0] == back.lights.light[id].scale[0]);
+    /* a light's unseen part keeps its id through id_at and a checkpoint; a flag on no light is
+     * refused when the checkpoint is read */
+    const size_t nl = esr_grid_voxels(&m.lights.grid);
+    size_t at = 0;
+    while (at < nl && !m.lights.label[at])
+        at++;
+    assert_true(at < nl);
+    const int light = ESR_LIGHT_LABEL_ID(m.lights.label[at]);
+    for (size_t i = 0; i < nl; i++)
+        if (ESR_LIGHT_LABEL_ID(m.lights.label[i]) == light)
+            m.lights.label[i] |= ESR_LIGHT_UNSEEN;
+    assert_int_equal(esr_lights_id_at(&m.lights, pos), id);
+    assert_int_equal(esr_model_save(&m, path), ESR_OK);
     esr_model_free(&back);
+    assert_int_equal(esr_model_load(&back, path), ESR_OK);
+    assert_memory_equal(back.lights.label, m.lights.label, nl);
+    assert_int_equal(esr_lights_id_at(&back.lights, pos), id);
+    esr_model_free(&back);
+    const size_t empty = (size_t)(strchr((const char *)m.lights.label, 0) - (const char *)m.lights.label);
+    assert_true(empty < nl); /* a lattice point of no light */
+    m.lights.label[empty] = ESR_LIGHT_UNSEEN;
+    assert_int_equal(esr_model_save(&m, path), ESR_OK);
+    assert_int_not_equal(esr_model_load(&back, path), ESR_OK);
+    assert_non_null(strstr(esr_error_message(), "light label"));
     esr_model_free(&m);
 }
 

@@ -64,7 +64,7 @@ int esr_lights_id_at(const struct esr_lights *L, const float pos[3])
         }
         if (d < best_d) {
             best_d = d;
-            best = L->label[i] - 1;
+            best = ESR_LIGHT_LABEL_ID(L->label[i]) - 1;
         }
     }
     return best;

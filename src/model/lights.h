@@ -45,12 +45,19 @@ struct esr_lights {
     int n;                /* 0: none found (or not computed) */
     struct esr_light light[ESR_MAX_LIGHTS];
     struct esr_grid grid; /* the lattice the labels live on (the SDF grid's) */
-    uint8_t *label;       /* [nx*ny*nz] 0 or id + 1; NULL when n == 0 */
+    uint8_t *label;       /* [nx*ny*nz] 0 or id + 1, ESR_LIGHT_UNSEEN added on the light's part no
+                             camera sees (train/lights.h); NULL when n == 0 */
     /* an edit in place (edit/finetune.h; not saved): emitted radiance is each light's calibrated
      * emission edited by edit[K]; edited 0: as found */
     int edited;
     struct esr_light_edit edit[ESR_MAX_LIGHTS];
 };
+
+/* A label's flag for a light's unseen part: surface next to the light that no training camera
+ * sees (a lampshade's underside), which emits the light's mean field, not the field there. */
+#define ESR_LIGHT_UNSEEN 0x80u
+/* The light id + 1 of a label (0: no light). */
+#define ESR_LIGHT_LABEL_ID(label) ((int)((label) & 0x7fu))
 
 void esr_lights_free(struct esr_lights *L);
 

@@ -16,6 +16,7 @@
 #include "model/trace.h"
 #include "train/light_direct.h"
 #include "train/lts.h"
+#include "volume/first_hit.h"
 #include "volume/free_space.h"
 
 /* a surface point is outer when free space touches it this many voxels out along its normal */
@@ -40,6 +41,9 @@
 #define CALIB_SURFACE_WEIGHT 0.3f
 /* ... whose emission stays below this share of k (not an emitter, nor its fringe) */
 #define CALIB_E_SHARE 0.25f
+/* the lights-off correction of a point's base colour, L_off / L^_off, is clamped to
+ * [1 / this, this] */
+#define CALIB_MAX_CORRECTION 4.0
 /* ridge towards scale 1, relative to each light's own normal-equation diagonal */
 #define CALIB_RIDGE 1e-3
 /* Huber reweighting rounds of the fit (core/ridge_solve.h) */
@@ -210,6 +214,72 @@ static int components(const struct esr_grid *g, const uint8_t *flag, int32_t *co
     return ESR_OK;
 }
 
+/* Marks seen[] (lattice points, zeroed by the caller) within one lattice point of some ray's
+ * first SDF hit. */
+static int mark_seen(const struct esr_model *m, const float *orig3, const float *dir3,
+                     size_t n_rays, uint8_t *seen)
+{
+    const struct esr_grid *g = esr_model_grid(m, ESR_COMP_SDF);
+    float *t = malloc((n_rays ? n_rays : 1) * sizeof(float));
+    float *hit = malloc((n_rays ? n_rays : 1) * 3 * sizeof(float));
+    int rc = t && hit ? ESR_OK : ESR_FAIL("lights: out of memory for the cameras' first hits");
+    struct esr_first_hit_params fp;
+    esr_first_hit_params_init(&fp, g);
+    fp.refine_iters = 4; /* a lattice point is all the precision asked */
+    const struct esr_first_hit_rays fr = {orig3, dir3, NULL, NULL, n_rays};
+    const struct esr_first_hit_out fo = {t, NULL, hit, NULL};
+    if (rc == ESR_OK)
+        rc = esr_first_hit(g, esr_model_values(m, ESR_COMP_SDF), &fp, &fr, &fo);
+    const int dims[3] = {g->nx, g->ny, g->nz};
+    for (size_t r = 0; rc == ESR_OK && r < n_rays; r++) {
+        if (!isfinite(t[r]))
+            continue;
+        int c[3];
+        for (int a = 0; a < 3; a++)
+            c[a] = (int)lrintf((hit[r * 3 + a] - g->bmin[a]) / (g->bmax[a] - g->bmin[a]) *
+                               (float)(dims[a] - 1));
+        for (int dz = -1; dz <= 1; dz++)
+            for (int dy = -1; dy <= 1; dy++)
+                for (int dx = -1; dx <= 1; dx++) {
+                    const int x = c[0] + dx, y = c[1] + dy, z = c[2] + dz;
+                    if (x >= 0 && y >= 0 && z >= 0 && x < g->nx && y < g->ny && z < g->nz)
+                        seen[lattice_index(g, x, y, z)] = 1;
+                }
+    }
+    free(t), free(hit);
+    return rc;
+}
+
+/* Grows each light over its unseen part: the outer surface points (outer[] per lattice point)
+ * that no camera sees, 26-connected to the light, breadth-first from its points; they get the
+ * light's label with ESR_LIGHT_UNSEEN. queue: [lattice points] scratch. */
+static void grow_unseen(const struct esr_grid *g, const uint8_t *unseen_outer, uint8_t *label,
+                        uint32_t *queue)
+{
+    const size_t N = esr_grid_voxels(g);
+    size_t head = 0, tail = 0;
+    for (size_t i = 0; i < N; i++)
+        if (label[i])
+            queue[tail++] = (uint32_t)i;
+    while (head < tail) {
+        const size_t i = queue[head++];
+        const int x = (int)(i % (size_t)g->nx), y = (int)(i / (size_t)g->nx % (size_t)g->ny),
+                  z = (int)(i / ((size_t)g->nx * (size_t)g->ny));
+        for (int dz = -1; dz <= 1; dz++)
+            for (int dy = -1; dy <= 1; dy++)
+                for (int dx = -1; dx <= 1; dx++) {
+                    const int X = x + dx, Y = y + dy, Z = z + dz;
+                    if (X < 0 || Y < 0 || Z < 0 || X >= g->nx || Y >= g->ny || Z >= g->nz)
+                        continue;
+                    const size_t j = lattice_index(g, X, Y, Z);
+                    if (!unseen_outer[j] || label[j])
+                        continue;
+                    label[j] = (uint8_t)ESR_LIGHT_LABEL_ID(label[i]) | ESR_LIGHT_UNSEEN;
+                    queue[tail++] = (uint32_t)j;
+                }
+    }
+}
+
 int esr_lights_find(struct esr_model *m, const float *orig3, const float *dir3, size_t n_rays)
 {
     esr_lights_free(&m->lights);
@@ -223,13 +293,16 @@ int esr_lights_find(struct esr_model *m, const float *orig3, const float *dir3, 
     float *pos = NULL, *nrm = NULL, *emit = NULL;
     size_t n = 0;
     ESR_TRY(surface_points(m, &idx, &pos, &nrm, &n));
-    uint8_t *flag = calloc(N, 1), *free_mask = malloc(N);
+    uint8_t *flag = calloc(N, 1), *free_mask = malloc(N), *seen = calloc(N, 1);
+    uint8_t *outer = malloc(n ? n : 1);
     int32_t *comp = malloc(N * sizeof(int32_t));
     uint32_t *queue = malloc(N * sizeof(uint32_t));
     emit = malloc((n ? n : 1) * 3 * sizeof(float));
     long *sizes = NULL;
     int nc = 0;
-    int rc = flag && free_mask && comp && queue && emit ? ESR_OK : ESR_FAIL("lights: out of memory");
+    int rc = flag && free_mask && seen && outer && comp && queue && emit
+                 ? ESR_OK
+                 : ESR_FAIL("lights: out of memory");
     if (rc == ESR_OK)
         rc = emission_at(m, pos, n, emit);
     if (rc == ESR_OK)
@@ -240,7 +313,8 @@ int esr_lights_find(struct esr_model *m, const float *orig3, const float *dir3, 
         float out[3];
         for (int a = 0; a < 3; a++)
             out[a] = pos[i * 3 + a] + OUTER_OFFSET * h * nrm[i * 3 + a];
-        if (max3(emit + i * 3) > k && esr_free_space_at(g, free_mask, out)) {
+        outer[i] = (uint8_t)esr_free_space_at(g, free_mask, out);
+        if (max3(emit + i * 3) > k && outer[i]) {
             flag[idx[i]] = 1;
             emitting++;
         }
@@ -300,8 +374,17 @@ int esr_lights_find(struct esr_model *m, const float *orig3, const float *dir3, 
             l->area = (float)acc[j][6];
             l->power = esr_luminance(l->radiance) * (float)M_PI * l->area;
         }
+        /* the lights' unseen parts: outer surface points no camera sees (flag reused) */
+        memset(flag, 0, N);
+        rc = mark_seen(m, orig3, dir3, n_rays, seen);
+        for (size_t i = 0; rc == ESR_OK && i < n; i++)
+            if (!seen[idx[i]] && outer[i])
+                flag[idx[i]] = 1;
+        if (rc == ESR_OK)
+            grow_unseen(g, flag, L->label, queue);
     }
     free(idx), free(pos), free(nrm), free(emit), free(flag), free(free_mask), free(comp), free(queue);
+    free(seen), free(outer);
     free(sizes), free(id_of);
     if (rc != ESR_OK)
         esr_lights_free(L);
@@ -375,13 +458,23 @@ static int point_frame(const struct esr_lts *l, size_t p, struct esr_vec3 *n, st
     return esr_v3_dot(*n, *wo) > 0.0f;
 }
 
-/* Calibration rows, one per point and channel: y = L_emo - B ~ sum_K s_K A_K, both sides times
- * esr_image_error_scale at the point's lights-on radiance (train/lights.h says why). */
+/* Calibration rows, one per point and channel: L_emo - r B ~ sum_K s_K r A_K, both sides times
+ * esr_image_error_scale at the point's lights-on radiance, r the lights-off correction of the
+ * point's base colour over its median (train/lights.h says why). Kept apart until the medians
+ * are known. */
 struct calib_rows {
     size_t n, cap;  /* points */
-    double *a;      /* [cap * 3 * K]: point p, channel c at (p * 3 + c) * K */
-    double *y;      /* [cap * 3] */
+    double *a;      /* [cap * 3 * K] weighted A: point p, channel c at (p * 3 + c) * K */
+    double *emo;    /* [cap * 3] weighted L_emo */
+    double *b;      /* [cap * 3] weighted B */
+    double *r;      /* [cap * 3] L_off / L^_off */
 };
+
+static int compare_double(const void *a, const void *b)
+{
+    const double x = *(const double *)a, y = *(const double *)b;
+    return (x > y) - (x < y);
+}
 
 /* Adds one LTS call's points as rows: A from esr_lights_direct, B from the hemisphere directions
  * (the other surfaces' emo radiance, and the lights' own reflected part L_emo - E where a
@@ -421,7 +514,12 @@ static void accumulate(const struct esr_model *m, const struct esr_lts *l, size_
         for (int c = 0; c < 3; c++) {
             const size_t row = rows->n * 3 + (size_t)c;
             const double w = esr_image_error_scale(L_on[c]); /* row weight: judged as images */
-            rows->y[row] = w * ((double)lin[(p * 4 + 1) * 3 + c] - lin[(p * 4) * 3 + c] - B[c]);
+            const double off = lin[(p * 4) * 3 + c], hat_off = l->hat3[(p * 2) * 6 + c];
+            rows->emo[row] = w * ((double)lin[(p * 4 + 1) * 3 + c] - off);
+            rows->b[row] = w * B[c];
+            rows->r[row] = hat_off > 1e-6 ? fmin(fmax(off / hat_off, 1.0 / CALIB_MAX_CORRECTION),
+                                                 CALIB_MAX_CORRECTION)
+                                          : 1.0;
             for (int a = 0; a < K; a++)
                 rows->a[row * (size_t)K + (size_t)a] = w * A[a * 3 + c];
         }
@@ -448,11 +546,13 @@ int esr_lights_calibrate(struct esr_model *m, const float *orig3, const float *d
     const size_t ns = esr_grid_count(esr_model_grid(m, ESR_COMP_SDF));
     float *grads = calloc(m->params.count, sizeof(float)), *g_sdf = calloc(ns, sizeof(float));
     struct calib_rows rows = {0, (size_t)want, malloc((size_t)want * 3 * K * sizeof(double)),
+                              malloc((size_t)want * 3 * sizeof(double)),
+                              malloc((size_t)want * 3 * sizeof(double)),
                               malloc((size_t)want * 3 * sizeof(double))};
     double *ca = malloc((size_t)want * K * sizeof(double)), *cy = malloc((size_t)want * sizeof(double));
     double seen[ESR_MAX_LIGHTS] = {0};
     int got = 0;
-    int rc = pos && dir && grads && g_sdf && rows.a && rows.y && ca && cy && Abuf
+    int rc = pos && dir && grads && g_sdf && rows.a && rows.emo && rows.b && rows.r && ca && cy && Abuf
                  ? ESR_OK
                  : ESR_FAIL("lights: out of memory for the calibration");
     for (int a = 0; rc == ESR_OK && a < K; a++)
@@ -505,10 +605,16 @@ int esr_lights_calibrate(struct esr_model *m, const float *orig3, const float *d
     int fit[ESR_MAX_LIGHTS];
     const int nf = esr_lights_fitted(&m->lights, fit);
     for (int c = 0; rc == ESR_OK && c < 3; c++) {
+        for (size_t p = 0; p < rows.n; p++) /* the median correction (cy as scratch) */
+            cy[p] = rows.r[p * 3 + (size_t)c];
+        qsort(cy, rows.n, sizeof(double), compare_double);
+        const double median = rows.n ? cy[rows.n / 2] : 1.0;
         for (size_t p = 0; p < rows.n; p++) { /* channel c's rows of the fitted lights */
-            cy[p] = rows.y[p * 3 + (size_t)c];
+            const size_t row = p * 3 + (size_t)c;
+            const double r = rows.r[row] / median;
+            cy[p] = rows.emo[row] - r * rows.b[row];
             for (int f = 0; f < nf; f++)
-                ca[p * (size_t)nf + (size_t)f] = rows.a[(p * 3 + (size_t)c) * (size_t)K + (size_t)fit[f]];
+                ca[p * (size_t)nf + (size_t)f] = r * rows.a[row * (size_t)K + (size_t)fit[f]];
         }
         double s[ESR_MAX_LIGHTS];
         if (esr_ridge_fit_robust(nf, rows.n, ca, cy, CALIB_RIDGE, CALIB_ROBUST_ROUNDS, s) != 0)
@@ -527,7 +633,7 @@ int esr_lights_calibrate(struct esr_model *m, const float *orig3, const float *d
     }
     for (int a = 0; a < K; a++)
         esr_light_samples_free(&ls[a]);
-    free(pos), free(dir), free(grads), free(g_sdf), free(rows.a), free(rows.y), free(ca), free(cy);
+    free(pos), free(dir), free(grads), free(g_sdf), free(rows.a), free(rows.emo), free(rows.b), free(rows.r), free(ca), free(cy);
     free(Abuf);
     return rc;
 }
@@ -594,11 +700,12 @@ int esr_light_samples_get(const struct esr_model *m, int id, struct esr_light_sa
     size_t n = 0;
     ESR_TRY(surface_points(m, &idx, &pos, &nrm, &n));
     size_t k = 0;
-    for (size_t i = 0; i < n; i++) /* the light's points, compacted in place */
-        if (L->label[idx[i]] == id + 1) {
+    uint8_t *unseen = malloc(n ? n : 1);
+    for (size_t i = 0; unseen && i < n; i++) /* the light's points, compacted in place */
+        if (ESR_LIGHT_LABEL_ID(L->label[idx[i]]) == id + 1) {
             memmove(pos + k * 3, pos + i * 3, 3 * sizeof(float));
             memmove(nrm + k * 3, nrm + i * 3, 3 * sizeof(float));
-            k++;
+            unseen[k++] = (L->label[idx[i]] & ESR_LIGHT_UNSEEN) != 0;
         }
     free(idx);
     out->n = k;
@@ -606,11 +713,13 @@ int esr_light_samples_get(const struct esr_model *m, int id, struct esr_light_sa
     out->nrm3 = nrm;
     out->emit3 = malloc((k ? k : 1) * 3 * sizeof(float));
     out->area = malloc((k ? k : 1) * sizeof(float));
-    int rc = out->emit3 && out->area ? ESR_OK : ESR_FAIL("lights: out of memory for samples");
+    int rc = out->emit3 && out->area && unseen ? ESR_OK : ESR_FAIL("lights: out of memory for samples");
     if (rc == ESR_OK)
         rc = emission_at(m, pos, k, out->emit3);
     const float h = esr_grid_voxel_size(esr_model_grid(m, ESR_COMP_SDF), 0);
     for (size_t i = 0; rc == ESR_OK && i < k; i++) {
+        if (unseen[i]) /* its field learned only the light it casts, which clipped images understate */
+            memcpy(out->emit3 + i * 3, L->light[id].field_rgb, 3 * sizeof(float));
         for (int c = 0; c < 3; c++)
             out->emit3[i * 3 + c] *= L->light[id].scale[c];
         out->area[i] = point_area(h, nrm + i * 3);
@@ -618,6 +727,7 @@ int esr_light_samples_get(const struct esr_model *m, int id, struct esr_light_sa
         for (int c = 0; c < 3; c++)
             out->max_emit = fmaxf(out->max_emit, out->emit3[i * 3 + c]);
     }
+    free(unseen);
     if (rc != ESR_OK)
         esr_light_samples_free(out);
     return rc;
