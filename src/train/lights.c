@@ -55,6 +55,23 @@ static size_t lattice_index(const struct esr_grid *g, int x, int y, int z)
     return ((size_t)z * (size_t)g->ny + (size_t)y) * (size_t)g->nx + (size_t)x;
 }
 
+/* The lattice indices of point i's 26 neighbours inside the grid; returns their count. */
+static int neighbours26(const struct esr_grid *g, size_t i, size_t nb[26])
+{
+    const int x = (int)(i % (size_t)g->nx), y = (int)(i / (size_t)g->nx % (size_t)g->ny),
+              z = (int)(i / ((size_t)g->nx * (size_t)g->ny));
+    int n = 0;
+    for (int dz = -1; dz <= 1; dz++)
+        for (int dy = -1; dy <= 1; dy++)
+            for (int dx = -1; dx <= 1; dx++) {
+                const int u = x + dx, v = y + dy, w = z + dz;
+                if ((dx | dy | dz) && u >= 0 && v >= 0 && w >= 0 && u < g->nx && v < g->ny &&
+                    w < g->nz)
+                    nb[n++] = lattice_index(g, u, v, w);
+            }
+    return n;
+}
+
 /* Lattice points with a sign change to an axis neighbour: indices and surface positions
  * (projected along the SDF gradient by at most a voxel) and unit normals. */
 static int surface_points(const struct esr_model *m, uint32_t **idx_out, float **pos_out,
@@ -191,21 +208,13 @@ static int components(const struct esr_grid *g, const uint8_t *flag, int32_t *co
         queue[tail++] = (uint32_t)s;
         comp[s] = nc;
         while (head < tail) {
-            const size_t i = queue[head++];
-            const int x = (int)(i % (size_t)g->nx), y = (int)(i / (size_t)g->nx % (size_t)g->ny),
-                      z = (int)(i / ((size_t)g->nx * (size_t)g->ny));
-            for (int dz = -1; dz <= 1; dz++)
-                for (int dy = -1; dy <= 1; dy++)
-                    for (int dx = -1; dx <= 1; dx++) {
-                        const int u = x + dx, v = y + dy, w = z + dz;
-                        if (u < 0 || v < 0 || w < 0 || u >= g->nx || v >= g->ny || w >= g->nz)
-                            continue;
-                        const size_t j = lattice_index(g, u, v, w);
-                        if (flag[j] && comp[j] < 0) {
-                            comp[j] = nc;
-                            queue[tail++] = (uint32_t)j;
-                        }
-                    }
+            size_t nb[26];
+            const int nn = neighbours26(g, queue[head++], nb);
+            for (int q = 0; q < nn; q++)
+                if (flag[nb[q]] && comp[nb[q]] < 0) {
+                    comp[nb[q]] = nc;
+                    queue[tail++] = (uint32_t)nb[q];
+                }
         }
         sizes[nc++] = (long)tail;
     }
@@ -263,20 +272,13 @@ static void grow_unseen(const struct esr_grid *g, const uint8_t *unseen_outer, u
             queue[tail++] = (uint32_t)i;
     while (head < tail) {
         const size_t i = queue[head++];
-        const int x = (int)(i % (size_t)g->nx), y = (int)(i / (size_t)g->nx % (size_t)g->ny),
-                  z = (int)(i / ((size_t)g->nx * (size_t)g->ny));
-        for (int dz = -1; dz <= 1; dz++)
-            for (int dy = -1; dy <= 1; dy++)
-                for (int dx = -1; dx <= 1; dx++) {
-                    const int X = x + dx, Y = y + dy, Z = z + dz;
-                    if (X < 0 || Y < 0 || Z < 0 || X >= g->nx || Y >= g->ny || Z >= g->nz)
-                        continue;
-                    const size_t j = lattice_index(g, X, Y, Z);
-                    if (!unseen_outer[j] || label[j])
-                        continue;
-                    label[j] = (uint8_t)ESR_LIGHT_LABEL_ID(label[i]) | ESR_LIGHT_UNSEEN;
-                    queue[tail++] = (uint32_t)j;
-                }
+        size_t nb[26];
+        const int nn = neighbours26(g, i, nb);
+        for (int q = 0; q < nn; q++)
+            if (unseen_outer[nb[q]] && !label[nb[q]]) {
+                label[nb[q]] = (uint8_t)ESR_LIGHT_LABEL_ID(label[i]) | ESR_LIGHT_UNSEEN;
+                queue[tail++] = (uint32_t)nb[q];
+            }
     }
 }
 
