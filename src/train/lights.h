@@ -6,7 +6,12 @@
  * channel of E exceeds the emitter threshold k (the pdra stage's final k) and the point is on the
  * outer surface (the cameras' free space touches it from outside). Emitting points are
  * split into 26-connected components; components below LIGHTS_MIN_SHARE of the emitting points
- * (or LIGHTS_MIN_POINTS) are noise and dropped; the rest, largest first, are the lights.
+ * (or LIGHTS_MIN_POINTS) are noise and dropped; the rest, largest first, are the lights. Each
+ * light then grows over its unseen part: outer surface points 26-connected to it that no
+ * training ray's first hit reaches (within a lattice point), such as a lampshade's bottom that
+ * the SDF closes and no camera looks up at. They are labelled ESR_LIGHT_UNSEEN and emit the
+ * light's mean field E (their own E learned only from the light they cast, which clipped images
+ * understate); the light's area, points and centroid stay those of its seen part.
  *
  * Strength: the emission field learns from LDR images, where every emitter is clipped to white,
  * so E comes out near 1 whatever the true strength. What does pin the strength is the light the
@@ -20,7 +25,10 @@
  * (seed eq. 4 with the trained BRDF; sampling the lights by area, not by direction, keeps A
  * nearly noise-free, and noise in A would bias a small light's least-squares scale towards 0).
  * The scales s_K come from least squares over calib_points points seen by the lights-off
- * training cameras, per channel, each row weighted as an image would weigh its error (the sRGB
+ * training cameras, per channel, A and B times the point's lights-off correction of its base
+ * colour, L_off / L^_off (the trained lights-off radiance over its LTS estimate; base colour
+ * next to a light absorbed some of the light it casts), over that ratio's median (the estimate
+ * runs 15-30% above L_off everywhere), each row weighted as an image would weigh its error (the sRGB
  * curve's slope at the point's lights-on radiance, core/colour.h esr_image_error_scale: a dim
  * floor far from the lights counts as much in a relit image as a bright one beside them; lamp's
  * lampshade 40% -> 23% off, the default scene's 88% -> 68%), with a small ridge towards 1 so
