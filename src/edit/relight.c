@@ -97,9 +97,9 @@ static int lit_pixel(const struct esr_relight *r, const struct view_buf *b, size
  * shadow rays were traced. A pixel's samples draw from their own stream and add in a fixed
  * order, so the result does not depend on the schedule; nothing is allocated (a view's ~600k
  * shadow rays kept in arrays cost more in page faults than in marching). */
-ESR_HOT static size_t direct_light(const struct esr_relight *r, const struct esr_model *m,
-                                   const struct esr_light_edit *edits, const struct view_buf *b,
-                                   size_t n_px, uint64_t seed, float *edited3, float *found3)
+ESR_HOT static size_t direct_light(const struct esr_relight *r, const struct esr_light_edit *edits,
+                                   const struct view_buf *b, size_t n_px, uint64_t seed,
+                                   float *edited3, float *found3)
 {
     const float h = r->shadows.voxel;
     size_t traced = 0;
@@ -164,8 +164,9 @@ ESR_HOT static size_t direct_light(const struct esr_relight *r, const struct esr
  * voxels) and normal agreement (cos^DENOISE_NPOW), on the light divided by the base colour so the
  * texture is not blurred, then multiplied back. */
 static int denoise_direct(const struct esr_relight *r, const struct view_buf *b, int w, int h,
-                          float vox, float *direct)
+                          float *direct)
 {
+    const float vox = r->shadows.voxel;
     const size_t n = (size_t)w * (size_t)h;
     float *demod = malloc(n * 3 * sizeof(float)), *nrm = malloc(n * 3 * sizeof(float));
     if (!demod || !nrm) {
@@ -325,19 +326,18 @@ int esr_relight_view(const struct esr_relight *r, const struct esr_model *m,
         float *found = ratio ? calloc(n * 3, sizeof(float)) : NULL;
         if (!direct || (ratio && !found))
             rc = ESR_FAIL("relight: out of memory for the direct light");
-        const float vox = esr_grid_voxel_size(esr_model_grid(m, ESR_COMP_SDF), 0);
         if (rc == ESR_OK) {
             const double t0 = omp_get_wtime();
-            const size_t traced = direct_light(r, m, edits, &b, n, seed, direct, found);
+            const size_t traced = direct_light(r, edits, &b, n, seed, direct, found);
             if (stats) {
                 stats->shadow_rays = traced;
                 stats->direct_seconds = omp_get_wtime() - t0;
             }
         }
         if (rc == ESR_OK)
-            rc = denoise_direct(r, &b, cam->width, cam->height, vox, direct);
+            rc = denoise_direct(r, &b, cam->width, cam->height, direct);
         if (rc == ESR_OK && found)
-            rc = denoise_direct(r, &b, cam->width, cam->height, vox, found);
+            rc = denoise_direct(r, &b, cam->width, cam->height, found);
         if (rc == ESR_OK && found)
             transfer_ratio(&b, direct, found, n, out->data);
         else if (rc == ESR_OK && r->mode == ESR_RELIGHT_MODEL)
