@@ -243,17 +243,18 @@ static int mark_seen(const struct esr_model *m, const float *orig3, const float 
     for (size_t r = 0; rc == ESR_OK && r < n_rays; r++) {
         if (!isfinite(t[r]))
             continue;
-        int c[3];
-        for (int a = 0; a < 3; a++)
+        int c[3]; /* the nearest lattice point (a hit lies in the box: the march is clipped to it) */
+        for (int a = 0; a < 3; a++) {
             c[a] = (int)lrintf((hit[r * 3 + a] - g->bmin[a]) / (g->bmax[a] - g->bmin[a]) *
                                (float)(dims[a] - 1));
-        for (int dz = -1; dz <= 1; dz++)
-            for (int dy = -1; dy <= 1; dy++)
-                for (int dx = -1; dx <= 1; dx++) {
-                    const int x = c[0] + dx, y = c[1] + dy, z = c[2] + dz;
-                    if (x >= 0 && y >= 0 && z >= 0 && x < g->nx && y < g->ny && z < g->nz)
-                        seen[lattice_index(g, x, y, z)] = 1;
-                }
+            c[a] = c[a] < 0 ? 0 : c[a] >= dims[a] ? dims[a] - 1 : c[a];
+        }
+        const size_t at = lattice_index(g, c[0], c[1], c[2]);
+        size_t nb[26];
+        const int nn = neighbours26(g, at, nb);
+        seen[at] = 1;
+        for (int q = 0; q < nn; q++)
+            seen[nb[q]] = 1;
     }
     free(t), free(hit);
     return rc;
