@@ -3,7 +3,8 @@
  * emission field is made constant (zero weights, last bias b: E = softplus(b) everywhere), so
  * which surfaces emit is decided by the geometry alone and the answers are known: a sphere of
  * radius r has area 4 pi r^2 and its centre as centroid. The cameras are parallel rays from
- * around the box (26 directions); only surface they can reach counts. */
+ * around the box (26 directions; one test looks from above only); only surface they can reach
+ * counts. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -28,8 +29,31 @@
 
 static float ray_orig[N_RAYS * 3], ray_dir[N_RAYS * 3];
 
-/* Parallel rays towards the origin from 26 directions, each bundle 2.4 wide (the box, 2 wide,
- * seen from any of them), starting 3 units out. */
+/* A bundle of GRID x GRID parallel rays along unit d, 2.4 wide (the box, 2 wide, seen from any
+ * direction), starting 3 units out; written from ray r on, returns the next ray. */
+static size_t add_bundle(const float d[3], float *orig, float *dir, size_t r)
+{
+    /* two unit vectors across d */
+    float u[3] = {-d[1], d[0], 0.0f};
+    if (fabsf(d[2]) > 0.9f)
+        u[0] = 1.0f, u[1] = 0.0f, u[2] = 0.0f;
+    float ul = sqrtf(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);
+    for (int a = 0; a < 3; a++)
+        u[a] /= ul;
+    const float v[3] = {d[1] * u[2] - d[2] * u[1], d[2] * u[0] - d[0] * u[2], d[0] * u[1] - d[1] * u[0]};
+    for (int i = 0; i < GRID; i++)
+        for (int j = 0; j < GRID; j++, r++) {
+            const float a = 2.4f * ((float)i + 0.5f) / GRID - 1.2f;
+            const float b = 2.4f * ((float)j + 0.5f) / GRID - 1.2f;
+            for (int c = 0; c < 3; c++) {
+                orig[r * 3 + c] = -3.0f * d[c] + a * u[c] + b * v[c];
+                dir[r * 3 + c] = d[c];
+            }
+        }
+    return r;
+}
+
+/* Bundles towards the origin from 26 directions (cube faces, edges, corners). */
 static void make_rays(void)
 {
     size_t r = 0;
@@ -40,24 +64,7 @@ static void make_rays(void)
                     continue;
                 const float len = sqrtf((float)(dx * dx + dy * dy + dz * dz));
                 const float d[3] = {-dx / len, -dy / len, -dz / len};
-                /* two unit vectors across d */
-                float u[3] = {-d[1], d[0], 0.0f};
-                if (fabsf(d[2]) > 0.9f)
-                    u[0] = 1.0f, u[1] = 0.0f, u[2] = 0.0f;
-                float ul = sqrtf(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);
-                for (int a = 0; a < 3; a++)
-                    u[a] /= ul;
-                const float v[3] = {d[1] * u[2] - d[2] * u[1], d[2] * u[0] - d[0] * u[2],
-                                    d[0] * u[1] - d[1] * u[0]};
-                for (int i = 0; i < GRID; i++)
-                    for (int j = 0; j < GRID; j++, r++) {
-                        const float a = 2.4f * ((float)i + 0.5f) / GRID - 1.2f;
-                        const float b = 2.4f * ((float)j + 0.5f) / GRID - 1.2f;
-                        for (int c = 0; c < 3; c++) {
-                            ray_orig[r * 3 + c] = -3.0f * d[c] + a * u[c] + b * v[c];
-                            ray_dir[r * 3 + c] = d[c];
-                        }
-                    }
+                r = add_bundle(d, ray_orig, ray_dir, r);
             }
 }
 
@@ -248,6 +255,109 @@ static void test_unseen_cavity_is_no_light(void **state)
     esr_model_free(&m);
 }
 
+/* E = softplus(f - 6), f = 9 on the emission feature grid's lattice points above z_from and 0
+ * below: the emission MLP passes feature 0 through one unit of each hidden layer (ReLU) to every
+ * channel. High (3.05) above, dark (0.0025) below, one feature voxel between. */
+static void emission_above(struct esr_model *m, float z_from)
+{
+    const struct esr_mlp *e = esr_model_mlp(m, ESR_COMP_EMIT_MLP);
+    float *w = m->params.w;
+    memset(w + e->offset, 0, e->count * sizeof(float));
+    for (int l = 0; l + 1 < e->n_layers; l++)
+        w[e->w_off[l]] = 1.0f; /* input 0 -> unit 0 */
+    const int last = e->n_layers - 1;
+    for (int c = 0; c < 3; c++) {
+        w[e->w_off[last] + (size_t)c] = 1.0f;
+        w[e->b_off[last] + (size_t)c] = -6.0f;
+    }
+    const struct esr_grid *g = esr_model_grid(m, ESR_COMP_EMO_FEAT);
+    float *f = esr_model_values(m, ESR_COMP_EMO_FEAT);
+    memset(f, 0, esr_grid_voxels(g) * (size_t)g->channels * sizeof(float));
+    for (int z = 0; z < g->nz; z++)
+        for (int y = 0; y < g->ny; y++)
+            for (int x = 0; x < g->nx; x++) {
+                float p[3];
+                esr_grid_voxel_pos(g, x, y, z, p);
+                if (p[2] > z_from)
+                    f[(((size_t)z * g->ny + y) * g->nx + x) * (size_t)g->channels] = 9.0f;
+            }
+}
+
+/* Lattice points of the lights' labels that carry ESR_LIGHT_UNSEEN; their lowest and highest z. */
+static long unseen_points(const struct esr_lights *L, float *zmin, float *zmax)
+{
+    const struct esr_grid *g = &L->grid;
+    long n = 0;
+    *zmin = INFINITY, *zmax = -INFINITY;
+    for (int z = 0; z < g->nz; z++)
+        for (int y = 0; y < g->ny; y++)
+            for (int x = 0; x < g->nx; x++)
+                if (L->label[((size_t)z * g->ny + y) * g->nx + x] & ESR_LIGHT_UNSEEN) {
+                    float p[3];
+                    esr_grid_voxel_pos(g, x, y, z, p);
+                    *zmin = fminf(*zmin, p[2]), *zmax = fmaxf(*zmax, p[2]);
+                    n++;
+                }
+    return n;
+}
+
+/* A light the cameras see only from above (as a lampshade's underside): a sphere of radius 0.5
+ * emitting down to z = -0.1, the cameras looking straight down. They see the upper hemisphere
+ * (and one lattice point past the equator); the light joins the outer surface points no camera
+ * sees that touch it: a band below the equator, beside which the rays that pass the sphere carve
+ * free space. Further down the normals point into the sphere's shadow, where no ray goes: not
+ * outer, not joined. The joined points carry the unseen flag, count in no area and emit the
+ * light's mean field. With only a cap above z = 0.2 emitting, the seen dark band between it and
+ * the equator keeps the unseen band off the light: nothing joins. */
+static void test_light_grows_over_its_unseen_part(void **state)
+{
+    (void)state;
+    static float orig[GRID * GRID * 3], dir[GRID * GRID * 3];
+    const float down[3] = {0.0f, 0.0f, -1.0f};
+    add_bundle(down, orig, dir, 0);
+    struct esr_model m;
+    const float cx[1] = {0.0f};
+    setup(&m, cx, 1, 0.5f, 0.0f);
+    emission_above(&m, -0.1f);
+    assert_int_equal(esr_lights_find(&m, orig, dir, GRID * GRID), ESR_OK);
+    assert_int_equal(m.lights.n, 1);
+    const struct esr_light *l = &m.lights.light[0];
+    float zmin, zmax;
+    const long grown = unseen_points(&m.lights, &zmin, &zmax);
+    const double cap = 2.0 * M_PI * 0.5 * 0.6, hemisphere = 2.0 * M_PI * 0.25; /* z > -0.1, z > 0 */
+    print_message("seen from above: %ld points, area %.4f (z > 0: %.4f, z > -0.1: %.4f), E %.3f; "
+                  "grown %ld points, z %.3f .. %.3f\n", l->points, (double)l->area, hemisphere, cap,
+                  (double)l->field_rgb[0], grown, (double)zmin, (double)zmax);
+    /* E crosses k within a feature voxel of z = -0.1: at least the seen hemisphere emits */
+    assert_true(l->area > 0.95 * hemisphere && l->area < 1.05 * cap);
+    assert_true(grown > 0);
+    assert_true(zmax < 0.0f && zmin > -0.4f); /* below the equator, above the shadow */
+    const float band[3] = {0.0f, 0.48f, -0.18f}, pole[3] = {0.0f, 0.0f, -0.5f};
+    assert_int_equal(esr_lights_id_at(&m.lights, band), 0);
+    assert_int_equal(esr_lights_id_at(&m.lights, pole), -1);
+    /* the samples: the seen points emit their field, the grown ones the light's mean field */
+    struct esr_light_samples smp;
+    assert_int_equal(esr_light_samples_get(&m, 0, &smp), ESR_OK);
+    assert_int_equal((long)smp.n, l->points + grown);
+    long mean_emitters = 0;
+    for (size_t i = 0; i < smp.n; i++) {
+        if (smp.pos3[i * 3 + 2] < -0.25f) { /* where the field is dark */
+            assert_float_equal(smp.emit3[i * 3 + 1], l->field_rgb[1], 0.0f);
+            mean_emitters++;
+        }
+        assert_true(smp.emit3[i * 3] > m.cfg.emitter_k); /* no sample of the light is dark */
+    }
+    assert_true(mean_emitters > 0);
+    esr_light_samples_free(&smp);
+    /* a seen dark band between the light and the unseen band: nothing joins */
+    emission_above(&m, 0.2f);
+    assert_int_equal(esr_lights_find(&m, orig, dir, GRID * GRID), ESR_OK);
+    assert_int_equal(m.lights.n, 1);
+    assert_int_equal(unseen_points(&m.lights, &zmin, &zmax), 0);
+    print_message("cap above z = 0.2: area %.4f, nothing grown\n", (double)m.lights.light[0].area);
+    esr_model_free(&m);
+}
+
 /* The calibration fits the lights of at least 5% of the lights' area; a smaller one takes the
  * fitted lights' area-weighted mean scale, per channel. */
 static void test_small_light_shares_the_fitted_scale(void **state)
@@ -285,6 +395,7 @@ int main(void)
         cmocka_unit_test(test_dark_field_has_no_lights),
         cmocka_unit_test(test_lights_survive_a_checkpoint),
         cmocka_unit_test(test_unseen_cavity_is_no_light),
+        cmocka_unit_test(test_light_grows_over_its_unseen_part),
         cmocka_unit_test(test_small_light_shares_the_fitted_scale),
     };
     return cmocka_run_group_tests(tests, test_setup_tmpdir, test_teardown_tmpdir);
