@@ -1,6 +1,7 @@
 /* Spherical-Gaussian environment map: forward against a separate double-precision evaluation,
  * every gradient entry against central differences of that evaluation, accumulation and thread
- * independence of the backward, initialisation, and the equirectangular image's mapping. */
+ * independence of the backward, initialisation, a start at a chosen colour, and the
+ * equirectangular image's mapping. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -287,6 +288,40 @@ static void test_init(void **state)
     free(c);
 }
 
+/* A start at a chosen colour: each channel's mean over the sphere (4096 random directions, not
+ * the setter's 512-point spiral) is its level, every lobe of a channel shares one mu, and a
+ * channel's level leaves the others' mu alone. */
+static void test_set_level(void **state)
+{
+    (void)state;
+    const int K = ESR_ENV_SG_LOBES;
+    enum { N = 4096 };
+    const size_t P = esr_env_sg_param_count(K);
+    float *p = malloc(P * sizeof(float)), *q = malloc(P * sizeof(float));
+    float *dirs = malloc(N * 3 * sizeof(float)), *rgb = malloc(N * 3 * sizeof(float));
+    random_dirs(dirs, N, 17);
+    esr_env_sg_init(p, K, 3);
+    const float level[3] = {0.05f, 0.3f, 1.7f};
+    esr_env_sg_set_level(p, K, level);
+    esr_env_sg_fwd(p, K, dirs, N, rgb);
+    for (int c = 0; c < 3; c++) {
+        double mean = 0.0;
+        for (int i = 0; i < N; i++)
+            mean += rgb[i * 3 + c] / N;
+        print_message("channel %d: level %.3f, mean %.4f, mu %.4f\n", c, (double)level[c], mean,
+                      (double)p[at(K, 4 + c, 0)]);
+        assert_true(fabs(mean - level[c]) < 0.02 * level[c]);
+        for (int k = 1; k < K; k++)
+            assert_true(p[at(K, 4 + c, k)] == p[at(K, 4 + c, 0)]);
+    }
+    memcpy(q, p, P * sizeof(float));
+    const float red_only[3] = {0.5f, 0.3f, 1.7f};
+    esr_env_sg_set_level(q, K, red_only);
+    assert_true(q[at(K, 4, 0)] > p[at(K, 4, 0)]);
+    assert_memory_equal(q + at(K, 5, 0), p + at(K, 5, 0), 2 * (size_t)K * sizeof(float));
+    free(p), free(q), free(dirs), free(rgb);
+}
+
 static int argmax_pixel(const float *img, int n)
 {
     int best = 0;
@@ -345,6 +380,7 @@ int main(void)
         cmocka_unit_test(test_bwd_fd_every_entry),
         cmocka_unit_test(test_bwd_accumulates_and_is_thread_independent),
         cmocka_unit_test(test_init),
+        cmocka_unit_test(test_set_level),
         cmocka_unit_test(test_equirect),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

@@ -229,7 +229,7 @@ void esr_env_sg_init(float *params, int lobes, uint64_t seed)
     }
 }
 
-void esr_env_sg_set_level(float *params, int lobes, float level)
+void esr_env_sg_set_level(float *params, int lobes, const float level[3])
 {
     enum { N = 512 };
     float dirs[N * 3], rgb[N * 3];
@@ -240,21 +240,24 @@ void esr_env_sg_set_level(float *params, int lobes, float level)
         dirs[i * 3 + 1] = r * sinf(phi);
         dirs[i * 3 + 2] = z;
     }
-    /* the mean rises monotonically with a common mu: bisect it */
-    float lo = -100.0f, hi = 100.0f;
+    /* a channel's mean rises monotonically with a common mu of that channel, and no other
+     * channel's mu reaches it: bisect the three at once */
+    float lo[3] = {-100.0f, -100.0f, -100.0f}, hi[3] = {100.0f, 100.0f, 100.0f};
     for (int it = 0; it < 60; it++) {
-        const float mid = 0.5f * (lo + hi);
         for (int k = 0; k < lobes; k++)
             for (int c = 0; c < 3; c++)
-                params[esr_env_sg_index(lobes, (enum esr_env_sg_block)(ESR_ENV_SG_MU_R + c), k)] = mid;
+                params[esr_env_sg_index(lobes, (enum esr_env_sg_block)(ESR_ENV_SG_MU_R + c), k)] =
+                    0.5f * (lo[c] + hi[c]);
         esr_env_sg_fwd(params, lobes, dirs, N, rgb);
-        double mean = 0.0;
-        for (int i = 0; i < N; i++)
-            mean += rgb[i * 3];
-        if (mean / N < level)
-            lo = mid;
-        else
-            hi = mid;
+        for (int c = 0; c < 3; c++) {
+            double mean = 0.0;
+            for (int i = 0; i < N; i++)
+                mean += rgb[i * 3 + c];
+            if (mean / N < level[c])
+                lo[c] = 0.5f * (lo[c] + hi[c]);
+            else
+                hi[c] = 0.5f * (lo[c] + hi[c]);
+        }
     }
 }
 

@@ -62,10 +62,10 @@ size_t esr_env_sg_param_count(int lobes);
  * ~ 0.69 in every direction and channel (see env_sg.c). Deterministic per seed. */
 void esr_env_sg_init(float *params, int lobes, uint64_t seed);
 
-/* Sets every mu of an initialised map to one value such that the map's mean over the sphere is
- * `level` (> 0; bisection on a 512-direction Fibonacci sphere): a grey start at a chosen
- * brightness instead of ln 2. */
-void esr_env_sg_set_level(float *params, int lobes, float level);
+/* Sets every mu of channel c of an initialised map to one value such that the map's mean over
+ * the sphere in that channel is level[c] (> 0; bisection on a 512-direction Fibonacci sphere): a
+ * uniform start at a chosen brightness and colour instead of ln 2 grey. */
+void esr_env_sg_set_level(float *params, int lobes, const float level[3]);
 
 /* rgb_out[i*3 + c] = env_c(dirs[i*3 .. i*3+2]) for i < n; dirs are unit vectors. Parallel over
  * directions for large n; allocates nothing. */

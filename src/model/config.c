@@ -90,8 +90,9 @@ static const struct opt opts[] = {
     {"env_lobes", OPT_INT, OFF(env_lobes), 1, 128, DEF(48, 48),
      "lts: spherical Gaussians of the environment map"},
     {"env_level", OPT_FLOAT, OFF(env_level), 0, 1e6, DEF(0, 0),
-     "lts: the environment map's starting mean radiance (0 = from the data: the mean lights-off "
-     "radiance of the surfaces the cameras see / 0.3, a mid-grey albedo under a 60%-visible sky)"},
+     "lts: the environment map's starting mean radiance, grey (0 = from the data, per channel: the "
+     "mean lights-off radiance of the surfaces the cameras see / 0.3, a scene that averages "
+     "mid-grey under a 60%-visible sky)"},
     {"emitter_k", OPT_FLOAT, OFF(emitter_k), 0, 1e6, DEF(0.2, 0.2),
      "emitter mask threshold on the composited emission (the pdra stage sets it to its final k)"},
     {"pdra.k0", OPT_FLOAT, OFF(pdra_k0), 0, 1e6, DEF(0.2, 0.2),

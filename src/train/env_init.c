@@ -11,7 +11,7 @@
 #define SURFACE_OPACITY 0.5f
 
 int esr_env_init_level(const struct esr_model *prev, const float *orig3, const float *dir3,
-                       size_t n, uint64_t seed, float *level, float *surface_mean)
+                       size_t n, uint64_t seed, float level[3], float surface_mean[3])
 {
     if (n == 0)
         return ESR_FAIL("environment level: no lights-off rays to measure it on");
@@ -30,21 +30,23 @@ int esr_env_init_level(const struct esr_model *prev, const float *orig3, const f
         struct esr_render_out out = {.linear = lin, .opacity = opac};
         rc = esr_model_render_rays(prev, o, d, RAYS, 0, &out);
     }
-    double sum = 0.0;
+    double sum[3] = {0.0, 0.0, 0.0};
     long count = 0;
     for (int i = 0; rc == ESR_OK && i < RAYS; i++) {
         const float a = opac[i];
         if (a <= SURFACE_OPACITY)
             continue;
         for (int c = 0; c < 3; c++) /* the surface's own radiance: lin = a L + (1 - a) white */
-            sum += (lin[i * 3 + c] - (1.0f - a)) / a;
-        count += 3;
+            sum[c] += (lin[i * 3 + c] - (1.0f - a)) / a;
+        count++;
     }
     if (rc == ESR_OK && count == 0)
         rc = ESR_FAIL("environment level: none of %d lights-off rays sees a surface", RAYS);
     if (rc == ESR_OK) {
-        *surface_mean = (float)(sum / (double)count);
-        *level = (*surface_mean > 1e-4f ? *surface_mean : 1e-4f) / ESR_ENV_INIT_AV;
+        for (int c = 0; c < 3; c++) {
+            surface_mean[c] = (float)(sum[c] / (double)count);
+            level[c] = (surface_mean[c] > 1e-4f ? surface_mean[c] : 1e-4f) / ESR_ENV_INIT_AV;
+        }
     }
     free(o), free(d), free(lin), free(opac);
     return rc;

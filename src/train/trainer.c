@@ -468,18 +468,20 @@ static int stage_model(struct run *r, enum esr_stage s, const struct esr_model *
     ESR_TRY(esr_model_init(m, &r->cfg, s, prev, r->scene_min, r->scene_max));
     if (!esr_model_has(m, ESR_COMP_ENV) || (prev && esr_model_has(prev, ESR_COMP_ENV)))
         return ESR_OK;
-    /* a fresh environment map: its starting brightness (train/env_init.h) */
-    float level = m->cfg.env_level, surface = 0.0f;
+    /* a fresh environment map: its starting brightness and colour (train/env_init.h) */
+    float level[3] = {m->cfg.env_level, m->cfg.env_level, m->cfg.env_level}, surface[3];
     int rc = ESR_OK;
-    if (level <= 0.0f && prev && r->rays.n_off > 0) {
+    if (level[0] <= 0.0f && prev && r->rays.n_off > 0) {
         rc = esr_env_init_level(prev, r->rays.orig3, r->rays.dir3, r->rays.n_off,
-                                (uint64_t)r->cfg.seed, &level, &surface);
+                                (uint64_t)r->cfg.seed, level, surface);
         if (rc == ESR_OK)
-            say(r, s, "environment map starts at mean radiance %.3g, derived from the data: the "
-                      "lights-off surfaces' mean radiance %.3g / %.1f",
-                level, (double)surface, (double)ESR_ENV_INIT_AV);
+            say(r, s, "environment map starts at mean radiance %.3g %.3g %.3g, derived from the "
+                      "data: the lights-off surfaces' mean radiance %.3g %.3g %.3g / %.1f (a scene "
+                      "that averages grey)",
+                level[0], level[1], level[2], (double)surface[0], (double)surface[1],
+                (double)surface[2], (double)ESR_ENV_INIT_AV);
     }
-    if (rc == ESR_OK && level > 0.0f)
+    if (rc == ESR_OK && level[0] > 0.0f)
         esr_env_sg_set_level(esr_model_values(m, ESR_COMP_ENV), m->cfg.env_lobes, level);
     if (rc != ESR_OK)
         esr_model_free(m);
