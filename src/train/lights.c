@@ -365,17 +365,14 @@ int esr_lights_find(struct esr_model *m, const float *orig3, const float *dir3, 
             }
             acc[id][6] += point_area(h, nrm + i * 3);
         }
-        for (int j = 0; j < kept; j++) {
+        for (int j = 0; j < kept; j++) { /* E: the mean over the part the field learned */
             struct esr_light *l = &L->light[j];
             const double np = (double)(l->points > 0 ? l->points : 1);
             for (int a = 0; a < 3; a++) {
-                l->centroid[a] = (float)(acc[j][a] / np);
                 l->field_rgb[a] = (float)(acc[j][3 + a] / np);
                 l->scale[a] = 1.0f;
                 l->radiance[a] = l->field_rgb[a];
             }
-            l->area = (float)acc[j][6];
-            l->power = esr_luminance(l->radiance) * (float)M_PI * l->area;
         }
         /* the lights' unseen parts: outer surface points no camera sees (flag reused) */
         memset(flag, 0, N);
@@ -385,6 +382,22 @@ int esr_lights_find(struct esr_model *m, const float *orig3, const float *dir3, 
                 flag[idx[i]] = 1;
         if (rc == ESR_OK)
             grow_unseen(g, flag, L->label, queue);
+        for (size_t i = 0; rc == ESR_OK && i < n; i++) /* they emit: they count in the light */
+            if (L->label[idx[i]] & ESR_LIGHT_UNSEEN) {
+                const int id = ESR_LIGHT_LABEL_ID(L->label[idx[i]]) - 1;
+                L->light[id].points++;
+                for (int a = 0; a < 3; a++)
+                    acc[id][a] += pos[i * 3 + a];
+                acc[id][6] += point_area(h, nrm + i * 3);
+            }
+        for (int j = 0; j < kept; j++) {
+            struct esr_light *l = &L->light[j];
+            const double np = (double)(l->points > 0 ? l->points : 1);
+            for (int a = 0; a < 3; a++)
+                l->centroid[a] = (float)(acc[j][a] / np);
+            l->area = (float)acc[j][6];
+            l->power = esr_luminance(l->radiance) * (float)M_PI * l->area;
+        }
     }
     free(idx), free(pos), free(nrm), free(emit), free(flag), free(free_mask), free(comp), free(queue);
     free(seen), free(outer);

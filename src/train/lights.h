@@ -11,7 +11,8 @@
  * training ray's first hit reaches (within a lattice point), such as a lampshade's bottom that
  * the SDF closes and no camera looks up at. They are labelled ESR_LIGHT_UNSEEN and emit the
  * light's mean field E (their own E learned only from the light they cast, which clipped images
- * understate); the light's area, points and centroid stay those of its seen part.
+ * understate); the light's area, points, centroid and power count them (it emits over all of
+ * its surface), its mean field E only the seen part.
  *
  * Strength: the emission field learns from LDR images, where every emitter is clipped to white,
  * so E comes out near 1 whatever the true strength. What does pin the strength is the light the
