@@ -336,6 +336,9 @@ static void test_light_grows_over_its_unseen_part(void **state)
     assert_true(l->area > 0.95 * hemisphere && l->area < 1.1 * (hemisphere + band_area));
     assert_true(grown > 0);
     assert_true(zmax < 0.0f && zmin > -0.4f); /* below the equator, above the shadow */
+    long unseen[ESR_MAX_LIGHTS];
+    esr_lights_unseen_points(&m.lights, unseen);
+    assert_int_equal(unseen[0], grown);
     const float band[3] = {0.0f, 0.48f, -0.18f}, pole[3] = {0.0f, 0.0f, -0.5f};
     assert_int_equal(esr_lights_id_at(&m.lights, band), 0);
     assert_int_equal(esr_lights_id_at(&m.lights, pole), -1);
@@ -358,6 +361,8 @@ static void test_light_grows_over_its_unseen_part(void **state)
     assert_int_equal(esr_lights_find(&m, orig, dir, GRID * GRID), ESR_OK);
     assert_int_equal(m.lights.n, 1);
     assert_int_equal(unseen_points(&m.lights, &zmin, &zmax), 0);
+    esr_lights_unseen_points(&m.lights, unseen);
+    assert_int_equal(unseen[0], 0);
     print_message("cap above z = 0.2: area %.4f, nothing grown\n", (double)m.lights.light[0].area);
     esr_model_free(&m);
 }

@@ -420,11 +420,16 @@ static void test_pdra_finds_lights(void **state)
     free(text);
     assert_non_null(root);
     assert_int_equal(cJSON_GetArraySize(cJSON_GetObjectItem(root, "lights")), m.lights.n);
-    for (int i = 0; i < m.lights.n; i++) { /* each light says whether its strength was fitted */
-        const cJSON *f = cJSON_GetObjectItem(cJSON_GetArrayItem(cJSON_GetObjectItem(root, "lights"), i),
-                                             "strength_fitted");
+    long unseen[ESR_MAX_LIGHTS];
+    esr_lights_unseen_points(&m.lights, unseen);
+    for (int i = 0; i < m.lights.n; i++) { /* whether its strength was fitted; its unseen part */
+        const cJSON *lt = cJSON_GetArrayItem(cJSON_GetObjectItem(root, "lights"), i);
+        const cJSON *f = cJSON_GetObjectItem(lt, "strength_fitted");
         assert_true(cJSON_IsBool(f));
         assert_int_equal(cJSON_IsTrue(f), esr_light_strength_fitted(&m.lights, i));
+        const cJSON *u = cJSON_GetObjectItem(lt, "unseen_points");
+        assert_true(cJSON_IsNumber(u));
+        assert_true(u->valuedouble == (double)unseen[i] && unseen[i] <= m.lights.light[i].points);
     }
     cJSON_Delete(root);
 

@@ -60,6 +60,8 @@ static int recompute(struct esr_model *m, const char *data)
 
 static cJSON *lights_json(const struct esr_model *m, const char *ckpt)
 {
+    long unseen[ESR_MAX_LIGHTS];
+    esr_lights_unseen_points(&m->lights, unseen);
     cJSON *root = cJSON_CreateObject();
     cJSON_AddStringToObject(root, "checkpoint", ckpt);
     cJSON_AddNumberToObject(root, "emitter_k", m->cfg.emitter_k);
@@ -73,6 +75,7 @@ static cJSON *lights_json(const struct esr_model *m, const char *ckpt)
         cJSON_AddItemToObject(o, "centroid", esr_json_float_array(l->centroid, 3));
         cJSON_AddNumberToObject(o, "area", l->area);
         cJSON_AddNumberToObject(o, "points", (double)l->points);
+        cJSON_AddNumberToObject(o, "unseen_points", (double)unseen[i]);
         cJSON_AddItemToObject(o, "rgb", esr_json_float_array(l->radiance, 3));
         cJSON_AddItemToObject(o, "hsv", esr_json_float_array(hsv, 3));
         cJSON_AddNumberToObject(o, "power", l->power);
@@ -115,6 +118,13 @@ static int lights(const char *run, const char *data_override, int again)
                    (double)l->scale[1], (double)l->scale[2], fitted ? "" : " *");
             borrowed += !fitted;
         }
+        long unseen[ESR_MAX_LIGHTS];
+        esr_lights_unseen_points(&m.lights, unseen);
+        for (int i = 0; i < m.lights.n; i++)
+            if (unseen[i])
+                printf("  light %d: %ld of its %ld surface points are seen by no camera; they emit its\n"
+                       "    mean field (grown from the seen part: a lampshade's closed bottom)\n",
+                       i, unseen[i], m.lights.light[i].points);
         if (borrowed)
             printf("  * under %.0f%% of the lights' area: too small to fit from the light it casts; it\n"
                    "    takes the fitted lights' mean scale (a small lamp, or a mirror's reflection\n"

@@ -39,6 +39,19 @@ uint64_t esr_lights_fingerprint(const struct esr_lights *L)
     return h;
 }
 
+void esr_lights_unseen_points(const struct esr_lights *L, long unseen[ESR_MAX_LIGHTS])
+{
+    memset(unseen, 0, ESR_MAX_LIGHTS * sizeof(long));
+    if (L->n == 0 || !L->label)
+        return;
+    const size_t N = esr_grid_voxels(&L->grid);
+    for (size_t i = 0; i < N; i++) {
+        const int id = ESR_LIGHT_LABEL_ID(L->label[i]) - 1;
+        if ((L->label[i] & ESR_LIGHT_UNSEEN) && id >= 0 && id < L->n)
+            unseen[id]++;
+    }
+}
+
 int esr_lights_id_at(const struct esr_lights *L, const float pos[3])
 {
     if (L->n == 0 || !L->label)

@@ -71,6 +71,10 @@ uint64_t esr_lights_fingerprint(const struct esr_lights *L);
  * saturation replaced with V kept when ed->recolour. */
 void esr_light_edit_apply(const struct esr_light_edit *ed, const float e[3], float out[3]);
 
+/* unseen[id] = the light's lattice points that carry ESR_LIGHT_UNSEEN (its part no camera sees),
+ * for id < L->n. */
+void esr_lights_unseen_points(const struct esr_lights *L, long unseen[ESR_MAX_LIGHTS]);
+
 /* Light id of a surface point (the label of the nearest labelled corner of its lattice cell),
  * or -1. */
 int esr_lights_id_at(const struct esr_lights *L, const float pos[3]);
