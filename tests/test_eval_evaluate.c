@@ -490,6 +490,7 @@ static void test_report(void **state)
     memset(&lights, 0, sizeof lights);
     lights.n = 1;
     lights.light[0].radiance[0] = 12.5f;
+    lights.light[0].points = 40; /* no labels: none of them unseen */
     struct esr_report_spec spec = {path, "run <x>", &ds, &res, "render", gt_dir, "eval/test_nv_gt", log,
                                    &lights};
     assert_int_equal(esr_report_write(&spec), ESR_OK);
@@ -499,7 +500,7 @@ static void test_report(void **state)
     static const char *const expected[] = {"<h1>run &lt;x&gt;</h1>", "<img src=\"render/c000_on.png\"",
                                            "render/c000_on_linear.png", "render/c000_on_normal.png",
                                            "eval/test_nv_gt/c000_off.png", "<polyline", "13.98",
-                                           "Lights found (1)", "12.5, 0, 0", "</html>"};
+                                           "Lights found (1)", "<td>0 of 40</td>", "12.5, 0, 0", "</html>"};
     for (size_t i = 0; i < sizeof expected / sizeof expected[0]; i++)
         if (!strstr((char *)html, expected[i]))
             fail_msg("'%s' missing from the report", expected[i]);

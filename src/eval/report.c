@@ -161,20 +161,23 @@ static void put_lights(FILE *out, const struct esr_report_spec *spec)
     if (!L || L->n == 0)
         return;
     fprintf(out, "<h2>Lights found (%d)</h2>\n<table><tr><th>id</th><th>centroid</th><th>area</th>"
-                 "<th>emitted radiance (linear RGB)</th><th>power</th><th>strength scale</th>"
-                 "<th>strength</th></tr>\n",
+                 "<th>points seen by no camera</th><th>emitted radiance (linear RGB)</th>"
+                 "<th>power</th><th>strength scale</th><th>strength</th></tr>\n",
             L->n);
+    long unseen[ESR_MAX_LIGHTS];
+    esr_lights_unseen_points(L, unseen);
     for (int i = 0; i < L->n; i++) {
         const struct esr_light *l = &L->light[i];
-        fprintf(out, "<tr><td>%d</td><td>%.2f, %.2f, %.2f</td><td>%.3g</td><td>%.3g, %.3g, %.3g</td>"
-                     "<td>%.3g</td><td>%.2f, %.2f, %.2f</td><td>%s</td></tr>\n",
+        fprintf(out, "<tr><td>%d</td><td>%.2f, %.2f, %.2f</td><td>%.3g</td><td>%ld of %ld</td>"
+                     "<td>%.3g, %.3g, %.3g</td><td>%.3g</td><td>%.2f, %.2f, %.2f</td><td>%s</td></tr>\n",
                 i, (double)l->centroid[0], (double)l->centroid[1], (double)l->centroid[2],
-                (double)l->area, (double)l->radiance[0], (double)l->radiance[1],
+                (double)l->area, unseen[i], l->points, (double)l->radiance[0], (double)l->radiance[1],
                 (double)l->radiance[2], (double)l->power, (double)l->scale[0],
                 (double)l->scale[1], (double)l->scale[2],
                 esr_light_strength_fitted(L, i) ? "fitted" : "too small to fit: the fitted lights' mean");
     }
-    fputs("</table>\n<p>Connected emitting surfaces; strength calibrated by the light each casts "
+    fputs("</table>\n<p>Connected emitting surfaces; the part no camera sees (a lampshade's "
+          "bottom) emits the light's mean field; strength calibrated by the light each casts "
           "on the non-emitting surfaces (<code>esr lights</code>, RUN/lights.json).</p>\n", out);
     for (int i = 0; i < L->n; i++)
         put_light_edits(out, spec, i);
