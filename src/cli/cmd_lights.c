@@ -58,10 +58,8 @@ static int recompute(struct esr_model *m, const char *data)
     return rc;
 }
 
-static cJSON *lights_json(const struct esr_model *m, const char *ckpt)
+static cJSON *lights_json(const struct esr_model *m, const char *ckpt, const long *unseen)
 {
-    long unseen[ESR_MAX_LIGHTS];
-    esr_lights_unseen_points(&m->lights, unseen);
     cJSON *root = cJSON_CreateObject();
     cJSON_AddStringToObject(root, "checkpoint", ckpt);
     cJSON_AddNumberToObject(root, "emitter_k", m->cfg.emitter_k);
@@ -103,6 +101,8 @@ static int lights(const char *run, const char *data_override, int again)
             rc = esr_model_save(&m, ckpt);
     }
     int borrowed = 0;
+    long unseen[ESR_MAX_LIGHTS]; /* each light's points no camera sees */
+    esr_lights_unseen_points(&m.lights, unseen);
     if (rc == ESR_OK) {
         printf("%d light%s (emitter threshold k %.3g):\n", m.lights.n, m.lights.n == 1 ? "" : "s",
                (double)m.cfg.emitter_k);
@@ -118,8 +118,6 @@ static int lights(const char *run, const char *data_override, int again)
                    (double)l->scale[1], (double)l->scale[2], fitted ? "" : " *");
             borrowed += !fitted;
         }
-        long unseen[ESR_MAX_LIGHTS];
-        esr_lights_unseen_points(&m.lights, unseen);
         for (int i = 0; i < m.lights.n; i++)
             if (unseen[i])
                 printf("  light %d: %ld of its %ld surface points are seen by no camera; they emit its\n"
@@ -131,7 +129,7 @@ static int lights(const char *run, const char *data_override, int again)
                    "    of a light that the images cannot tell from one)\n",
                    100.0 * ESR_LIGHTS_SMALL_SHARE);
         snprintf(out, sizeof out, "%s/lights.json", run);
-        rc = esr_json_write_atomic(out, lights_json(&m, ckpt));
+        rc = esr_json_write_atomic(out, lights_json(&m, ckpt, unseen));
         if (rc == ESR_OK)
             fprintf(stderr, "wrote %s\n", out);
     }

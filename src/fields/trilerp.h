@@ -50,6 +50,19 @@ ESR_INLINE void esr_trilerp_locate(const struct esr_grid *g, const float p[3], s
     t->iz0 = i0[2];
 }
 
+/* The lattice index of the point of g nearest to p (clamped to the box: per axis the corner of
+ * p's cell that p is past the middle towards). */
+ESR_INLINE size_t esr_trilerp_nearest(const struct esr_grid *g, const float p[3])
+{
+    struct esr_trilerp t;
+    esr_trilerp_locate(g, p, &t);
+    size_t i = t.base;
+    for (int a = 0; a < 3; a++)
+        if (t.f[a] >= 0.5f)
+            i += t.stride[a];
+    return i;
+}
+
 /* The z-plane of the cell containing world coordinate z (as esr_trilerp_locate computes it);
  * lets backward passes skip points whose corners are all outside a thread's planes cheaply. */
 ESR_INLINE int esr_trilerp_iz0(const struct esr_grid *g, float z)

@@ -12,6 +12,7 @@
 #include "core/rng.h"
 #include "core/vec3.h"
 #include "fields/grid.h"
+#include "fields/trilerp.h"
 #include "model/material_fields.h"
 #include "model/trace.h"
 #include "train/light_direct.h"
@@ -239,17 +240,10 @@ static int mark_seen(const struct esr_model *m, const float *orig3, const float 
     const struct esr_first_hit_out fo = {t, NULL, hit, NULL};
     if (rc == ESR_OK)
         rc = esr_first_hit(g, esr_model_values(m, ESR_COMP_SDF), &fp, &fr, &fo);
-    const int dims[3] = {g->nx, g->ny, g->nz};
     for (size_t r = 0; rc == ESR_OK && r < n_rays; r++) {
         if (!isfinite(t[r]))
             continue;
-        int c[3]; /* the nearest lattice point (a hit lies in the box: the march is clipped to it) */
-        for (int a = 0; a < 3; a++) {
-            c[a] = (int)lrintf((hit[r * 3 + a] - g->bmin[a]) / (g->bmax[a] - g->bmin[a]) *
-                               (float)(dims[a] - 1));
-            c[a] = c[a] < 0 ? 0 : c[a] >= dims[a] ? dims[a] - 1 : c[a];
-        }
-        const size_t at = lattice_index(g, c[0], c[1], c[2]);
+        const size_t at = esr_trilerp_nearest(g, hit + r * 3); /* the march is clipped to the box */
         size_t nb[26];
         const int nn = neighbours26(g, at, nb);
         seen[at] = 1;

@@ -12,19 +12,6 @@
 
 #define CARVE_CHUNK 65536
 
-/* The lattice point nearest to p, a point in g's box (the corner of its cell that it is past
- * the middle towards, per axis). */
-static size_t nearest_index(const struct esr_grid *g, const float p[3])
-{
-    struct esr_trilerp t;
-    esr_trilerp_locate(g, p, &t);
-    size_t i = t.base;
-    for (int a = 0; a < 3; a++)
-        if (t.f[a] >= 0.5f)
-            i += t.stride[a];
-    return i;
-}
-
 int esr_free_space_carve(const struct esr_grid *g, const float *sdf, const float *orig3,
                          const float *dir3, size_t n, float margin_voxels, uint8_t *free_out)
 {
@@ -70,7 +57,7 @@ int esr_free_space_carve(const struct esr_grid *g, const float *sdf, const float
                 for (int a = 0; a < 3; a++)
                     p[a] = o[i * 3 + a] + s * d[i * 3 + a];
                 /* racing stores of the same byte: relaxed atomics make them defined */
-                __atomic_store_n(free_out + nearest_index(g, p), (uint8_t)1, __ATOMIC_RELAXED);
+                __atomic_store_n(free_out + esr_trilerp_nearest(g, p), (uint8_t)1, __ATOMIC_RELAXED);
             }
         }
     }
