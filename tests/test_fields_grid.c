@@ -268,11 +268,58 @@ static void test_geo_feature_linear(void **state)
     free(sdf);
 }
 
+/* Each feature sample equals a trilinear lookup at its own position, on the lattice-line path
+ * (points at least 3 voxels inside the box) and the per-sample one (near the faces) alike, for
+ * the default scales and for scales off the half-voxel lines. */
+static void test_geo_feature_samples_match_lookups(void **state)
+{
+    (void)state;
+    struct esr_grid g = make_grid(1, 24, 25, 26);
+    const size_t cnt = esr_grid_count(&g);
+    enum { N = 300, D = 37 };
+    float *sdf = malloc(cnt * sizeof(float)), pts[N * 3], feat[N * D];
+    test_fill_uniform(sdf, cnt, -1.0f, 1.0f, 21);
+    for (int i = 0; i < N; i++)
+        for (int a = 0; a < 3; a++)
+            test_fill_uniform(&pts[i * 3 + a], 1, BMIN[a], BMAX[a], (uint64_t)(900 + i * 3 + a));
+    struct esr_geo_feature_params p;
+    esr_geo_feature_default(&p);
+    int inner = 0;
+    for (int i = 0; i < N; i++) {
+        int in = 1;
+        for (int a = 0; a < 3; a++) {
+            const float h = esr_grid_voxel_size(&g, a);
+            in &= pts[i * 3 + a] > BMIN[a] + 3 * h && pts[i * 3 + a] < BMAX[a] - 3 * h;
+        }
+        inner += in;
+    }
+    assert_true(inner > N / 3 && inner < N); /* both paths are exercised */
+    for (int variant = 0; variant < 2; variant++) {
+        if (variant == 1)
+            p.scales[1] = 0.8f; /* not on a lattice line: every point per sample */
+        assert_int_equal(esr_geo_feature_fwd(&g, sdf, &p, pts, N, feat), ESR_OK);
+        for (int i = 0; i < N; i++)
+            for (int j = 0; j < 1 + 6 * p.n_scales; j++) {
+                float q[3] = {pts[i * 3], pts[i * 3 + 1], pts[i * 3 + 2]}, v;
+                if (j > 0) {
+                    const int k = (j - 1) / 6, a = ((j - 1) % 6) / 2, s = (j - 1) % 2;
+                    q[a] += (s ? 1.0f : -1.0f) * p.scales[k] * esr_grid_voxel_size(&g, a);
+                }
+                esr_grid_sample_fwd(&g, sdf, q, 1, &v);
+                if (!test_close(feat[i * D + j], v, 1e-5, 1e-5))
+                    fail_msg("variant %d, point %d, sample %d: %g, lookup %g", variant, i, j,
+                             (double)feat[i * D + j], (double)v);
+            }
+    }
+    free(sdf);
+}
+
 /* Geometry feature backward (with and without normalisation) against central differences. */
 static void test_geo_feature_bwd_fd(void **state)
 {
     (void)state;
-    struct esr_grid g = make_grid(1, 6, 7, 6);
+    /* points inside (the lattice-line path) and near the faces (per sample) alike */
+    struct esr_grid g = make_grid(1, 9, 10, 9);
     size_t cnt = esr_grid_count(&g);
     enum { N = 40, D = 37 };
     float *sdf = malloc(cnt * sizeof(float)), *grad = malloc(cnt * sizeof(float));
@@ -292,7 +339,8 @@ static void test_geo_feature_bwd_fd(void **state)
     for (int norm = 0; norm <= 1; norm++) {
         p.normalize = norm;
         memset(grad, 0, cnt * sizeof(float));
-        assert_int_equal(esr_geo_feature_bwd(&g, sdf, &p, pts, N, d_feat, grad), ESR_OK);
+        assert_int_equal(esr_geo_feature_fwd(&g, sdf, &p, pts, N, feat), ESR_OK);
+        assert_int_equal(esr_geo_feature_bwd(&g, &p, pts, N, feat, d_feat, grad), ESR_OK);
         for (size_t e = 0; e < cnt; e++) {
             const float h = 2e-3f;
             float keep = sdf[e];
@@ -325,6 +373,7 @@ int main(void)
         cmocka_unit_test(test_value_dpoint_bwd),
         cmocka_unit_test(test_bwd_deterministic_across_threads),
         cmocka_unit_test(test_geo_feature_linear),
+        cmocka_unit_test(test_geo_feature_samples_match_lookups),
         cmocka_unit_test(test_geo_feature_bwd_fd),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

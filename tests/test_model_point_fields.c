@@ -76,7 +76,7 @@ static void run_rows(const struct esr_model *m, const int *rows, int n, const ui
             out->lin[i * 3 + a] = pf.lin3 ? pf.lin3[j * 3 + a] : 0.0f;
         }
     }
-    assert_int_equal(esr_point_fields_bwd(&pf, m, sdf, out->g_sdf, out->grads, d_tone,
+    assert_int_equal(esr_point_fields_bwd(&pf, m, out->g_sdf, out->grads, d_tone,
                                           pf.lin3 ? d_lin : NULL), 0);
     esr_point_fields_free(&pf);
 }

@@ -35,11 +35,12 @@ int esr_geo_feature_dim(const struct esr_geo_feature_params *p);
 int esr_geo_feature_fwd(const struct esr_grid *g, const float *sdf,
                         const struct esr_geo_feature_params *p, const float *pts, size_t n,
                         float *feat);
-/* Adjoint w.r.t. the SDF values: grad += d feat/d sdf ^T d_feat. `sdf` is needed for the
- * normalisation's Jacobian. Accumulates; deterministic (z-plane ownership, see grid.h). */
-int esr_geo_feature_bwd(const struct esr_grid *g, const float *sdf,
-                        const struct esr_geo_feature_params *p, const float *pts, size_t n,
-                        const float *d_feat, float *grad);
+/* Adjoint w.r.t. the SDF values: grad += d feat/d sdf ^T d_feat. feat: the forward's output for
+ * the same points and SDF (the normalisation's Jacobian reads its samples). Accumulates;
+ * deterministic (z-plane ownership, see grid.h). */
+int esr_geo_feature_bwd(const struct esr_grid *g, const struct esr_geo_feature_params *p,
+                        const float *pts, size_t n, const float *feat, const float *d_feat,
+                        float *grad);
 
 #ifdef __cplusplus
 }

@@ -126,7 +126,7 @@ static int branch_bwd(struct esr_material_fields *mf, const struct esr_model *m,
 }
 
 int esr_material_fields_bwd(struct esr_material_fields *mf, const struct esr_model *m,
-                            const float *sdf, float *g_sdf, float *grads, const float *d_emit3,
+                            float *g_sdf, float *grads, const float *d_emit3,
                             const float *d_brdf5)
 {
     const size_t n = mf->n, ni = (size_t)mf->n_in;
@@ -149,6 +149,6 @@ int esr_material_fields_bwd(struct esr_material_fields *mf, const struct esr_mod
             mf->d_geo[k * (size_t)gd + (size_t)j] =
                 (d_emit3 ? mf->dx_e[k * ni + (size_t)(gcol + j)] : 0.0f) +
                 (d_brdf5 ? mf->dx_b[k * ni + (size_t)(gcol + j)] : 0.0f);
-    return esr_geo_feature_bwd(esr_model_grid(m, ESR_COMP_SDF), sdf, &m->geo, mf->pos3, n,
+    return esr_geo_feature_bwd(esr_model_grid(m, ESR_COMP_SDF), &m->geo, mf->pos3, n, mf->geo,
                                mf->d_geo, g_sdf);
 }

@@ -63,7 +63,7 @@ int esr_material_fields_fwd(struct esr_material_fields *mf, const struct esr_mod
  * gradient; d_brdf5 must be NULL when emission-only): ADDS parameter gradients into grads and the
  * geometry feature's into g_sdf. */
 int esr_material_fields_bwd(struct esr_material_fields *mf, const struct esr_model *m,
-                            const float *sdf, float *g_sdf, float *grads, const float *d_emit3,
+                            float *g_sdf, float *grads, const float *d_emit3,
                             const float *d_brdf5);
 
 #ifdef __cplusplus

@@ -286,8 +286,8 @@ void esr_point_fields_emo(const struct esr_point_fields *pf, float *emo3)
                 j >= pf->n_off ? pf->y_b3[(j - pf->n_off) * 3 + c] : 0.0f;
 }
 
-static int radiance_bwd(struct esr_point_fields *pf, const struct esr_model *m, const float *sdf,
-                        float *g_sdf, float *grads)
+static int radiance_bwd(struct esr_point_fields *pf, const struct esr_model *m, float *g_sdf,
+                        float *grads)
 {
     const size_t n = pf->n, n_off = pf->n_off, n_on = n - n_off, ni = (size_t)pf->n_in_a;
     const int C = pf->ch_a, gcol = C + esr_pe_out_dims(&m->pe_pos), gd = pf->geo_dim;
@@ -312,8 +312,8 @@ static int radiance_bwd(struct esr_point_fields *pf, const struct esr_model *m, 
     /* geometry feature rows: off rows from the off branch, on rows from the emo branch */
     esr_rows_copy_cols(pf->dx_a + gcol, ni, pf->d_geo, (size_t)gd, n_off, gd);
     esr_rows_copy_cols(pf->dx_b + gcol, ni, pf->d_geo + n_off * (size_t)gd, (size_t)gd, n_on, gd);
-    return esr_geo_feature_bwd(esr_model_grid(m, ESR_COMP_SDF), sdf, &m->geo, pf->pos3, n, pf->d_geo,
-                               g_sdf);
+    return esr_geo_feature_bwd(esr_model_grid(m, ESR_COMP_SDF), &m->geo, pf->pos3, n, pf->geo,
+                               pf->d_geo, g_sdf);
 }
 
 /* ---- dispatch ---- */
@@ -341,8 +341,8 @@ int esr_point_fields_fwd(struct esr_point_fields *pf, const struct esr_model *m,
     return rc;
 }
 
-int esr_point_fields_bwd(struct esr_point_fields *pf, const struct esr_model *m, const float *sdf,
-                         float *g_sdf, float *grads, const float *d_tone3, const float *d_lin3)
+int esr_point_fields_bwd(struct esr_point_fields *pf, const struct esr_model *m, float *g_sdf,
+                         float *grads, const float *d_tone3, const float *d_lin3)
 {
     from_caller(pf, d_tone3, pf->d_out3);
     switch (pf->head) {
@@ -355,7 +355,7 @@ int esr_point_fields_bwd(struct esr_point_fields *pf, const struct esr_model *m,
             from_caller(pf, d_lin3, pf->d_sum3);
         else
             memset(pf->d_sum3, 0, pf->n * 3 * sizeof(float));
-        return radiance_bwd(pf, m, sdf, g_sdf, grads);
+        return radiance_bwd(pf, m, g_sdf, grads);
     }
     return ESR_OK;
 }

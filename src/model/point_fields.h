@@ -66,8 +66,8 @@ void esr_point_fields_emo(const struct esr_point_fields *pf, float *emo3);
 /* Backward of the last forward from d loss/d tone3 and d loss/d lin3 (caller row order; lin may
  * be NULL): ADDS parameter gradients into grads (the flat gradient base) and the geometry
  * feature's SDF gradient into g_sdf. Overwrites pf's internal buffers. */
-int esr_point_fields_bwd(struct esr_point_fields *pf, const struct esr_model *m, const float *sdf,
-                         float *g_sdf, float *grads, const float *d_tone3, const float *d_lin3);
+int esr_point_fields_bwd(struct esr_point_fields *pf, const struct esr_model *m, float *g_sdf,
+                         float *grads, const float *d_tone3, const float *d_lin3);
 
 #ifdef __cplusplus
 }

@@ -191,8 +191,8 @@ static void scale_lights_on_geometry(struct esr_trace *t, const struct esr_model
                 mc->d_alpha[s] *= w;
 }
 
-int esr_trace_bwd(struct esr_trace *t, const struct esr_model *m, const float *sdf, float *g_sdf,
-                  float *grads, const float *d_rgb3, const float *d_lin3)
+int esr_trace_bwd(struct esr_trace *t, const struct esr_model *m, float *g_sdf, float *grads,
+                  const float *d_rgb3, const float *d_lin3)
 {
     struct esr_march *mc = &t->march;
     const size_t nk = mc->n_kept;
@@ -220,7 +220,7 @@ int esr_trace_bwd(struct esr_trace *t, const struct esr_model *m, const float *s
         t->d_t_last = NULL;
     }
     scale_lights_on_geometry(t, m);
-    ESR_TRY(esr_point_fields_bwd(&t->fields, m, sdf, g_sdf, grads, t->d_tone_rows, d_lin_rows));
+    ESR_TRY(esr_point_fields_bwd(&t->fields, m, g_sdf, grads, t->d_tone_rows, d_lin_rows));
     float *g_geom = mc->geom.alpha == ESR_MARCH_DENSITY ? grads + m->part[ESR_COMP_DENSITY].off
                                                         : g_sdf;
     esr_march_bwd(mc, g_geom);

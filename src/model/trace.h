@@ -66,8 +66,8 @@ int esr_trace_shade(struct esr_trace *t, const struct esr_model *m, const float 
  * and t->d_t_last when set:
  * adds into g_sdf (SDF gradient w.r.t. the values passed to forward; the density gradient in
  * the alphamask stage goes into grads) and into grads (the flat gradient base). */
-int esr_trace_bwd(struct esr_trace *t, const struct esr_model *m, const float *sdf, float *g_sdf,
-                  float *grads, const float *d_rgb3, const float *d_lin3);
+int esr_trace_bwd(struct esr_trace *t, const struct esr_model *m, float *g_sdf, float *grads,
+                  const float *d_rgb3, const float *d_lin3);
 
 /* Per-ray extras of the last forward for rendering (any output may be NULL): expected distance,
  * composited unit SDF normal, opacity. The normals are the gradient of normal_sdf (values on the

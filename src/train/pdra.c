@@ -138,5 +138,5 @@ int esr_pdra_step(struct esr_pdra *pd, struct esr_model *m, const float *sdf, fl
         groups_and_suppression(pd, m, mc, &a, chosen_k_end);
     ESR_TRY(esr_pdra_reg_smooth(&pd->reg, m, sdf, g_sdf, grads, mc, pd->mf.emit3, pd->d_rows3,
                                 seed));
-    return esr_material_fields_bwd(&pd->mf, m, sdf, g_sdf, grads, pd->d_rows3, NULL);
+    return esr_material_fields_bwd(&pd->mf, m, g_sdf, grads, pd->d_rows3, NULL);
 }

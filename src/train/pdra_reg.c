@@ -97,7 +97,7 @@ int esr_pdra_reg_smooth(struct esr_pdra_reg *r, const struct esr_model *m, const
                 r->d_jit3[j * 3 + c] = -w_es * es_scale * sign(d);
             }
         r->es_loss = w_es * es_scale * sum;
-        ESR_TRY(esr_material_fields_bwd(&r->mf, m, sdf, g_sdf, grads, r->d_jit3, NULL));
+        ESR_TRY(esr_material_fields_bwd(&r->mf, m, g_sdf, grads, r->d_jit3, NULL));
     }
     if (w_ns > 0.0f) {
         jitter(mc->kpos3, n, ESR_PDRA_NS_SIGMA_VOX * vox, seed ^ 0x9e3779b9ULL, r->jit3);

@@ -98,7 +98,7 @@ int esr_train_step_run(struct esr_train_step *st, struct esr_model *m, int n, ui
         st->tr.d_t_last = st->d_t_last;
         out->loss += st->ent_loss;
     }
-    ESR_TRY(esr_trace_bwd(&st->tr, m, sdf, g_sdf, m->params.g, st->d_rgb3, d_lin));
+    ESR_TRY(esr_trace_bwd(&st->tr, m, g_sdf, m->params.g, st->d_rgb3, d_lin));
     const uint8_t *certain = NULL;
     if (st->has_pdra) {
         ESR_TRY(esr_pdra_step(&st->pdra, m, sdf, g_sdf, m->params.g, &st->tr.march,
