@@ -101,8 +101,8 @@ ESR_INLINE void esr_trilerp_corner_dw(const struct esr_trilerp *t, int k, float 
 
 /* out[c] = sum_k w_k data[corner_k * C + c] for c < C. The eight corner rows are gathered first
  * so their loads are issued together (the grid is usually far larger than the caches). */
-ESR_INLINE void esr_trilerp_fwd(const float *ESR_RESTRICT data, int C, const struct esr_trilerp *t,
-                                float *ESR_RESTRICT out)
+ESR_INLINE void esr_trilerp_fwd_rows(const float *ESR_RESTRICT data, const int C,
+                                     const struct esr_trilerp *t, float *ESR_RESTRICT out)
 {
     const float *row[8];
     float w[8];
@@ -116,19 +116,59 @@ ESR_INLINE void esr_trilerp_fwd(const float *ESR_RESTRICT data, int C, const str
     }
 }
 
+ESR_INLINE void esr_trilerp_fwd(const float *ESR_RESTRICT data, int C, const struct esr_trilerp *t,
+                                float *ESR_RESTRICT out)
+{
+    switch (C) { /* the grids' channel counts as constants, so the loops unroll */
+    case 1:
+        esr_trilerp_fwd_rows(data, 1, t, out);
+        break;
+    case 6:
+        esr_trilerp_fwd_rows(data, 6, t, out);
+        break;
+    default:
+        esr_trilerp_fwd_rows(data, C, t, out);
+    }
+}
+
+/* plane[off[q] * C + c] += wxy[q] wz d[c]: one z-plane's four corners of a backward pass. */
+ESR_INLINE void esr_trilerp_add_rows(float *ESR_RESTRICT plane, const size_t off[4], const float wxy[4],
+                                     float wz, const float *ESR_RESTRICT d, const int C)
+{
+    for (int q = 0; q < 4; q++) {
+        const float w = wxy[q] * wz;
+        float *gv = plane + off[q] * (size_t)C;
+        for (int c = 0; c < C; c++)
+            gv[c] += w * d[c];
+    }
+}
+
 /* Scatters w_k * d_out[c] into grad for the corners whose z-plane lies in [z_lo, z_hi)
  * (pass 0, INT_MAX for all). The caller guarantees no other thread writes those planes. */
 ESR_INLINE void esr_trilerp_bwd(float *ESR_RESTRICT grad, int C, const struct esr_trilerp *t,
                                 const float *ESR_RESTRICT d_out, int z_lo, int z_hi)
 {
-    for (int k = 0; k < 8; k++) {
-        int z = t->iz0 + ((k >> 2) & 1);
+    /* a z-plane's four corners at a time, weights as esr_trilerp_corner forms them */
+    const float fx = t->f[0], fy = t->f[1];
+    const float wxy[4] = {(1.0f - fx) * (1.0f - fy), fx * (1.0f - fy), (1.0f - fx) * fy, fx * fy};
+    const size_t off[4] = {0, t->stride[0], t->stride[1], t->stride[0] + t->stride[1]};
+    for (int zk = 0; zk < 2; zk++) {
+        const int z = t->iz0 + zk;
         if (z < z_lo || z >= z_hi)
             continue;
-        float w;
-        float *gv = grad + esr_trilerp_corner(t, k, &w) * (size_t)C;
-        for (int c = 0; c < C; c++)
-            gv[c] += w * d_out[c];
+        const float wz = zk ? t->f[2] : 1.0f - t->f[2];
+        float *plane = grad + (t->base + (zk ? t->stride[2] : 0)) * (size_t)C;
+        /* the grids' channel counts as constants, so the row loops unroll */
+        switch (C) {
+        case 1: /* SDF, density */
+            esr_trilerp_add_rows(plane, off, wxy, wz, d_out, 1);
+            break;
+        case 6: /* feature grids */
+            esr_trilerp_add_rows(plane, off, wxy, wz, d_out, 6);
+            break;
+        default:
+            esr_trilerp_add_rows(plane, off, wxy, wz, d_out, C);
+        }
     }
 }
 
