@@ -167,8 +167,41 @@ static void test_sampler_jitter_and_mask(void **state)
     p.mask = &m;
     assert_int_equal(esr_sample_rays(&p, o, d, R, &b), ESR_OK);
     assert_true(b.count > 0 && b.count < a.count / 3);
-    for (size_t i = 0; i < b.count; i++)
-        assert_int_equal(esr_mask_query(&m, b.pos + i * 3), 1);
+    /* exactly the unmasked march's samples the mask keeps, bit for bit (the sampler skips the
+     * steps outside the occupied box, and their random draws, without changing a sample) */
+    size_t kept = 0;
+    for (int r = 0; r < R; r++) {
+        assert_int_equal(b.ray_start[r], kept);
+        for (size_t i = a.ray_start[r]; i < a.ray_start[r + 1]; i++)
+            if (esr_mask_query(&m, a.pos + i * 3)) {
+                assert_true(kept < b.count);
+                assert_true(b.t[kept] == a.t[i] && b.ray[kept] == r);
+                assert_memory_equal(b.pos + kept * 3, a.pos + i * 3, 3 * sizeof(float));
+                kept++;
+            }
+    }
+    assert_int_equal(kept, b.count);
+    float lo[3], hi[3];
+    assert_int_equal(esr_mask_occupied_box(&m, lo, hi), 1);
+    float qlo[3] = {1e30f, 1e30f, 1e30f}, qhi[3] = {-1e30f, -1e30f, -1e30f};
+    for (int i = 0; i < 31 * 31 * 31; i++) /* the occupied lattice points' box */
+        if (m.occ[i]) {
+            float q[3];
+            esr_grid_voxel_pos(&g, i % 31, i / 31 % 31, i / (31 * 31), q);
+            for (int k = 0; k < 3; k++) {
+                qlo[k] = fminf(qlo[k], q[k]);
+                qhi[k] = fmaxf(qhi[k], q[k]);
+            }
+        }
+    for (int k = 0; k < 3; k++) { /* grown by a voxel (0.1) */
+        assert_true(fabsf(lo[k] - (qlo[k] - 0.1f)) < 1e-5f);
+        assert_true(fabsf(hi[k] - (qhi[k] + 0.1f)) < 1e-5f);
+    }
+    memset(m.occ, 0, 31 * 31 * 31);
+    assert_int_equal(esr_mask_occupied_box(&m, lo, hi), 0);
+    assert_int_equal(esr_sample_rays(&p, o, d, R, &b), ESR_OK);
+    assert_int_equal(b.count, 0);
+    assert_int_equal(b.ray_start[R], 0);
     esr_mask_free(&m);
     esr_samples_free(&a);
     esr_samples_free(&b);

@@ -42,6 +42,37 @@ size_t esr_mask_count(const struct esr_mask *m)
     return count;
 }
 
+int esr_mask_occupied_box(const struct esr_mask *m, float bmin[3], float bmax[3])
+{
+    int lo[3] = {m->nx, m->ny, m->nz}, hi[3] = {-1, -1, -1};
+    for (int z = 0; z < m->nz; z++)
+        for (int y = 0; y < m->ny; y++) {
+            const uint8_t *row = m->occ + ((size_t)z * (size_t)m->ny + (size_t)y) * (size_t)m->nx;
+            uint8_t any = 0; /* most rows are empty: OR them first (vectorises) */
+            for (int x = 0; x < m->nx; x++)
+                any |= row[x];
+            if (!any)
+                continue;
+            int x0 = 0, last = m->nx - 1;
+            while (!row[x0])
+                x0++;
+            while (!row[last])
+                last--;
+            const int at[3] = {x0, y, z}, at_hi[3] = {last, y, z};
+            for (int a = 0; a < 3; a++) {
+                lo[a] = at[a] < lo[a] ? at[a] : lo[a];
+                hi[a] = at_hi[a] > hi[a] ? at_hi[a] : hi[a];
+            }
+        }
+    if (hi[0] < 0)
+        return 0;
+    for (int a = 0; a < 3; a++) {
+        bmin[a] = m->bmin[a] + ((float)lo[a] - 1.0f) / m->scale[a];
+        bmax[a] = m->bmin[a] + ((float)hi[a] + 1.0f) / m->scale[a];
+    }
+    return 1;
+}
+
 static int check_lattice(const struct esr_mask *m, const struct esr_grid *g)
 {
     if (g->channels != 1)

@@ -37,6 +37,10 @@ int esr_mask_from_density(struct esr_mask *m, const struct esr_grid *g, const fl
 int esr_mask_from_sdf(struct esr_mask *m, const struct esr_grid *g, const float *sdf, float band,
                       int radius);
 
+/* The world box holding every point whose nearest lattice point is occupied (the occupied lattice
+ * points' box, grown by a voxel: half for the rounding, half for margin); 0 when none is. */
+int esr_mask_occupied_box(const struct esr_mask *m, float bmin[3], float bmax[3]);
+
 /* 1 when the lattice point nearest to p is occupied; 0 more than half a voxel outside the box.
  * Pure, per point. */
 ESR_INLINE int esr_mask_query(const struct esr_mask *m, const float p[3])

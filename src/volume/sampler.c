@@ -50,9 +50,11 @@ void esr_samples_free(struct esr_samples *s)
 }
 
 /* Marches one ray; writes kept samples to (ray, t, pos) when out_t is non-NULL. Returns the count.
- * Both passes call this with the same RNG stream, so they agree sample for sample. */
-static size_t march(const struct esr_sample_params *p, const float o[3], const float d[3], int r,
-                    int32_t *out_ray, float *out_t, float *out_pos)
+ * Both passes call this with the same RNG stream, so they agree sample for sample. occ_box (with
+ * a mask; NULL: none) bounds the points the mask keeps: the steps outside it are skipped, their
+ * draws too, so the samples are those of the whole march. */
+static size_t march(const struct esr_sample_params *p, const float occ_box[2][3], const float o[3],
+                    const float d[3], int r, int32_t *out_ray, float *out_t, float *out_pos)
 {
     float t0, t1, near = p->near, far = p->far;
     if (p->t_min && p->t_min[r] > near)
@@ -64,8 +66,20 @@ static size_t march(const struct esr_sample_params *p, const float o[3], const f
     struct esr_rng rng =
         esr_rng_init(p->seed, p->streams ? p->streams[r] : p->stream_base + (uint64_t)r);
     size_t kept = 0;
-    long steps = (long)ceilf((t1 - t0) / p->step);
-    for (long k = 0; k < steps; k++) {
+    long steps = (long)ceilf((t1 - t0) / p->step), k = 0;
+    if (occ_box) {
+        float ta, tb;
+        if (!esr_ray_box_clip(o, d, occ_box[0], occ_box[1], t0, t1, &ta, &tb))
+            return 0;
+        /* a step's sample lies in [t0 + k step, t0 + (k + 1) step): keep one step either side */
+        const long k_end = (long)ceilf((tb - t0) / p->step) + 1;
+        k = (long)floorf((ta - t0) / p->step) - 1;
+        k = k < 0 ? 0 : k;
+        steps = k_end < steps ? k_end : steps;
+        if (p->jitter)
+            esr_rng_skip(&rng, (uint64_t)k);
+    }
+    for (; k < steps; k++) {
         float u = p->jitter ? esr_rng_float(&rng) : 0.5f;
         float t = t0 + ((float)k + u) * p->step;
         if (t > t1)
@@ -97,9 +111,21 @@ int esr_sample_rays(const struct esr_sample_params *p, const float *origins, con
     if (n_rays < 0 || n_rays > out->max_rays)
         return ESR_FAIL("ray sampling: %d rays, buffer holds at most %d", n_rays, out->max_rays);
     size_t *start = out->ray_start;
+    float box[2][3];
+    const float(*occ_box)[3] = NULL;
+    if (p->mask) {
+        if (!esr_mask_occupied_box(p->mask, box[0], box[1])) { /* nothing is kept */
+            for (int r = 0; r <= n_rays; r++)
+                start[r] = 0;
+            out->n_rays = n_rays;
+            return ESR_OK;
+        }
+        occ_box = (const float(*)[3])box;
+    }
 #pragma omp parallel for schedule(dynamic, 64)
     for (int r = 0; r < n_rays; r++)
-        start[r + 1] = march(p, origins + (size_t)r * 3, dirs + (size_t)r * 3, r, NULL, NULL, NULL);
+        start[r + 1] = march(p, occ_box, origins + (size_t)r * 3, dirs + (size_t)r * 3, r, NULL,
+                             NULL, NULL);
     start[0] = 0;
     for (int r = 0; r < n_rays; r++)
         start[r + 1] += start[r];
@@ -110,8 +136,8 @@ int esr_sample_rays(const struct esr_sample_params *p, const float *origins, con
 #pragma omp parallel for schedule(dynamic, 64)
     for (int r = 0; r < n_rays; r++) {
         size_t s0 = start[r];
-        march(p, origins + (size_t)r * 3, dirs + (size_t)r * 3, r, out->ray + s0, out->t + s0,
-              out->pos + s0 * 3);
+        march(p, occ_box, origins + (size_t)r * 3, dirs + (size_t)r * 3, r, out->ray + s0,
+              out->t + s0, out->pos + s0 * 3);
     }
     out->n_rays = n_rays;
     return ESR_OK;
