@@ -62,8 +62,8 @@ static void sample_pos(const struct esr_grid *g, const struct esr_geo_feature_pa
 #define LINE_REACH 2
 #define LINE_LEN (2 * LINE_REACH + 2) /* lattice values i0 - 2 .. i0 + 3 */
 struct geo_lines {
-    size_t base;       /* lattice index of the line's first value on every axis' line: corner
-                          (i0x, i0y, i0z) */
+    size_t base;       /* lattice index of the point's cell corner (i0x, i0y, i0z); the line
+                          along axis a starts LINE_REACH steps of stride[a] before it */
     size_t stride[3];
     int iz0;
     float f[3];        /* the point's fractions in its cell */
