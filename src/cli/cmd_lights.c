@@ -101,9 +101,9 @@ static int lights(const char *run, const char *data_override, int again)
             rc = esr_model_save(&m, ckpt);
     }
     int borrowed = 0;
-    long unseen[ESR_MAX_LIGHTS]; /* each light's points no camera sees */
-    esr_lights_unseen_points(&m.lights, unseen);
     if (rc == ESR_OK) {
+        long unseen[ESR_MAX_LIGHTS]; /* each light's points no camera sees */
+        esr_lights_unseen_points(&m.lights, unseen);
         printf("%d light%s (emitter threshold k %.3g):\n", m.lights.n, m.lights.n == 1 ? "" : "s",
                (double)m.cfg.emitter_k);
         printf("  id  centroid                 area    emitted radiance (linear RGB)   power    "

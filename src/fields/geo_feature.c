@@ -39,6 +39,18 @@ static float step_of(const struct esr_grid *g, const struct esr_geo_feature_para
     return p->scales[k] * esr_grid_voxel_size(g, a);
 }
 
+/* Sample j's axis and offset in voxels (j = 0: the centre, on the x line). */
+static float sample_offset(const struct esr_geo_feature_params *p, int j, int *axis)
+{
+    if (j == 0) {
+        *axis = 0;
+        return 0.0f;
+    }
+    const int k = (j - 1) / 6, a = ((j - 1) % 6) / 2, s = (j - 1) % 2;
+    *axis = a;
+    return s ? p->scales[k] : -p->scales[k];
+}
+
 /* Position of sample j (0 = centre, 1 + 6k + 2a + s = neighbour) around x. */
 static void sample_pos(const struct esr_grid *g, const struct esr_geo_feature_params *p,
                        const float x[3], int j, float q[3])
@@ -48,8 +60,9 @@ static void sample_pos(const struct esr_grid *g, const struct esr_geo_feature_pa
     q[2] = x[2];
     if (j == 0)
         return;
-    int k = (j - 1) / 6, a = ((j - 1) % 6) / 2, s = (j - 1) % 2;
-    q[a] += (s ? 1.0f : -1.0f) * step_of(g, p, k, a);
+    int a;
+    const float off = sample_offset(p, j, &a);
+    q[a] += off * esr_grid_voxel_size(g, a);
 }
 
 /* The lattice lines of a point. With every scale a multiple of half a voxel and at most
@@ -132,24 +145,13 @@ static int line_at(const struct geo_lines *l, int a, float s, float *fr)
     return j;
 }
 
-/* Sample j's axis and offset in voxels (j = 0: the centre, on the x line). */
-static float sample_offset(const struct esr_geo_feature_params *p, int j, int *axis)
-{
-    if (j == 0) {
-        *axis = 0;
-        return 0.0f;
-    }
-    const int k = (j - 1) / 6, a = ((j - 1) % 6) / 2, s = (j - 1) % 2;
-    *axis = a;
-    return s ? p->scales[k] : -p->scales[k];
-}
-
-/* SDF values at the 1 + 6K samples of one point. */
+/* SDF values at the 1 + 6K samples of one point; on_lines: scales_on_lines(p). */
 static void eval_samples(const struct esr_grid *g, const float *sdf,
-                         const struct esr_geo_feature_params *p, const float x[3], float *v)
+                         const struct esr_geo_feature_params *p, int on_lines, const float x[3],
+                         float *v)
 {
     struct geo_lines l;
-    if (scales_on_lines(p) && lines_locate(g, x, &l)) {
+    if (on_lines && lines_locate(g, x, &l)) {
         lines_values(sdf, &l);
         for (int j = 0; j < 1 + 6 * p->n_scales; j++) {
             int a;
@@ -174,11 +176,11 @@ int esr_geo_feature_fwd(const struct esr_grid *g, const float *sdf,
                         float *feat)
 {
     ESR_TRY(check(g, p));
-    const int K = p->n_scales, dim = esr_geo_feature_dim(p);
+    const int K = p->n_scales, dim = esr_geo_feature_dim(p), on_lines = scales_on_lines(p);
 #pragma omp parallel for schedule(static)
     for (size_t i = 0; i < n; i++) {
         float *f = feat + i * (size_t)dim;
-        eval_samples(g, sdf, p, pts + i * 3, f); /* centre + neighbours land in place */
+        eval_samples(g, sdf, p, on_lines, pts + i * 3, f); /* centre + neighbours land in place */
         for (int k = 0; k < K; k++) {
             float *gr = f + 1 + 6 * K + 3 * k;
             for (int a = 0; a < 3; a++)
