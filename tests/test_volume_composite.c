@@ -64,6 +64,37 @@ static void test_forward_and_pruning(void **state)
 
 /* Backward against central differences of a double reference, several rays, random data with
  * per-ray background (as the LTS environment term uses). */
+/* The front layer: a ray through a faint haze, a half-transparent surface and, 2 units further,
+ * an opaque one composites only the first surface's samples (from the first weight above the
+ * minimum to `depth` behind it), and the rest is the full composite minus it; a ray with one
+ * surface gets all of it; an empty ray gets nothing. */
+static void test_front_layer(void **state)
+{
+    (void)state;
+    const size_t start[4] = {0, 6, 9, 10};
+    /* ray 0: haze (weight below min), surface at t 1.0-1.2, surface at t 3.0-3.1 */
+    const float alpha[10] = {0.001f, 0.3f, 0.2f, 0.1f, 0.6f, 0.9f, 0.5f, 0.5f, 0.5f, 0.00001f};
+    const float t[10] = {0.5f, 1.0f, 1.1f, 1.2f, 3.0f, 3.1f, 2.0f, 2.05f, 2.1f, 1.0f};
+    const float v[10 * 2] = {9, 9, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 1, 1, 2, 2, 3, 3, 4, 4};
+    float w[10], tl[3], full[6], front[6], opac[3], tm[3];
+    esr_composite_weights(3, start, alpha, ESR_COMPOSITE_THRES, w, tl);
+    struct esr_composite_args a = {3, start, alpha, w, tl, ESR_COMPOSITE_THRES, 2, v, NULL, 0, NULL};
+    esr_composite_fwd(&a, full);
+    esr_composite_front(&a, t, 0.01f, 0.5f, front, opac, tm);
+    const double w1 = w[1] + w[2] + w[3];
+    assert_true(fabs(opac[0] - w1) < 1e-6);
+    assert_true(fabs(tm[0] - (w[1] * 1.0 + w[2] * 1.1 + w[3] * 1.2) / w1) < 1e-6);
+    assert_true(fabs(front[0] - (w[1] * 1 + w[2] * 3 + w[3] * 5)) < 1e-6);
+    assert_true(fabs(front[1] - (w[1] * 2 + w[2] * 4 + w[3] * 6)) < 1e-6);
+    /* what is left is the second surface and the haze */
+    assert_true(fabs((full[0] - front[0]) - (w[0] * 9 + w[4] * 7 + w[5] * 9)) < 1e-5);
+    /* one surface: all of it */
+    assert_true(fabs(opac[1] - (1.0f - tl[1])) < 1e-6 && fabs(front[2] - full[2]) < 1e-6);
+    assert_true(fabs(tm[1] - (w[6] * 2.0 + w[7] * 2.05 + w[8] * 2.1) / (1.0 - tl[1])) < 1e-6);
+    /* nothing kept */
+    assert_true(opac[2] == 0.0f && tm[2] == 0.0f && front[4] == 0.0f && front[5] == 0.0f);
+}
+
 static void test_backward_fd(void **state)
 {
     (void)state;
@@ -264,6 +295,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_forward_and_pruning),
+        cmocka_unit_test(test_front_layer),
         cmocka_unit_test(test_backward_fd),
         cmocka_unit_test(test_end_to_end_one_ray),
         cmocka_unit_test(test_t_last_backward),

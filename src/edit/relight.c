@@ -16,8 +16,14 @@
 #include "model/render_sdf.h"
 #include "volume/first_hit.h"
 
-/* a camera ray whose opacity is below this has no surface to light */
+/* a camera ray whose opacity is below this has no surface (the ratio method's mean) */
 #define SURFACE_OPACITY 0.5f
+/* a pixel sees two surfaces (layers) when the rest of its ray behind the first surface
+ * (esr_render_out.front_*) holds this much opacity this many voxels further on; a layer of
+ * opacity below LIT_OPACITY gets no direct light */
+#define LAYER_OPACITY 0.05f
+#define LAYER_GAP_VOX 2.0f
+#define LIT_OPACITY 0.02f
 /* shadow rays start this many voxels off the surface and stop this many short of the light */
 #define SHADOW_OFFSET_VOX 1.0f
 #define SHADOW_STOP_VOX 1.5f
@@ -64,17 +70,43 @@ void esr_relight_free(struct esr_relight *r)
     memset(r, 0, sizeof(*r));
 }
 
-/* Per-pixel buffers of one view. */
+/* Per-pixel buffers of one view. A pixel is lit as up to two layers, layer i = 2 p + l: where
+ * its ray sees two surfaces (an object's silhouette), each is lit at its own point with its own
+ * normal and BRDF (a single point at the expected depth lies in the air between them, and its
+ * light came out dark); else layer 0 is the whole ray and layer 1 is empty. */
 struct view_buf {
-    float *o3, *d3, *lin3, *on3, *opac, *depth, *nrm3, *mat5, *emit3; /* on3: not in direct */
+    float *o3, *d3, *lin3, *on3, *opac, *depth, *mat5, *emit3; /* on3: not in direct */
+    float *front_opac, *front_depth, *front_mat5;               /* the ray's first surface */
+    float *l_opac, *l_depth, *l_mat5, *l_nrm3;                  /* per layer [2n] */
     int32_t *ids;
 };
 
 static void view_buf_free(struct view_buf *b)
 {
     free(b->o3), free(b->d3), free(b->lin3), free(b->on3), free(b->opac), free(b->depth);
-    free(b->nrm3);
     free(b->mat5), free(b->emit3), free(b->ids);
+    free(b->front_opac), free(b->front_depth), free(b->front_mat5);
+    free(b->l_opac), free(b->l_depth), free(b->l_mat5), free(b->l_nrm3);
+}
+
+/* The layers of every pixel from the totals and the first surface (see struct view_buf). */
+static void split_layers(struct view_buf *b, size_t n, float voxel)
+{
+    for (size_t p = 0; p < n; p++) {
+        const size_t i0 = 2 * p, i1 = i0 + 1;
+        const float a = b->opac[p], a1 = b->front_opac[p], a2 = a - a1;
+        const float d1 = b->front_depth[p], d2 = a2 > 0.0f ? (b->depth[p] * a - d1 * a1) / a2 : 0.0f;
+        const int two = a1 > 0.0f && a2 > LAYER_OPACITY && d2 - d1 > LAYER_GAP_VOX * voxel;
+        b->l_opac[i0] = two ? a1 : a;
+        b->l_depth[i0] = two ? d1 : b->depth[p];
+        b->l_opac[i1] = two ? a2 : 0.0f;
+        b->l_depth[i1] = two ? d2 : b->depth[p];
+        for (int c = 0; c < ESR_BRDF_CHANNELS; c++) {
+            const float m = b->mat5[p * ESR_BRDF_CHANNELS + c], m1 = b->front_mat5[p * ESR_BRDF_CHANNELS + c];
+            b->l_mat5[i0 * ESR_BRDF_CHANNELS + c] = two ? m1 : m;
+            b->l_mat5[i1 * ESR_BRDF_CHANNELS + c] = two ? m - m1 : 0.0f;
+        }
+    }
 }
 
 /* Whether light k sends any light under its edit (on, with samples, a strength above 0); the
@@ -85,18 +117,19 @@ static int lights_up(const struct esr_relight *r, const struct esr_light_edit *e
            r->samples[k].max_emit > 0.0f;
 }
 
-/* Whether pixel p gets the direct light: a surface, and in the model mode one that sees a light. */
-static int lit_pixel(const struct esr_relight *r, const struct view_buf *b, size_t p)
+/* Whether layer i gets the direct light: a surface, and in the model mode on a pixel that sees a
+ * light. */
+static int lit_layer(const struct esr_relight *r, const struct view_buf *b, size_t i)
 {
-    return b->opac[p] > SURFACE_OPACITY && (r->mode != ESR_RELIGHT_MODEL || b->ids[p] >= 0);
+    return b->l_opac[i] > LIT_OPACITY && (r->mode != ESR_RELIGHT_MODEL || b->ids[i / 2] >= 0);
 }
 
-/* The direct light at every lit pixel (lit_pixel) into edited3 (with the edited emission) and
- * found3 (with the emission as found; the ratio method's, else NULL), both zeroed by the caller:
- * spp area samples per light, each with its shadow ray traced on the spot; returns how many
- * shadow rays were traced. A pixel's samples draw from their own stream and add in a fixed
- * order, so the result does not depend on the schedule; nothing is allocated (a view's ~600k
- * shadow rays kept in arrays cost more in page faults than in marching). */
+/* The direct light at every lit layer (lit_layer) into edited3 (with the edited emission) and
+ * found3 (with the emission as found; the ratio method's, else NULL), per layer [2n * 3], both
+ * zeroed by the caller: spp area samples per light, each with its shadow ray traced on the spot;
+ * returns how many shadow rays were traced. A pixel's samples draw from their own stream and
+ * add in a fixed order, so the result does not depend on the schedule; nothing is allocated (a
+ * view's ~600k shadow rays kept in arrays cost more in page faults than in marching). */
 ESR_HOT static size_t direct_light(const struct esr_relight *r, const struct esr_light_edit *edits,
                                    const struct view_buf *b, size_t n_px, uint64_t seed,
                                    float *edited3, float *found3)
@@ -105,54 +138,56 @@ ESR_HOT static size_t direct_light(const struct esr_relight *r, const struct esr
     size_t traced = 0;
 #pragma omp parallel for schedule(dynamic, 16) reduction(+ : traced)
     for (size_t p = 0; p < n_px; p++) {
-        const float a = b->opac[p];
-        struct esr_vec3 n = esr_v3(b->nrm3[p * 3], b->nrm3[p * 3 + 1], b->nrm3[p * 3 + 2]);
-        if (!lit_pixel(r, b, p) || esr_v3_length(n) < 1e-6f)
-            continue;
-        n = esr_v3_normalize(n);
-        struct esr_vec3 d = esr_v3(b->d3[p * 3], b->d3[p * 3 + 1], b->d3[p * 3 + 2]);
-        struct esr_vec3 x = esr_v3_add(esr_v3(b->o3[p * 3], b->o3[p * 3 + 1], b->o3[p * 3 + 2]),
-                                       esr_v3_scale(d, b->depth[p]));
-        const struct esr_vec3 wo = esr_v3_scale(d, -1.0f);
-        const struct esr_material mat = esr_material_of_row(b->mat5 + p * ESR_BRDF_CHANNELS, a);
-        const struct esr_vec3 o = esr_v3_add(x, esr_v3_scale(n, SHADOW_OFFSET_VOX * h));
-        const float o3[3] = {o.x, o.y, o.z};
         struct esr_rng rng = esr_rng_init(seed, p);
-        for (int k = 0; k < r->n_lights; k++) {
-            const struct esr_light_samples *ls = &r->samples[k];
-            if (!lights_up(r, edits, k))
+        for (size_t i = 2 * p; i < 2 * p + 2; i++) {
+            const float a = b->l_opac[i];
+            struct esr_vec3 n = esr_v3(b->l_nrm3[i * 3], b->l_nrm3[i * 3 + 1], b->l_nrm3[i * 3 + 2]);
+            if (!lit_layer(r, b, i) || esr_v3_length(n) < 1e-6f)
                 continue;
-            for (int j = 0; j < r->spp; j++) {
-                /* stratified over the light's points (stored in lattice order, so the strata
-                 * are patches of its surface) */
-                size_t q = (size_t)(((double)j + esr_rng_float(&rng)) * (double)ls->n / r->spp);
-                if (q >= ls->n)
-                    q = ls->n - 1;
-                const struct esr_vec3 y = esr_v3(ls->pos3[q * 3], ls->pos3[q * 3 + 1], ls->pos3[q * 3 + 2]);
-                const struct esr_vec3 v = esr_v3_sub(y, o);
-                const float dist = esr_v3_length(v);
-                if (dist <= SHADOW_STOP_VOX * h)
+            n = esr_v3_normalize(n);
+            struct esr_vec3 d = esr_v3(b->d3[p * 3], b->d3[p * 3 + 1], b->d3[p * 3 + 2]);
+            struct esr_vec3 x = esr_v3_add(esr_v3(b->o3[p * 3], b->o3[p * 3 + 1], b->o3[p * 3 + 2]),
+                                           esr_v3_scale(d, b->l_depth[i]));
+            const struct esr_vec3 wo = esr_v3_scale(d, -1.0f);
+            const struct esr_material mat = esr_material_of_row(b->l_mat5 + i * ESR_BRDF_CHANNELS, a);
+            const struct esr_vec3 o = esr_v3_add(x, esr_v3_scale(n, SHADOW_OFFSET_VOX * h));
+            const float o3[3] = {o.x, o.y, o.z};
+            for (int k = 0; k < r->n_lights; k++) {
+                const struct esr_light_samples *ls = &r->samples[k];
+                if (!lights_up(r, edits, k))
                     continue;
-                const struct esr_vec3 wi = esr_v3_scale(v, 1.0f / dist);
-                float R[3];
-                esr_brdf_eval(&mat, n, wo, wi, R);
-                if (R[0] + R[1] + R[2] <= 0.0f)
-                    continue; /* below the surface */
-                const struct esr_vec3 end = esr_v3_add(o, esr_v3_scale(wi, dist - SHADOW_STOP_VOX * h));
-                const float end3[3] = {end.x, end.y, end.z};
-                traced++;
-                if (esr_first_hit_segment_blocked(&r->shadows.grid, &r->shadows.params, o3, end3))
-                    continue; /* occluded */
-                const struct esr_vec3 ny = esr_v3(ls->nrm3[q * 3], ls->nrm3[q * 3 + 1], ls->nrm3[q * 3 + 2]);
-                const float g = fabsf(esr_v3_dot(ny, wi)) * ls->area[q] * (float)ls->n /
-                                ((float)r->spp * dist * dist);
-                float e[3];
-                esr_light_edit_apply(&edits[k], ls->emit3 + q * 3, e);
-                for (int c = 0; c < 3; c++)
-                    edited3[p * 3 + c] += a * e[c] * R[c] * g;
-                if (found3)
+                for (int j = 0; j < r->spp; j++) {
+                    /* stratified over the light's points (stored in lattice order, so the strata
+                     * are patches of its surface) */
+                    size_t q = (size_t)(((double)j + esr_rng_float(&rng)) * (double)ls->n / r->spp);
+                    if (q >= ls->n)
+                        q = ls->n - 1;
+                    const struct esr_vec3 y = esr_v3(ls->pos3[q * 3], ls->pos3[q * 3 + 1], ls->pos3[q * 3 + 2]);
+                    const struct esr_vec3 v = esr_v3_sub(y, o);
+                    const float dist = esr_v3_length(v);
+                    if (dist <= SHADOW_STOP_VOX * h)
+                        continue;
+                    const struct esr_vec3 wi = esr_v3_scale(v, 1.0f / dist);
+                    float R[3];
+                    esr_brdf_eval(&mat, n, wo, wi, R);
+                    if (R[0] + R[1] + R[2] <= 0.0f)
+                        continue; /* below the surface */
+                    const struct esr_vec3 end = esr_v3_add(o, esr_v3_scale(wi, dist - SHADOW_STOP_VOX * h));
+                    const float end3[3] = {end.x, end.y, end.z};
+                    traced++;
+                    if (esr_first_hit_segment_blocked(&r->shadows.grid, &r->shadows.params, o3, end3))
+                        continue; /* occluded */
+                    const struct esr_vec3 ny = esr_v3(ls->nrm3[q * 3], ls->nrm3[q * 3 + 1], ls->nrm3[q * 3 + 2]);
+                    const float g = fabsf(esr_v3_dot(ny, wi)) * ls->area[q] * (float)ls->n /
+                                    ((float)r->spp * dist * dist);
+                    float e[3];
+                    esr_light_edit_apply(&edits[k], ls->emit3 + q * 3, e);
                     for (int c = 0; c < 3; c++)
-                        found3[p * 3 + c] += a * ls->emit3[q * 3 + c] * R[c] * g;
+                        edited3[i * 3 + c] += a * e[c] * R[c] * g;
+                    if (found3)
+                        for (int c = 0; c < 3; c++)
+                            found3[i * 3 + c] += a * ls->emit3[q * 3 + c] * R[c] * g;
+                }
             }
         }
     }
@@ -160,65 +195,76 @@ ESR_HOT static size_t direct_light(const struct esr_relight *r, const struct esr
 }
 
 /* A joint bilateral filter on the direct light (a few light samples per pixel leave speckle):
- * over a (2 DENOISE_R + 1)^2 window of surface pixels, weighted by depth (DENOISE_DEPTH_VOX
- * voxels) and normal agreement (cos^DENOISE_NPOW), on the light divided by the base colour so the
- * texture is not blurred, then multiplied back. */
+ * each lit layer averages the lit layers of a (2 DENOISE_R + 1)^2 window of pixels (both layers
+ * of each, so the far side of a silhouette takes its light from the surface it continues),
+ * weighted by depth (DENOISE_DEPTH_VOX voxels) and normal agreement (cos^DENOISE_NPOW), on the
+ * light per unit opacity divided by the base colour so the texture is not blurred, then
+ * multiplied back. Reads the per-layer light (direct_light) and writes each pixel's sum of its
+ * layers into out [n * 3]. */
 static int denoise_direct(const struct esr_relight *r, const struct view_buf *b, int w, int h,
-                          float *direct)
+                          const float *layers3, float *out)
 {
     const float vox = r->shadows.voxel;
     const size_t n = (size_t)w * (size_t)h;
-    float *demod = malloc(n * 3 * sizeof(float)), *nrm = malloc(n * 3 * sizeof(float));
-    if (!demod || !nrm) {
-        free(demod), free(nrm);
+    float *demod = malloc(2 * n * 3 * sizeof(float)), *nrm = malloc(2 * n * 3 * sizeof(float));
+    float *albedo = malloc(2 * n * 3 * sizeof(float));
+    if (!demod || !nrm || !albedo) {
+        free(demod), free(nrm), free(albedo);
         return ESR_FAIL("relight: out of memory for the denoiser");
     }
-    for (size_t p = 0; p < n; p++) {
-        const float a = b->opac[p] > 1e-4f ? b->opac[p] : 1e-4f;
+    for (size_t i = 0; i < 2 * n; i++) {
+        const float a = b->l_opac[i] > 1e-4f ? b->l_opac[i] : 1e-4f;
         float len = 0.0f;
         for (int c = 0; c < 3; c++) {
-            demod[p * 3 + c] = direct[p * 3 + c] / fmaxf(b->mat5[p * 5 + c] / a, DENOISE_MIN_ALBEDO);
-            len += b->nrm3[p * 3 + c] * b->nrm3[p * 3 + c];
+            albedo[i * 3 + c] = fmaxf(b->l_mat5[i * ESR_BRDF_CHANNELS + c] / a, DENOISE_MIN_ALBEDO);
+            demod[i * 3 + c] = layers3[i * 3 + c] / (a * albedo[i * 3 + c]);
+            len += b->l_nrm3[i * 3 + c] * b->l_nrm3[i * 3 + c];
         }
         len = len > 1e-12f ? 1.0f / sqrtf(len) : 0.0f;
         for (int c = 0; c < 3; c++)
-            nrm[p * 3 + c] = b->nrm3[p * 3 + c] * len;
+            nrm[i * 3 + c] = b->l_nrm3[i * 3 + c] * len;
     }
     const float inv2s2 = 1.0f / (2.0f * (DENOISE_DEPTH_VOX * vox) * (DENOISE_DEPTH_VOX * vox));
 #pragma omp parallel for schedule(static)
     for (int y = 0; y < h; y++)
         for (int x = 0; x < w; x++) {
             const size_t p = (size_t)y * (size_t)w + (size_t)x;
-            if (!lit_pixel(r, b, p))
-                continue;
-            double sum[3] = {0, 0, 0}, wsum = 0.0;
-            for (int dy = -DENOISE_R; dy <= DENOISE_R; dy++)
-                for (int dx = -DENOISE_R; dx <= DENOISE_R; dx++) {
-                    const int u = x + dx, v = y + dy;
-                    if (u < 0 || v < 0 || u >= w || v >= h)
-                        continue;
-                    const size_t q = (size_t)v * (size_t)w + (size_t)u;
-                    if (!lit_pixel(r, b, q))
-                        continue;
-                    const float dd = b->depth[q] - b->depth[p];
-                    const float cn = nrm[p * 3] * nrm[q * 3] + nrm[p * 3 + 1] * nrm[q * 3 + 1] +
-                                     nrm[p * 3 + 2] * nrm[q * 3 + 2];
-                    if (cn <= 0.0f)
-                        continue;
-                    float wn = cn;
-                    for (int k = 1; k < DENOISE_NPOW; k++)
-                        wn *= cn;
-                    const double wq = (double)wn * exp(-(double)(dd * dd * inv2s2));
-                    for (int c = 0; c < 3; c++)
-                        sum[c] += wq * demod[q * 3 + c];
-                    wsum += wq;
-                }
-            const float a = b->opac[p];
             for (int c = 0; c < 3; c++)
-                direct[p * 3 + c] = (float)(sum[c] / wsum) *
-                                    fmaxf(b->mat5[p * 5 + c] / a, DENOISE_MIN_ALBEDO);
+                out[p * 3 + c] = 0.0f;
+            for (size_t i = 2 * p; i < 2 * p + 2; i++) {
+                if (!lit_layer(r, b, i))
+                    continue;
+                double sum[3] = {0, 0, 0}, wsum = 0.0;
+                for (int dy = -DENOISE_R; dy <= DENOISE_R; dy++)
+                    for (int dx = -DENOISE_R; dx <= DENOISE_R; dx++) {
+                        const int u = x + dx, v = y + dy;
+                        if (u < 0 || v < 0 || u >= w || v >= h)
+                            continue;
+                        const size_t q = (size_t)v * (size_t)w + (size_t)u;
+                        for (size_t j = 2 * q; j < 2 * q + 2; j++) {
+                            if (!lit_layer(r, b, j))
+                                continue;
+                            const float dd = b->l_depth[j] - b->l_depth[i];
+                            const float cn = nrm[i * 3] * nrm[j * 3] + nrm[i * 3 + 1] * nrm[j * 3 + 1] +
+                                             nrm[i * 3 + 2] * nrm[j * 3 + 2];
+                            if (cn <= 0.0f)
+                                continue;
+                            float wn = cn;
+                            for (int k = 1; k < DENOISE_NPOW; k++)
+                                wn *= cn;
+                            const double wq = (double)wn * exp(-(double)(dd * dd * inv2s2));
+                            for (int c = 0; c < 3; c++)
+                                sum[c] += wq * demod[j * 3 + c];
+                            wsum += wq;
+                        }
+                    }
+                if (wsum <= 0.0)
+                    continue; /* its normal is unset (its own weight would be 1) */
+                for (int c = 0; c < 3; c++)
+                    out[p * 3 + c] += (float)(sum[c] / wsum) * b->l_opac[i] * albedo[i * 3 + c];
+            }
         }
-    free(demod), free(nrm);
+    free(demod), free(nrm), free(albedo);
     return ESR_OK;
 }
 
@@ -269,6 +315,7 @@ int esr_relight_view(const struct esr_relight *r, const struct esr_model *m,
         memset(stats, 0, sizeof(*stats));
     const size_t n = (size_t)cam->width * (size_t)cam->height;
     struct view_buf b;
+    memset(&b, 0, sizeof b);
     b.o3 = malloc(n * 3 * sizeof(float));
     b.d3 = malloc(n * 3 * sizeof(float));
     b.lin3 = malloc(n * 3 * sizeof(float));
@@ -276,11 +323,19 @@ int esr_relight_view(const struct esr_relight *r, const struct esr_model *m,
     b.on3 = with_on ? malloc(n * 3 * sizeof(float)) : NULL;
     b.opac = malloc(n * sizeof(float));
     b.depth = malloc(n * sizeof(float));
-    b.nrm3 = malloc(n * 3 * sizeof(float));
-    b.mat5 = malloc(n * 5 * sizeof(float));
+    b.mat5 = malloc(n * ESR_BRDF_CHANNELS * sizeof(float));
     b.emit3 = malloc(n * 3 * sizeof(float));
     b.ids = malloc(n * sizeof(int32_t));
-    int rc = b.o3 && b.d3 && b.lin3 && (b.on3 || !with_on) && b.opac && b.depth && b.nrm3 && b.mat5 && b.emit3 && b.ids
+    b.front_opac = malloc(n * sizeof(float));
+    b.front_depth = malloc(n * sizeof(float));
+    b.front_mat5 = malloc(n * ESR_BRDF_CHANNELS * sizeof(float));
+    b.l_opac = malloc(2 * n * sizeof(float));
+    b.l_depth = malloc(2 * n * sizeof(float));
+    b.l_mat5 = malloc(2 * n * ESR_BRDF_CHANNELS * sizeof(float));
+    b.l_nrm3 = malloc(2 * n * 3 * sizeof(float));
+    int rc = b.o3 && b.d3 && b.lin3 && (b.on3 || !with_on) && b.opac && b.depth && b.mat5 && b.emit3 &&
+                     b.ids && b.front_opac && b.front_depth && b.front_mat5 && b.l_opac && b.l_depth &&
+                     b.l_mat5 && b.l_nrm3
                  ? ESR_OK
                  : ESR_FAIL("relight: out of memory for a %dx%d view", cam->width, cam->height);
     /* m with the edit in place: each sample on a light composites its light's edited emission,
@@ -295,24 +350,26 @@ int esr_relight_view(const struct esr_relight *r, const struct esr_model *m,
         esr_camera_pixel_rays(cam, b.o3, b.d3);
         struct esr_render_out o = {.linear = b.lin3, .depth = b.depth, .opacity = b.opac,
                                    .emitted_lights = b.emit3, .material = b.mat5, .light_id = b.ids,
-                                   .linear_other = b.on3,
+                                   .linear_other = b.on3, .front_opacity = b.front_opac,
+                                   .front_depth = b.front_depth, .front_material = b.front_mat5,
                                    .lights_emitted_only = r->mode == ESR_RELIGHT_MODEL};
         rc = esr_model_render_rays(edited, b.o3, b.d3, n, 0, &o);
     }
     free(edited);
-    if (rc == ESR_OK) { /* surface points, and their normals from the smoothed SDF */
-        float *x3 = b.nrm3; /* the points first, overwritten by their normals */
-        for (size_t p = 0; p < n; p++)
+    if (rc == ESR_OK) { /* the layers' surface points, and their normals from the smoothed SDF */
+        split_layers(&b, n, r->shadows.voxel);
+        float *x3 = b.l_nrm3; /* the points first, overwritten by their normals */
+        for (size_t i = 0; i < 2 * n; i++)
             for (int a = 0; a < 3; a++)
-                x3[p * 3 + a] = b.o3[p * 3 + a] + b.d3[p * 3 + a] * b.depth[p];
+                x3[i * 3 + a] = b.o3[i / 2 * 3 + a] + b.d3[i / 2 * 3 + a] * b.l_depth[i];
         const struct esr_grid *g = esr_model_grid(m, ESR_COMP_SDF);
-        float *tmp = malloc(n * 3 * sizeof(float));
+        float *tmp = malloc(2 * n * 3 * sizeof(float));
         if (!tmp)
-            rc = ESR_FAIL("relight: out of memory for %zu normals", n);
+            rc = ESR_FAIL("relight: out of memory for %zu normals", 2 * n);
         else {
             esr_grid_sample_dpoint(g, r->normal_sdf ? r->normal_sdf : esr_model_values(m, ESR_COMP_SDF),
-                                   0, x3, n, tmp);
-            memcpy(b.nrm3, tmp, n * 3 * sizeof(float));
+                                   0, x3, 2 * n, tmp);
+            memcpy(b.l_nrm3, tmp, 2 * n * 3 * sizeof(float));
             free(tmp);
         }
     }
@@ -322,9 +379,11 @@ int esr_relight_view(const struct esr_relight *r, const struct esr_model *m,
         /* the lights-off view, the edited lights where the camera sees them, the direct light */
         for (size_t i = 0; i < n * 3; i++)
             out->data[i] = b.lin3[i] + b.emit3[i];
-        float *direct = calloc(n * 3, sizeof(float));
-        float *found = ratio ? calloc(n * 3, sizeof(float)) : NULL;
-        if (!direct || (ratio && !found))
+        /* per layer [2n * 3], then (denoised) per pixel [n * 3] */
+        float *direct = calloc(2 * n * 3, sizeof(float));
+        float *found = ratio ? calloc(2 * n * 3, sizeof(float)) : NULL;
+        float *layers = malloc(2 * n * 3 * sizeof(float));
+        if (!direct || (ratio && !found) || !layers)
             rc = ESR_FAIL("relight: out of memory for the direct light");
         if (rc == ESR_OK) {
             const double t0 = omp_get_wtime();
@@ -334,10 +393,14 @@ int esr_relight_view(const struct esr_relight *r, const struct esr_model *m,
                 stats->direct_seconds = omp_get_wtime() - t0;
             }
         }
-        if (rc == ESR_OK)
-            rc = denoise_direct(r, &b, cam->width, cam->height, direct);
-        if (rc == ESR_OK && found)
-            rc = denoise_direct(r, &b, cam->width, cam->height, found);
+        if (rc == ESR_OK) {
+            memcpy(layers, direct, 2 * n * 3 * sizeof(float));
+            rc = denoise_direct(r, &b, cam->width, cam->height, layers, direct);
+        }
+        if (rc == ESR_OK && found) {
+            memcpy(layers, found, 2 * n * 3 * sizeof(float));
+            rc = denoise_direct(r, &b, cam->width, cam->height, layers, found);
+        }
         if (rc == ESR_OK && found)
             transfer_ratio(&b, direct, found, n, out->data);
         else if (rc == ESR_OK && r->mode == ESR_RELIGHT_MODEL)
@@ -349,7 +412,7 @@ int esr_relight_view(const struct esr_relight *r, const struct esr_model *m,
             for (size_t p = 0; p < n; p++)
                 for (int c = 0; c < 3; c++)
                     out->data[p * 3 + c] += direct[p * 3 + c];
-        free(direct), free(found);
+        free(direct), free(found), free(layers);
     }
     view_buf_free(&b);
     if (rc != ESR_OK)

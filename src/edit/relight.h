@@ -5,7 +5,9 @@
  *              composites its light's edited emission: a pixel on a light's edge shows it in
  *              proportion)
  * with L_off the lights-off radiance field, R the reconstructed BRDF (cosine included) at the
- * camera ray's surface point x (its expected depth), y area-sampled over light K's surface
+ * camera ray's surface point x (its expected depth; where the ray sees two surfaces, an object's
+ * silhouette against what lies behind it, each is lit at its own point with its own BRDF and
+ * weighted by its opacity), y area-sampled over light K's surface
  * samples (train/lights.h) with a shadow ray to each (first hit of the SDF before y: occluded),
  * and E'_K = the light's calibrated emission times its intensity, recoloured to the edit's hue and
  * saturation with V kept (seed eqs. 10-15). Light reaching x only after a bounce is left out

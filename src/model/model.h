@@ -113,6 +113,11 @@ int esr_model_load_finished_pdra(struct esr_model *m, const char *run);
 int esr_model_save(const struct esr_model *m, const char *path);
 
 /* What esr_model_render_rays writes; any pointer may be NULL (not computed). */
+/* A ray's first surface (esr_render_out.front_*): from its first sample of weight above this,
+ * this many voxels deep (a NeuS surface's weights span about a voxel) */
+#define ESR_FRONT_MIN_WEIGHT 0.02f
+#define ESR_FRONT_DEPTH_VOX 3.0f
+
 struct esr_render_out {
     float *rgb;      /* [n*3] tone-mapped LDR in [0,1] composited on the model's background: white,
                         or its learned one (fields/background.h); what PNGs compare to */
@@ -131,6 +136,13 @@ struct esr_render_out {
                               is not a light's: none of it) */
     float *material; /* [n*5] composited BRDF: base colour (3, linear), roughness, metallic (no
                         background: multiply out by opacity); lts stage on, like emission */
+    /* The ray's first surface where it sees two (a silhouette against what lies behind it), for
+     * shading each on its own (edit/relight): the kept samples from the first of weight above
+     * ESR_FRONT_MIN_WEIGHT to ESR_FRONT_DEPTH_VOX voxels behind it (volume/composite.h
+     * esr_composite_front). All three or none, with `material`: */
+    float *front_opacity;  /* [n]   their weights' sum (opacity minus it: the rest of the ray) */
+    float *front_depth;    /* [n]   their weights-normalised ray distance (0 where none) */
+    float *front_material; /* [n*5] their composited BRDF, as `material` */
     int32_t *light_id; /* [n] the light (model/lights.h) at the ray's strongest kept sample, -1
                           where none (also for a model without lights) */
     float *linear_other; /* [n*3] `linear` of the other lighting (lights off for a lights-on

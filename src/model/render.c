@@ -54,6 +54,7 @@ struct emit_scratch {
 /* What material_rows composites for a chunk's rays; any pointer may be NULL. */
 struct rows_out {
     float *emission3, *emitted3, *emitted_lights3, *material5;
+    float *front_opacity, *front_depth, *front_material5; /* with material5 (esr_render_out) */
     float *lin3; /* the chunk's linear radiance: a lights-on render gains emitted - E */
     int lights_emitted_only; /* ... or, on lights, emitted - L_emo (esr_render_out) */
 };
@@ -77,6 +78,10 @@ static int material_rows(struct esr_trace *t, const struct esr_model *m, const f
     if (o->material5 && !mf->emission_only) {
         esr_march_composite_args(mc, mf->brdf5, ESR_BRDF_CHANNELS, NULL, 0, &a);
         esr_composite_fwd(&a, o->material5);
+        if (o->front_material5)
+            esr_composite_front(&a, mc->smp.t, ESR_FRONT_MIN_WEIGHT,
+                                ESR_FRONT_DEPTH_VOX * esr_grid_voxel_size(mc->geom.grid, 0),
+                                o->front_material5, o->front_opacity, o->front_depth);
     }
     const int calibrated = m->lights.n > 0;
     if (!o->emitted3 && !o->emitted_lights3 && !(calibrated && lights_on && o->lin3))
@@ -234,6 +239,9 @@ int esr_model_render_rays(const struct esr_model *m, const float *origins, const
                 out->emitted ? out->emitted + r0 * 3 : NULL,
                 out->emitted_lights ? out->emitted_lights + r0 * 3 : NULL,
                 out->material ? out->material + r0 * ESR_BRDF_CHANNELS : NULL,
+                out->front_material ? out->front_opacity + r0 : NULL,
+                out->front_material ? out->front_depth + r0 : NULL,
+                out->front_material ? out->front_material + r0 * ESR_BRDF_CHANNELS : NULL,
                 out->linear ? out->linear + r0 * 3 : NULL, out->lights_emitted_only};
             rc = material_rows(&t, m, sdf, &mf, &es, lights_on, &ro);
             if (rc != ESR_OK)

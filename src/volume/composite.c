@@ -1,6 +1,8 @@
 /* Batch compositing over rays (see composite.h for the maths). */
 #include "volume/composite.h"
 
+#include <math.h>
+
 void esr_composite_weights(int n_rays, const size_t *ray_start, const float *alpha, float thres,
                            float *weight, float *t_last)
 {
@@ -74,6 +76,35 @@ void esr_composite_fwd(const struct esr_composite_args *a, float *out)
             for (int c = 0; c < C; c++)
                 o[c] += w * v[c];
         }
+    }
+}
+
+void esr_composite_front(const struct esr_composite_args *a, const float *t, float min_weight,
+                         float depth, float *out, float *opacity, float *t_mean)
+{
+    const int C = a->channels;
+#pragma omp parallel for schedule(static)
+    for (int r = 0; r < a->n_rays; r++) {
+        float *o = out + (size_t)r * C;
+        for (int c = 0; c < C; c++)
+            o[c] = 0.0f;
+        float sum_w = 0.0f, sum_wt = 0.0f, t_end = INFINITY;
+        for (size_t i = a->ray_start[r]; i < a->ray_start[r + 1]; i++) {
+            const float w = a->weight[i];
+            if (!esr_composite_keep(w, a->thres) || (t_end == INFINITY && w <= min_weight))
+                continue;
+            if (t_end == INFINITY)
+                t_end = t[i] + depth;
+            else if (t[i] > t_end)
+                break;
+            const float *v = a->values + row_of(a, i) * (size_t)C;
+            for (int c = 0; c < C; c++)
+                o[c] += w * v[c];
+            sum_w += w;
+            sum_wt += w * t[i];
+        }
+        opacity[r] = sum_w;
+        t_mean[r] = sum_w > 0.0f ? sum_wt / sum_w : 0.0f;
     }
 }
 

@@ -71,6 +71,14 @@ void esr_composite_t_last_bwd(int n_rays, const size_t *ray_start, const float *
                               const float *d_t_last, float *d_alpha);
 /* out[r * C + c] = sum_{kept i of r} weight_i values[i*C + c] + t_last[r] bg_c. Parallel. */
 void esr_composite_fwd(const struct esr_composite_args *a, float *out);
+/* The ray's first surface, for shading a pixel that sees two (an object's silhouette against
+ * what lies behind it): the composite of esr_composite_fwd (no background) restricted to the
+ * kept samples from the first whose weight exceeds min_weight to `depth` further along the ray
+ * (t: each sample's ray distance). Also per ray that layer's opacity (the sum of its weights)
+ * and its weights-normalised distance (0 where it is empty). The rest of the ray is the full
+ * composite minus this one. Parallel over rays. */
+void esr_composite_front(const struct esr_composite_args *a, const float *t, float min_weight,
+                         float depth, float *out, float *opacity, float *t_mean);
 /* Given d_out[r * C + c]: d_alpha[i] += d loss/d alpha_i, d_values[i*C + c] += d loss/d v
  * (nothing written for samples that are not kept / dropped). Either output may be NULL.
  * Parallel over rays; each sample belongs to one ray so no races. */
