@@ -36,6 +36,8 @@
 /* 1: the model learns its background (fields/background.h) and the second ray grazes the sphere,
  * so part of its colour is the background's */
 static int learned_background;
+/* the lts stage's directions per outgoing direction from the BRDF's lobe (0: cosine only) */
+static int lobe_dirs;
 
 struct fixture {
     struct esr_model m;
@@ -50,6 +52,10 @@ static void setup_stage(struct fixture *fx, enum esr_stage stage, const uint8_t 
     struct esr_train_config cfg;
     test_small_config(&cfg, LAMBDA);
     cfg.lts_estimator = estimator;
+    /* the BRDF lobe's directions (lts_lobe_dirs) follow the roughness, so a finite difference of
+     * a BRDF entry moves them, while the gradient (rightly: they are samples) holds them fixed;
+     * their estimator is tested on its own (test_core_brdf_sampling) */
+    cfg.lts_lobe_dirs = lobe_dirs;
     /* the full gradient of the loss, which finite differences see (test_geom_on_weight checks
      * the weighted one) */
     cfg.coarse.geom_on = cfg.fine.geom_on = 1.0f;
@@ -326,10 +332,12 @@ static void setup_emitter_stage(struct fixture *fx, enum esr_stage stage,
     }
 }
 
-static void check_lts_gradients(enum esr_lts_estimator estimator)
+static void check_lts_gradients(enum esr_lts_estimator estimator, int lobe)
 {
     struct fixture fx;
+    lobe_dirs = lobe;
     setup_emitter_stage(&fx, ESR_STAGE_LTS, estimator);
+    lobe_dirs = 0;
     analytic_gradient(&fx);
     assert_true(fx.st.has_lts);
     const struct esr_lts_stats *ls = &fx.st.lts_stats;
@@ -342,14 +350,24 @@ static void check_lts_gradients(enum esr_lts_estimator estimator)
     assert_true(max_abs(&fx, ESR_COMP_BRDF_MLP) > 1e-3);
     assert_true(max_abs(&fx, ESR_COMP_ENV) > 1e-3);
     assert_true(max_abs(&fx, ESR_COMP_EMO_MLP) > 1e-3);
-    check_stage(&fx, ESR_BIT(ESR_COMP_SDF));
+    /* with lobe directions the BRDF entries move the directions (setup_stage): not compared */
+    check_stage(&fx, ESR_BIT(ESR_COMP_SDF) |
+                         (lobe ? ESR_BIT(ESR_COMP_BRDF_FEAT) | ESR_BIT(ESR_COMP_BRDF_MLP) : 0));
     teardown(&fx);
 }
 
 static void test_lts_gradients(void **state)
 {
     (void)state;
-    check_lts_gradients(ESR_LTS_FIRST_HIT);
+    check_lts_gradients(ESR_LTS_FIRST_HIT, 0);
+}
+
+/* The same with directions from the BRDF's lobe (option lts_lobe_dirs): their weights reach
+ * every other component's gradient. */
+static void test_lts_lobe_gradients(void **state)
+{
+    (void)state;
+    check_lts_gradients(ESR_LTS_FIRST_HIT, 2);
 }
 
 /* The faithful estimator: radiance composited along the secondary rays (their samples' radiance
@@ -357,7 +375,7 @@ static void test_lts_gradients(void **state)
 static void test_lts_volume_gradients(void **state)
 {
     (void)state;
-    check_lts_gradients(ESR_LTS_VOLUME);
+    check_lts_gradients(ESR_LTS_VOLUME, 0);
 }
 
 /* The fine-tune's direct-light hook for the edit test: fixed values per point and outgoing
@@ -612,6 +630,7 @@ int main(void)
         cmocka_unit_test(test_coarse_gradients),
         cmocka_unit_test(test_background_gradients),
         cmocka_unit_test(test_lts_gradients),
+        cmocka_unit_test(test_lts_lobe_gradients),
         cmocka_unit_test(test_lts_volume_gradients),
         cmocka_unit_test(test_finetune_edit_gradients),
         cmocka_unit_test(test_pdra_gradients),

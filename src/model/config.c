@@ -81,6 +81,13 @@ static const struct opt opts[] = {
      "lts: incident radiance estimator: 0 first hit of the SDF + radiance there, stratified "
      "cosine-weighted directions; 1 the authors' (faithful): radiance volume-rendered along "
      "each secondary ray, uniform directions"},
+    /* 4: glossier BRDFs (lamp's mirror sphere roughness 0.75 -> 0.57) but no better lights or
+     * relighting on our scenes (docs/design.md, Finding the lights: Estimators) */
+    {"lts_lobe_dirs", OPT_INT, OFF(lts_lobe_dirs), 0, 64, DEF(0, 0),
+     "lts: of the first-hit estimator's incident directions, this many per outgoing direction "
+     "reflected about half vectors from the BRDF's specular lobe, the rest cosine-weighted, "
+     "combined by the balance heuristic (core/brdf_sampling.h); used when lts_dirs is at least "
+     "4x this (0 = cosine only)"},
     {"lts_weight", OPT_FLOAT, OFF(lts_weight), 0, 1e6, DEF(0.01, 0.01),
      "lts: weight of the light-transport MSE (off + emo)"},
     {"field_width", OPT_INT, OFF(field_width), 8, 256, DEF(64, 128),

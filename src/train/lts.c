@@ -6,6 +6,7 @@
 #include <string.h>
 
 #include "core/brdf.h"
+#include "core/brdf_sampling.h"
 #include "core/colour.h"
 #include "core/error.h"
 #include "core/rng.h"
@@ -63,6 +64,7 @@ int esr_lts_init(struct esr_lts *l, const struct esr_model *m)
     l->P = m->cfg.lts_points;
     l->M = m->cfg.lts_dirs;
     l->estimator = m->cfg.lts_estimator;
+    l->lobe = m->cfg.lts_dirs >= 4 * m->cfg.lts_lobe_dirs ? m->cfg.lts_lobe_dirs : 0;
     const size_t P = (size_t)l->P, PM = P * (size_t)l->M;
     struct {
         float **p;
@@ -103,10 +105,12 @@ static void v3_put(float *a, size_t i, struct esr_vec3 v)
     a[i * 3 + 2] = v.z;
 }
 
-/* Points (stratified over the kept list), their normals, outgoing and incident directions and
- * the secondary rays' origins. Returns the number of points. */
-static size_t setup_points(struct esr_lts *l, const struct esr_model *m, const struct esr_march *mc,
-                           const uint8_t *ray_certain, uint64_t seed)
+/* Points (stratified over the kept list), their normals, BRDF (the material fields' forward),
+ * outgoing and incident directions and the secondary rays' origins. Returns the number of
+ * points. */
+static int setup_points(struct esr_lts *l, const struct esr_model *m, const float *sdf,
+                        const struct esr_march *mc, const uint8_t *ray_certain, uint64_t seed,
+                        size_t *n_points)
 {
     const size_t P = mc->n_kept < (size_t)l->P ? mc->n_kept : (size_t)l->P, M = (size_t)l->M;
     const struct esr_grid *g = esr_model_grid(m, ESR_COMP_SDF);
@@ -140,6 +144,7 @@ static size_t setup_points(struct esr_lts *l, const struct esr_model *m, const s
         memcpy(l->wo3 + p * 6, mc->kdir3 + k * 3, 3 * sizeof(float)); /* ray dir; negated below */
     }
     esr_grid_sample_dpoint(g, l->normal_sdf, 0, l->pos3, P, l->nrm3);
+    ESR_TRY(esr_material_fields_fwd(&l->mf, m, sdf, l->pos3, P)); /* the lobe needs the roughness */
 #pragma omp parallel for schedule(static)
     for (size_t p = 0; p < P; p++) {
         struct esr_rng r = esr_rng_init(seed ^ 0x5bd1e995ULL, p);
@@ -153,27 +158,29 @@ static size_t setup_points(struct esr_lts *l, const struct esr_model *m, const s
         v3_put(l->wo3, 2 * p, wo);
         v3_put(l->wo3, 2 * p + 1, esr_v3_from_local(esr_sample_hemisphere_uniform(u1, u2), t, b, n));
         struct esr_vec3 o = esr_v3_add(esr_v3_at(l->pos3, p), esr_v3_scale(n, off));
-        for (size_t j = 0; j < M; j++) {
-            const size_t i = p * M + j;
-            struct esr_vec3 loc;
-            float pdf;
-            if (l->estimator == ESR_LTS_VOLUME) { /* the authors': independent, uniform */
+        if (l->estimator == ESR_LTS_VOLUME) { /* the authors': independent, uniform */
+            for (size_t j = 0; j < M; j++) {
                 u1 = esr_rng_float(&r);
                 u2 = esr_rng_float(&r);
-                loc = esr_sample_hemisphere_uniform(u1, u2);
-                pdf = esr_pdf_hemisphere_uniform(loc);
-            } else { /* stratified in u1 so few directions still cover the hemisphere */
-                u1 = ((float)j + esr_rng_float(&r)) / (float)M;
-                u2 = esr_rng_float(&r);
-                loc = esr_sample_hemisphere_cosine(u1, u2);
-                pdf = esr_pdf_hemisphere_cosine(loc);
+                const struct esr_vec3 loc = esr_sample_hemisphere_uniform(u1, u2);
+                v3_put(l->wi3, p * M + j, esr_v3_from_local(loc, t, b, n));
+                l->wt[p * M + j] = 1.0f / ((float)M * fmaxf(esr_pdf_hemisphere_uniform(loc), 1e-6f));
             }
-            v3_put(l->wi3, i, esr_v3_from_local(loc, t, b, n));
-            l->wt[i] = 1.0f / ((float)M * fmaxf(pdf, 1e-6f));
-            v3_put(l->orig3, i, o);
+        } else { /* cosine-weighted and from the BRDF's lobe about both outgoing directions */
+            struct esr_brdf_dirs bd = {n, t, b, {wo, esr_v3_at(l->wo3, 2 * p + 1)}, 2,
+                                       esr_material_of_row(l->mf.brdf5 + p * ESR_BRDF_CHANNELS, 1.0f).roughness,
+                                       (int)M, l->lobe};
+            bd.n_cos = (int)M - (esr_brdf_dirs_count(&bd) - (int)M); /* a dead lobe's share to cosine */
+            struct esr_vec3 wi[ESR_LTS_MAX_DIRS];
+            esr_brdf_dirs_sample(&bd, &r, wi, l->wt + p * M);
+            for (size_t j = 0; j < M; j++)
+                v3_put(l->wi3, p * M + j, wi[j]);
         }
+        for (size_t j = 0; j < M; j++)
+            v3_put(l->orig3, p * M + j, o);
     }
-    return P;
+    *n_points = P;
+    return ESR_OK;
 }
 
 /* Query rows of the points: per point 2 outgoing x (off, on). */
@@ -365,13 +372,14 @@ int esr_lts_run(struct esr_lts *l, const struct esr_model *m, const float *sdf, 
             return ESR_FAIL("lts: out of memory for %zu kept rows", mc->n_kept);
         }
     }
-    const size_t P = setup_points(l, m, mc, ray_certain, seed), M = (size_t)l->M, PM = P * M;
+    size_t P;
+    ESR_TRY(setup_points(l, m, sdf, mc, ray_certain, seed, &P));
+    const size_t M = (size_t)l->M, PM = P * M;
     size_t rows;
     ESR_TRY(esr_lts_incident_trace(l, m, sdf, P, seed ^ 0x2545f4914f6cdd1dULL, &rows));
     build_point_rows(l, P);
     struct esr_point_query q = {rows, l->q_pos3, l->q_dir3, l->q_on};
     ESR_TRY(esr_point_fields_fwd(&l->pf, m, sdf, &q));
-    ESR_TRY(esr_material_fields_fwd(&l->mf, m, sdf, l->pos3, P));
     const int lobes = m->cfg.env_lobes;
     const float *env = esr_model_values(m, ESR_COMP_ENV);
     esr_env_sg_fwd(env, lobes, l->wi3, PM, l->env3);

@@ -45,14 +45,19 @@ struct esr_lts_stats {
                                         or whose final transmittance is below 1/2 (volume) */
 };
 
+/* lts_dirs' upper bound (model/config.c) */
+#define ESR_LTS_MAX_DIRS 4096
+
 struct esr_lts {
     int P, M;                  /* points, incident directions per point */
     int estimator;             /* enum esr_lts_estimator */
+    int lobe;                  /* first hit: directions per outgoing direction from the BRDF's lobe */
     long calls;
     float *normal_sdf;         /* smoothed SDF the normals come from (refreshed) */
     /* per point [P]: position, normal, two outgoing directions (away from the surface) */
     float *pos3, *nrm3, *wo3;
-    /* per (point, direction) [P*M]: direction, sampling weight 1/(M pdf), hit row or -1,
+    /* per (point, direction) [P*M]: direction, sampling weight (core/brdf_sampling.h; 1/(M pdf) for
+     * one proposal), hit row or -1,
      * environment radiance, incident radiance off/emo and their gradients */
     float *wi3, *wt, *env3, *d_env3, *li_off3, *li_emo3, *d_li_off3, *d_li_emo3;
     float *orig3, *hit_t, *hit_pos3;
