@@ -379,28 +379,25 @@ int esr_relight_view(const struct esr_relight *r, const struct esr_model *m,
         /* the lights-off view, the edited lights where the camera sees them, the direct light */
         for (size_t i = 0; i < n * 3; i++)
             out->data[i] = b.lin3[i] + b.emit3[i];
-        /* per layer [2n * 3], then (denoised) per pixel [n * 3] */
-        float *direct = calloc(2 * n * 3, sizeof(float));
-        float *found = ratio ? calloc(2 * n * 3, sizeof(float)) : NULL;
-        float *layers = malloc(2 * n * 3 * sizeof(float));
-        if (!direct || (ratio && !found) || !layers)
+        /* the direct light per layer [2n * 3], then denoised per pixel [n * 3] */
+        float *direct_l = calloc(2 * n * 3, sizeof(float));
+        float *found_l = ratio ? calloc(2 * n * 3, sizeof(float)) : NULL;
+        float *direct = malloc(n * 3 * sizeof(float));
+        float *found = ratio ? malloc(n * 3 * sizeof(float)) : NULL;
+        if (!direct_l || !direct || (ratio && (!found_l || !found)))
             rc = ESR_FAIL("relight: out of memory for the direct light");
         if (rc == ESR_OK) {
             const double t0 = omp_get_wtime();
-            const size_t traced = direct_light(r, edits, &b, n, seed, direct, found);
+            const size_t traced = direct_light(r, edits, &b, n, seed, direct_l, found_l);
             if (stats) {
                 stats->shadow_rays = traced;
                 stats->direct_seconds = omp_get_wtime() - t0;
             }
         }
-        if (rc == ESR_OK) {
-            memcpy(layers, direct, 2 * n * 3 * sizeof(float));
-            rc = denoise_direct(r, &b, cam->width, cam->height, layers, direct);
-        }
-        if (rc == ESR_OK && found) {
-            memcpy(layers, found, 2 * n * 3 * sizeof(float));
-            rc = denoise_direct(r, &b, cam->width, cam->height, layers, found);
-        }
+        if (rc == ESR_OK)
+            rc = denoise_direct(r, &b, cam->width, cam->height, direct_l, direct);
+        if (rc == ESR_OK && found)
+            rc = denoise_direct(r, &b, cam->width, cam->height, found_l, found);
         if (rc == ESR_OK && found)
             transfer_ratio(&b, direct, found, n, out->data);
         else if (rc == ESR_OK && r->mode == ESR_RELIGHT_MODEL)
@@ -412,7 +409,7 @@ int esr_relight_view(const struct esr_relight *r, const struct esr_model *m,
             for (size_t p = 0; p < n; p++)
                 for (int c = 0; c < 3; c++)
                     out->data[p * 3 + c] += direct[p * 3 + c];
-        free(direct), free(found), free(layers);
+        free(direct_l), free(found_l), free(direct), free(found);
     }
     view_buf_free(&b);
     if (rc != ESR_OK)

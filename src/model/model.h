@@ -112,12 +112,12 @@ int esr_model_load_finished_pdra(struct esr_model *m, const char *run);
  * mask cache) atomically (temp + rename) with a format version. */
 int esr_model_save(const struct esr_model *m, const char *path);
 
-/* What esr_model_render_rays writes; any pointer may be NULL (not computed). */
 /* A ray's first surface (esr_render_out.front_*): from its first sample of weight above this,
  * this many voxels deep (a NeuS surface's weights span about a voxel) */
 #define ESR_FRONT_MIN_WEIGHT 0.02f
 #define ESR_FRONT_DEPTH_VOX 3.0f
 
+/* What esr_model_render_rays writes; any pointer may be NULL (not computed). */
 struct esr_render_out {
     float *rgb;      /* [n*3] tone-mapped LDR in [0,1] composited on the model's background: white,
                         or its learned one (fields/background.h); what PNGs compare to */

@@ -56,9 +56,9 @@ struct esr_lts {
     float *normal_sdf;         /* smoothed SDF the normals come from (refreshed) */
     /* per point [P]: position, normal, two outgoing directions (away from the surface) */
     float *pos3, *nrm3, *wo3;
-    /* per (point, direction) [P*M]: direction, sampling weight (core/brdf_sampling.h; 1/(M pdf) for
-     * one proposal), hit row or -1,
-     * environment radiance, incident radiance off/emo and their gradients */
+    /* per (point, direction) [P*M]: direction, sampling weight (core/brdf_sampling.h; 1/(M pdf)
+     * for one proposal), hit row or -1, environment radiance, incident radiance off/emo and their
+     * gradients */
     float *wi3, *wt, *env3, *d_env3, *li_off3, *li_emo3, *d_li_off3, *d_li_emo3;
     float *orig3, *hit_t, *hit_pos3;
     float *R3;                 /* [P*M*3] BRDF x cosine of the current outgoing direction */

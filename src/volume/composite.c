@@ -1,8 +1,6 @@
 /* Batch compositing over rays (see composite.h for the maths). */
 #include "volume/composite.h"
 
-#include <math.h>
-
 void esr_composite_weights(int n_rays, const size_t *ray_start, const float *alpha, float thres,
                            float *weight, float *t_last)
 {
@@ -88,15 +86,18 @@ void esr_composite_front(const struct esr_composite_args *a, const float *t, flo
         float *o = out + (size_t)r * C;
         for (int c = 0; c < C; c++)
             o[c] = 0.0f;
-        float sum_w = 0.0f, sum_wt = 0.0f, t_end = INFINITY;
+        float sum_w = 0.0f, sum_wt = 0.0f, t_end = 0.0f;
+        int started = 0;
         for (size_t i = a->ray_start[r]; i < a->ray_start[r + 1]; i++) {
             const float w = a->weight[i];
-            if (!esr_composite_keep(w, a->thres) || (t_end == INFINITY && w <= min_weight))
+            if (!esr_composite_keep(w, a->thres) || (!started && w <= min_weight))
                 continue;
-            if (t_end == INFINITY)
+            if (!started) {
+                started = 1;
                 t_end = t[i] + depth;
-            else if (t[i] > t_end)
+            } else if (t[i] > t_end) {
                 break;
+            }
             const float *v = a->values + row_of(a, i) * (size_t)C;
             for (int c = 0; c < C; c++)
                 o[c] += w * v[c];
