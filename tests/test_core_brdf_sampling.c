@@ -42,21 +42,23 @@ static void test_lobe_density_and_mean(void **state)
     }
 }
 
-/* Mean and standard deviation over `trials` of sum_j R(wo, wi_j) wt_j (channel 0). */
+/* Mean and standard deviation over `trials` of sum_j R(wo, wi_j) wt_j (channel 0); parity 0 or 1:
+ * of the even or the odd directions alone, twice their sum (half of them); -1: all. */
 static void estimate(const struct esr_material *mat, const struct esr_brdf_dirs *d, int trials,
-                     uint64_t seed, double *mean, double *sd)
+                     uint64_t seed, int parity, double *mean, double *sd)
 {
     struct esr_vec3 wi[64];
     float wt[64];
+    const int first = parity < 0 ? 0 : parity, stride = parity < 0 ? 1 : 2;
     double s = 0.0, s2 = 0.0;
     for (int t = 0; t < trials; t++) {
         struct esr_rng rng = esr_rng_init(seed, (uint64_t)t);
         esr_brdf_dirs_sample(d, &rng, wi, wt);
         double e = 0.0;
-        for (int j = 0; j < esr_brdf_dirs_count(d); j++) {
+        for (int j = first; j < esr_brdf_dirs_count(d); j += stride) {
             float R[3];
             esr_brdf_eval(mat, d->n, d->wo[0], wi[j], R);
-            e += (double)R[0] * wt[j];
+            e += (double)stride * R[0] * wt[j];
         }
         s += e;
         s2 += e * e;
@@ -98,9 +100,9 @@ static void test_mis_unbiased_and_sharper(void **state)
         double mis, mis_sd, cos_only, cos_sd;
         d.n_cos = 24, d.n_lobe = 4;
         assert_int_equal(esr_brdf_dirs_count(&d), 32);
-        estimate(&mat, &d, 40000, 3, &mis, &mis_sd);
+        estimate(&mat, &d, 40000, 3, -1, &mis, &mis_sd);
         d.n_cos = 32, d.n_lobe = 0;
-        estimate(&mat, &d, 40000, 5, &cos_only, &cos_sd);
+        estimate(&mat, &d, 40000, 5, -1, &cos_only, &cos_sd);
         assert_true(fabs(mis - ref) < 4.0 * mis_sd / sqrt(40000.0) + 1e-3 * ref);
         assert_true(fabs(cos_only - ref) < 4.0 * cos_sd / sqrt(40000.0) + 1e-3 * ref);
         if (rough[i] <= 0.3f) /* glossy: the lobe directions cut the spread several times */
@@ -112,11 +114,56 @@ static void test_mis_unbiased_and_sharper(void **state)
     assert_int_equal(esr_brdf_dirs_count(&d), 28);
 }
 
+/* Option lts_split's directions (paired strata): the even and the odd directions are each an
+ * unbiased estimate, which the loss's product of their errors needs, also with directions from
+ * the BRDF's lobe (each half then holds half of each technique's directions); with one direction
+ * per stratum the even ones cover only every other ring of the hemisphere and are not. */
+static void test_paired_halves_unbiased(void **state)
+{
+    (void)state;
+    struct esr_brdf_dirs d = {0};
+    d.n = esr_v3(0.0f, 0.0f, 1.0f);
+    esr_v3_basis(d.n, &d.t, &d.b);
+    d.wo[0] = esr_v3_normalize(esr_v3(0.8f, 0.0f, 0.3f)); /* grazing: the integrand leans */
+    d.n_wo = 1;
+    d.roughness = 0.6f;
+    d.n_cos = 16;
+    const struct esr_material mat = {{0.7f, 0.7f, 0.7f}, 0.6f, 0.2f};
+    const int N = 100000;
+    /* the reference: all directions of an unpaired set (unbiased, test_mis_unbiased_and_sharper) */
+    struct esr_brdf_dirs all = d;
+    all.n_cos = 32;
+    double ref, ref_sd;
+    estimate(&mat, &all, N, 9, -1, &ref, &ref_sd);
+    const double tol_ref = 4.0 * ref_sd / sqrt((double)N);
+    d.paired = 1;
+    for (int lobe = 0; lobe <= 4; lobe += 4) { /* cosine alone, and with lobe directions */
+        d.n_cos = 16 - lobe;
+        d.n_lobe = lobe;
+        for (int parity = 0; parity < 2; parity++) {
+            double m, sd;
+            estimate(&mat, &d, N, 21 + (uint64_t)(parity + 2 * lobe), parity, &m, &sd);
+            print_message("paired, %d lobe directions, parity %d: %.5f vs %.5f (sd %.4f)\n", lobe,
+                          parity, m, ref, sd);
+            assert_true(fabs(m - ref) < 4.0 * sd / sqrt((double)N) + tol_ref);
+        }
+    }
+    d.paired = 0;
+    d.n_cos = 16;
+    d.n_lobe = 0;
+    double even, odd, sd0, sd1;
+    estimate(&mat, &d, N, 31, 0, &even, &sd0);
+    estimate(&mat, &d, N, 31, 1, &odd, &sd1);
+    print_message("unpaired: even %.5f, odd %.5f\n", even, odd);
+    assert_true(fabs(even - odd) > 8.0 * (sd0 + sd1) / sqrt((double)N));
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_lobe_density_and_mean),
         cmocka_unit_test(test_mis_unbiased_and_sharper),
+        cmocka_unit_test(test_paired_halves_unbiased),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

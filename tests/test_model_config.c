@@ -66,6 +66,15 @@ static void test_set(void **state)
     expect_fail(esr_config_set(&c, "batch_rays"), "expected key=value");
     expect_fail(esr_config_set(&c, "smooth_ksize=4"), "odd");
     assert_int_equal(c.fine.iters, 200); /* failed sets change nothing */
+    /* lts_split needs lobe directions in even counts: checked across options */
+    assert_int_equal(esr_config_set(&c, "lts_split=1"), 0);
+    expect_fail(esr_config_validate(&c), "lts_split 1 needs");
+    assert_int_equal(esr_config_set(&c, "lts_lobe_dirs=3"), 0);
+    expect_fail(esr_config_validate(&c), "even lts_lobe_dirs");
+    assert_int_equal(esr_config_set(&c, "lts_lobe_dirs=4"), 0);
+    assert_int_equal(esr_config_validate(&c), 0);
+    assert_int_equal(esr_config_set(&c, "lts_estimator=1"), 0);
+    expect_fail(esr_config_validate(&c), "lts_estimator 0");
 }
 
 static void test_json_files(void **state)

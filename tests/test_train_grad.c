@@ -38,6 +38,7 @@
 static int learned_background;
 /* the lts stage's directions per outgoing direction from the BRDF's lobe (0: cosine only) */
 static int lobe_dirs;
+static int split_loss; /* option lts_split */
 
 struct fixture {
     struct esr_model m;
@@ -64,6 +65,9 @@ static void setup_stage(struct fixture *fx, enum esr_stage stage, const uint8_t 
     memset(fx, 0, sizeof(*fx));
     struct esr_model *m = &fx->m;
     assert_int_equal(esr_model_init(m, &cfg, stage, NULL, bmin, bmax), 0);
+    /* set past esr_config_validate, which refuses a split without lobe directions for training's
+     * sake: the gradient is the same code, and only there can the BRDF entries be compared */
+    m->cfg.lts_split = split_loss;
     assert_int_equal(esr_sdf_init_sphere(esr_model_grid(m, ESR_COMP_SDF),
                                          esr_model_values(m, ESR_COMP_SDF), 0.5f),
                      0);
@@ -332,12 +336,14 @@ static void setup_emitter_stage(struct fixture *fx, enum esr_stage stage,
     }
 }
 
-static void check_lts_gradients(enum esr_lts_estimator estimator, int lobe)
+static void check_lts_gradients(enum esr_lts_estimator estimator, int lobe, int split)
 {
     struct fixture fx;
     lobe_dirs = lobe;
+    split_loss = split;
     setup_emitter_stage(&fx, ESR_STAGE_LTS, estimator);
     lobe_dirs = 0;
+    split_loss = 0;
     analytic_gradient(&fx);
     assert_true(fx.st.has_lts);
     const struct esr_lts_stats *ls = &fx.st.lts_stats;
@@ -359,7 +365,7 @@ static void check_lts_gradients(enum esr_lts_estimator estimator, int lobe)
 static void test_lts_gradients(void **state)
 {
     (void)state;
-    check_lts_gradients(ESR_LTS_FIRST_HIT, 0);
+    check_lts_gradients(ESR_LTS_FIRST_HIT, 0, 0);
 }
 
 /* The same with directions from the BRDF's lobe (option lts_lobe_dirs): their weights reach
@@ -367,7 +373,16 @@ static void test_lts_gradients(void **state)
 static void test_lts_lobe_gradients(void **state)
 {
     (void)state;
-    check_lts_gradients(ESR_LTS_FIRST_HIT, 2);
+    check_lts_gradients(ESR_LTS_FIRST_HIT, 2, 0);
+}
+
+/* Option lts_split: the loss is the product of the even and the odd directions' errors, whose
+ * gradient takes, for each direction's terms, the other half's error. */
+static void test_lts_split_gradients(void **state)
+{
+    (void)state;
+    check_lts_gradients(ESR_LTS_FIRST_HIT, 0, 1);
+    check_lts_gradients(ESR_LTS_FIRST_HIT, 2, 1); /* halves of both techniques' directions */
 }
 
 /* The faithful estimator: radiance composited along the secondary rays (their samples' radiance
@@ -375,7 +390,7 @@ static void test_lts_lobe_gradients(void **state)
 static void test_lts_volume_gradients(void **state)
 {
     (void)state;
-    check_lts_gradients(ESR_LTS_VOLUME, 0);
+    check_lts_gradients(ESR_LTS_VOLUME, 0, 0);
 }
 
 /* The fine-tune's direct-light hook for the edit test: fixed values per point and outgoing
@@ -436,11 +451,12 @@ static void test_finetune_edit_gradients(void **state)
 
 /* The pdra stage: the lts terms with ray groups (one certain ray whose LTS points drop E and
  * whose composited E is suppressed, one uncertain ray) — every component but the SDF (as lts). */
-static void test_pdra_gradients(void **state)
+static void check_pdra_gradients(int split)
 {
-    (void)state;
     struct fixture fx;
+    split_loss = split;
     setup_emitter_stage(&fx, ESR_STAGE_PDRA, ESR_LTS_FIRST_HIT);
+    split_loss = 0;
     fx.m.cfg.pdra_supp = 1.0f;
     fx.m.cfg.pdra_sg = 0; /* the stop-gradient pair is invisible to FD: one plain MSE */
     test_randomise(&fx.m, ESR_COMP_EMO_FEAT, 1.0f, 32);
@@ -461,6 +477,19 @@ static void test_pdra_gradients(void **state)
     assert_true(fx.st.pdra.supp_loss > 0.0);
     check_stage(&fx, ESR_BIT(ESR_COMP_SDF));
     teardown(&fx);
+}
+
+static void test_pdra_gradients(void **state)
+{
+    (void)state;
+    check_pdra_gradients(0);
+}
+
+/* The same with option lts_split: certain points' reflection alone, uncertain ones' E as well. */
+static void test_pdra_split_gradients(void **state)
+{
+    (void)state;
+    check_pdra_gradients(1);
 }
 
 /* pdra's emission smoothness and final-transmittance entropy with the LTS and suppression terms
@@ -631,9 +660,11 @@ int main(void)
         cmocka_unit_test(test_background_gradients),
         cmocka_unit_test(test_lts_gradients),
         cmocka_unit_test(test_lts_lobe_gradients),
+        cmocka_unit_test(test_lts_split_gradients),
         cmocka_unit_test(test_lts_volume_gradients),
         cmocka_unit_test(test_finetune_edit_gradients),
         cmocka_unit_test(test_pdra_gradients),
+        cmocka_unit_test(test_pdra_split_gradients),
         cmocka_unit_test(test_pdra_regulariser_gradients),
         cmocka_unit_test(test_normal_smoothness_gradient),
     };

@@ -66,7 +66,8 @@ void esr_brdf_dirs_sample(const struct esr_brdf_dirs *d, struct esr_rng *rng, st
 {
     int j = 0;
     for (int i = 0; i < d->n_cos; i++, j++) { /* stratified in u1 so few still cover the hemisphere */
-        const float u1 = ((float)i + esr_rng_float(rng)) / (float)d->n_cos, u2 = esr_rng_float(rng);
+        const int stratum = d->paired ? i / 2 : i, strata = d->paired ? d->n_cos / 2 : d->n_cos;
+        const float u1 = ((float)stratum + esr_rng_float(rng)) / (float)strata, u2 = esr_rng_float(rng);
         const struct esr_vec3 loc = esr_sample_hemisphere_cosine(u1, u2);
         wi[j] = esr_v3_from_local(loc, d->t, d->b, d->n);
         wt[j] = loc.z; /* its cosine, exact in the local frame (below) */
@@ -75,7 +76,8 @@ void esr_brdf_dirs_sample(const struct esr_brdf_dirs *d, struct esr_rng *rng, st
         if (!lobe_live(d, k))
             continue;
         for (int i = 0; i < d->n_lobe; i++, j++) {
-            const float u1 = ((float)i + esr_rng_float(rng)) / (float)d->n_lobe, u2 = esr_rng_float(rng);
+            const int stratum = d->paired ? i / 2 : i, strata = d->paired ? d->n_lobe / 2 : d->n_lobe;
+            const float u1 = ((float)stratum + esr_rng_float(rng)) / (float)strata, u2 = esr_rng_float(rng);
             wi[j] = lobe_sample(d->n, d->t, d->b, d->wo[k], d->roughness, u1, u2);
         }
     }

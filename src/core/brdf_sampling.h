@@ -33,6 +33,10 @@ struct esr_brdf_dirs {
     int n_wo;                /* 0..2; one at or below the surface gets no lobe samples */
     float roughness;         /* the BRDF's at the point */
     int n_cos, n_lobe;       /* cosine directions (stratified), and lobe directions per wo */
+    int paired;              /* 1: each cosine and each lobe stratum holds two independent
+                                directions (2i, 2i + 1; n_cos and n_lobe even), so the even and
+                                the odd ones are each an unbiased estimate on their own, with the
+                                same weights (option lts_split, train/lts.h) */
 };
 
 /* The directions' count: n_cos + n_lobe per outgoing direction above the surface. */

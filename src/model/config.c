@@ -88,6 +88,11 @@ static const struct opt opts[] = {
      "reflected about half vectors from the BRDF's specular lobe, the rest cosine-weighted, "
      "combined by the balance heuristic (core/brdf_sampling.h); used when lts_dirs is at least "
      "4x this (0 = cosine only)"},
+    {"lts_split", OPT_INT, OFF(lts_split), 0, 1, DEF(0, 0),
+     "lts: 1 = the loss multiplies the errors of two independent half-estimates (the even and "
+     "the odd incident directions) instead of squaring one error, so the estimate's variance, "
+     "which pushes glossy surfaces rough, is not penalised; needs lts_estimator 0 and an even "
+     "lts_lobe_dirs above 0 (e.g. 4)"},
     {"lts_weight", OPT_FLOAT, OFF(lts_weight), 0, 1e6, DEF(0.01, 0.01),
      "lts: weight of the light-transport MSE (off + emo)"},
     {"field_width", OPT_INT, OFF(field_width), 8, 256, DEF(64, 128),
@@ -293,6 +298,14 @@ int esr_config_validate(const struct esr_train_config *c)
 {
     for (size_t i = 0; i < N_OPTS; i++)
         ESR_TRY(opt_check(&opts[i], opt_load(c, &opts[i]), "config"));
+    /* the split loss needs two halves that each hold half of every technique's directions; without
+     * lobe directions the variance it stops penalising was what kept roughness up (lamp: 0
+     * everywhere, design notes) */
+    if (c->lts_split && (c->lts_estimator != 0 /* first hit */ || c->lts_lobe_dirs <= 0 ||
+                         c->lts_lobe_dirs % 2 || c->lts_dirs % 2 || c->lts_dirs < 4 * c->lts_lobe_dirs))
+        return ESR_FAIL("config: lts_split 1 needs lts_estimator 0, an even lts_lobe_dirs above 0 "
+                        "and an even lts_dirs of at least 4x it (got estimator %d, lobe %d, dirs %d)",
+                        c->lts_estimator, c->lts_lobe_dirs, c->lts_dirs);
     return ESR_OK;
 }
 

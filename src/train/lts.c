@@ -65,6 +65,9 @@ int esr_lts_init(struct esr_lts *l, const struct esr_model *m)
     l->M = m->cfg.lts_dirs;
     l->estimator = m->cfg.lts_estimator;
     l->lobe = m->cfg.lts_dirs >= 4 * m->cfg.lts_lobe_dirs ? m->cfg.lts_lobe_dirs : 0;
+    /* esr_config_validate keeps the counts even: each half holds half of each technique's
+     * directions, the same balance-heuristic estimate with half the samples */
+    l->split = m->cfg.lts_split;
     const size_t P = (size_t)l->P, PM = P * (size_t)l->M;
     struct {
         float **p;
@@ -169,7 +172,7 @@ static int setup_points(struct esr_lts *l, const struct esr_model *m, const floa
         } else { /* cosine-weighted and from the BRDF's lobe about both outgoing directions */
             struct esr_brdf_dirs bd = {n, t, b, {wo, esr_v3_at(l->wo3, 2 * p + 1)}, 2,
                                        esr_material_of_row(l->mf.brdf5 + p * ESR_BRDF_CHANNELS, 1.0f).roughness,
-                                       (int)M, l->lobe};
+                                       (int)M, l->lobe, l->split};
             bd.n_cos = (int)M - (esr_brdf_dirs_count(&bd) - (int)M); /* a dead lobe's share to cosine */
             struct esr_vec3 wi[ESR_LTS_MAX_DIRS];
             esr_brdf_dirs_sample(&bd, &r, wi, l->wt + p * M);
@@ -196,9 +199,10 @@ static void build_point_rows(struct esr_lts *l, size_t P)
             }
 }
 
-/* Estimates, loss and the gradients of everything they read, for point p. */
+/* Estimates, loss and the gradients of everything they read, for point p; *prod gets the split
+ * loss's products (l->split). */
 static void point_loss(struct esr_lts *l, size_t p, float scale, float w_l, float w_r, int sg,
-                       double *se_off, double *se_emo)
+                       double *se_off, double *se_emo, double *prod)
 {
     const size_t M = (size_t)l->M;
     const float *lin = l->pf.lin3, *E = l->mf.emit3 + p * 3;
@@ -220,16 +224,23 @@ static void point_loss(struct esr_lts *l, size_t p, float scale, float w_l, floa
         const size_t row_off = p * 4 + (size_t)o * 2, row_on = row_off + 1;
         const float e_on = l->certain[p] ? 0.0f : 1.0f; /* certain: reflection alone */
         float hat_off[3] = {0, 0, 0}, hat_emo[3] = {e_on * E[0], e_on * E[1], e_on * E[2]};
+        /* the split's reflected sums of the even and the odd directions */
+        float half_off[2][3] = {{0, 0, 0}, {0, 0, 0}}, half_emo[2][3] = {{0, 0, 0}, {0, 0, 0}};
         for (size_t j = 0; j < M; j++) {
             const size_t i = p * M + j;
             float *R = l->R3 + i * 3; /* kept for the backward below */
             esr_brdf_eval(&mat, n, wo, esr_v3_at(l->wi3, i), R);
             for (int c = 0; c < 3; c++) {
-                hat_off[c] += l->li_off3[i * 3 + c] * R[c] * l->wt[i];
-                hat_emo[c] += l->li_emo3[i * 3 + c] * R[c] * l->wt[i];
+                const float t_off = l->li_off3[i * 3 + c] * R[c] * l->wt[i];
+                const float t_emo = l->li_emo3[i * 3 + c] * R[c] * l->wt[i];
+                hat_off[c] += t_off;
+                hat_emo[c] += t_emo;
+                half_off[j & 1][c] += t_off;
+                half_emo[j & 1][c] += t_emo;
             }
         }
-        float d_hat_off[3], d_hat_emo[3];
+        /* d/d(direction term) per half: with the split, the other half's error */
+        float d_hat_off[2][3], d_hat_emo[2][3];
         for (int c = 0; c < 3; c++) {
             hat_out[c] = hat_off[c];
             hat_out[3 + c] = hat_emo[c];
@@ -244,9 +255,20 @@ static void point_loss(struct esr_lts *l, size_t p, float scale, float w_l, floa
              * incident radiance) keeps weight 1: it also carries the off estimate, which a
              * heavier pull through the shared BRDF wrecks (lamp: off MSE 0.003 -> 0.5) */
             l->d_lin3[row_on * 3 + c] += 2.0f * w_r * scale * e_emo; /* the emo branch only */
-            d_hat_off[c] = -2.0f * scale * e_off;
-            d_hat_emo[c] = -2.0f * scale * e_emo;
-            l->d_emit3[p * 3 + c] += e_on * w_l * d_hat_emo[c];
+            l->d_emit3[p * 3 + c] += e_on * w_l * (-2.0f * scale * e_emo);
+            for (int h = 0; h < 2; h++) {
+                float eo = e_off, ee = e_emo;
+                if (l->split) { /* half h's estimate is 2 x its sum: the other half's error */
+                    eo = L_off - 2.0f * half_off[1 - h][c];
+                    ee = L_emo - e_on * E[c] - 2.0f * half_emo[1 - h][c];
+                }
+                d_hat_off[h][c] = -2.0f * scale * eo;
+                d_hat_emo[h][c] = -2.0f * scale * ee;
+            }
+            if (l->split)
+                *prod += (double)(L_off - 2.0f * half_off[0][c]) * (L_off - 2.0f * half_off[1][c]) +
+                         (double)(L_emo - e_on * E[c] - 2.0f * half_emo[0][c]) *
+                             (L_emo - e_on * E[c] - 2.0f * half_emo[1][c]);
         }
         for (size_t j = 0; j < M; j++) {
             const size_t i = p * M + j;
@@ -254,9 +276,9 @@ static void point_loss(struct esr_lts *l, size_t p, float scale, float w_l, floa
             float d_R[3];
             for (int c = 0; c < 3; c++) {
                 const float w = l->wt[i];
-                const float d_emo = refl_emo * d_hat_emo[c];
-                d_R[c] = (d_hat_off[c] * l->li_off3[i * 3 + c] + d_emo * l->li_emo3[i * 3 + c]) * w;
-                l->d_li_off3[i * 3 + c] += d_hat_off[c] * R[c] * w;
+                const float d_off = d_hat_off[j & 1][c], d_emo = refl_emo * d_hat_emo[j & 1][c];
+                d_R[c] = (d_off * l->li_off3[i * 3 + c] + d_emo * l->li_emo3[i * 3 + c]) * w;
+                l->d_li_off3[i * 3 + c] += d_off * R[c] * w;
                 l->d_li_emo3[i * 3 + c] += d_emo * R[c] * w;
             }
             esr_brdf_eval_bwd(&mat, n, wo, esr_v3_at(l->wi3, i), d_R, &d_mat);
@@ -393,7 +415,7 @@ int esr_lts_run(struct esr_lts *l, const struct esr_model *m, const float *sdf, 
     const float w = l->edit ? 1.0f : m->cfg.lts_weight, scale = w / (float)(P * 2 * 3);
     const int pair = ray_certain && m->cfg.pdra_sg; /* "w/o sg": one plain MSE */
     const float w_l = pair ? m->cfg.pdra_w_l : 1.0f, w_r = pair ? m->cfg.pdra_w_r : 1.0f;
-    double se_off = 0.0, se_emo = 0.0;
+    double se_off = 0.0, se_emo = 0.0, prod = 0.0;
     if (l->edit) {
         ESR_TRY(l->edit_direct(l->edit_user, l, P, l->edit, l->edit_direct3, l->found_direct3));
         if (!l->has_pf_ref) {
@@ -411,9 +433,9 @@ int esr_lts_run(struct esr_lts *l, const struct esr_model *m, const float *sdf, 
             point_loss_edit(l, &m->lights, p, scale, &se_emo);
     } else {
         /* each point writes only its own rows and directions */
-#pragma omp parallel for schedule(dynamic, 4) reduction(+ : se_off, se_emo)
+#pragma omp parallel for schedule(dynamic, 4) reduction(+ : se_off, se_emo, prod)
         for (size_t p = 0; p < P; p++)
-            point_loss(l, p, scale, w_l, w_r, pair, &se_off, &se_emo);
+            point_loss(l, p, scale, w_l, w_r, pair, &se_off, &se_emo, &prod);
     }
     const size_t hits = esr_lts_incident_scatter(l, P, g_sdf);
     ESR_TRY(esr_point_fields_bwd(&l->pf, m, g_sdf, grads, l->d_tone3, l->d_lin3));
@@ -424,7 +446,7 @@ int esr_lts_run(struct esr_lts *l, const struct esr_model *m, const float *sdf, 
     const double n = (double)(P * 2 * 3);
     out->mse_off = se_off / n;
     out->mse_emo = se_emo / n;
-    out->loss = (double)w * (out->mse_off + out->mse_emo);
+    out->loss = (double)w * (l->split && !l->edit ? prod / n : out->mse_off + out->mse_emo);
     out->points = P;
     out->secondary = PM;
     out->hits = hits;

@@ -52,6 +52,12 @@ struct esr_lts {
     int P, M;                  /* points, incident directions per point */
     int estimator;             /* enum esr_lts_estimator */
     int lobe;                  /* first hit: directions per outgoing direction from the BRDF's lobe */
+    int split;                 /* option lts_split in force: the loss is (L - A)(L - B), A and B
+                                  the estimates from the even and the odd directions alone
+                                  (independent, each unbiased), whose expectation is the squared
+                                  bias of the estimate without its variance; the gradient is the
+                                  same as the MSE's for L and E, and for direction j's terms the
+                                  other half's error in place of the whole estimate's */
     long calls;
     float *normal_sdf;         /* smoothed SDF the normals come from (refreshed) */
     /* per point [P]: position, normal, two outgoing directions (away from the surface) */
