@@ -219,6 +219,55 @@ static void test_resume_after_interruption_is_exact(void **state)
     assert_same_model(pa, pb);
 }
 
+/* --set on resume (esr_train_opts.resume_set): applied over the run's config.json for the stages
+ * still to train and written back; a set that fails the cross-option check is refused with the
+ * file unchanged; on the command line --preset with --resume is refused, not ignored. */
+static void test_resume_applies_set(void **state)
+{
+    (void)state;
+    char run[4300], cmd[9000], out[4096], cfg_path[4400];
+    snprintf(run, sizeof run, "%s/resume_set", test_tmpdir);
+    snprintf(cmd, sizeof cmd, "mkdir -p '%s' && cp '%s'/straight/config.json '%s'/straight/ckpt_alphamask.bin '%s'/",
+             run, test_tmpdir, test_tmpdir, run);
+    assert_int_equal(system(cmd), 0);
+    snprintf(cfg_path, sizeof cfg_path, "%s/config.json", run);
+    struct esr_train_opts o;
+    struct log_capture lc;
+    const char *sets[] = {"coarse.iters=7"};
+    opts_for(&o, run, ESR_STAGE_COARSE, &lc);
+    o.resume = 1;
+    o.resume_set = sets;
+    o.n_resume_set = 1;
+    if (esr_train_run(&o) != ESR_OK)
+        fail_msg("%s", esr_error_message());
+    assert_non_null(strstr(lc.text, "resume: coarse.iters=7"));
+    struct esr_train_config c;
+    esr_config_defaults(&c, ESR_PRESET_FAST);
+    assert_int_equal(esr_config_load_json(&c, cfg_path), ESR_OK);
+    assert_int_equal(c.coarse.iters, 7);
+    struct esr_model m;
+    snprintf(cmd, sizeof cmd, "%s/ckpt_coarse.bin", run);
+    assert_int_equal(esr_model_load(&m, cmd), ESR_OK);
+    assert_int_equal(m.step, 7);
+    assert_int_equal(m.stage_done, 1);
+    esr_model_free(&m);
+    const char *bad[] = {"lts_split=1"}; /* without lobe directions */
+    opts_for(&o, run, ESR_STAGE_COARSE, NULL);
+    o.resume = 1;
+    o.resume_set = bad;
+    o.n_resume_set = 1;
+    assert_int_equal(esr_train_run(&o), ESR_ERR);
+    assert_non_null(strstr(esr_error_message(), "lts_split 1 needs"));
+    esr_error_clear();
+    esr_config_defaults(&c, ESR_PRESET_FAST);
+    assert_int_equal(esr_config_load_json(&c, cfg_path), ESR_OK);
+    assert_int_equal(c.lts_split, 0);
+    assert_int_equal(c.coarse.iters, 7);
+    snprintf(cmd, sizeof cmd, "train '%s' --out '%s' --resume --preset paper --until coarse", data_dir, run);
+    assert_int_equal(test_run_esr(cmd, out, sizeof out), 1);
+    assert_non_null(strstr(out, "--preset and --config would not apply"));
+}
+
 static void test_nan_is_recovered_then_stops(void **state)
 {
     (void)state;
@@ -886,6 +935,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_tiny_reaches_psnr),
         cmocka_unit_test(test_resume_after_interruption_is_exact),
+        cmocka_unit_test(test_resume_applies_set),
         cmocka_unit_test(test_nan_is_recovered_then_stops),
         cmocka_unit_test(test_corrupt_checkpoints_are_refused),
         cmocka_unit_test(test_empty_mask_cache_is_refused),

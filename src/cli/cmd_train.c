@@ -7,6 +7,7 @@
 #include "cli/commands.h"
 #include "core/error.h"
 #include "io/dir.h"
+#include "io/file.h"
 #include "eval/quick_eval.h"
 #include "train/trainer.h"
 
@@ -31,7 +32,9 @@ const struct esr_command cmd_train = {
     "  --out RUN            run directory (created if missing)\n"
     "  --until STAGE        last stage to run: alphamask, coarse, fine, lts or pdra (default;\n"
     "                       fine gives the geometry and radiance without the emitters)\n"
-    "  --resume             continue from RUN's checkpoints with RUN's config.json\n"
+    "  --resume             continue from RUN's checkpoints with RUN's config.json; --set\n"
+    "                       changes options of the stages still to train and is written to it\n"
+    "                       (e.g. lts and pdra again from a copy's fine checkpoint)\n"
     "  --preset NAME        defaults: fast (CPU, default) or paper (the authors' sizes)\n"
     "  --config FILE.json   options as JSON ({\"fine.iters\": 200} or {\"fine\": {\"iters\": 200}},\n"
     "                       optional \"preset\"); unknown keys or out-of-range values are refused\n"
@@ -136,7 +139,9 @@ static int run_train(int argc, char **argv)
     o.nan_test_iter = -1;
     enum esr_preset preset = ESR_PRESET_FAST;
     const char *config = NULL, *data = NULL;
-    int do_eval = 0;
+    int do_eval = 0, has_preset = 0;
+    const char *sets[64]; /* the --set values, for a resume */
+    int n_sets = 0;
     /* first pass: preset (the base every other option applies to) */
     for (int i = 1; i < argc; i++)
         if (!strcmp(argv[i], "--preset")) {
@@ -144,6 +149,7 @@ static int run_train(int argc, char **argv)
                 return cli_fail(&cmd_train, "--preset needs a value (fast or paper)");
             if (esr_preset_from_name(argv[++i], &preset) != ESR_OK)
                 return cli_fail_lib(&cmd_train);
+            has_preset = 1;
         }
     esr_config_defaults(&o.cfg, preset);
     for (int i = 1; i < argc; i++)
@@ -177,6 +183,9 @@ static int run_train(int argc, char **argv)
                 return cli_fail(&cmd_train, "--set needs key=value");
             if (esr_config_set(&o.cfg, argv[++i]) != ESR_OK)
                 return cli_fail_lib(&cmd_train);
+            if (n_sets == (int)(sizeof sets / sizeof sets[0]))
+                return cli_fail(&cmd_train, "more than %d --set options", n_sets);
+            sets[n_sets++] = argv[i];
         } else if (a[0] == '-') {
             return cli_fail(&cmd_train, "unknown option '%s'", a);
         } else if (!data) {
@@ -190,6 +199,15 @@ static int run_train(int argc, char **argv)
     if (!o.run_dir)
         return cli_fail(&cmd_train, "missing --out RUN");
     o.data_dir = data;
+    if (o.resume) {
+        char cfg_path[4200];
+        snprintf(cfg_path, sizeof cfg_path, "%s/config.json", o.run_dir);
+        if ((has_preset || config) && esr_file_exists(cfg_path))
+            return cli_fail(&cmd_train, "--resume continues with %s: --preset and --config would not "
+                            "apply; change single options with --set", cfg_path);
+        o.resume_set = sets;
+        o.n_resume_set = n_sets;
+    }
     struct progress_sink sink = {NULL, isatty(2), 0};
     if (esr_dir_create(o.run_dir) != ESR_OK)
         return cli_fail(&cmd_train, "%s", esr_error_message());

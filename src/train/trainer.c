@@ -510,6 +510,17 @@ static int setup(struct run *r)
     if (r->o->resume && esr_file_exists(path)) {
         esr_config_defaults(&r->cfg, ESR_PRESET_FAST);
         ESR_TRY(esr_config_load_json(&r->cfg, path));
+        /* options changed for the stages still to train (an A/B from one run's checkpoints);
+         * a stage already trained keeps its checkpoint, the next starts from it as in a run
+         * begun with these options */
+        for (int i = 0; i < r->o->n_resume_set; i++)
+            ESR_TRY(esr_config_set(&r->cfg, r->o->resume_set[i]));
+        if (r->o->n_resume_set > 0) {
+            ESR_TRY(esr_config_validate(&r->cfg));
+            ESR_TRY(esr_config_write_json(&r->cfg, path));
+            for (int i = 0; i < r->o->n_resume_set; i++)
+                say(r, ESR_STAGE_ALPHAMASK, "resume: %s (written to %s)", r->o->resume_set[i], path);
+        }
     } else {
         ESR_TRY(esr_config_validate(&r->cfg));
         ESR_TRY(esr_config_write_json(&r->cfg, path));

@@ -49,6 +49,9 @@ struct esr_train_opts {
     enum esr_stage until;          /* last stage to run */
     int resume;                    /* continue from the checkpoints in run_dir */
     struct esr_train_config cfg;   /* ignored on resume when run_dir has a config (it wins) */
+    const char *const *resume_set; /* on resume with a config: "key=value" options applied over
+                                      it (the CLI's --set), checked, and written back to it */
+    int n_resume_set;
     esr_train_report_fn report;    /* may be NULL */
     void *user;
     long nan_test_iter;            /* test hook: poison the gradient at this iteration of every
