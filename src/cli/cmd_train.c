@@ -202,9 +202,17 @@ static int run_train(int argc, char **argv)
     if (o.resume) {
         char cfg_path[4200];
         snprintf(cfg_path, sizeof cfg_path, "%s/config.json", o.run_dir);
-        if ((has_preset || config) && esr_file_exists(cfg_path))
-            return cli_fail(&cmd_train, "--resume continues with %s: --preset and --config would not "
-                            "apply; change single options with --set", cfg_path);
+        if (esr_file_exists(cfg_path)) {
+            struct esr_train_config stored;
+            esr_config_defaults(&stored, ESR_PRESET_FAST);
+            if (esr_config_load_json(&stored, cfg_path) != ESR_OK)
+                return cli_fail_lib(&cmd_train);
+            /* the same preset again is harmless (esr demo always names one) */
+            if (config || (has_preset && stored.preset != (int)preset))
+                return cli_fail(&cmd_train, "--resume continues with %s (preset %s): another "
+                                "--preset or a --config would not apply; change single options "
+                                "with --set", cfg_path, esr_preset_name((enum esr_preset)stored.preset));
+        }
         o.resume_set = sets;
         o.n_resume_set = n_sets;
     }
