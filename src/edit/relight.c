@@ -24,9 +24,6 @@
 #define LAYER_OPACITY 0.05f
 #define LAYER_GAP_VOX 2.0f
 #define LIT_OPACITY 0.02f
-/* shadow rays start this many voxels off the surface and stop this many short of the light */
-#define SHADOW_OFFSET_VOX 1.0f
-#define SHADOW_STOP_VOX 1.5f
 /* the direct light's denoiser: window radius (pixels), depth scale (voxels), normal power, and
  * the smallest base colour the light is divided by */
 #define DENOISE_R 2
@@ -134,61 +131,26 @@ ESR_HOT static size_t direct_light(const struct esr_relight *r, const struct esr
                                    const struct view_buf *b, size_t n_px, uint64_t seed,
                                    float *edited3, float *found3)
 {
-    const float h = r->shadows.voxel;
     size_t traced = 0;
 #pragma omp parallel for schedule(dynamic, 16) reduction(+ : traced)
     for (size_t p = 0; p < n_px; p++) {
         struct esr_rng rng = esr_rng_init(seed, p);
         for (size_t i = 2 * p; i < 2 * p + 2; i++) {
             const float a = b->l_opac[i];
-            struct esr_vec3 n = esr_v3(b->l_nrm3[i * 3], b->l_nrm3[i * 3 + 1], b->l_nrm3[i * 3 + 2]);
+            struct esr_vec3 n = esr_v3_at(b->l_nrm3, i);
             if (!lit_layer(r, b, i) || esr_v3_length(n) < 1e-6f)
                 continue;
             n = esr_v3_normalize(n);
-            struct esr_vec3 d = esr_v3(b->d3[p * 3], b->d3[p * 3 + 1], b->d3[p * 3 + 2]);
-            struct esr_vec3 x = esr_v3_add(esr_v3(b->o3[p * 3], b->o3[p * 3 + 1], b->o3[p * 3 + 2]),
-                                           esr_v3_scale(d, b->l_depth[i]));
+            const struct esr_vec3 d = esr_v3_at(b->d3, p);
+            const struct esr_vec3 x = esr_v3_add(esr_v3_at(b->o3, p), esr_v3_scale(d, b->l_depth[i]));
             const struct esr_vec3 wo = esr_v3_scale(d, -1.0f);
             const struct esr_material mat = esr_material_of_row(b->l_mat5 + i * ESR_BRDF_CHANNELS, a);
-            const struct esr_vec3 o = esr_v3_add(x, esr_v3_scale(n, SHADOW_OFFSET_VOX * h));
-            const float o3[3] = {o.x, o.y, o.z};
-            for (int k = 0; k < r->n_lights; k++) {
-                const struct esr_light_samples *ls = &r->samples[k];
-                if (!lights_up(r, edits, k))
-                    continue;
-                for (int j = 0; j < r->spp; j++) {
-                    /* stratified over the light's points (stored in lattice order, so the strata
-                     * are patches of its surface) */
-                    size_t q = (size_t)(((double)j + esr_rng_float(&rng)) * (double)ls->n / r->spp);
-                    if (q >= ls->n)
-                        q = ls->n - 1;
-                    const struct esr_vec3 y = esr_v3(ls->pos3[q * 3], ls->pos3[q * 3 + 1], ls->pos3[q * 3 + 2]);
-                    const struct esr_vec3 v = esr_v3_sub(y, o);
-                    const float dist = esr_v3_length(v);
-                    if (dist <= SHADOW_STOP_VOX * h)
-                        continue;
-                    const struct esr_vec3 wi = esr_v3_scale(v, 1.0f / dist);
-                    float R[3];
-                    esr_brdf_eval(&mat, n, wo, wi, R);
-                    if (R[0] + R[1] + R[2] <= 0.0f)
-                        continue; /* below the surface */
-                    const struct esr_vec3 end = esr_v3_add(o, esr_v3_scale(wi, dist - SHADOW_STOP_VOX * h));
-                    const float end3[3] = {end.x, end.y, end.z};
-                    traced++;
-                    if (esr_first_hit_segment_blocked(&r->shadows.grid, &r->shadows.params, o3, end3))
-                        continue; /* occluded */
-                    const struct esr_vec3 ny = esr_v3(ls->nrm3[q * 3], ls->nrm3[q * 3 + 1], ls->nrm3[q * 3 + 2]);
-                    const float g = fabsf(esr_v3_dot(ny, wi)) * ls->area[q] * (float)ls->n /
-                                    ((float)r->spp * dist * dist);
-                    float e[3];
-                    esr_light_edit_apply(&edits[k], ls->emit3 + q * 3, e);
-                    for (int c = 0; c < 3; c++)
-                        edited3[i * 3 + c] += a * e[c] * R[c] * g;
-                    if (found3)
-                        for (int c = 0; c < 3; c++)
-                            found3[i * 3 + c] += a * ls->emit3[q * 3 + c] * R[c] * g;
-                }
-            }
+            for (int k = 0; k < r->n_lights; k++)
+                if (lights_up(r, edits, k))
+                    traced += esr_light_direct_point(
+                        &r->shadows, &r->samples[k], &edits[k], r->spp, &mat, x, n, &wo, 1, a,
+                        &rng, (float(*)[3])(edited3 + i * 3),
+                        found3 ? (float(*)[3])(found3 + i * 3) : NULL);
         }
     }
     return traced;

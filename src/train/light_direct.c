@@ -20,6 +20,67 @@ int esr_light_shadows_init(struct esr_light_shadows *s, const struct esr_model *
     return esr_first_hit_shadow_setup(&s->grid, &s->params, g, esr_model_values(m, ESR_COMP_SDF));
 }
 
+/* Shadow rays start this many voxels off the surface along its normal and stop this many short
+ * of the light's sample (its own surface). */
+#define SHADOW_OFFSET_VOX 1.0f
+#define SHADOW_STOP_VOX 1.5f
+
+ESR_HOT size_t esr_light_direct_point(const struct esr_light_shadows *sh,
+                                      const struct esr_light_samples *ls,
+                                      const struct esr_light_edit *edit, int spp,
+                                      const struct esr_material *mat, struct esr_vec3 x,
+                                      struct esr_vec3 n, const struct esr_vec3 *wo, int n_wo,
+                                      float scale, struct esr_rng *rng, float (*edited)[3],
+                                      float (*found)[3])
+{
+    const float h = sh->voxel;
+    const struct esr_vec3 o = esr_v3_add(x, esr_v3_scale(n, SHADOW_OFFSET_VOX * h));
+    const float o3[3] = {o.x, o.y, o.z};
+    size_t traced = 0;
+    for (int j = 0; j < spp && ls->n > 0; j++) {
+        size_t q = (size_t)(((double)j + esr_rng_float(rng)) * (double)ls->n / spp);
+        if (q >= ls->n)
+            q = ls->n - 1;
+        const struct esr_vec3 v = esr_v3_sub(esr_v3_at(ls->pos3, q), o);
+        const float dist = esr_v3_length(v);
+        if (dist <= SHADOW_STOP_VOX * h)
+            continue;
+        const struct esr_vec3 wi = esr_v3_scale(v, 1.0f / dist);
+        float R[ESR_DIRECT_MAX_WO][3];
+        int any = 0;
+        for (int w = 0; w < n_wo; w++) {
+            for (int c = 0; c < 3; c++)
+                R[w][c] = 0.0f;
+            if (esr_v3_dot(n, wo[w]) <= 0.0f)
+                continue;
+            esr_brdf_eval(mat, n, wo[w], wi, R[w]);
+            any |= R[w][0] + R[w][1] + R[w][2] > 0.0f;
+        }
+        if (!any)
+            continue; /* below the surface for every wo */
+        const struct esr_vec3 end = esr_v3_add(o, esr_v3_scale(wi, dist - SHADOW_STOP_VOX * h));
+        const float end3[3] = {end.x, end.y, end.z};
+        traced++;
+        if (esr_first_hit_segment_blocked(&sh->grid, &sh->params, o3, end3))
+            continue; /* occluded */
+        const float g = fabsf(esr_v3_dot(esr_v3_at(ls->nrm3, q), wi)) * ls->area[q] *
+                        (float)ls->n / ((float)spp * dist * dist);
+        const float *e_found = ls->emit3 + q * 3;
+        float e[3];
+        if (edit)
+            esr_light_edit_apply(edit, e_found, e);
+        else
+            memcpy(e, e_found, sizeof e);
+        for (int w = 0; w < n_wo; w++)
+            for (int c = 0; c < 3; c++) {
+                edited[w][c] += scale * e[c] * R[w][c] * g;
+                if (found)
+                    found[w][c] += scale * e_found[c] * R[w][c] * g;
+            }
+    }
+    return traced;
+}
+
 ESR_HOT int esr_lights_direct(const struct esr_light_shadows *sh, const struct esr_light_samples *ls,
                               int n_lights, const struct esr_light_edit *edits,
                               const struct esr_direct_points *pts, int spp, uint64_t seed,
@@ -32,61 +93,30 @@ ESR_HOT int esr_lights_direct(const struct esr_light_shadows *sh, const struct e
     if (pts->n_wo < 1 || pts->n_wo > ESR_DIRECT_MAX_WO)
         return ESR_FAIL("lights: %d outgoing directions per point (1 to %d)", pts->n_wo,
                         ESR_DIRECT_MAX_WO);
-    const float h = sh->voxel;
     if (P * K * (size_t)spp == 0)
         return ESR_OK;
     /* each shadow ray is traced where its sample is drawn; a point's sums run over its own
      * samples in a fixed order from its own stream: deterministic, nothing allocated */
 #pragma omp parallel for schedule(dynamic, 16)
     for (size_t p = 0; p < P; p++) {
-        const struct esr_vec3 x = esr_v3_at(pts->pos3, p), n = esr_v3_at(pts->nrm3, p);
         const struct esr_material mat = esr_material_of_row(pts->brdf5 + p * ESR_BRDF_CHANNELS, 1.0f);
-        const struct esr_vec3 o = esr_v3_add(x, esr_v3_scale(n, h));
-        const float o3[3] = {o.x, o.y, o.z};
+        struct esr_vec3 wo[ESR_DIRECT_MAX_WO];
+        for (size_t w = 0; w < W; w++)
+            wo[w] = esr_v3_at(pts->wo3, p * W + w);
         struct esr_rng rng = esr_rng_init(seed, p);
-        for (size_t k = 0; k < K; k++)
-            for (int j = 0; j < spp; j++) {
-                const uint32_t u = esr_rng_u32(&rng);
-                if (ls[k].n == 0)
-                    continue;
-                const size_t q = u % (uint32_t)ls[k].n;
-                const struct esr_vec3 v = esr_v3_sub(esr_v3_at(ls[k].pos3, q), o);
-                const float dist = esr_v3_length(v);
-                if (dist <= 1.5f * h)
-                    continue;
-                const struct esr_vec3 wi = esr_v3_scale(v, 1.0f / dist);
-                const float *found = ls[k].emit3 + q * 3;
-                float e[3];
-                if (edits)
-                    esr_light_edit_apply(&edits[k], found, e);
-                else
-                    memcpy(e, found, sizeof e);
-                const struct esr_vec3 ny = esr_v3_at(ls[k].nrm3, q);
-                const float geo = fabsf(esr_v3_dot(ny, wi)) * ls[k].area[q] * (float)ls[k].n /
-                                  ((float)spp * dist * dist);
-                float R[ESR_DIRECT_MAX_WO][3];
-                int any = 0;
-                for (size_t w = 0; w < W; w++) {
-                    const struct esr_vec3 wo = esr_v3_at(pts->wo3, p * W + w);
-                    for (int c = 0; c < 3; c++)
-                        R[w][c] = 0.0f;
-                    if (esr_v3_dot(n, wo) <= 0.0f)
-                        continue;
-                    esr_brdf_eval(&mat, n, wo, wi, R[w]);
-                    any |= R[w][0] > 0.0f || R[w][1] > 0.0f || R[w][2] > 0.0f;
+        for (size_t k = 0; k < K; k++) {
+            float d[ESR_DIRECT_MAX_WO][3] = {{0}}, d_found[ESR_DIRECT_MAX_WO][3] = {{0}};
+            (void)esr_light_direct_point(sh, &ls[k], edits ? &edits[k] : NULL, spp, &mat,
+                                         esr_v3_at(pts->pos3, p), esr_v3_at(pts->nrm3, p), wo,
+                                         (int)W, 1.0f, &rng, d, out_found ? d_found : NULL);
+            for (size_t w = 0; w < W; w++)
+                for (int c = 0; c < 3; c++) {
+                    const size_t at = ((p * W + w) * ESR_MAX_LIGHTS + k) * 3 + (size_t)c;
+                    out[at] = d[w][c];
+                    if (out_found)
+                        out_found[at] = d_found[w][c];
                 }
-                const struct esr_vec3 end = esr_v3_add(o, esr_v3_scale(wi, dist - 1.5f * h));
-                const float end3[3] = {end.x, end.y, end.z};
-                if (!any || esr_first_hit_segment_blocked(&sh->grid, &sh->params, o3, end3))
-                    continue;
-                for (size_t w = 0; w < W; w++)
-                    for (int c = 0; c < 3; c++) {
-                        const size_t at = ((p * W + w) * ESR_MAX_LIGHTS + k) * 3 + (size_t)c;
-                        out[at] += e[c] * R[w][c] * geo;
-                        if (out_found)
-                            out_found[at] += found[c] * R[w][c] * geo;
-                    }
-            }
+        }
     }
     return ESR_OK;
 }

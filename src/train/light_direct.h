@@ -1,8 +1,8 @@
 /* Direct light from the found lights at surface points, by area sampling: for each point x,
  * each outgoing direction wo and each light K,
  *     D_K(x, wo) = sum over K's surface of E_K(y) R(x, wo, wi) |n_y . wi| / d^2 dA
- * estimated with spp area samples y (uniform over K's labelled surface points, each standing for
- * its area) and a shadow ray to each (first hit of the SDF before y: occluded). Sampling the
+ * estimated with spp area samples y (stratified over K's labelled surface points, each standing
+ * for its area) and a shadow ray to each (first hit of the SDF before y: occluded). Sampling the
  * lights by area, not by direction, keeps D nearly noise-free even for a small bright light,
  * which a few hemisphere directions hit only by chance. Used by the calibration of the lights'
  * strength (train/lights.h) and by radiance fine-tuning (edit/finetune.h), which needs the
@@ -13,6 +13,9 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "core/brdf.h"
+#include "core/rng.h"
+#include "core/vec3.h"
 #include "model/model.h"
 #include "train/lights.h"
 #include "volume/first_hit.h"
@@ -41,6 +44,21 @@ struct esr_light_shadows {
     float voxel; /* the SDF grid's voxel edge along x: shadow rays start and stop 1.5 off */
 };
 int esr_light_shadows_init(struct esr_light_shadows *s, const struct esr_model *m);
+
+/* One surface point x (unit normal n, material mat) and light ls: spp area samples, stratified
+ * over the light's points (stored in lattice order, so the strata are patches of its surface),
+ * each with a shadow ray from x + 1 voxel n to 1.5 voxels short of the sample. ADDS
+ * scale e R(wo_w, wi) |n_y . wi| A / d^2 per channel into edited[w] for each of the n_wo
+ * outgoing directions wo (e: the sample's emission edited by *edit, or as found when edit is
+ * NULL) and, when found is not NULL, the same with the emission as found into found[w]. A
+ * back-facing wo gets nothing; a sample no wo sees is not traced. Draws from rng; returns the
+ * shadow rays traced. The kernel of esr_lights_direct and of direct relighting
+ * (edit/relight.h). */
+size_t esr_light_direct_point(const struct esr_light_shadows *sh, const struct esr_light_samples *ls,
+                              const struct esr_light_edit *edit, int spp,
+                              const struct esr_material *mat, struct esr_vec3 x, struct esr_vec3 n,
+                              const struct esr_vec3 *wo, int n_wo, float scale,
+                              struct esr_rng *rng, float (*edited)[3], float (*found)[3]);
 
 /* out[((p * n_wo + o) * ESR_MAX_LIGHTS + K) * 3 + c] = D_K (per channel) for the n_lights lights
  * whose surface samples ls[] are given, each sample's emission edited by edits[K] (NULL: as the
