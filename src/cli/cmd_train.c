@@ -69,7 +69,8 @@ static void on_progress(void *user, const struct esr_train_progress *p)
     if (p->event == ESR_TRAIN_STAGE_DONE)
         return; /* the trainer's own message says it */
     if (p->event == ESR_TRAIN_MESSAGE) {
-        snprintf(line, sizeof line, "[%s] %s", esr_stage_name(p->stage), p->message);
+        const char *tag = esr_stage_name(p->stage);
+        snprintf(line, sizeof line, "[%s] %s", tag ? tag : "setup", p->message);
     } else {
         char eta[32];
         fmt_eta(p->eta_s, eta, sizeof eta);

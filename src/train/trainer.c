@@ -519,7 +519,7 @@ static int setup(struct run *r)
             ESR_TRY(esr_config_validate(&r->cfg));
             ESR_TRY(esr_config_write_json(&r->cfg, path));
             for (int i = 0; i < r->o->n_resume_set; i++)
-                say(r, ESR_STAGE_ALPHAMASK, "resume: %s (written to %s)", r->o->resume_set[i], path);
+                say(r, ESR_STAGE_COUNT, "resume: %s (written to %s)", r->o->resume_set[i], path);
         }
     } else {
         ESR_TRY(esr_config_validate(&r->cfg));
@@ -537,11 +537,11 @@ static int setup(struct run *r)
     }
     int rc = esr_ray_set_build(&r->rays, &ds, ESR_PHASE_TRAIN);
     if (rc == ESR_OK)
-        say(r, ESR_STAGE_ALPHAMASK, "dataset %s: %zu training rays (%zu lights-off)", ds.root,
+        say(r, ESR_STAGE_COUNT, "dataset %s: %zu training rays (%zu lights-off)", ds.root,
             r->rays.n, r->rays.n_off);
     if (rc == ESR_OK && r->cfg.background == ESR_BACKGROUND_AUTO) {
         r->cfg.background = r->rays.transparent ? ESR_BACKGROUND_WHITE : ESR_BACKGROUND_LEARNED;
-        say(r, ESR_STAGE_ALPHAMASK, "background: %s", r->rays.transparent
+        say(r, ESR_STAGE_COUNT, "background: %s", r->rays.transparent
             ? "white (the training images have alpha: rays that leave the scene see white)"
             : "learned (no training image has transparent pixels: photos, whose rays leave the "
               "scene into a room; fields/background.h)");

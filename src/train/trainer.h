@@ -23,7 +23,7 @@ enum esr_train_event {
 
 struct esr_train_progress {
     enum esr_train_event event;
-    enum esr_stage stage;
+    enum esr_stage stage;  /* ESR_STAGE_COUNT: a message about the run, before any stage */
     long iter, iters;      /* iterations done in the stage / total */
     double loss;           /* mean loss of the last window */
     double psnr;           /* batch PSNR of the tone-mapped colour (last window) */
