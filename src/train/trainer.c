@@ -386,6 +386,12 @@ static int run_stage(struct run *r, struct esr_model *m, enum esr_stage s)
             return ESR_OK;
         }
     }
+    /* each step runs at the inv-s of its own index, so the loop leaves that of the last step
+     * taken; a checkpoint restores the one of the step reached (checkpoint.c). What follows (the
+     * mask, the lights, the next stage's start: lts renders this model for the environment's
+     * level) must see the model a resumed run loads, or a run stopped at a stage's end and
+     * resumed trains differently from one that never stopped */
+    m->inv_s = esr_stage_inv_s(&m->cfg, s, m->step);
     if (rc == ESR_OK && esr_stage_info(s)->builds_mask)
         rc = build_mask(r, m);
     if (rc == ESR_OK && b.has_pdra && b.pdra.n_certain == B)
