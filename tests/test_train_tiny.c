@@ -188,12 +188,18 @@ static void assert_same_model(const char *a, const char *b)
     esr_model_free(&mb);
 }
 
+/* The run folders of a straight run and of one that is stopped and resumed. */
+static void run_dir_pair(char straight[4200], char cut[4200], const char *test)
+{
+    snprintf(straight, 4200, "%s/straight_%s", test_tmpdir, test);
+    snprintf(cut, 4200, "%s/cut_%s", test_tmpdir, test);
+}
+
 static void test_resume_after_interruption_is_exact(void **state)
 {
     (void)state;
     char straight[4200], cut[4200], pa[4300], pb[4300];
-    snprintf(straight, sizeof straight, "%s/straight", test_tmpdir);
-    snprintf(cut, sizeof cut, "%s/cut", test_tmpdir);
+    run_dir_pair(straight, cut, "coarse");
     struct esr_train_opts o;
     opts_for(&o, straight, ESR_STAGE_COARSE, NULL);
     assert_int_equal(esr_train_run(&o), 0);
@@ -227,8 +233,7 @@ static void test_resume_at_stage_boundary_is_exact(void **state)
 {
     (void)state;
     char straight[4200], cut[4200], pa[4300], pb[4300];
-    snprintf(straight, sizeof straight, "%s/straight_pdra", test_tmpdir);
-    snprintf(cut, sizeof cut, "%s/cut_fine", test_tmpdir);
+    run_dir_pair(straight, cut, "boundary");
     struct esr_train_opts o;
     opts_for(&o, straight, ESR_STAGE_PDRA, NULL);
     assert_int_equal(esr_train_run(&o), 0);
@@ -253,7 +258,8 @@ static void test_resume_applies_set(void **state)
     (void)state;
     char run[4300], cmd[9000], out[4096], cfg_path[4400];
     snprintf(run, sizeof run, "%s/resume_set", test_tmpdir);
-    snprintf(cmd, sizeof cmd, "mkdir -p '%s' && cp '%s'/straight/config.json '%s'/straight/ckpt_alphamask.bin '%s'/",
+    /* from the straight run of test_resume_after_interruption_is_exact */
+    snprintf(cmd, sizeof cmd, "mkdir -p '%s' && cp '%s'/straight_coarse/config.json '%s'/straight_coarse/ckpt_alphamask.bin '%s'/",
              run, test_tmpdir, test_tmpdir, run);
     assert_int_equal(system(cmd), 0);
     snprintf(cfg_path, sizeof cfg_path, "%s/config.json", run);
