@@ -5,8 +5,8 @@
  * for its area) and a shadow ray to each (first hit of the SDF before y: occluded). Sampling the
  * lights by area, not by direction, keeps D nearly noise-free even for a small bright light,
  * which a few hemisphere directions hit only by chance. Used by the calibration of the lights'
- * strength (train/lights.h) and by radiance fine-tuning (edit/finetune.h), which needs the
- * edited lights' light exactly. */
+ * strength (train/lights.h), by radiance fine-tuning (edit/finetune.h), which needs the edited
+ * lights' light exactly, and per pixel by direct and ratio relighting (edit/relight.h). */
 #ifndef ESR_TRAIN_LIGHT_DIRECT_H
 #define ESR_TRAIN_LIGHT_DIRECT_H
 
@@ -41,19 +41,22 @@ struct esr_direct_points {
 struct esr_light_shadows {
     struct esr_first_hit_grid grid;
     struct esr_first_hit_params params;
-    float voxel; /* the SDF grid's voxel edge along x: shadow rays start and stop 1.5 off */
+    float voxel; /* the SDF grid's voxel edge along x: shadow rays start 1 voxel off the
+                    surface and stop 1.5 short of the light's sample */
 };
 int esr_light_shadows_init(struct esr_light_shadows *s, const struct esr_model *m);
 
 /* One surface point x (unit normal n, material mat) and light ls: spp area samples, stratified
  * over the light's points (stored in lattice order, so the strata are patches of its surface),
  * each with a shadow ray from x + 1 voxel n to 1.5 voxels short of the sample. ADDS
- * scale e R(wo_w, wi) |n_y . wi| A / d^2 per channel into edited[w] for each of the n_wo
+ * scale e R(wo_w, wi) |n_y . wi| A N / (spp d^2) per sample and channel (N: the light's point
+ * count, A the sample's area) into edited[w] for each of the n_wo
  * outgoing directions wo (e: the sample's emission edited by *edit, or as found when edit is
  * NULL) and, when found is not NULL, the same with the emission as found into found[w]. A
  * back-facing wo gets nothing; a sample no wo sees is not traced. Draws from rng; returns the
  * shadow rays traced. The kernel of esr_lights_direct and of direct relighting
- * (edit/relight.h). */
+ * (edit/relight.h). The sums are float (esr_lights_direct adds each light's into its double
+ * output). */
 size_t esr_light_direct_point(const struct esr_light_shadows *sh, const struct esr_light_samples *ls,
                               const struct esr_light_edit *edit, int spp,
                               const struct esr_material *mat, struct esr_vec3 x, struct esr_vec3 n,
