@@ -225,6 +225,7 @@ static int recover(struct run *r, struct esr_model *m, enum esr_stage s, long it
     memcpy(m->adam.m, good.adam.m, m->params.count * sizeof(float));
     memcpy(m->adam.v, good.adam.v, m->params.count * sizeof(float));
     m->step = good.step;
+    m->inv_s = good.inv_s;
     esr_model_free(&good);
     *lr_scale *= 0.5f;
     say(r, s, "non-finite loss or gradient at %s iteration %ld: reloaded %s (iteration %ld), "
@@ -358,7 +359,6 @@ static int run_stage(struct run *r, struct esr_model *m, enum esr_stage s)
     while (rc == ESR_OK && m->step < sc->iters) {
         long it = m->step;
         float f = lr_factor(sc, s, it);
-        m->inv_s = esr_stage_inv_s(&m->cfg, s, it);
         double loss = 0.0;
         rc = iterate(r, m, &b, s, it, &w, &loss);
         if (rc != ESR_OK)
@@ -374,7 +374,11 @@ static int run_stage(struct run *r, struct esr_model *m, enum esr_stage s)
             continue;
         }
         adam_all(m, s, f * lr_scale, it + 1);
+        /* inv-s follows the step, as esr_model_init and a checkpoint's load set it: what
+         * follows a stage (the mask, the lights, the next stage's start, which renders this
+         * model: lts's environment level) sees the model a resumed run loads */
         m->step = it + 1;
+        m->inv_s = esr_stage_inv_s(&m->cfg, s, m->step);
         if (m->step % r->cfg.log_every == 0 || m->step == sc->iters)
             report_window(r, m, s, &w, m->step, sc->iters, B);
         if (m->step % r->cfg.save_every == 0 && m->step < sc->iters)
@@ -386,12 +390,6 @@ static int run_stage(struct run *r, struct esr_model *m, enum esr_stage s)
             return ESR_OK;
         }
     }
-    /* each step runs at the inv-s of its own index, so the loop leaves that of the last step
-     * taken; a checkpoint restores the one of the step reached (checkpoint.c). What follows (the
-     * mask, the lights, the next stage's start: lts renders this model for the environment's
-     * level) must see the model a resumed run loads, or a run stopped at a stage's end and
-     * resumed trains differently from one that never stopped */
-    m->inv_s = esr_stage_inv_s(&m->cfg, s, m->step);
     if (rc == ESR_OK && esr_stage_info(s)->builds_mask)
         rc = build_mask(r, m);
     if (rc == ESR_OK && b.has_pdra && b.pdra.n_certain == B)
