@@ -123,7 +123,11 @@ ESR_INLINE void gemm_impl(int mr_main, const struct esr_gemm_tile *t)
         memcpy(t->c + (size_t)r * t->ldc + j, cp + r * NR, sizeof(float) * cols);
 }
 
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && !defined(__SANITIZE_ADDRESS__)
+/* A portable build carries one path per ISA and picks at run time. A build for the host
+ * (-march=native, ESR_NATIVE) has only the host's path: its own target flags are no subset of
+ * arch=x86-64-v3/v4 (AES, SHA...), so the clones could not inline gemm_impl there. */
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && \
+    !defined(__SANITIZE_ADDRESS__) && !defined(__AVX2__)
 #define GEMM_MULTI_ISA 1
 /* 16 accumulators + 2 B vectors + 1 broadcast fit AVX-512VL's 32 registers; AVX2's 16 hold 6
  * rows (12 accumulators). */
@@ -136,7 +140,16 @@ __attribute__((target("arch=x86-64-v3"))) static void gemm_v3(const struct esr_g
     gemm_impl(6, t);
 }
 #endif
+#if defined(__AVX512F__) && defined(__AVX512VL__)
+static void gemm_base(const struct esr_gemm_tile *t) { gemm_impl(8, t); }
+#define GEMM_BASE_NAME "avx512"
+#elif defined(__AVX2__)
+static void gemm_base(const struct esr_gemm_tile *t) { gemm_impl(6, t); }
+#define GEMM_BASE_NAME "avx2"
+#else
 static void gemm_base(const struct esr_gemm_tile *t) { gemm_impl(4, t); }
+#define GEMM_BASE_NAME "generic"
+#endif
 
 struct gemm_impl_choice {
     void (*fn)(const struct esr_gemm_tile *t);
@@ -145,7 +158,7 @@ struct gemm_impl_choice {
 
 static struct gemm_impl_choice gemm_pick(void)
 {
-    struct gemm_impl_choice ch = {gemm_base, "generic"};
+    struct gemm_impl_choice ch = {gemm_base, GEMM_BASE_NAME};
 #ifdef GEMM_MULTI_ISA
     if (__builtin_cpu_supports("x86-64-v4")) {
         ch.fn = gemm_v4;
