@@ -654,6 +654,7 @@ static void test_segment_blocked(void **state)
     }
     print_message("segments: %d blocked, %d clear\n", blocked, clear);
     assert_true(blocked > 300 && clear > 300); /* both outcomes well exercised */
+    esr_first_hit_grid_free(&fg);
     free(v);
 }
 
@@ -867,6 +868,96 @@ static void test_spike(void **state)
     free(v);
 }
 
+/* Fills v (RES^3 on [-1, 1]^3) with three spheres' SDF scaled by a bumpy factor in [0.2, 1.8]:
+ * non-metric and steep in places, so G allows only short strides. */
+static void bumpy_spheres(const struct esr_grid *g, float *v)
+{
+    const float c[3][3] = {{-0.45f, -0.3f, 0.1f}, {0.4f, 0.35f, -0.2f}, {0.1f, 0.2f, 0.55f}};
+    const float r[3] = {0.4f, 0.3f, 0.25f};
+    for (int iz = 0; iz < RES; iz++)
+        for (int iy = 0; iy < RES; iy++)
+            for (int ix = 0; ix < RES; ix++) {
+                float q[3];
+                esr_grid_voxel_pos(g, ix, iy, iz, q);
+                float f = INFINITY;
+                for (int k = 0; k < 3; k++)
+                    f = fminf(f, len3((float[3]){q[0] - c[k][0], q[1] - c[k][1], q[2] - c[k][2]}) - r[k]);
+                v[((size_t)iz * RES + iy) * RES + ix] =
+                    f * (1.0f + 0.8f * sinf(9.0f * q[0]) * sinf(7.0f * q[1] + 2.0f * q[2]));
+            }
+}
+
+/* Block skipping (esr_first_hit_block_skip) finds the hits the march without it finds (random
+ * rays through bumpy spheres), and it is what lets rays cross empty space in a probe per block:
+ * through a field positive everywhere with one steep lattice point (G large, so only the cells'
+ * own bounds stride, at most a cell each), 26 probes (the 8 + 8 + 8 blocks a ray can cross, and
+ * the ends) take every ray to the box's end with blocks; without them most run out. */
+static void test_block_skip_same_hits(void **state)
+{
+    (void)state;
+    struct esr_grid g;
+    assert_int_equal(esr_grid_init(&g, 1, RES, RES, RES, BMIN, BMAX), ESR_OK);
+    float *v = (float *)malloc(esr_grid_count(&g) * sizeof(float));
+    assert_non_null(v);
+    bumpy_spheres(&g, v);
+    struct esr_first_hit_params p;
+    esr_first_hit_params_init(&p, &g);
+    struct esr_first_hit_grid with, without;
+    assert_int_equal(esr_first_hit_grid_prepare(&with, &g, v, 1), ESR_OK);
+    assert_non_null(with.block_min);
+    without = with;
+    without.block_min = NULL;
+    struct esr_rng rng = esr_rng_init(23, 0);
+    int hits = 0, misses = 0;
+    for (int i = 0; i < 3000; i++) {
+        float o[3], d[3];
+        for (int a = 0; a < 3; a++)
+            o[a] = 1.9f * esr_rng_float(&rng) - 0.95f, d[a] = 2.0f * esr_rng_float(&rng) - 1.0f;
+        if (len3(d) < 0.1f)
+            continue;
+        normalize3(d);
+        float t1, t2;
+        const unsigned f1 = esr_first_hit_ray(&with, &p, o, d, 0.0f, INFINITY, &t1);
+        const unsigned f2 = esr_first_hit_ray(&without, &p, o, d, 0.0f, INFINITY, &t2);
+        assert_int_equal(f1, f2);
+        if (f1 & ESR_FIRST_HIT_HIT)
+            assert_true(fabsf(t1 - t2) < 1e-3f * VOX);
+        hits += (f1 & ESR_FIRST_HIT_HIT) != 0;
+        misses += f1 == 0;
+    }
+    esr_first_hit_grid_free(&with);
+
+    for (size_t i = 0; i < esr_grid_count(&g); i++) /* empty, with a steep spot */
+        v[i] = 0.3f + 0.1f * sinf(0.37f * (float)i);
+    v[((size_t)40 * RES + 20) * RES + 50] = 50.0f;
+    assert_int_equal(esr_first_hit_grid_prepare(&with, &g, v, 1), ESR_OK);
+    without = with;
+    without.block_min = NULL;
+    struct esr_first_hit_params few = p;
+    few.max_steps = 3 * 8 + 2;
+    int through = 0, ran_out = 0, rays = 0;
+    for (int i = 0; i < 2000; i++) {
+        float o[3], d[3], t;
+        for (int a = 0; a < 3; a++)
+            o[a] = 1.9f * esr_rng_float(&rng) - 0.95f, d[a] = 2.0f * esr_rng_float(&rng) - 1.0f;
+        if (len3(d) < 0.1f)
+            continue;
+        normalize3(d);
+        rays++;
+        through += esr_first_hit_ray(&with, &few, o, d, 0.0f, INFINITY, &t) == 0;
+        ran_out += esr_first_hit_ray(&without, &few, o, d, 0.0f, INFINITY, &t) ==
+                   ESR_FIRST_HIT_OUT_OF_STEPS;
+    }
+    print_message("block skip: %d hits and %d misses as without; through empty space in %d probes: "
+                  "%d of %d rays with blocks, %d run out without\n", hits, misses, few.max_steps,
+                  through, rays, ran_out);
+    assert_true(hits > 500 && misses > 300);
+    assert_int_equal(through, rays);
+    assert_true(ran_out > rays / 2);
+    esr_first_hit_grid_free(&with);
+    free(v);
+}
+
 /* Normals: the normalised trilinear gradient at the hit, as esr_grid_sample_value_dpoint gives it,
  * and close to the sphere's analytic normal. */
 static void test_normals(void **state)
@@ -943,7 +1034,7 @@ static void test_threads_null_outputs_scalar(void **state)
     assert_int_equal(esr_first_hit(&g, v, &p, &rays, &out), ESR_OK);
     assert_memory_equal(a.t, t, R * sizeof(float));
     struct esr_first_hit_grid fg;
-    esr_first_hit_grid_prepare(&fg, &g, v, 1);
+    assert_int_equal(esr_first_hit_grid_prepare(&fg, &g, v, 1), ESR_OK);
     for (int i = 0; i < R; i++) {
         float ts;
         unsigned f = esr_first_hit_ray(&fg, &p, a.o + i * 3, a.d + i * 3, 0.0f, INFINITY, &ts);
@@ -951,6 +1042,7 @@ static void test_threads_null_outputs_scalar(void **state)
         assert_int_equal(f, a.flags[i]);
         assert_true(ts == a.t[i] || fabsf(ts - a.t[i]) < 1e-4f * VOX);
     }
+    esr_first_hit_grid_free(&fg);
     free(t);
     batch_free(&a);
     batch_free(&b);
@@ -1054,6 +1146,7 @@ int main(void)
         cmocka_unit_test(test_grazing),
         cmocka_unit_test(test_inside_and_shadow_rays),
         cmocka_unit_test(test_segment_blocked),
+        cmocka_unit_test(test_block_skip_same_hits),
         cmocka_unit_test(test_on_surface),
         cmocka_unit_test(test_non_metric_scaling),
         cmocka_unit_test(test_thin_plate),

@@ -86,6 +86,7 @@ void esr_finetune_free(struct esr_finetune *f)
     esr_lts_free(&f->lts);
     for (int k = 0; k < ESR_MAX_LIGHTS; k++)
         esr_light_samples_free(&f->samples[k]);
+    esr_light_shadows_free(&f->shadows);
     free(f->direct);
     free(f->found);
     free(f->g_sdf);

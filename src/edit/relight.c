@@ -46,8 +46,10 @@ int esr_relight_init(struct esr_relight *r, const struct esr_model *m, int spp,
     r->spp = spp;
     ESR_TRY(esr_light_shadows_init(&r->shadows, m));
     int rc0 = esr_model_normal_sdf(m, &r->normal_sdf);
-    if (rc0 != ESR_OK)
+    if (rc0 != ESR_OK) {
+        esr_relight_free(r);
         return rc0;
+    }
     for (int k = 0; k < m->lights.n; k++) {
         int rc = esr_light_samples_get(m, k, &r->samples[k]);
         if (rc != ESR_OK) {
@@ -63,6 +65,7 @@ void esr_relight_free(struct esr_relight *r)
 {
     for (int k = 0; k < r->n_lights; k++)
         esr_light_samples_free(&r->samples[k]);
+    esr_light_shadows_free(&r->shadows);
     free(r->normal_sdf);
     memset(r, 0, sizeof(*r));
 }

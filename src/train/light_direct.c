@@ -20,6 +20,8 @@ int esr_light_shadows_init(struct esr_light_shadows *s, const struct esr_model *
     return esr_first_hit_shadow_setup(&s->grid, &s->params, g, esr_model_values(m, ESR_COMP_SDF));
 }
 
+void esr_light_shadows_free(struct esr_light_shadows *s) { esr_first_hit_grid_free(&s->grid); }
+
 /* Shadow rays start this many voxels off the surface along its normal and stop this many short
  * of the light's sample (its own surface). */
 #define SHADOW_OFFSET_VOX 1.0f

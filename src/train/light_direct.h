@@ -45,6 +45,8 @@ struct esr_light_shadows {
                     surface and stop 1.5 short of the light's sample */
 };
 int esr_light_shadows_init(struct esr_light_shadows *s, const struct esr_model *m);
+/* Frees what init allocated; a zeroed struct frees nothing. */
+void esr_light_shadows_free(struct esr_light_shadows *s);
 
 /* One surface point x (unit normal n, material mat) and light ls: spp area samples, stratified
  * over the light's points (stored in lattice order, so the strata are patches of its surface),

@@ -587,6 +587,7 @@ int esr_lights_calibrate(struct esr_model *m, const float *orig3, const float *d
                                       ESR_MATERIAL_EMISSION_ONLY);
     const float *sdf = esr_model_values(m, ESR_COMP_SDF);
     struct esr_light_shadows shadows;
+    memset(&shadows, 0, sizeof shadows);
     if (rc == ESR_OK)
         rc = esr_light_shadows_init(&shadows, m);
     for (int p0 = 0; rc == ESR_OK && p0 < got; p0 += CALIB_CHUNK) {
@@ -610,6 +611,7 @@ int esr_lights_calibrate(struct esr_model *m, const float *orig3, const float *d
     }
     esr_material_fields_free(&mf);
     esr_lts_free(&l);
+    esr_light_shadows_free(&shadows);
     m->cfg = keep_cfg;
     m->step = keep_step;
     int fit[ESR_MAX_LIGHTS];

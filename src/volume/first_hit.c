@@ -2,6 +2,7 @@
 #include "volume/first_hit.h"
 
 #include <math.h>
+#include <stdlib.h>
 
 #include "core/error.h"
 #include "fields/trilerp.h"
@@ -17,37 +18,73 @@ void esr_first_hit_params_init(struct esr_first_hit_params *p, const struct esr_
     p->global_bound = 1;
 }
 
-/* G: the largest |difference| between lattice neighbours along each axis, a bound on the
- * trilinear field's partial derivatives (lattice units) anywhere in the box. */
-ESR_HOT static void global_bound(const struct esr_grid *g, const float *v, float gmax[3])
+/* One pass over the grid in blocks of ESR_FIRST_HIT_BLOCK^3 cells: fg->block_min[b], block b's
+ * smallest lattice value, faces included (NaN if any is NaN: such a block is never skipped), and
+ * with want_g, fg->gmax = G, the largest |difference| between lattice neighbours along each axis,
+ * a bound on the trilinear field's partial derivatives (lattice units) anywhere in the box (a
+ * block's lattice points include its faces, so every edge lies in some block). */
+ESR_HOT static void grid_bounds(const struct esr_grid *g, const float *v, int want_g,
+                                struct esr_first_hit_grid *fg)
 {
-    const int nx = g->nx, ny = g->ny, nz = g->nz;
-    const size_t sy = (size_t)nx, sz = (size_t)nx * (size_t)ny;
+    const int B = ESR_FIRST_HIT_BLOCK, nbx = fg->nb[0], nby = fg->nb[1], nbz = fg->nb[2];
+    const size_t sy = fg->sy, sz = fg->sz;
     float gx = 0.0f, gy = 0.0f, gz = 0.0f;
-#pragma omp parallel for schedule(static) reduction(max : gx, gy, gz)
-    for (int iz = 0; iz < nz; iz++)
-        for (int iy = 0; iy < ny; iy++) {
-            const float *row = v + (size_t)iz * sz + (size_t)iy * sy;
-            for (int ix = 0; ix + 1 < nx; ix++)
-                gx = esr_fh_max(fabsf(row[ix + 1] - row[ix]), gx);
-            if (iy + 1 < ny)
-                for (int ix = 0; ix < nx; ix++)
-                    gy = esr_fh_max(fabsf(row[ix + sy] - row[ix]), gy);
-            if (iz + 1 < nz)
-                for (int ix = 0; ix < nx; ix++)
-                    gz = esr_fh_max(fabsf(row[ix + sz] - row[ix]), gz);
-        }
-    gmax[0] = gx;
-    gmax[1] = gy;
-    gmax[2] = gz;
+#pragma omp parallel for collapse(2) schedule(static) reduction(max : gx, gy, gz)
+    for (int bz = 0; bz < nbz; bz++)
+        for (int by = 0; by < nby; by++)
+            for (int bx = 0; bx < nbx; bx++) {
+                const int x0 = bx * B, y0 = by * B, z0 = bz * B;
+                const int x1 = x0 + B < g->nx - 1 ? x0 + B : g->nx - 1;
+                const int y1 = y0 + B < g->ny - 1 ? y0 + B : g->ny - 1;
+                const int z1 = z0 + B < g->nz - 1 ? z0 + B : g->nz - 1;
+                float mn = INFINITY;
+                int nan = 0;
+                for (int z = z0; z <= z1; z++)
+                    for (int y = y0; y <= y1; y++) {
+                        const float *row = v + (size_t)z * sz + (size_t)y * sy;
+                        for (int x = x0; x <= x1; x++) {
+                            mn = esr_fh_min(row[x], mn);
+                            nan |= row[x] != row[x];
+                        }
+                        if (!want_g)
+                            continue;
+                        for (int x = x0; x < x1; x++)
+                            gx = esr_fh_max(fabsf(row[x + 1] - row[x]), gx);
+                        if (y < y1)
+                            for (int x = x0; x <= x1; x++)
+                                gy = esr_fh_max(fabsf(row[x + sy] - row[x]), gy);
+                        if (z < z1)
+                            for (int x = x0; x <= x1; x++)
+                                gz = esr_fh_max(fabsf(row[x + sz] - row[x]), gz);
+                    }
+                fg->block_min[((size_t)bz * (size_t)nby + (size_t)by) * (size_t)nbx + (size_t)bx] =
+                    nan ? NAN : mn;
+            }
+    if (want_g) {
+        fg->gmax[0] = gx;
+        fg->gmax[1] = gy;
+        fg->gmax[2] = gz;
+    }
 }
 
-void esr_first_hit_grid_prepare(struct esr_first_hit_grid *fg, const struct esr_grid *g,
-                                const float *data, int global_bound_on)
+int esr_first_hit_grid_prepare(struct esr_first_hit_grid *fg, const struct esr_grid *g,
+                               const float *data, int global_bound_on)
 {
     esr_first_hit_grid_init(fg, g, data);
-    if (global_bound_on)
-        global_bound(g, data, fg->gmax);
+    for (int a = 0; a < 3; a++) /* cells n - 1 per axis, in blocks of B */
+        fg->nb[a] = (fg->n[a] - 2) / ESR_FIRST_HIT_BLOCK + 1;
+    fg->block_min = malloc((size_t)fg->nb[0] * (size_t)fg->nb[1] * (size_t)fg->nb[2] * sizeof(float));
+    if (!fg->block_min)
+        return ESR_FAIL("first hit: out of memory for the block minima of a %dx%dx%d grid", g->nx,
+                        g->ny, g->nz);
+    grid_bounds(g, data, global_bound_on, fg);
+    return ESR_OK;
+}
+
+void esr_first_hit_grid_free(struct esr_first_hit_grid *fg)
+{
+    free(fg->block_min);
+    fg->block_min = NULL;
 }
 
 int esr_first_hit_shadow_setup(struct esr_first_hit_grid *fg, struct esr_first_hit_params *p,
@@ -57,8 +94,7 @@ int esr_first_hit_shadow_setup(struct esr_first_hit_grid *fg, struct esr_first_h
         return ESR_FAIL("shadow rays: the SDF grid must have 1 channel, not %d", g->channels);
     esr_first_hit_params_init(p, g);
     p->refine_iters = 0;
-    esr_first_hit_grid_prepare(fg, g, sdf, p->global_bound);
-    return ESR_OK;
+    return esr_first_hit_grid_prepare(fg, g, sdf, p->global_bound);
 }
 
 ESR_HOT static void first_hit_batch(const struct esr_grid *g, const struct esr_first_hit_grid *fg,
@@ -124,7 +160,8 @@ int esr_first_hit(const struct esr_grid *g, const float *sdf, const struct esr_f
     if (!sdf || !rays->origins || !rays->dirs)
         return ESR_FAIL("first hit: %s missing", !sdf ? "SDF values" : "ray origins or directions");
     struct esr_first_hit_grid fg;
-    esr_first_hit_grid_prepare(&fg, g, sdf, p->global_bound);
+    ESR_TRY(esr_first_hit_grid_prepare(&fg, g, sdf, p->global_bound));
     first_hit_batch(g, &fg, p, rays, out);
+    esr_first_hit_grid_free(&fg);
     return ESR_OK;
 }
