@@ -888,7 +888,7 @@ static void bumpy_spheres(const struct esr_grid *g, float *v)
 }
 
 /* Block skipping (esr_first_hit_block_skip) finds the hits the march without it finds (random
- * rays through bumpy spheres), and it is what lets rays cross empty space in a probe per block:
+ * rays through bumpy spheres, then with NaNs among the values), and it is what lets rays cross empty space in a probe per block:
  * through a field positive everywhere with one steep lattice point (G large, so only the cells'
  * own bounds stride, at most a cell each), 26 probes (the 8 + 8 + 8 blocks a ray can cross, and
  * the ends) take every ray to the box's end with blocks; without them most run out. */
@@ -909,7 +909,16 @@ static void test_block_skip_same_hits(void **state)
     without.block_min = NULL;
     struct esr_rng rng = esr_rng_init(23, 0);
     int hits = 0, misses = 0;
-    for (int i = 0; i < 3000; i++) {
+    for (int i = 0; i < 6000; i++) {
+        if (i == 3000) { /* NaNs in empty space and on a surface: the same hits either way */
+            esr_first_hit_grid_free(&with);
+            for (int k = 0; k < 40; k++)
+                v[(size_t)(esr_rng_float(&rng) * (float)esr_grid_count(&g))] = NAN;
+            v[((size_t)32 * RES + 22) * RES + 18] = NAN; /* next to the first sphere's surface */
+            assert_int_equal(esr_first_hit_grid_prepare(&with, &g, v, 1), ESR_OK);
+            without = with;
+            without.block_min = NULL;
+        }
         float o[3], d[3];
         for (int a = 0; a < 3; a++)
             o[a] = 1.9f * esr_rng_float(&rng) - 0.95f, d[a] = 2.0f * esr_rng_float(&rng) - 1.0f;

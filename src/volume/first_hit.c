@@ -18,48 +18,63 @@ void esr_first_hit_params_init(struct esr_first_hit_params *p, const struct esr_
     p->global_bound = 1;
 }
 
-/* One pass over the grid in blocks of ESR_FIRST_HIT_BLOCK^3 cells: fg->block_min[b], block b's
- * smallest lattice value, faces included (NaN if any is NaN: such a block is never skipped), and
+/* One pass over the grid: fg->block_min[b], block b's smallest lattice value, faces included, and
  * with want_g, fg->gmax = G, the largest |difference| between lattice neighbours along each axis,
- * a bound on the trilinear field's partial derivatives (lattice units) anywhere in the box (a
- * block's lattice points include its faces, so every edge lies in some block). */
+ * a bound on the trilinear field's partial derivatives (lattice units) anywhere in the box. A NaN
+ * value is passed over: the cells it is a corner of interpolate to NaN everywhere, where no sign
+ * change is ever seen, so skipping them finds what marching them finds. A task per row of blocks
+ * (by, bz) streams its lattice rows (the faces' rows are read by the neighbouring tasks too) into
+ * per-column minima and maxima, elementwise so they vectorise, and reduces those per block. */
 ESR_HOT static void grid_bounds(const struct esr_grid *g, const float *v, int want_g,
                                 struct esr_first_hit_grid *fg)
 {
-    const int B = ESR_FIRST_HIT_BLOCK, nbx = fg->nb[0], nby = fg->nb[1], nbz = fg->nb[2];
+    enum { B = ESR_FIRST_HIT_BLOCK, XB = 32, XW = B * XB + 1 }; /* x-blocks, lattice columns per chunk */
+    const int nx = g->nx, nbx = fg->nb[0], nby = fg->nb[1], nbz = fg->nb[2];
     const size_t sy = fg->sy, sz = fg->sz;
     float gx = 0.0f, gy = 0.0f, gz = 0.0f;
 #pragma omp parallel for collapse(2) schedule(static) reduction(max : gx, gy, gz)
     for (int bz = 0; bz < nbz; bz++)
-        for (int by = 0; by < nby; by++)
-            for (int bx = 0; bx < nbx; bx++) {
-                const int x0 = bx * B, y0 = by * B, z0 = bz * B;
-                const int x1 = x0 + B < g->nx - 1 ? x0 + B : g->nx - 1;
-                const int y1 = y0 + B < g->ny - 1 ? y0 + B : g->ny - 1;
-                const int z1 = z0 + B < g->nz - 1 ? z0 + B : g->nz - 1;
-                float mn = INFINITY;
-                int nan = 0;
+        for (int by = 0; by < nby; by++) {
+            const int y0 = by * B, z0 = bz * B;
+            const int y1 = y0 + B < g->ny - 1 ? y0 + B : g->ny - 1;
+            const int z1 = z0 + B < g->nz - 1 ? z0 + B : g->nz - 1;
+            float *out = fg->block_min + ((size_t)bz * (size_t)nby + (size_t)by) * (size_t)nbx;
+            for (int c0 = 0; c0 < nbx; c0 += XB) {
+                const int c1 = c0 + XB < nbx ? c0 + XB : nbx;
+                const int xa = c0 * B, w = (c1 * B < nx - 1 ? c1 * B : nx - 1) - xa + 1;
+                float cmin[XW], cg[3][XW];
+                for (int x = 0; x < w; x++)
+                    cmin[x] = INFINITY, cg[0][x] = cg[1][x] = cg[2][x] = 0.0f;
                 for (int z = z0; z <= z1; z++)
                     for (int y = y0; y <= y1; y++) {
-                        const float *row = v + (size_t)z * sz + (size_t)y * sy;
-                        for (int x = x0; x <= x1; x++) {
-                            mn = esr_fh_min(row[x], mn);
-                            nan |= row[x] != row[x];
-                        }
+                        const float *row = v + (size_t)z * sz + (size_t)y * sy + (size_t)xa;
+                        for (int x = 0; x < w; x++)
+                            cmin[x] = esr_fh_min(row[x], cmin[x]);
                         if (!want_g)
                             continue;
-                        for (int x = x0; x < x1; x++)
-                            gx = esr_fh_max(fabsf(row[x + 1] - row[x]), gx);
+                        for (int x = 0; x + 1 < w; x++)
+                            cg[0][x] = esr_fh_max(fabsf(row[x + 1] - row[x]), cg[0][x]);
                         if (y < y1)
-                            for (int x = x0; x <= x1; x++)
-                                gy = esr_fh_max(fabsf(row[x + sy] - row[x]), gy);
+                            for (int x = 0; x < w; x++)
+                                cg[1][x] = esr_fh_max(fabsf(row[x + sy] - row[x]), cg[1][x]);
                         if (z < z1)
-                            for (int x = x0; x <= x1; x++)
-                                gz = esr_fh_max(fabsf(row[x + sz] - row[x]), gz);
+                            for (int x = 0; x < w; x++)
+                                cg[2][x] = esr_fh_max(fabsf(row[x + sz] - row[x]), cg[2][x]);
                     }
-                fg->block_min[((size_t)bz * (size_t)nby + (size_t)by) * (size_t)nbx + (size_t)bx] =
-                    nan ? NAN : mn;
+                for (int bx = c0; bx < c1; bx++) {
+                    const int e = (bx + 1) * B - xa < w - 1 ? (bx + 1) * B - xa : w - 1;
+                    float m = INFINITY;
+                    for (int x = bx * B - xa; x <= e; x++)
+                        m = esr_fh_min(cmin[x], m);
+                    out[bx] = m;
+                }
+                for (int x = 0; x < w; x++) {
+                    gx = esr_fh_max(cg[0][x], gx);
+                    gy = esr_fh_max(cg[1][x], gy);
+                    gz = esr_fh_max(cg[2][x], gz);
+                }
             }
+        }
     if (want_g) {
         fg->gmax[0] = gx;
         fg->gmax[1] = gy;

@@ -121,7 +121,7 @@ struct esr_first_hit_grid {
     float gmax[3];    /* largest |edge difference| along each axis over the whole grid (lattice
                          units): G above; INFINITY = unknown, no global strides */
     float *block_min; /* per block of ESR_FIRST_HIT_BLOCK^3 cells, x fastest: the smallest value
-                         at its lattice points (faces included; NaN if any is NaN); NULL = no
+                         at its lattice points (faces included; NaNs passed over); NULL = no
                          block skipping. Owned (esr_first_hit_grid_free). */
     int nb[3];        /* blocks per axis */
 };
