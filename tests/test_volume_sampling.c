@@ -10,6 +10,7 @@
 #include <string.h>
 
 #include "core/error.h"
+#include "core/rng.h"
 #include "fields/mask.h"
 #include "io/camera.h"
 #include "io/dataset.h"
@@ -106,6 +107,26 @@ static void test_sampler_close_camera(void **state)
     esr_samples_free(&s);
 }
 
+/* b (a masked march) holds exactly the samples of a (the same march without the mask) that the
+ * mask keeps, bit for bit: the sampler skips the steps outside the occupied box and across the
+ * mask's empty blocks, and their random draws, without changing a sample. */
+static void assert_mask_keeps_subset(const struct esr_samples *a, const struct esr_samples *b,
+                                     const struct esr_mask *m, int R)
+{
+    size_t kept = 0;
+    for (int r = 0; r < R; r++) {
+        assert_int_equal(b->ray_start[r], kept);
+        for (size_t i = a->ray_start[r]; i < a->ray_start[r + 1]; i++)
+            if (esr_mask_query(m, a->pos + i * 3)) {
+                assert_true(kept < b->count);
+                assert_true(b->t[kept] == a->t[i] && b->ray[kept] == r);
+                assert_memory_equal(b->pos + kept * 3, a->pos + i * 3, 3 * sizeof(float));
+                kept++;
+            }
+    }
+    assert_int_equal(kept, b->count);
+}
+
 /* Jittered samples stay in their strata, are reproducible, independent of the thread count, and
  * masked-out space is skipped. */
 static void test_sampler_jitter_and_mask(void **state)
@@ -167,20 +188,7 @@ static void test_sampler_jitter_and_mask(void **state)
     p.mask = &m;
     assert_int_equal(esr_sample_rays(&p, o, d, R, &b), ESR_OK);
     assert_true(b.count > 0 && b.count < a.count / 3);
-    /* exactly the unmasked march's samples the mask keeps, bit for bit (the sampler skips the
-     * steps outside the occupied box, and their random draws, without changing a sample) */
-    size_t kept = 0;
-    for (int r = 0; r < R; r++) {
-        assert_int_equal(b.ray_start[r], kept);
-        for (size_t i = a.ray_start[r]; i < a.ray_start[r + 1]; i++)
-            if (esr_mask_query(&m, a.pos + i * 3)) {
-                assert_true(kept < b.count);
-                assert_true(b.t[kept] == a.t[i] && b.ray[kept] == r);
-                assert_memory_equal(b.pos + kept * 3, a.pos + i * 3, 3 * sizeof(float));
-                kept++;
-            }
-    }
-    assert_int_equal(kept, b.count);
+    assert_mask_keeps_subset(&a, &b, &m, R);
     float lo[3], hi[3];
     assert_int_equal(esr_mask_occupied_box(&m, lo, hi), 1);
     float qlo[3] = {1e30f, 1e30f, 1e30f}, qhi[3] = {-1e30f, -1e30f, -1e30f};
@@ -205,6 +213,87 @@ static void test_sampler_jitter_and_mask(void **state)
     esr_mask_free(&m);
     esr_samples_free(&a);
     esr_samples_free(&b);
+}
+
+/* The mask's empty blocks are crossed without changing a sample: blobs scattered through a 67^3
+ * mask (blocks of 8 with a partial last one), rays from every direction, with and without jitter;
+ * the block summary marks exactly the blocks with an occupied point. */
+static void test_sampler_empty_blocks(void **state)
+{
+    (void)state;
+    enum { R = 400, N = 67 };
+    struct esr_grid g;
+    assert_int_equal(esr_grid_init(&g, 1, N, N, N, BMIN, BMAX), ESR_OK);
+    struct esr_mask m;
+    assert_int_equal(esr_mask_alloc(&m, &g), ESR_OK);
+    struct esr_rng rng = esr_rng_init(5, 0);
+    float blob[12][4];
+    for (int k = 0; k < 12; k++) {
+        for (int a = 0; a < 3; a++)
+            blob[k][a] = 1.6f * esr_rng_float(&rng) - 0.8f;
+        blob[k][3] = 0.05f + 0.1f * esr_rng_float(&rng);
+    }
+    for (int z = 0; z < N; z++)
+        for (int y = 0; y < N; y++)
+            for (int x = 0; x < N; x++) {
+                float q[3];
+                esr_grid_voxel_pos(&g, x, y, z, q);
+                uint8_t occ = 0;
+                for (int k = 0; k < 12; k++) {
+                    const float dx = q[0] - blob[k][0], dy = q[1] - blob[k][1], dz = q[2] - blob[k][2];
+                    occ |= dx * dx + dy * dy + dz * dz < blob[k][3] * blob[k][3];
+                }
+                m.occ[((size_t)z * N + y) * N + x] = occ;
+            }
+    int nb[3];
+    esr_mask_block_dims(&m, nb);
+    assert_int_equal(nb[0], 9);
+    uint8_t *any = malloc((size_t)nb[0] * nb[1] * nb[2]);
+    assert_non_null(any);
+    esr_mask_blocks(&m, any);
+    int empty = 0;
+    for (int b = 0; b < nb[0] * nb[1] * nb[2]; b++) {
+        const int bx = b % nb[0], by = b / nb[0] % nb[1], bz = b / (nb[0] * nb[1]);
+        uint8_t want = 0;
+        for (int z = bz * 8; z < bz * 8 + 8 && z < N; z++)
+            for (int y = by * 8; y < by * 8 + 8 && y < N; y++)
+                for (int x = bx * 8; x < bx * 8 + 8 && x < N; x++)
+                    want |= m.occ[((size_t)z * N + y) * N + x];
+        assert_int_equal(any[b], want);
+        empty += !want;
+    }
+    assert_true(empty > nb[0] * nb[1] * nb[2] / 3);
+    free(any);
+    float o[R * 3], d[R * 3];
+    for (int r = 0; r < R; r++) {
+        float len;
+        do {
+            for (int a = 0; a < 3; a++)
+                d[r * 3 + a] = 2.0f * esr_rng_float(&rng) - 1.0f;
+            len = sqrtf(d[r * 3] * d[r * 3] + d[r * 3 + 1] * d[r * 3 + 1] + d[r * 3 + 2] * d[r * 3 + 2]);
+        } while (len < 0.2f || len > 1.0f);
+        for (int a = 0; a < 3; a++) {
+            d[r * 3 + a] /= len;
+            o[r * 3 + a] = 0.5f * (esr_rng_float(&rng) - 0.5f) - 3.0f * d[r * 3 + a];
+        }
+    }
+    struct esr_samples a, b;
+    assert_int_equal(esr_samples_alloc(&a, 200000, R), ESR_OK);
+    assert_int_equal(esr_samples_alloc(&b, 200000, R), ESR_OK);
+    for (int jitter = 0; jitter < 2; jitter++) {
+        struct esr_sample_params p;
+        esr_sample_params_init(&p, BMIN, BMAX, 0.5f * 2.0f / (N - 1));
+        p.jitter = jitter;
+        p.seed = 9;
+        assert_int_equal(esr_sample_rays(&p, o, d, R, &a), ESR_OK);
+        p.mask = &m;
+        assert_int_equal(esr_sample_rays(&p, o, d, R, &b), ESR_OK);
+        assert_true(b.count > 500 && b.count < a.count / 4);
+        assert_mask_keeps_subset(&a, &b, &m, R);
+    }
+    esr_samples_free(&a);
+    esr_samples_free(&b);
+    esr_mask_free(&m);
 }
 
 /* Real scene: every pixel ray of a training camera, marched through the dataset's box at
@@ -259,6 +348,7 @@ int main(void)
         cmocka_unit_test(test_sampler_positions_and_order),
         cmocka_unit_test(test_sampler_close_camera),
         cmocka_unit_test(test_sampler_jitter_and_mask),
+        cmocka_unit_test(test_sampler_empty_blocks),
         cmocka_unit_test(test_lamp_camera_rays),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

@@ -73,6 +73,28 @@ int esr_mask_occupied_box(const struct esr_mask *m, float bmin[3], float bmax[3]
     return 1;
 }
 
+void esr_mask_block_dims(const struct esr_mask *m, int nb[3])
+{
+    nb[0] = (m->nx + ESR_MASK_BLOCK - 1) / ESR_MASK_BLOCK;
+    nb[1] = (m->ny + ESR_MASK_BLOCK - 1) / ESR_MASK_BLOCK;
+    nb[2] = (m->nz + ESR_MASK_BLOCK - 1) / ESR_MASK_BLOCK;
+}
+
+void esr_mask_blocks(const struct esr_mask *m, uint8_t *any)
+{
+    int nb[3];
+    esr_mask_block_dims(m, nb);
+    memset(any, 0, (size_t)nb[0] * (size_t)nb[1] * (size_t)nb[2]);
+    for (int z = 0; z < m->nz; z++)
+        for (int y = 0; y < m->ny; y++) {
+            const uint8_t *row = m->occ + ((size_t)z * (size_t)m->ny + (size_t)y) * (size_t)m->nx;
+            uint8_t *out = any + ((size_t)(z / ESR_MASK_BLOCK) * (size_t)nb[1] +
+                                  (size_t)(y / ESR_MASK_BLOCK)) * (size_t)nb[0];
+            for (int x = 0; x < m->nx; x++)
+                out[x / ESR_MASK_BLOCK] |= row[x] != 0;
+        }
+}
+
 static int check_lattice(const struct esr_mask *m, const struct esr_grid *g)
 {
     if (g->channels != 1)

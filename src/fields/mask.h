@@ -41,6 +41,13 @@ int esr_mask_from_sdf(struct esr_mask *m, const struct esr_grid *g, const float 
  * points' box, grown by a voxel: half for the rounding, half for margin); 0 when none is. */
 int esr_mask_occupied_box(const struct esr_mask *m, float bmin[3], float bmax[3]);
 
+/* Blocks of ESR_MASK_BLOCK^3 lattice points, x fastest, esr_mask_block_dims of them per axis
+ * (ceil(n / ESR_MASK_BLOCK)): any[b] = 1 when one of block b's points is occupied. Marchers skip
+ * the empty blocks whole (volume/sampler.h). any holds the product of the dims bytes. */
+#define ESR_MASK_BLOCK 8
+void esr_mask_block_dims(const struct esr_mask *m, int nb[3]);
+void esr_mask_blocks(const struct esr_mask *m, uint8_t *any);
+
 /* 1 when the lattice point nearest to p is occupied; 0 more than half a voxel outside the box.
  * Pure, per point. */
 ESR_INLINE int esr_mask_query(const struct esr_mask *m, const float p[3])

@@ -46,15 +46,56 @@ void esr_samples_free(struct esr_samples *s)
     free(s->t);
     free(s->pos);
     free(s->ray_start);
+    free(s->blocks);
     memset(s, 0, sizeof(*s));
+}
+
+/* The mask's empty blocks as a march reads them. */
+struct mask_blocks {
+    const uint8_t *any; /* esr_mask_blocks */
+    int nb[3];
+};
+
+/* q = o + t d (the sample of step k, t0 + (k + u_k) step) lies where the mask is empty. When its
+ * block of the mask is empty too, the ray stays in empty space up to the block's exit: returns the
+ * last step whose whole stratum [t0 + k' step, t0 + (k' + 1) step) ends before it (0.01 lattice
+ * units short, for rounding), so the march skips the steps after k up to it, whose samples the
+ * mask would drop; else k. */
+static long empty_block_end(const struct esr_mask *m, const struct mask_blocks *b, const float q[3],
+                            const float d[3], float t, float t0, float step, long k)
+{
+    const int n[3] = {m->nx, m->ny, m->nz};
+    size_t bi[3];
+    float exit = INFINITY, ds_max = 0.0f;
+    for (int a = 0; a < 3; a++) {
+        const float u = (q[a] - m->bmin[a]) * m->scale[a] + 0.5f; /* as esr_mask_query */
+        if (!(u >= 0.0f) || u >= (float)n[a])
+            return k;
+        const int blk = (int)u / ESR_MASK_BLOCK;
+        bi[a] = (size_t)blk;
+        const float ds = d[a] * m->scale[a];
+        if (ds > 0.0f)
+            exit = fminf(exit, ((float)((blk + 1) * ESR_MASK_BLOCK) - u) / ds);
+        else if (ds < 0.0f)
+            exit = fminf(exit, ((float)(blk * ESR_MASK_BLOCK) - u) / ds);
+        ds_max = fmaxf(ds_max, fabsf(ds));
+    }
+    if (b->any[(bi[2] * (size_t)b->nb[1] + bi[1]) * (size_t)b->nb[0] + bi[0]] || !(ds_max > 0.0f) ||
+        !(exit < INFINITY))
+        return k;
+    const float t_exit = t + exit - 0.01f / ds_max;
+    const long last = (long)floorf((t_exit - t0) / step) - 1;
+    return last > k ? last : k;
 }
 
 /* Marches one ray; writes kept samples to (ray, t, pos) when out_t is non-NULL. Returns the count.
  * Both passes call this with the same RNG stream, so they agree sample for sample. occ_box (with
  * a mask; NULL: none) bounds the points the mask keeps: the steps outside it are skipped, their
- * draws too, so the samples are those of the whole march. */
-static size_t march(const struct esr_sample_params *p, const float occ_box[2][3], const float o[3],
-                    const float d[3], int r, int32_t *out_ray, float *out_t, float *out_pos)
+ * draws too, so the samples are those of the whole march; so are the steps across an empty block
+ * of the mask (blocks, with a mask). */
+static size_t march(const struct esr_sample_params *p, const float occ_box[2][3],
+                    const struct mask_blocks *blocks, const float o[3], const float d[3], int r,
+                    int32_t *out_ray, float *out_t, float *out_pos)
 {
     float t0, t1, near = p->near, far = p->far;
     if (p->t_min && p->t_min[r] > near)
@@ -85,8 +126,13 @@ static size_t march(const struct esr_sample_params *p, const float occ_box[2][3]
         if (t > t1)
             break;
         float q[3] = {o[0] + t * d[0], o[1] + t * d[1], o[2] + t * d[2]};
-        if (p->mask && !esr_mask_query(p->mask, q))
+        if (p->mask && !esr_mask_query(p->mask, q)) {
+            const long end = empty_block_end(p->mask, blocks, q, d, t, t0, p->step, k);
+            if (p->jitter && end > k)
+                esr_rng_skip(&rng, (uint64_t)(end - k));
+            k = end;
             continue;
+        }
         if (out_t) {
             out_ray[kept] = r;
             out_t[kept] = t;
@@ -113,6 +159,7 @@ int esr_sample_rays(const struct esr_sample_params *p, const float *origins, con
     size_t *start = out->ray_start;
     float box[2][3];
     const float(*occ_box)[3] = NULL;
+    struct mask_blocks blocks = {NULL, {0, 0, 0}};
     if (p->mask) {
         if (!esr_mask_occupied_box(p->mask, box[0], box[1])) { /* nothing is kept */
             for (int r = 0; r <= n_rays; r++)
@@ -121,11 +168,22 @@ int esr_sample_rays(const struct esr_sample_params *p, const float *origins, con
             return ESR_OK;
         }
         occ_box = (const float(*)[3])box;
+        esr_mask_block_dims(p->mask, blocks.nb);
+        const size_t nb = (size_t)blocks.nb[0] * (size_t)blocks.nb[1] * (size_t)blocks.nb[2];
+        if (nb > out->blocks_cap) {
+            uint8_t *grown = realloc(out->blocks, nb);
+            if (!grown)
+                return ESR_FAIL("ray sampling: out of memory for the mask's %zu blocks", nb);
+            out->blocks = grown;
+            out->blocks_cap = nb;
+        }
+        esr_mask_blocks(p->mask, out->blocks);
+        blocks.any = out->blocks;
     }
 #pragma omp parallel for schedule(dynamic, 64)
     for (int r = 0; r < n_rays; r++)
-        start[r + 1] = march(p, occ_box, origins + (size_t)r * 3, dirs + (size_t)r * 3, r, NULL,
-                             NULL, NULL);
+        start[r + 1] = march(p, occ_box, &blocks, origins + (size_t)r * 3, dirs + (size_t)r * 3, r,
+                             NULL, NULL, NULL);
     start[0] = 0;
     for (int r = 0; r < n_rays; r++)
         start[r + 1] += start[r];
@@ -136,7 +194,7 @@ int esr_sample_rays(const struct esr_sample_params *p, const float *origins, con
 #pragma omp parallel for schedule(dynamic, 64)
     for (int r = 0; r < n_rays; r++) {
         size_t s0 = start[r];
-        march(p, occ_box, origins + (size_t)r * 3, dirs + (size_t)r * 3, r, out->ray + s0,
+        march(p, occ_box, &blocks, origins + (size_t)r * 3, dirs + (size_t)r * 3, r, out->ray + s0,
               out->t + s0, out->pos + s0 * 3);
     }
     out->n_rays = n_rays;

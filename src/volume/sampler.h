@@ -1,7 +1,8 @@
 /* Ray marching sample generation: the points at fixed steps (0.5 voxel in the method) where each
  * ray of a batch lies inside the scene box and the mask cache says "possibly occupied", written
- * as a compact structure-of-arrays list grouped by ray. Caller-owned buffers, no allocation
- * per call, so the same code serves primary rays and the LTS loss's secondary rays. */
+ * as a compact structure-of-arrays list grouped by ray. Caller-owned buffers (the mask's block
+ * summary is allocated on the first call with a mask, and regrown only for a larger mask), so the
+ * same code serves primary rays and the LTS loss's secondary rays. */
 #ifndef ESR_VOLUME_SAMPLER_H
 #define ESR_VOLUME_SAMPLER_H
 
@@ -38,6 +39,8 @@ struct esr_samples {
     float *t;           /* [capacity] ray parameter of each sample (increasing within a ray) */
     float *pos;         /* [capacity * 3] world position xyz */
     size_t *ray_start;  /* [max_rays + 1]: ray r owns samples ray_start[r] .. ray_start[r+1]-1 */
+    uint8_t *blocks;    /* [blocks_cap] scratch: the mask's empty blocks (esr_mask_blocks) */
+    size_t blocks_cap;
 };
 
 /* Parameters for marching the box [bmin, bmax] at `step` from t = 0 (no near or far beyond the
