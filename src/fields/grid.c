@@ -1,6 +1,7 @@
 /* Batch loops over the trilinear kernels of fields/trilerp.h. */
 #include "fields/grid.h"
 
+#include <limits.h>
 #include <math.h>
 #include <omp.h>
 #include <stdlib.h>
@@ -47,12 +48,47 @@ void esr_grid_voxel_pos(const struct esr_grid *g, int ix, int iy, int iz, float 
         pos[a] = g->bmin[a] + (float)i[a] * esr_grid_voxel_size(g, a);
 }
 
+/* Points ahead whose lattice rows the gathers and the multi-channel scatters prefetch: the rows
+ * lie at random places of a grid larger than the caches, and the load of the first was the stall
+ * (perf annotate). Rays of 151 samples through a 6-channel 80^3 grid (the alphamask stage's
+ * colour grid): backward 27 -> 17.5 ms, forward 23 -> 10.3 ms; a 6-channel 160^3 grid sampled
+ * near a surface -20-40% / -40-60%; 12 channels near a surface -5-40% / -20%. A 1-channel scatter
+ * (SDF, density) gained nothing or lost up to 30%, so it does not prefetch. */
+#define GRID_PREFETCH 8
+
+/* Prefetches the four lattice rows (x pairs) of the cell holding p (for writing when write is 1),
+ * when a corner of it lies in the z-planes [lo, hi) (a scatter thread's own). */
+ESR_INLINE void prefetch_rows(const struct esr_grid *g, const float *p, const float *v, int C,
+                              int lo, int hi, int write)
+{
+    const int iz = esr_trilerp_iz0(g, p[2]); /* cheaper than locating a point not ours */
+    if (iz + 1 < lo || iz >= hi)
+        return;
+    struct esr_trilerp t;
+    esr_trilerp_locate(g, p, &t);
+    const float *r = v + t.base * (size_t)C;
+    const size_t sy = t.stride[1] * (size_t)C, sz = t.stride[2] * (size_t)C;
+    if (write) {
+        __builtin_prefetch(r, 1, 1);
+        __builtin_prefetch(r + sy, 1, 1);
+        __builtin_prefetch(r + sz, 1, 1);
+        __builtin_prefetch(r + sy + sz, 1, 1);
+    } else {
+        __builtin_prefetch(r, 0, 1);
+        __builtin_prefetch(r + sy, 0, 1);
+        __builtin_prefetch(r + sz, 0, 1);
+        __builtin_prefetch(r + sy + sz, 0, 1);
+    }
+}
+
 ESR_HOT void esr_grid_sample_fwd(const struct esr_grid *g, const float *data, const float *pts,
                                  size_t n, float *out)
 {
     const int C = g->channels;
 #pragma omp parallel for schedule(static)
     for (size_t i = 0; i < n; i++) {
+        if (i + GRID_PREFETCH < n)
+            prefetch_rows(g, pts + (i + GRID_PREFETCH) * 3, data, C, 0, INT_MAX, 0);
         struct esr_trilerp t;
         esr_trilerp_locate(g, pts + i * 3, &t);
         esr_trilerp_fwd(data, C, &t, out + i * (size_t)C);
@@ -82,6 +118,8 @@ ESR_HOT void esr_grid_sample_value_dpoint(const struct esr_grid *g, const float 
 {
 #pragma omp parallel for schedule(static)
     for (size_t i = 0; i < n; i++) {
+        if (i + GRID_PREFETCH < n)
+            prefetch_rows(g, pts + (i + GRID_PREFETCH) * 3, data, 1, 0, INT_MAX, 0);
         struct esr_trilerp t;
         esr_trilerp_locate(g, pts + i * 3, &t);
         out[i] = esr_trilerp_value_dpoint(data, &t, dpts + i * 3);
@@ -141,6 +179,8 @@ ESR_HOT static void scatter(const struct esr_grid *g, const float *pts, size_t n
         int lo = team == nt ? split[tid] : (int)((long)g->nz * tid / team);
         int hi = team == nt ? split[tid + 1] : (int)((long)g->nz * (tid + 1) / team);
         for (size_t i = 0; i < n; i++) {
+            if (C > 1 && i + GRID_PREFETCH < n)
+                prefetch_rows(g, pts + (i + GRID_PREFETCH) * 3, grad, C, lo, hi, 1);
             int iz = esr_trilerp_iz0(g, pts[i * 3 + 2]);
             if (iz + 1 < lo || iz >= hi)
                 continue;
