@@ -154,6 +154,29 @@ int esr_first_hit_grid_prepare(struct esr_first_hit_grid *fg, const struct esr_g
                                const float *data, int global_bound);
 void esr_first_hit_grid_free(struct esr_first_hit_grid *fg);
 
+/* Along axis a at o + t d: the lattice coordinate *u (clamped to the lattice), *ds the lattice
+ * units per unit t, and the index of the cell the ray is about to cross, chosen 1e-4 voxel ahead
+ * along the ray, so a point lying on a cell face belongs to the cell the ray enters next. */
+ESR_INLINE int esr_first_hit_cell(const struct esr_first_hit_grid *fg, const float o[3],
+                                  const float d[3], float t, int a, float *u, float *ds)
+{
+    *ds = d[a] * fg->scale[a];
+    const float hi = (float)(fg->n[a] - 1);
+    *u = esr_fh_min(esr_fh_max((o[a] + t * d[a] - fg->bmin[a]) * fg->scale[a], 0.0f), hi);
+    const float bias = *ds > 0.0f ? 1e-4f : (*ds < 0.0f ? -1e-4f : 0.0f);
+    int i = (int)floorf(*u + bias);
+    if (i > fg->n[a] - 2)
+        i = fg->n[a] - 2;
+    return i < 0 ? 0 : i;
+}
+
+/* The distance in t from lattice coordinate u to the exit of [lo, hi] moving at ds (INFINITY when
+ * ds = 0). */
+ESR_INLINE float esr_first_hit_exit(float u, float ds, float lo, float hi)
+{
+    return ds > 0.0f ? (hi - u) / ds : (ds < 0.0f ? (lo - u) / ds : INFINITY);
+}
+
 /* The distance in t from o + t d to the exit of the block the ray is crossing there, when every
  * lattice value of that block is positive, else 0. A trilinear cell's values are convex blends of
  * its corners, so such a block holds no surface anywhere and the march may cross it in one step:
@@ -166,21 +189,12 @@ ESR_INLINE float esr_first_hit_block_skip(const struct esr_first_hit_grid *fg, c
     float ex = INFINITY;
     size_t b[3];
     for (int a = 0; a < 3; a++) {
-        float ds = d[a] * fg->scale[a];
-        float hi = (float)(fg->n[a] - 1);
-        float u = esr_fh_min(esr_fh_max((o[a] + t * d[a] - fg->bmin[a]) * fg->scale[a], 0.0f), hi);
-        float bias = ds > 0.0f ? 1e-4f : (ds < 0.0f ? -1e-4f : 0.0f);
-        int i = (int)floorf(u + bias);
-        if (i > fg->n[a] - 2)
-            i = fg->n[a] - 2;
-        if (i < 0)
-            i = 0;
-        const int blk = i / ESR_FIRST_HIT_BLOCK;
+        float u, ds;
+        const int blk = esr_first_hit_cell(fg, o, d, t, a, &u, &ds) / ESR_FIRST_HIT_BLOCK;
         b[a] = (size_t)blk;
-        if (ds > 0.0f)
-            ex = esr_fh_min(((float)((blk + 1) * ESR_FIRST_HIT_BLOCK) - u) / ds, ex);
-        else if (ds < 0.0f)
-            ex = esr_fh_min(((float)(blk * ESR_FIRST_HIT_BLOCK) - u) / ds, ex);
+        ex = esr_fh_min(esr_first_hit_exit(u, ds, (float)(blk * ESR_FIRST_HIT_BLOCK),
+                                           (float)((blk + 1) * ESR_FIRST_HIT_BLOCK)),
+                        ex);
     }
     const float mn = fg->block_min[b[0] + (size_t)fg->nb[0] * (b[1] + (size_t)fg->nb[1] * b[2])];
     return mn > 0.0f && ex > 0.0f ? ex : 0.0f;
@@ -197,21 +211,11 @@ ESR_INLINE float esr_first_hit_probe(const struct esr_first_hit_grid *fg, const 
     size_t idx[3];
     float ex = INFINITY;
     for (int a = 0; a < 3; a++) {
-        float ds = d[a] * fg->scale[a]; /* lattice units per unit t */
-        float hi = (float)(fg->n[a] - 1);
-        float u = esr_fh_min(esr_fh_max((o[a] + t * d[a] - fg->bmin[a]) * fg->scale[a], 0.0f), hi);
-        float bias = ds > 0.0f ? 1e-4f : (ds < 0.0f ? -1e-4f : 0.0f);
-        int i = (int)floorf(u + bias);
-        if (i > fg->n[a] - 2)
-            i = fg->n[a] - 2;
-        if (i < 0)
-            i = 0;
+        float u, ds;
+        const int i = esr_first_hit_cell(fg, o, d, t, a, &u, &ds);
         fr[a] = u - (float)i; /* within 1e-4 of [0, 1]: trilinear is continuous across faces */
         idx[a] = (size_t)i;
-        if (ds > 0.0f)
-            ex = esr_fh_min(((float)(i + 1) - u) / ds, ex);
-        else if (ds < 0.0f)
-            ex = esr_fh_min(((float)i - u) / ds, ex);
+        ex = esr_fh_min(esr_first_hit_exit(u, ds, (float)i, (float)(i + 1)), ex);
         ad[a] = fabsf(ds);
     }
     const float *v = fg->data + idx[0] + fg->sy * idx[1] + fg->sz * idx[2];
