@@ -887,8 +887,31 @@ static void bumpy_spheres(const struct esr_grid *g, float *v)
             }
 }
 
+/* A ray from a random point of the box's inner 95% in a random direction; 0 when the drawn
+ * direction is too short to normalise (the ray is dropped). */
+static int random_box_ray(struct esr_rng *rng, float o[3], float d[3])
+{
+    for (int a = 0; a < 3; a++)
+        o[a] = 1.9f * esr_rng_float(rng) - 0.95f, d[a] = 2.0f * esr_rng_float(rng) - 1.0f;
+    if (len3(d) < 0.1f)
+        return 0;
+    normalize3(d);
+    return 1;
+}
+
+/* The grid of v prepared with its blocks' minima (with), and the same without them. */
+static void prepare_with_without(const struct esr_grid *g, const float *v,
+                                 struct esr_first_hit_grid *with, struct esr_first_hit_grid *without)
+{
+    assert_int_equal(esr_first_hit_grid_prepare(with, g, v, 1), ESR_OK);
+    assert_non_null(with->block_min);
+    *without = *with;
+    without->block_min = NULL;
+}
+
 /* Block skipping (esr_first_hit_block_skip) finds the hits the march without it finds (random
- * rays through bumpy spheres, then with NaNs among the values), and it is what lets rays cross empty space in a probe per block:
+ * rays through bumpy spheres, then with NaNs among the values), and it is what lets rays cross
+ * empty space in a probe per block:
  * through a field positive everywhere with one steep lattice point (G large, so only the cells'
  * own bounds stride, at most a cell each), 26 probes (the 8 + 8 + 8 blocks a ray can cross, and
  * the ends) take every ray to the box's end with blocks; without them most run out. */
@@ -903,10 +926,7 @@ static void test_block_skip_same_hits(void **state)
     struct esr_first_hit_params p;
     esr_first_hit_params_init(&p, &g);
     struct esr_first_hit_grid with, without;
-    assert_int_equal(esr_first_hit_grid_prepare(&with, &g, v, 1), ESR_OK);
-    assert_non_null(with.block_min);
-    without = with;
-    without.block_min = NULL;
+    prepare_with_without(&g, v, &with, &without);
     struct esr_rng rng = esr_rng_init(23, 0);
     int hits = 0, misses = 0;
     for (int i = 0; i < 6000; i++) {
@@ -915,16 +935,11 @@ static void test_block_skip_same_hits(void **state)
             for (int k = 0; k < 40; k++)
                 v[(size_t)(esr_rng_float(&rng) * (float)esr_grid_count(&g))] = NAN;
             v[((size_t)32 * RES + 22) * RES + 18] = NAN; /* next to the first sphere's surface */
-            assert_int_equal(esr_first_hit_grid_prepare(&with, &g, v, 1), ESR_OK);
-            without = with;
-            without.block_min = NULL;
+            prepare_with_without(&g, v, &with, &without);
         }
         float o[3], d[3];
-        for (int a = 0; a < 3; a++)
-            o[a] = 1.9f * esr_rng_float(&rng) - 0.95f, d[a] = 2.0f * esr_rng_float(&rng) - 1.0f;
-        if (len3(d) < 0.1f)
+        if (!random_box_ray(&rng, o, d))
             continue;
-        normalize3(d);
         float t1, t2;
         const unsigned f1 = esr_first_hit_ray(&with, &p, o, d, 0.0f, INFINITY, &t1);
         const unsigned f2 = esr_first_hit_ray(&without, &p, o, d, 0.0f, INFINITY, &t2);
@@ -939,19 +954,14 @@ static void test_block_skip_same_hits(void **state)
     for (size_t i = 0; i < esr_grid_count(&g); i++) /* empty, with a steep spot */
         v[i] = 0.3f + 0.1f * sinf(0.37f * (float)i);
     v[((size_t)40 * RES + 20) * RES + 50] = 50.0f;
-    assert_int_equal(esr_first_hit_grid_prepare(&with, &g, v, 1), ESR_OK);
-    without = with;
-    without.block_min = NULL;
+    prepare_with_without(&g, v, &with, &without);
     struct esr_first_hit_params few = p;
     few.max_steps = 3 * 8 + 2;
     int through = 0, ran_out = 0, rays = 0;
     for (int i = 0; i < 2000; i++) {
         float o[3], d[3], t;
-        for (int a = 0; a < 3; a++)
-            o[a] = 1.9f * esr_rng_float(&rng) - 0.95f, d[a] = 2.0f * esr_rng_float(&rng) - 1.0f;
-        if (len3(d) < 0.1f)
+        if (!random_box_ray(&rng, o, d))
             continue;
-        normalize3(d);
         rays++;
         through += esr_first_hit_ray(&with, &few, o, d, 0.0f, INFINITY, &t) == 0;
         ran_out += esr_first_hit_ray(&without, &few, o, d, 0.0f, INFINITY, &t) ==

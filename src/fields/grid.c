@@ -68,16 +68,12 @@ ESR_INLINE void prefetch_rows(const struct esr_grid *g, const float *p, const fl
     esr_trilerp_locate(g, p, &t);
     const float *r = v + t.base * (size_t)C;
     const size_t sy = t.stride[1] * (size_t)C, sz = t.stride[2] * (size_t)C;
-    if (write) {
-        __builtin_prefetch(r, 1, 1);
-        __builtin_prefetch(r + sy, 1, 1);
-        __builtin_prefetch(r + sz, 1, 1);
-        __builtin_prefetch(r + sy + sz, 1, 1);
-    } else {
-        __builtin_prefetch(r, 0, 1);
-        __builtin_prefetch(r + sy, 0, 1);
-        __builtin_prefetch(r + sz, 0, 1);
-        __builtin_prefetch(r + sy + sz, 0, 1);
+    const float *rows[4] = {r, r + sy, r + sz, r + sy + sz};
+    for (int k = 0; k < 4; k++) { /* the read/write hint must be a constant */
+        if (write)
+            __builtin_prefetch(rows[k], 1, 1);
+        else
+            __builtin_prefetch(rows[k], 0, 1);
     }
 }
 
