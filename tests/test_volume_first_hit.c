@@ -102,12 +102,19 @@ static struct shape two_spheres(float ax, float ar, float bx, float by, float br
     return s;
 }
 
-/* Fills a RES^3 grid on [-1, 1]^3 from the analytic SDF at the lattice points. */
-static float *make_grid(struct esr_grid *g, const struct shape *s)
+/* A 1-channel RES^3 grid on [-1, 1]^3 and its values (unset; the caller frees them). */
+static float *alloc_grid(struct esr_grid *g)
 {
     assert_int_equal(esr_grid_init(g, 1, RES, RES, RES, BMIN, BMAX), ESR_OK);
     float *v = (float *)malloc(esr_grid_count(g) * sizeof(float));
     assert_non_null(v);
+    return v;
+}
+
+/* Fills a RES^3 grid on [-1, 1]^3 from the analytic SDF at the lattice points. */
+static float *make_grid(struct esr_grid *g, const struct shape *s)
+{
+    float *v = alloc_grid(g);
     for (int iz = 0; iz < RES; iz++)
         for (int iy = 0; iy < RES; iy++)
             for (int ix = 0; ix < RES; ix++) {
@@ -829,9 +836,7 @@ static void test_spike(void **state)
 {
     (void)state;
     struct esr_grid g;
-    assert_int_equal(esr_grid_init(&g, 1, RES, RES, RES, BMIN, BMAX), ESR_OK);
-    float *v = (float *)malloc(esr_grid_count(&g) * sizeof(float));
-    assert_non_null(v);
+    float *v = alloc_grid(&g);
     for (size_t i = 0; i < esr_grid_count(&g); i++)
         v[i] = 1.0f;
     const int ix = 30, iy = 33, iz = 29;
@@ -919,9 +924,7 @@ static void test_block_skip_same_hits(void **state)
 {
     (void)state;
     struct esr_grid g;
-    assert_int_equal(esr_grid_init(&g, 1, RES, RES, RES, BMIN, BMAX), ESR_OK);
-    float *v = (float *)malloc(esr_grid_count(&g) * sizeof(float));
-    assert_non_null(v);
+    float *v = alloc_grid(&g);
     bumpy_spheres(&g, v);
     struct esr_first_hit_params p;
     esr_first_hit_params_init(&p, &g);
