@@ -16,6 +16,9 @@
 #include "core/colour.h"
 #include "io/dataset.h"
 #include "io/file.h"
+#include "synth/plan.h"
+#include "synth/scene.h"
+#include "synth/trace.h"
 #include "test_support.h"
 
 static char *tmp;
@@ -140,6 +143,78 @@ static void test_image_conventions(void **state)
     esr_image_free(&m0);
     esr_image_free(&m1);
     esr_image_free(&em);
+}
+
+/* Mean linear radiance per channel of an RGBA image (premultiplied). */
+static void image_mean(const struct esr_image *img, double mean[3])
+{
+    const size_t n = (size_t)img->width * (size_t)img->height;
+    mean[0] = mean[1] = mean[2] = 0.0;
+    for (size_t i = 0; i < n; i++)
+        for (int c = 0; c < 3; c++)
+            mean[c] += img->data[4 * i + c] / (double)n;
+}
+
+/* The test frames come from each camera's light basis (synth/dataset.c): a frame must match, in
+ * expectation, the same frame path-traced whole (its own lights, colours and the world light),
+ * and frames of a camera must differ by exactly their lights' light. */
+static void test_frames_from_light_basis(void **state)
+{
+    (void)state;
+    char args[512], p[1024];
+    snprintf(args, sizeof args, "synth --res 12 --spp 256 --train 1 --test 1 --seed 7 %s/basis", tmp);
+    assert_int_equal(test_run_esr(args, out, sizeof out), 0);
+    struct esr_synth_scene scene;
+    assert_int_equal(esr_synth_scene_get("default", &scene), 0);
+    struct esr_synth_plan plan;
+    assert_int_equal(esr_synth_plan_make(&scene, 12, 1, 1, 7, &plan), 0);
+    const enum esr_phase_id phs[] = {ESR_PHASE_TEST_NV, ESR_PHASE_TEST_NVC, ESR_PHASE_TEST_NVIC};
+    int checked = 0;
+    for (size_t q = 0; q < sizeof phs / sizeof phs[0]; q++)
+        for (int i = 0; i < plan.n_frames[phs[q]]; i++) {
+            const struct esr_synth_frame *f = &plan.frames[phs[q]][i];
+            snprintf(p, sizeof p, "%s/basis/%s/exr/%s.exr", tmp, esr_phase_name(phs[q]), f->name);
+            struct esr_image got, whole;
+            assert_int_equal(esr_exr_read(p, &got), 0);
+            struct esr_synth_trace_params params;
+            esr_synth_trace_setup(&scene, (const float(*)[3])f->emission, &params);
+            assert_int_equal(esr_synth_render(&params, &plan.test_cams[f->cam], 1024, 99, 0, &whole), 0);
+            double a[3], b[3];
+            image_mean(&got, a);
+            image_mean(&whole, b);
+            for (int c = 0; c < 3; c++) {
+                if (fabs(a[c] - b[c]) > 0.03 * b[c] + 1e-4)
+                    fail_msg("%s channel %d: mean %.5f from the basis, %.5f path-traced whole", f->name, c,
+                             a[c], b[c]);
+            }
+            checked++;
+            esr_image_free(&got);
+            esr_image_free(&whole);
+        }
+    assert_true(checked >= 4);
+    /* i200 - off is 4 (i050 - off): the same basis images, scaled (half-float EXR precision) */
+    struct esr_image off, i050, i200;
+    snprintf(p, sizeof p, "%s/basis/test_nv/exr/c000_off.exr", tmp);
+    assert_int_equal(esr_exr_read(p, &off), 0);
+    snprintf(p, sizeof p, "%s/basis/test_nvi/exr/c000_i050.exr", tmp);
+    assert_int_equal(esr_exr_read(p, &i050), 0);
+    snprintf(p, sizeof p, "%s/basis/test_nvi/exr/c000_i200.exr", tmp);
+    assert_int_equal(esr_exr_read(p, &i200), 0);
+    double lit = 0.0;
+    for (size_t i = 0; i < 12 * 12 * 4; i++) {
+        if (i % 4 == 3) {
+            assert_float_equal(i200.data[i], off.data[i], 0.0f); /* coverage: the world image's */
+            continue;
+        }
+        const float d050 = i050.data[i] - off.data[i], d200 = i200.data[i] - off.data[i];
+        assert_float_equal(d200, 4.0f * d050, 4e-3f * (fabsf(i200.data[i]) + 4.0f * fabsf(i050.data[i]) + 1e-3f));
+        lit += d050;
+    }
+    assert_true(lit > 0.1); /* the lights light the view */
+    esr_image_free(&off);
+    esr_image_free(&i050);
+    esr_image_free(&i200);
+    esr_synth_plan_free(&plan);
 }
 
 static void test_ground_truth_files(void **state)
@@ -307,6 +382,7 @@ int main(void)
         cmocka_unit_test(test_ground_truth_files),      cmocka_unit_test(test_json_keys_match_reference),
         cmocka_unit_test(test_reproducible),            cmocka_unit_test(test_listing),
         cmocka_unit_test(test_bad_input),               cmocka_unit_test(test_missing_parents_are_created),
+        cmocka_unit_test(test_frames_from_light_basis),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }

@@ -67,7 +67,7 @@ static void show_progress(void *user, const struct esr_synth_progress *p)
     int last = p->done == p->total;
     if (!st->tty && !last)
         return;
-    fprintf(stderr, "%s%-9s %4d / %-4d images  %7.2f Msamples/s  %6.1f s%s", st->tty ? "\r" : "", p->phase, p->done,
+    fprintf(stderr, "%s%-9s %4d / %-4d frames  %7.2f Msamples/s  %6.1f s%s", st->tty ? "\r" : "", p->phase, p->done,
             p->total, p->samples_per_s * 1e-6, p->elapsed_s, last ? "\n" : "");
     fflush(stderr);
 }

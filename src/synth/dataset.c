@@ -117,7 +117,7 @@ static int write_gt_maps(struct job *j, int cam, const struct esr_synth_gt *gt)
     return ESR_OK;
 }
 
-static void report(const struct job *j, const char *phase, int done, int total, double t0)
+static void report(const struct job *j, const char *phase, int done, int total, long images, double t0)
 {
     if (!j->opt->progress)
         return;
@@ -126,56 +126,157 @@ static void report(const struct job *j, const char *phase, int done, int total, 
     p.done = done;
     p.total = total;
     p.elapsed_s = now_s() - t0;
-    p.samples_per_s = p.elapsed_s > 0.0 ? (double)done * j->res * j->res * j->spp / p.elapsed_s : 0.0;
+    p.samples_per_s = p.elapsed_s > 0.0 ? (double)images * j->res * j->res * j->spp / p.elapsed_s : 0.0;
     j->opt->progress(j->opt->user, &p);
 }
 
-static int render_phase(struct job *j, enum esr_phase_id ph)
+/* One frame's image to the dataset: the PNG, and for a test frame the linear EXR. */
+static int write_frame_image(struct job *j, enum esr_phase_id ph, const struct esr_synth_frame *f)
 {
-    const char *pname = esr_phase_name(ph);
-    int test = ph != ESR_PHASE_TRAIN, n = j->plan->n_frames[ph];
-    struct esr_synth_gt gt;
-    memset(&gt, 0, sizeof gt);
-    int gt_cam = -1, rc = ESR_OK;
-    double t0 = now_s();
+    char path[PATH_LEN];
+    snprintf(path, sizeof path, "%s/%s/%s.png", j->root, esr_phase_name(ph), f->name);
+    ESR_TRY(write_png_from_linear(path, &j->lin, &j->png));
+    if (ph == ESR_PHASE_TRAIN)
+        return ESR_OK;
+    snprintf(path, sizeof path, "%s/%s/exr/%s.exr", j->root, esr_phase_name(ph), f->name);
+    return esr_exr_write(path, &j->lin, 1);
+}
+
+/* Renders cam under the world light world_on (0/1) and the lights' emission into out. */
+static int render_image(struct job *j, const struct esr_camera *cam, const float emission[][3], int world_on,
+                        struct esr_image *out)
+{
+    struct esr_synth_trace_params params;
+    esr_synth_trace_setup(j->scene, emission, &params);
+    params.backdrop = j->opt->backdrop;
+    if (!world_on)
+        memset(params.world, 0, sizeof params.world);
+    return esr_synth_render(&params, cam, j->spp, j->opt->seed, j->image_id++, out);
+}
+
+static int render_train(struct job *j)
+{
+    const int n = j->plan->n_frames[ESR_PHASE_TRAIN];
+    int rc = ESR_OK;
+    const double t0 = now_s();
     for (int i = 0; i < n && rc == ESR_OK; i++) {
-        const struct esr_synth_frame *f = &j->plan->frames[ph][i];
-        const struct esr_camera *cam = test ? &j->plan->test_cams[f->cam] : &j->plan->train_cams[f->cam];
-        struct esr_synth_trace_params params;
-        esr_synth_trace_setup(j->scene, (const float(*)[3])f->emission, &params);
-        params.backdrop = j->opt->backdrop;
-        char path[PATH_LEN];
-        rc = esr_synth_render(&params, cam, j->spp, j->opt->seed, j->image_id++, &j->lin);
-        if (rc == ESR_OK) {
-            snprintf(path, sizeof path, "%s/%s/%s.png", j->root, pname, f->name);
-            rc = write_png_from_linear(path, &j->lin, &j->png);
-        }
-        if (rc == ESR_OK && test) {
-            snprintf(path, sizeof path, "%s/%s/exr/%s.exr", j->root, pname, f->name);
-            rc = esr_exr_write(path, &j->lin, 1);
-        }
+        const struct esr_synth_frame *f = &j->plan->frames[ESR_PHASE_TRAIN][i];
+        rc = render_image(j, &j->plan->train_cams[f->cam], (const float(*)[3])f->emission, 1, &j->lin);
+        if (rc == ESR_OK)
+            rc = write_frame_image(j, ESR_PHASE_TRAIN, f);
         esr_image_free(&j->lin);
-        if (rc == ESR_OK && test && gt_cam != f->cam) {
-            /* Frames come grouped by camera, so each camera's centre rays are traced once. */
-            esr_synth_gt_free(&gt);
-            gt_cam = f->cam;
-            rc = esr_synth_render_gt(j->scene, cam, &gt);
-            if (rc == ESR_OK && ph == ESR_PHASE_TEST_NV)
-                rc = write_gt_maps(j, f->cam, &gt);
-        }
-        if (rc == ESR_OK && test)
-            rc = write_frame_masks(j, ph, f, gt.prim);
-        report(j, pname, i + 1, n, t0);
+        report(j, "train", i + 1, n, i + 1, t0);
     }
-    esr_synth_gt_free(&gt);
+    return rc;
+}
+
+/* A test camera's light basis. Light transport is linear in the emitted radiance and acts on
+ * each colour channel alone (no BRDF mixes channels), so every frame of the camera, whatever its
+ * lights' intensities and colours, is
+ *     world + sum_k e_k (x) light_k   (per channel; alpha: the world image's coverage)
+ * with world the image under the world light alone, light_k under light k alone at unit
+ * emission, e_k the frame's emitted radiance of light k. The 1 + K images are rendered once per
+ * camera instead of one image per frame (the default scene: 3 instead of 9), and the frames of a
+ * camera differ by exactly the lights' light, without path-tracing noise of their own. With a
+ * backdrop each frame is rendered whole: the backdrop brightens when any light is on, which is
+ * not linear in the emission. */
+struct light_basis {
+    struct esr_image world, light[ESR_SYNTH_MAX_LIGHTS];
+};
+
+static void light_basis_free(struct light_basis *b, int n_lights)
+{
+    esr_image_free(&b->world);
+    for (int k = 0; k < n_lights; k++)
+        esr_image_free(&b->light[k]);
+}
+
+static int light_basis_render(struct job *j, const struct esr_camera *cam, struct light_basis *b)
+{
+    float emission[ESR_SYNTH_MAX_LIGHTS][3];
+    memset(emission, 0, sizeof emission);
+    ESR_TRY(render_image(j, cam, (const float(*)[3])emission, 1, &b->world));
+    for (int k = 0; k < j->scene->n_lights; k++) {
+        emission[k][0] = emission[k][1] = emission[k][2] = 1.0f;
+        ESR_TRY(render_image(j, cam, (const float(*)[3])emission, 0, &b->light[k]));
+        emission[k][0] = emission[k][1] = emission[k][2] = 0.0f;
+    }
+    return ESR_OK;
+}
+
+/* Frame f from its camera's basis into j->lin. */
+static int light_basis_frame(struct job *j, const struct light_basis *b, const struct esr_synth_frame *f)
+{
+    ESR_TRY(esr_image_alloc(&j->lin, b->world.width, b->world.height, 4));
+    const size_t n = (size_t)b->world.width * (size_t)b->world.height;
+    for (size_t i = 0; i < n; i++) {
+        float *dst = j->lin.data + 4 * i;
+        memcpy(dst, b->world.data + 4 * i, 4 * sizeof(float));
+        for (int k = 0; k < j->scene->n_lights; k++)
+            for (int c = 0; c < 3; c++)
+                dst[c] += f->emission[k][c] * b->light[k].data[4 * i + c];
+    }
+    return ESR_OK;
+}
+
+/* phases[] after train */
+static const enum esr_phase_id *const test_phases = phases + 1;
+#define N_TEST_PHASES (N_PHASES - 1)
+
+/* The test phases camera by camera: the ground-truth maps once per camera, the light basis once
+ * (or each frame whole with a backdrop), then every frame of that camera in every test phase. */
+static int render_test(struct job *j)
+{
+    const int basis = !j->opt->backdrop, n_lights = j->scene->n_lights;
+    int total = 0, done = 0, rc = ESR_OK;
+    long images = 0;
+    for (int p = 0; p < N_TEST_PHASES; p++)
+        total += j->plan->n_frames[test_phases[p]];
+    const double t0 = now_s();
+    for (int cam = 0; cam < j->plan->n_test_cams && rc == ESR_OK; cam++) {
+        const struct esr_camera *camera = &j->plan->test_cams[cam];
+        struct esr_synth_gt gt;
+        struct light_basis b;
+        memset(&gt, 0, sizeof gt);
+        memset(&b, 0, sizeof b);
+        rc = esr_synth_render_gt(j->scene, camera, &gt);
+        if (rc == ESR_OK)
+            rc = write_gt_maps(j, cam, &gt);
+        if (rc == ESR_OK && basis) {
+            rc = light_basis_render(j, camera, &b);
+            images += 1 + n_lights;
+        }
+        for (int p = 0; p < N_TEST_PHASES && rc == ESR_OK; p++) {
+            const enum esr_phase_id ph = test_phases[p];
+            for (int i = 0; i < j->plan->n_frames[ph] && rc == ESR_OK; i++) {
+                const struct esr_synth_frame *f = &j->plan->frames[ph][i];
+                if (f->cam != cam)
+                    continue;
+                if (basis)
+                    rc = light_basis_frame(j, &b, f);
+                else {
+                    rc = render_image(j, camera, (const float(*)[3])f->emission, 1, &j->lin);
+                    images++;
+                }
+                if (rc == ESR_OK)
+                    rc = write_frame_image(j, ph, f);
+                if (rc == ESR_OK)
+                    rc = write_frame_masks(j, ph, f, gt.prim);
+                esr_image_free(&j->lin);
+                report(j, "test", ++done, total, images, t0);
+            }
+        }
+        light_basis_free(&b, n_lights);
+        esr_synth_gt_free(&gt);
+    }
     return rc;
 }
 
 static int write_all(struct job *j, const struct esr_synth_settings *set)
 {
     ESR_TRY(make_layout(j->root));
-    for (int i = 0; i < N_PHASES; i++)
-        ESR_TRY(render_phase(j, phases[i]));
+    ESR_TRY(render_train(j));
+    ESR_TRY(render_test(j));
     for (int i = 0; i < N_PHASES; i++)
         ESR_TRY(esr_synth_json_transforms(j->root, j->scene, j->plan, phases[i]));
     ESR_TRY(esr_synth_json_scene(j->root, j->scene, j->plan, set));

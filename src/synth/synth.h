@@ -11,9 +11,10 @@
 #define ESR_SYNTH_SPP_MAX 65536
 
 struct esr_synth_progress {
-    const char *phase;     /* "train", "test_nv", ... */
-    int done, total;       /* images of this phase */
-    double samples_per_s;  /* path samples per second so far in this phase */
+    const char *phase;     /* "train", or "test" (the four test phases, camera by camera) */
+    int done, total;       /* frames of this phase written */
+    double samples_per_s;  /* path samples per second so far in this phase (of the images
+                              rendered: a test camera's frames come from its light basis) */
     double elapsed_s;      /* since the phase started */
 };
 
