@@ -142,13 +142,14 @@ static int write_frame_image(struct job *j, enum esr_phase_id ph, const struct e
     return esr_exr_write(path, &j->lin, 1);
 }
 
-/* Renders cam under the world light world_on (0/1) and the lights' emission into out. */
+/* Renders cam under the world light world_on (0/1) and the lights' emission into out, the
+ * camera seeing the backdrop where it sees no scene when backdrop is 1. */
 static int render_image(struct job *j, const struct esr_camera *cam, const float emission[][3], int world_on,
-                        struct esr_image *out)
+                        int backdrop, struct esr_image *out)
 {
     struct esr_synth_trace_params params;
     esr_synth_trace_setup(j->scene, emission, &params);
-    params.backdrop = j->opt->backdrop;
+    params.backdrop = backdrop;
     if (!world_on)
         memset(params.world, 0, sizeof params.world);
     return esr_synth_render(&params, cam, j->spp, j->opt->seed, j->image_id++, out);
@@ -161,7 +162,8 @@ static int render_train(struct job *j)
     const double t0 = now_s();
     for (int i = 0; i < n && rc == ESR_OK; i++) {
         const struct esr_synth_frame *f = &j->plan->frames[ESR_PHASE_TRAIN][i];
-        rc = render_image(j, &j->plan->train_cams[f->cam], (const float(*)[3])f->emission, 1, &j->lin);
+        rc = render_image(j, &j->plan->train_cams[f->cam], (const float(*)[3])f->emission, 1,
+                          j->opt->backdrop, &j->lin);
         if (rc == ESR_OK)
             rc = write_frame_image(j, ESR_PHASE_TRAIN, f);
         esr_image_free(&j->lin);
@@ -173,15 +175,17 @@ static int render_train(struct job *j)
 /* A test camera's light basis. Light transport is linear in the emitted radiance and acts on
  * each colour channel alone (no BRDF mixes channels), so every frame of the camera, whatever its
  * lights' intensities and colours, is
- *     world + sum_k e_k (x) light_k   (per channel; alpha: the world image's coverage)
+ *     world + sum_k e_k (x) light_k [+ b backdrop]   (per channel)
  * with world the image under the world light alone, light_k under light k alone at unit
- * emission, e_k the frame's emitted radiance of light k. The 1 + K images are rendered once per
- * camera instead of one image per frame (the default scene: 3 instead of 9), and the frames of a
- * camera differ by exactly the lights' light, without path-tracing noise of their own. With a
- * backdrop each frame is rendered whole: the backdrop brightens when any light is on, which is
- * not linear in the emission. */
+ * emission, e_k the frame's emitted radiance of light k; alpha is the world image's coverage.
+ * With --backdrop the camera sees the backdrop where it sees no scene (alpha 1): its image
+ * comes from the camera rays alone (nothing is lit, so paths end at their first hit), times
+ * b = ESR_SYNTH_BACKDROP_LIT_GAIN when any light is on, 1 when all are off. The 1 + K (+ 1)
+ * images are rendered once per camera instead of one image per frame (the default scene: 3
+ * instead of 9), and the frames of a camera differ by exactly the lights' light, without
+ * path-tracing noise of their own. */
 struct light_basis {
-    struct esr_image world, light[ESR_SYNTH_MAX_LIGHTS];
+    struct esr_image world, light[ESR_SYNTH_MAX_LIGHTS], backdrop;
 };
 
 static void light_basis_free(struct light_basis *b, int n_lights)
@@ -189,16 +193,19 @@ static void light_basis_free(struct light_basis *b, int n_lights)
     esr_image_free(&b->world);
     for (int k = 0; k < n_lights; k++)
         esr_image_free(&b->light[k]);
+    esr_image_free(&b->backdrop);
 }
 
 static int light_basis_render(struct job *j, const struct esr_camera *cam, struct light_basis *b)
 {
     float emission[ESR_SYNTH_MAX_LIGHTS][3];
     memset(emission, 0, sizeof emission);
-    ESR_TRY(render_image(j, cam, (const float(*)[3])emission, 1, &b->world));
+    ESR_TRY(render_image(j, cam, (const float(*)[3])emission, 1, 0, &b->world));
+    if (j->opt->backdrop)
+        ESR_TRY(render_image(j, cam, (const float(*)[3])emission, 0, 1, &b->backdrop));
     for (int k = 0; k < j->scene->n_lights; k++) {
         emission[k][0] = emission[k][1] = emission[k][2] = 1.0f;
-        ESR_TRY(render_image(j, cam, (const float(*)[3])emission, 0, &b->light[k]));
+        ESR_TRY(render_image(j, cam, (const float(*)[3])emission, 0, 0, &b->light[k]));
         emission[k][0] = emission[k][1] = emission[k][2] = 0.0f;
     }
     return ESR_OK;
@@ -208,6 +215,10 @@ static int light_basis_render(struct job *j, const struct esr_camera *cam, struc
 static int light_basis_frame(struct job *j, const struct light_basis *b, const struct esr_synth_frame *f)
 {
     ESR_TRY(esr_image_alloc(&j->lin, b->world.width, b->world.height, 4));
+    int any_lit = 0;
+    for (int k = 0; k < j->scene->n_lights; k++)
+        any_lit |= f->emission[k][0] > 0.0f || f->emission[k][1] > 0.0f || f->emission[k][2] > 0.0f;
+    const float backdrop_gain = any_lit ? ESR_SYNTH_BACKDROP_LIT_GAIN : 1.0f;
     const size_t n = (size_t)b->world.width * (size_t)b->world.height;
     for (size_t i = 0; i < n; i++) {
         float *dst = j->lin.data + 4 * i;
@@ -215,6 +226,11 @@ static int light_basis_frame(struct job *j, const struct light_basis *b, const s
         for (int k = 0; k < j->scene->n_lights; k++)
             for (int c = 0; c < 3; c++)
                 dst[c] += f->emission[k][c] * b->light[k].data[4 * i + c];
+        if (b->backdrop.data) {
+            for (int c = 0; c < 3; c++)
+                dst[c] += backdrop_gain * b->backdrop.data[4 * i + c];
+            dst[3] = 1.0f; /* opaque, as a photograph */
+        }
     }
     return ESR_OK;
 }
@@ -223,11 +239,11 @@ static int light_basis_frame(struct job *j, const struct light_basis *b, const s
 static const enum esr_phase_id *const test_phases = phases + 1;
 #define N_TEST_PHASES (N_PHASES - 1)
 
-/* The test phases camera by camera: the ground-truth maps once per camera, the light basis once
- * (or each frame whole with a backdrop), then every frame of that camera in every test phase. */
+/* The test phases camera by camera: the ground-truth maps and the light basis once per camera,
+ * then every frame of that camera in every test phase. */
 static int render_test(struct job *j)
 {
-    const int basis = !j->opt->backdrop, n_lights = j->scene->n_lights;
+    const int n_lights = j->scene->n_lights;
     int total = 0, done = 0, rc = ESR_OK;
     long images = 0;
     for (int p = 0; p < N_TEST_PHASES; p++)
@@ -242,22 +258,16 @@ static int render_test(struct job *j)
         rc = esr_synth_render_gt(j->scene, camera, &gt);
         if (rc == ESR_OK)
             rc = write_gt_maps(j, cam, &gt);
-        if (rc == ESR_OK && basis) {
+        if (rc == ESR_OK)
             rc = light_basis_render(j, camera, &b);
-            images += 1 + n_lights;
-        }
+        images += 1 + n_lights; /* the backdrop's image traces camera rays only */
         for (int p = 0; p < N_TEST_PHASES && rc == ESR_OK; p++) {
             const enum esr_phase_id ph = test_phases[p];
             for (int i = 0; i < j->plan->n_frames[ph] && rc == ESR_OK; i++) {
                 const struct esr_synth_frame *f = &j->plan->frames[ph][i];
                 if (f->cam != cam)
                     continue;
-                if (basis)
-                    rc = light_basis_frame(j, &b, f);
-                else {
-                    rc = render_image(j, camera, (const float(*)[3])f->emission, 1, &j->lin);
-                    images++;
-                }
+                rc = light_basis_frame(j, &b, f);
                 if (rc == ESR_OK)
                     rc = write_frame_image(j, ph, f);
                 if (rc == ESR_OK)

@@ -108,7 +108,7 @@ void esr_synth_backdrop(struct esr_vec3 d, int lights_on, float rgb[3])
         float v = z < 0.0f ? floor_rgb[c] + (horizon[c] - floor_rgb[c]) * expf(8.0f * z)
                            : zenith[c] + (horizon[c] - zenith[c]) * expf(-3.0f * z);
         v *= 1.0f + stripes;
-        rgb[c] = v * (lights_on ? 1.25f : 1.0f);
+        rgb[c] = v * (lights_on ? ESR_SYNTH_BACKDROP_LIT_GAIN : 1.0f);
     }
 }
 
@@ -118,7 +118,9 @@ int esr_synth_trace_path(const struct esr_synth_trace_params *p, struct esr_vec3
     const struct esr_synth_scene *s = p->scene;
     float beta[3] = {1.0f, 1.0f, 1.0f};
     float l[3] = {0.0f, 0.0f, 0.0f};
-    int world_on = p->world[0] > 0.0f || p->world[1] > 0.0f || p->world[2] > 0.0f;
+    int world_on = p->world[0] > 0.0f || p->world[1] > 0.0f || p->world[2] > 0.0f, any_lit = 0;
+    for (int k = 0; k < s->n_lights; k++)
+        any_lit |= p->lit[k];
     float prev_pdf = 0.0f;          /* BRDF pdf of the direction that led here (0 at the camera) */
     struct esr_vec3 prev_n = esr_v3(0, 0, 0), prev_x = o;
     int primary_hit = 0;
@@ -127,9 +129,6 @@ int esr_synth_trace_path(const struct esr_synth_trace_params *p, struct esr_vec3
         int hit = esr_synth_intersect(s, o, d, 0.0f, &t);
         if (hit < 0) {
             if (depth == 0 && p->backdrop) {
-                int any_lit = 0;
-                for (int k = 0; k < s->n_lights; k++)
-                    any_lit |= p->lit[k];
                 esr_synth_backdrop(d, any_lit, l);
                 primary_hit = 1; /* opaque, as a photograph */
             }
@@ -157,7 +156,7 @@ int esr_synth_trace_path(const struct esr_synth_trace_params *p, struct esr_vec3
             for (int c = 0; c < 3; c++)
                 l[c] += beta[c] * p->emission[k][c] * w;
         }
-        if (depth >= p->max_bounces)
+        if (depth >= p->max_bounces || !(world_on || any_lit)) /* (nothing left to gather) */
             break;
         struct esr_vec3 wo = esr_v3_scale(d, -1.0f);
         if (esr_v3_dot(n, wo) < 0.0f) /* reached from inside through rounding: shade the side seen */

@@ -26,6 +26,8 @@ struct esr_synth_trace_params {
  * horizon band and stripes in azimuth, a quarter brighter when any light is on. It lights
  * nothing: the scene's own lighting stays that of its renders. Into rgb. */
 void esr_synth_backdrop(struct esr_vec3 d, int lights_on, float rgb[3]);
+/* the backdrop's brightness with a light on over all lights off */
+#define ESR_SYNTH_BACKDROP_LIT_GAIN 1.25f
 
 /* Fills p for scene s with light k emitting emission[k] (linear radiance). */
 void esr_synth_trace_setup(const struct esr_synth_scene *s, const float emission[][3],
