@@ -218,6 +218,61 @@ static void test_thread_count_independent(void **state)
     esr_image_free(&c);
 }
 
+/* Images rendered with a shared jitter stream sample the same camera rays whatever their lighting:
+ * the same alpha bit for bit (with the path stream's jitter they differ at the edges). With
+ * nothing lit and the world off (trace.c ends such paths at their first hit): black where the
+ * scene is, the backdrop (gain 1: no light on) where it is not, alpha 1. */
+static void test_shared_jitter_and_nothing_lit(void **state)
+{
+    (void)state;
+    struct esr_synth_scene s;
+    assert_int_equal(esr_synth_scene_get("default", &s), 0);
+    float none[ESR_SYNTH_MAX_LIGHTS][3], one[ESR_SYNTH_MAX_LIGHTS][3];
+    memset(none, 0, sizeof none);
+    memset(one, 0, sizeof one);
+    one[0][0] = one[0][1] = one[0][2] = 1.0f;
+    struct esr_synth_trace_params world, light, dark;
+    esr_synth_trace_setup(&s, (const float(*)[3])none, &world);
+    esr_synth_trace_setup(&s, (const float(*)[3])one, &light);
+    memset(light.world, 0, sizeof light.world);
+    esr_synth_trace_setup(&s, (const float(*)[3])none, &dark);
+    memset(dark.world, 0, sizeof dark.world);
+    dark.backdrop = 1;
+    struct esr_camera cam = pinhole(esr_v3(3.0f, -2.0f, 1.8f), esr_v3(0, 0, 0.2f));
+    cam.width = cam.height = 24;
+    cam.focal = 35.0f;
+    struct esr_image a, b, c, d;
+    assert_int_equal(esr_synth_render_shared_jitter(&world, &cam, 8, 9, 1, 5, &a), 0);
+    assert_int_equal(esr_synth_render_shared_jitter(&light, &cam, 8, 9, 2, 5, &b), 0);
+    assert_int_equal(esr_synth_render(&light, &cam, 8, 9, 2, &c), 0);
+    assert_int_equal(esr_synth_render_shared_jitter(&dark, &cam, 8, 9, 3, 5, &d), 0);
+    int edge = 0, alpha_differs = 0, background = 0;
+    for (int i = 0; i < 24 * 24; i++) {
+        const float alpha = a.data[4 * i + 3];
+        assert_float_equal(b.data[4 * i + 3], alpha, 0.0f);
+        edge += alpha > 0.0f && alpha < 1.0f;
+        alpha_differs += c.data[4 * i + 3] != alpha;
+        assert_float_equal(d.data[4 * i + 3], 1.0f, 0.0f);
+        if (alpha > 0.0f)
+            continue;
+        background++; /* the backdrop seen along the pixel's camera rays, nothing else */
+        float o[3], dir[3], rgb[3];
+        esr_camera_ray(&cam, (float)(i % 24) + 0.5f, (float)(i / 24) + 0.5f, o, dir);
+        esr_synth_backdrop(esr_v3(dir[0], dir[1], dir[2]), 0, rgb);
+        for (int ch = 0; ch < 3; ch++)
+            assert_float_equal(d.data[4 * i + ch], rgb[ch], 0.1f * rgb[ch]); /* across the pixel */
+    }
+    assert_true(edge > 0 && alpha_differs > 0 && background > 0);
+    for (int i = 0; i < 24 * 24; i++) /* a pixel the scene covers holds no light: black */
+        if (a.data[4 * i + 3] == 1.0f)
+            for (int ch = 0; ch < 3; ch++)
+                assert_float_equal(d.data[4 * i + ch], 0.0f, 0.0f);
+    esr_image_free(&a);
+    esr_image_free(&b);
+    esr_image_free(&c);
+    esr_image_free(&d);
+}
+
 /* The benchmark workload runs and reports consistent figures (its speed is for `esr bench`). */
 static void test_bench_reports(void **state)
 {
@@ -237,6 +292,7 @@ int main(void)
         cmocka_unit_test(test_furnace_convex_object),
         cmocka_unit_test(test_direct_light_matches_integral),
         cmocka_unit_test(test_thread_count_independent),
+        cmocka_unit_test(test_shared_jitter_and_nothing_lit),
         cmocka_unit_test(test_bench_reports),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

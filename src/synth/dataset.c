@@ -1,5 +1,5 @@
-/* `esr synth` end to end: plan, render every frame, masks and ground truth, JSON, then publish the
- * staging directory. */
+/* `esr synth` end to end: plan, render the train frames and each test camera's light basis, compose
+ * the test frames, masks and ground truth, JSON, then publish the staging directory. */
 #include <errno.h>
 #include <stdio.h>
 #include <string.h>
@@ -143,16 +143,19 @@ static int write_frame_image(struct job *j, enum esr_phase_id ph, const struct e
 }
 
 /* Renders cam under the world light world_on (0/1) and the lights' emission into out, the
- * camera seeing the backdrop where it sees no scene when backdrop is 1. */
+ * camera seeing the backdrop where it sees no scene when backdrop is 1; with its camera rays
+ * from jitter stream *jitter_id when not NULL (esr_synth_render_shared_jitter). */
 static int render_image(struct job *j, const struct esr_camera *cam, const float emission[][3], int world_on,
-                        int backdrop, struct esr_image *out)
+                        int backdrop, const uint64_t *jitter_id, struct esr_image *out)
 {
     struct esr_synth_trace_params params;
     esr_synth_trace_setup(j->scene, emission, &params);
     params.backdrop = backdrop;
     if (!world_on)
         memset(params.world, 0, sizeof params.world);
-    return esr_synth_render(&params, cam, j->spp, j->opt->seed, j->image_id++, out);
+    const uint64_t id = j->image_id++;
+    return jitter_id ? esr_synth_render_shared_jitter(&params, cam, j->spp, j->opt->seed, id, *jitter_id, out)
+                     : esr_synth_render(&params, cam, j->spp, j->opt->seed, id, out);
 }
 
 static int render_train(struct job *j)
@@ -163,7 +166,7 @@ static int render_train(struct job *j)
     for (int i = 0; i < n && rc == ESR_OK; i++) {
         const struct esr_synth_frame *f = &j->plan->frames[ESR_PHASE_TRAIN][i];
         rc = render_image(j, &j->plan->train_cams[f->cam], (const float(*)[3])f->emission, 1,
-                          j->opt->backdrop, &j->lin);
+                          j->opt->backdrop, NULL, &j->lin);
         if (rc == ESR_OK)
             rc = write_frame_image(j, ESR_PHASE_TRAIN, f);
         esr_image_free(&j->lin);
@@ -196,16 +199,20 @@ static void light_basis_free(struct light_basis *b, int n_lights)
     esr_image_free(&b->backdrop);
 }
 
-static int light_basis_render(struct job *j, const struct esr_camera *cam, struct light_basis *b)
+/* The basis of test camera cam: its images share their camera rays (jitter stream cam), so their
+ * coverage is the same and a frame's colour and alpha come from the same samples. */
+static int light_basis_render(struct job *j, int cam, struct light_basis *b)
 {
+    const struct esr_camera *camera = &j->plan->test_cams[cam];
+    const uint64_t jitter = (uint64_t)cam;
     float emission[ESR_SYNTH_MAX_LIGHTS][3];
     memset(emission, 0, sizeof emission);
-    ESR_TRY(render_image(j, cam, (const float(*)[3])emission, 1, 0, &b->world));
+    ESR_TRY(render_image(j, camera, (const float(*)[3])emission, 1, 0, &jitter, &b->world));
     if (j->opt->backdrop)
-        ESR_TRY(render_image(j, cam, (const float(*)[3])emission, 0, 1, &b->backdrop));
+        ESR_TRY(render_image(j, camera, (const float(*)[3])emission, 0, 1, &jitter, &b->backdrop));
     for (int k = 0; k < j->scene->n_lights; k++) {
         emission[k][0] = emission[k][1] = emission[k][2] = 1.0f;
-        ESR_TRY(render_image(j, cam, (const float(*)[3])emission, 0, 0, &b->light[k]));
+        ESR_TRY(render_image(j, camera, (const float(*)[3])emission, 0, 0, &jitter, &b->light[k]));
         emission[k][0] = emission[k][1] = emission[k][2] = 0.0f;
     }
     return ESR_OK;
@@ -259,7 +266,7 @@ static int render_test(struct job *j)
         if (rc == ESR_OK)
             rc = write_gt_maps(j, cam, &gt);
         if (rc == ESR_OK)
-            rc = light_basis_render(j, camera, &b);
+            rc = light_basis_render(j, cam, &b);
         images += 1 + n_lights; /* the backdrop's image traces camera rays only */
         for (int p = 0; p < N_TEST_PHASES && rc == ESR_OK; p++) {
             const enum esr_phase_id ph = test_phases[p];

@@ -6,8 +6,12 @@
 #include "core/error.h"
 #include "synth/trace.h"
 
-int esr_synth_render(const struct esr_synth_trace_params *p, const struct esr_camera *cam, int spp, uint64_t seed,
-                     uint64_t image_id, struct esr_image *out)
+/* the sub-pixel positions' own streams (esr_synth_render_shared_jitter) derive from seed ^ this */
+#define JITTER_SALT 0x6a09e667f3bcc909ULL
+
+/* esr_synth_render's body; jitter_id NULL: the sub-pixel positions come from the path stream. */
+static int render(const struct esr_synth_trace_params *p, const struct esr_camera *cam, int spp, uint64_t seed,
+                  uint64_t image_id, const uint64_t *jitter_id, struct esr_image *out)
 {
     if (spp < 1)
         return ESR_FAIL("render needs at least 1 sample per pixel, got %d", spp);
@@ -22,11 +26,14 @@ int esr_synth_render(const struct esr_synth_trace_params *p, const struct esr_ca
         k++;
 #pragma omp parallel for schedule(dynamic, 16)
     for (long i = 0; i < n_pix; i++) {
-        struct esr_rng rng = esr_rng_init(seed, image_id * (uint64_t)n_pix + (uint64_t)i);
+        struct esr_rng rng = esr_rng_init(seed, image_id * (uint64_t)n_pix + (uint64_t)i), jrng = rng;
+        if (jitter_id)
+            jrng = esr_rng_init(seed ^ JITTER_SALT, *jitter_id * (uint64_t)n_pix + (uint64_t)i);
+        struct esr_rng *jr = jitter_id ? &jrng : &rng;
         float sum[3] = {0.0f, 0.0f, 0.0f};
         int covered = 0;
         for (int sidx = 0; sidx < spp; sidx++) {
-            float jx = esr_rng_float(&rng), jy = esr_rng_float(&rng);
+            float jx = esr_rng_float(jr), jy = esr_rng_float(jr);
             if (sidx < k * k) {
                 jx = ((float)(sidx % k) + jx) / (float)k;
                 jy = ((float)(sidx / k) + jy) / (float)k;
@@ -44,6 +51,18 @@ int esr_synth_render(const struct esr_synth_trace_params *p, const struct esr_ca
         img[4 * i + 3] = (float)covered / (float)spp;
     }
     return ESR_OK;
+}
+
+int esr_synth_render(const struct esr_synth_trace_params *p, const struct esr_camera *cam, int spp, uint64_t seed,
+                     uint64_t image_id, struct esr_image *out)
+{
+    return render(p, cam, spp, seed, image_id, NULL, out);
+}
+
+int esr_synth_render_shared_jitter(const struct esr_synth_trace_params *p, const struct esr_camera *cam, int spp,
+                                   uint64_t seed, uint64_t image_id, uint64_t jitter_id, struct esr_image *out)
+{
+    return render(p, cam, spp, seed, image_id, &jitter_id, out);
 }
 
 void esr_synth_gt_free(struct esr_synth_gt *gt)

@@ -27,7 +27,7 @@ struct esr_synth_options {
     uint64_t seed;
     int force;             /* replace a non-empty out_dir */
     int backdrop;          /* 1: cameras see a distant backdrop (alpha 1): "photos" (trace.h) */
-    /* Called after every rendered image (from the calling thread); may be NULL. */
+    /* Called after every frame written (from the calling thread); may be NULL. */
     void (*progress)(void *user, const struct esr_synth_progress *p);
     void *user;
 };

@@ -38,8 +38,9 @@ void esr_synth_trace_setup(const struct esr_synth_scene *s, const float emission
 int esr_synth_intersect(const struct esr_synth_scene *s, struct esr_vec3 o, struct esr_vec3 d, float tmin, float *t);
 
 /* Radiance arriving at o from unit direction d along one random path, into rgb. Returns 1 when the
- * primary ray hit geometry, 0 when it escaped (rgb = 0: the film is transparent, the world only
- * lights the scene). */
+ * primary ray hit geometry, or escaped with p->backdrop (rgb = the backdrop), 0 when it escaped
+ * without (rgb = 0: the film is transparent, the world only lights the scene). A path ends at its
+ * first hit when nothing emits (world off, no light lit). */
 int esr_synth_trace_path(const struct esr_synth_trace_params *p, struct esr_vec3 o, struct esr_vec3 d,
                          struct esr_rng *rng, float rgb[3]);
 
@@ -49,6 +50,12 @@ int esr_synth_trace_path(const struct esr_synth_trace_params *p, struct esr_vec3
  * does not depend on the thread count. */
 int esr_synth_render(const struct esr_synth_trace_params *p, const struct esr_camera *cam, int spp, uint64_t seed,
                      uint64_t image_id, struct esr_image *out);
+/* esr_synth_render with the sub-pixel positions drawn from their own stream, jitter_id's, instead
+ * of the path stream: images rendered with the same jitter_id (and seed) sample the same camera
+ * rays, so their coverage (alpha) is the same bit for bit whatever their lighting (synth/dataset.c
+ * sums a camera's light basis). */
+int esr_synth_render_shared_jitter(const struct esr_synth_trace_params *p, const struct esr_camera *cam, int spp,
+                                   uint64_t seed, uint64_t image_id, uint64_t jitter_id, struct esr_image *out);
 
 /* Per-pixel ground truth from one ray through each pixel centre (no anti-aliasing). */
 struct esr_synth_gt {
