@@ -65,23 +65,28 @@ static long empty_block_end(const struct esr_mask *m, const struct mask_blocks *
                             const float d[3], float t, float t0, float step, long k)
 {
     const int n[3] = {m->nx, m->ny, m->nz};
-    size_t bi[3];
+    float u[3];
+    int blk[3];
+    for (int a = 0; a < 3; a++) {
+        u[a] = (q[a] - m->bmin[a]) * m->scale[a] + 0.5f; /* as esr_mask_query */
+        if (!(u[a] >= 0.0f) || u[a] >= (float)n[a])
+            return k;
+        blk[a] = (int)u[a] / ESR_MASK_BLOCK;
+    }
+    /* most masked-out samples lie in occupied blocks, next to the surface: decided here, before
+     * the block's exit is worked out */
+    if (b->any[((size_t)blk[2] * (size_t)b->nb[1] + (size_t)blk[1]) * (size_t)b->nb[0] + (size_t)blk[0]])
+        return k;
     float exit = INFINITY, ds_max = 0.0f;
     for (int a = 0; a < 3; a++) {
-        const float u = (q[a] - m->bmin[a]) * m->scale[a] + 0.5f; /* as esr_mask_query */
-        if (!(u >= 0.0f) || u >= (float)n[a])
-            return k;
-        const int blk = (int)u / ESR_MASK_BLOCK;
-        bi[a] = (size_t)blk;
         const float ds = d[a] * m->scale[a];
         if (ds > 0.0f)
-            exit = fminf(exit, ((float)((blk + 1) * ESR_MASK_BLOCK) - u) / ds);
+            exit = fminf(exit, ((float)((blk[a] + 1) * ESR_MASK_BLOCK) - u[a]) / ds);
         else if (ds < 0.0f)
-            exit = fminf(exit, ((float)(blk * ESR_MASK_BLOCK) - u) / ds);
+            exit = fminf(exit, ((float)(blk[a] * ESR_MASK_BLOCK) - u[a]) / ds);
         ds_max = fmaxf(ds_max, fabsf(ds));
     }
-    if (b->any[(bi[2] * (size_t)b->nb[1] + bi[1]) * (size_t)b->nb[0] + bi[0]] || !(ds_max > 0.0f) ||
-        !(exit < INFINITY))
+    if (!(ds_max > 0.0f) || !(exit < INFINITY))
         return k;
     const float t_exit = t + exit - 0.01f / ds_max;
     const long last = (long)floorf((t_exit - t0) / step) - 1;
