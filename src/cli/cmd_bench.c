@@ -57,6 +57,7 @@ const struct esr_command cmd_bench = {
     "                the direct and the ratio relight of its first test_nv view and a fine-tune\n"
     "  -h, --help    this text\n",
     run_bench,
+    1, /* view_loop */
 };
 
 struct bench_opts {

@@ -39,6 +39,7 @@ const struct esr_command cmd_demo = {
     "  --set key=value    training option override (repeatable; see `esr train --help`)\n"
     "  -h, --help         this text\n",
     run_demo,
+    0, /* view_loop */
 };
 
 #define DEMO_MAX_SETS 32

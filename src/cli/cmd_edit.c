@@ -55,6 +55,7 @@ const struct esr_command cmd_edit = {
     "  --data DIR     dataset (default: the one RUN was trained on)\n"
     "  -h, --help     this text\n",
     run_edit,
+    1, /* view_loop */
 };
 
 struct edit_args {

@@ -57,6 +57,7 @@ const struct esr_command cmd_eval = {
     "  --iters N        edit phases, finetune: steps per fine-tune (default 300)\n"
     "  -h, --help       this text\n",
     run_eval,
+    1, /* view_loop */
 };
 
 struct eval_args {

@@ -32,6 +32,7 @@ const struct esr_command cmd_export = {
     "  --no-colour   leave out vertex colours (faster)\n"
     "  -h, --help    this text\n",
     run_export,
+    0, /* view_loop */
 };
 
 static int export_mesh(const char *run, const char *mesh_path, const char *gltf_path, int res,

@@ -63,6 +63,7 @@ const struct esr_command cmd_import = {
     "  --force      replace a non-empty DATA\n"
     "  -h, --help   this text\n",
     run_import,
+    0, /* view_loop */
 };
 
 static void show_progress(void *user, int done, int total)

@@ -29,6 +29,7 @@ const struct esr_command cmd_info = {
     "                              test views (composited on white)\n"
     "  -h, --help                  show this text\n",
     run_info,
+    0, /* view_loop */
 };
 
 struct problem_list {

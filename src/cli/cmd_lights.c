@@ -36,6 +36,7 @@ const struct esr_command cmd_lights = {
     "                lights-off training images)\n"
     "  -h, --help    this text\n",
     run_lights,
+    0, /* view_loop */
 };
 
 /* Finds and calibrates the lights of m from DATA's lights-off training rays. */

@@ -32,6 +32,7 @@ const struct esr_command cmd_metrics = {
     "  --json FILE   also write the JSON object to FILE (atomically)\n"
     "  -h, --help    show this text\n",
     run_metrics,
+    0, /* view_loop */
 };
 
 /* Reads path and returns it as RGB (or grey) without alpha, composited on white. */

@@ -36,6 +36,7 @@ const struct esr_command cmd_render = {
     "  --data DIR       dataset directory (default: the one recorded in RUN)\n"
     "  -h, --help       this text\n",
     run_render,
+    1, /* view_loop */
 };
 
 static void show_progress(void *user, const struct esr_view_progress *p)

@@ -34,6 +34,7 @@ const struct esr_command cmd_synth = {
     "  --force        replace a non-empty OUT_DIR\n"
     "  -h, --help     this text\n",
     run_synth,
+    0, /* view_loop */
 };
 
 static void list_scenes(FILE *out)

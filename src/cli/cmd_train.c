@@ -45,6 +45,7 @@ const struct esr_command cmd_train = {
     "\n"
     "Exit status: 0 on success, 1 on bad arguments, data or a stopped run.\n",
     run_train,
+    0, /* view_loop */
 };
 
 struct progress_sink {

@@ -7,6 +7,8 @@ struct esr_command {
     const char *summary; /* one line for `esr --help` */
     const char *usage;   /* full text for `esr <cmd> --help` (options included) */
     int (*run)(int argc, char **argv); /* argv[0] is the command name; returns the exit code */
+    int view_loop; /* 1: renders view after view, each with its own workspaces (main.c keeps
+                      freed memory for the next view) */
 };
 
 /* Prints "esr <cmd>: error: <message>" (with the library's pending error if any) and the
