@@ -222,10 +222,9 @@ static int light_basis_render(struct job *j, int cam, struct light_basis *b)
 static int light_basis_frame(struct job *j, const struct light_basis *b, const struct esr_synth_frame *f)
 {
     ESR_TRY(esr_image_alloc(&j->lin, b->world.width, b->world.height, 4));
-    int any_lit = 0;
-    for (int k = 0; k < j->scene->n_lights; k++)
-        any_lit |= f->emission[k][0] > 0.0f || f->emission[k][1] > 0.0f || f->emission[k][2] > 0.0f;
-    const float backdrop_gain = any_lit ? ESR_SYNTH_BACKDROP_LIT_GAIN : 1.0f;
+    struct esr_synth_trace_params whole; /* the frame rendered whole: which lights are lit */
+    esr_synth_trace_setup(j->scene, (const float(*)[3])f->emission, &whole);
+    const float backdrop_gain = esr_synth_trace_any_lit(&whole) ? ESR_SYNTH_BACKDROP_LIT_GAIN : 1.0f;
     const size_t n = (size_t)b->world.width * (size_t)b->world.height;
     for (size_t i = 0; i < n; i++) {
         float *dst = j->lin.data + 4 * i;

@@ -118,9 +118,8 @@ int esr_synth_trace_path(const struct esr_synth_trace_params *p, struct esr_vec3
     const struct esr_synth_scene *s = p->scene;
     float beta[3] = {1.0f, 1.0f, 1.0f};
     float l[3] = {0.0f, 0.0f, 0.0f};
-    int world_on = p->world[0] > 0.0f || p->world[1] > 0.0f || p->world[2] > 0.0f, any_lit = 0;
-    for (int k = 0; k < s->n_lights; k++)
-        any_lit |= p->lit[k];
+    const int world_on = p->world[0] > 0.0f || p->world[1] > 0.0f || p->world[2] > 0.0f,
+              any_lit = esr_synth_trace_any_lit(p);
     float prev_pdf = 0.0f;          /* BRDF pdf of the direction that led here (0 at the camera) */
     struct esr_vec3 prev_n = esr_v3(0, 0, 0), prev_x = o;
     int primary_hit = 0;

@@ -32,6 +32,14 @@ void esr_synth_backdrop(struct esr_vec3 d, int lights_on, float rgb[3]);
 /* Fills p for scene s with light k emitting emission[k] (linear radiance). */
 void esr_synth_trace_setup(const struct esr_synth_scene *s, const float emission[][3],
                            struct esr_synth_trace_params *p);
+/* 1 when any light of p is lit (the backdrop is then ESR_SYNTH_BACKDROP_LIT_GAIN brighter). */
+static inline int esr_synth_trace_any_lit(const struct esr_synth_trace_params *p)
+{
+    int any = 0;
+    for (int k = 0; k < p->scene->n_lights; k++)
+        any |= p->lit[k];
+    return any;
+}
 
 /* Index of the first primitive hit by the ray (o, d) in (tmin, *t), or -1; *t becomes its distance
  * in units of |d|. */
