@@ -5,7 +5,10 @@
  * primitives (rays, samplers, NeuS, compositing, first hit, marching cubes) that know no model;
  * model assembles the fields and the trace engine; train and render use a model; edit relights
  * a trained model with the lights train found; eval and cli sit on top. This test reads every source file under src/ and fails on an include that runs back
- * up (or sideways between two folders of the same layer), naming the file and the line. */
+ * up (or sideways between two folders of the same layer), naming the file and the line. It also
+ * holds the library to its promise (README, Source layout) that only cli prints or exits: outside
+ * src/cli no code (comments aside) names stdout or stderr or calls printf, puts, putchar, perror,
+ * exit or abort; the library reports through return codes, messages and callbacks. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -57,6 +60,85 @@ static int include_violates(const char *from, const char *line, int *bad_rank)
     return to < 0 || mine < 0 || to >= mine;
 }
 
+static int is_ident_char(char c)
+{
+    return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_';
+}
+
+/* 1 when code (not comment) text `code` names stdout/stderr or calls a printing or exiting
+ * function; *what gets the name found. */
+static int code_prints(const char *code, const char **what)
+{
+    static const char *const names[] = {"stdout", "stderr", "printf", "puts",
+                                        "putchar", "perror", "exit", "abort"};
+    for (size_t i = 0; i < sizeof names / sizeof names[0]; i++) {
+        const size_t len = strlen(names[i]);
+        for (const char *p = strstr(code, names[i]); p; p = strstr(p + 1, names[i])) {
+            if (p > code && is_ident_char(p[-1]))
+                continue; /* fprintf, snprintf, _exit: part of another name */
+            const char *q = p + len;
+            if (is_ident_char(*q))
+                continue;
+            const int stream = i < 2;
+            while (*q == ' ')
+                q++;
+            if (stream || *q == '(') {
+                *what = names[i];
+                return 1;
+            }
+        }
+    }
+    return 0;
+}
+
+/* `line` without its comments into `code` (*in_comment: inside a block comment, carried from
+ * line to line). String literals are kept: a message naming stderr would count. */
+static void strip_comments(const char *line, int *in_comment, char *code, size_t cap)
+{
+    size_t n = 0;
+    for (const char *p = line; *p && n + 1 < cap; p++) {
+        if (*in_comment) {
+            if (p[0] == '*' && p[1] == '/') {
+                *in_comment = 0;
+                p++;
+            }
+        } else if (p[0] == '/' && p[1] == '*') {
+            *in_comment = 1;
+            p++;
+        } else if (p[0] == '/' && p[1] == '/') {
+            break;
+        } else {
+            code[n++] = *p;
+        }
+    }
+    code[n] = 0;
+}
+
+static void test_print_checker(void **state)
+{
+    (void)state;
+    const char *w;
+    char code[256];
+    int in = 0;
+    assert_true(code_prints("fprintf(stderr, \"x\");", &w));
+    assert_true(code_prints("    printf(\"%d\", 1);", &w));
+    assert_true(code_prints("exit (1);", &w));
+    assert_true(code_prints("FILE *f = stdout;", &w));
+    assert_false(code_prints("snprintf(buf, sizeof buf, \"%d\", 1);", &w));
+    assert_false(code_prints("fprintf(out, \"%d\", 1);", &w));
+    assert_false(code_prints("float exit = fminf(exit, t);", &w));
+    assert_false(code_prints("__attribute__((format(printf, 3, 4)));", &w));
+    assert_false(code_prints("_exit(1); my_abort(); stdout_lines++;", &w));
+    strip_comments("x = 1; /* print to stderr */ y = 2; // exit(1)", &in, code, sizeof code);
+    assert_false(code_prints(code, &w));
+    assert_int_equal(in, 0);
+    strip_comments("a(); /* starts here, stderr", &in, code, sizeof code);
+    assert_int_equal(in, 1);
+    strip_comments(" * still stderr */ abort();", &in, code, sizeof code);
+    assert_true(code_prints(code, &w));
+    assert_string_equal(w, "abort");
+}
+
 static void test_checker_catches_upward_and_sideways_includes(void **state)
 {
     (void)state;
@@ -73,7 +155,7 @@ static void test_checker_catches_upward_and_sideways_includes(void **state)
     assert_false(include_violates("core", "/* #include \"io/file.h\" in a comment */", &r));
 }
 
-static void test_every_source_include_points_down(void **state)
+static void test_every_source_keeps_to_its_layer(void **state)
 {
     (void)state;
     int violations = 0, files = 0;
@@ -92,13 +174,21 @@ static void test_every_source_include_points_down(void **state)
             FILE *f = fopen(path, "r");
             assert_non_null(f);
             files++;
-            char line[1024];
-            int lineno = 0, bad;
+            char line[1024], code[1024];
+            int lineno = 0, bad, in_comment = 0;
+            const int library = strcmp(layers[i].folder, "cli") != 0;
+            const char *what;
             while (fgets(line, sizeof line, f)) {
                 lineno++;
                 if (include_violates(layers[i].folder, line, &bad)) {
                     print_error("%s:%d: %s/ (layer %d) includes a header of layer %d: %s", path,
                                 lineno, layers[i].folder, layers[i].rank, bad, line);
+                    violations++;
+                }
+                strip_comments(line, &in_comment, code, sizeof code);
+                if (library && code_prints(code, &what)) {
+                    print_error("%s:%d: library code uses %s (only src/cli prints or exits): %s",
+                                path, lineno, what, line);
                     violations++;
                 }
             }
@@ -125,7 +215,8 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_checker_catches_upward_and_sideways_includes),
-        cmocka_unit_test(test_every_source_include_points_down),
+        cmocka_unit_test(test_print_checker),
+        cmocka_unit_test(test_every_source_keeps_to_its_layer),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

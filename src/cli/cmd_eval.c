@@ -73,6 +73,13 @@ static void show_progress(void *user, const struct esr_view_progress *p)
     fprintf(stderr, "  rendered %-16s %4d / %-4d  %.2f s\n", p->name, p->done, p->total, p->seconds);
 }
 
+static void show_edit_progress(void *user, const struct esr_edit_eval_progress *p)
+{
+    (void)user;
+    fprintf(stderr, "  %-20s %3d / %-3d  %.2f dB%s\n", p->name, p->done, p->total, p->psnr,
+            p->finetuned ? " (after a fine-tune)" : "");
+}
+
 /* Renders the selected frames that are missing or stale in render_dir. Without a loadable model
  * the existing renders are used when complete. */
 static int ensure_renders(const struct eval_args *a, const struct esr_run_selection *sel, const char *render_dir)
@@ -270,7 +277,7 @@ static int evaluate_edits(const struct eval_args *a, const struct esr_run_select
         if (a->iters)
             ft.iters = a->iters;
         status = esr_edit_eval_phase(&m, &sel->ds, sel->phase, sel->idx, sel->n, dir, a->method,
-                                     a->spp, &ft, &res);
+                                     a->spp, &ft, show_edit_progress, NULL, &res);
     }
     if (status == ESR_OK)
         status = esr_dir_prepare_output(eval_dir);

@@ -1,4 +1,5 @@
-/* esr export RUN --mesh out.ply: the model's surface as a coloured PLY mesh. */
+/* esr export RUN --mesh out.ply | --gltf out.glb: the model's surface as a coloured PLY mesh or a
+ * relightable glTF asset. */
 #include <stdio.h>
 #include <string.h>
 
@@ -13,7 +14,7 @@ static int run_export(int argc, char **argv);
 
 const struct esr_command cmd_export = {
     "export",
-    "extract the model's surface (marching cubes on the SDF) as a PLY mesh",
+    "extract the model's surface (marching cubes on the SDF) as a PLY mesh or a relightable glTF",
     "usage: esr export RUN (--mesh OUT.ply | --gltf OUT.glb) [options]\n"
     "\n"
     "Loads the most advanced checkpoint in run directory RUN (or RUN may be a checkpoint file),\n"

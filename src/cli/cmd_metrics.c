@@ -17,7 +17,7 @@ static int run_metrics(int argc, char **argv);
 
 const struct esr_command cmd_metrics = {
     "metrics",
-    "PSNR, SSIM and MSE between two images (PNG or EXR)",
+    "PSNR, SSIM and MSE between two images (PNG, EXR or JPEG)",
     "usage: esr metrics A B [--json FILE]\n"
     "\n"
     "Compares image A with image B and prints one JSON object to stdout:\n"

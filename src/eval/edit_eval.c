@@ -133,7 +133,7 @@ static void order_by_edit(const struct esr_light_edit (*edits)[ESR_MAX_LIGHTS], 
 int esr_edit_eval_phase(struct esr_model *m, const struct esr_dataset *ds,
                         enum esr_phase_id phase, const int *idx, int n, const char *out_dir,
                         enum esr_edit_method method, int spp, const struct esr_finetune_opts *ft,
-                        struct esr_edit_eval *res)
+                        esr_edit_eval_progress_fn progress, void *user, struct esr_edit_eval *res)
 {
     memset(res, 0, sizeof(*res));
     res->phase = phase;
@@ -178,9 +178,11 @@ int esr_edit_eval_phase(struct esr_model *m, const struct esr_dataset *ds,
         if (rc == ESR_OK)
             rc = score_view(ds, f, &lin, out_dir, v);
         esr_image_free(&lin);
-        if (rc == ESR_OK)
-            fprintf(stderr, "  %-20s %3d / %-3d  %.2f dB%s\n", f->name, k + 1, n, v->psnr,
-                    ed.finetunes > res->n_edits ? " (after a fine-tune)" : "");
+        if (rc == ESR_OK && progress) {
+            const struct esr_edit_eval_progress p = {f->name, k + 1, n, v->psnr,
+                                                     ed.finetunes > res->n_edits};
+            progress(user, &p);
+        }
         res->n_edits = ed.finetunes;
     }
     res->finetune_seconds = ed.finetunes > 0 ? ed.finetune_seconds / ed.finetunes : 0.0;

@@ -33,11 +33,20 @@ struct esr_edit_eval {
     struct esr_light_split split;
 };
 
-/* ft: fine-tuning options (NULL: the defaults). */
+/* Progress of esr_edit_eval_phase, reported after each scored frame. */
+struct esr_edit_eval_progress {
+    const char *name; /* frame just scored */
+    int done, total;
+    double psnr;
+    int finetuned;    /* finetune: this frame's edit was fine-tuned just now */
+};
+typedef void (*esr_edit_eval_progress_fn)(void *user, const struct esr_edit_eval_progress *p);
+
+/* ft: fine-tuning options (NULL: the defaults); progress may be NULL. */
 int esr_edit_eval_phase(struct esr_model *m, const struct esr_dataset *ds,
                         enum esr_phase_id phase, const int *idx, int n, const char *out_dir,
                         enum esr_edit_method method, int spp, const struct esr_finetune_opts *ft,
-                        struct esr_edit_eval *res);
+                        esr_edit_eval_progress_fn progress, void *user, struct esr_edit_eval *res);
 void esr_edit_eval_free(struct esr_edit_eval *res);
 
 /* {"phase", "method": "direct"|"finetune", "spp" (direct) | "finetunes", "finetune_seconds"
