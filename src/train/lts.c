@@ -58,6 +58,12 @@ void esr_lts_free(struct esr_lts *l)
     memset(l, 0, sizeof(*l));
 }
 
+void esr_lts_refresh_normals(struct esr_lts *l)
+{
+    free(l->normal_sdf);
+    l->normal_sdf = NULL;
+}
+
 int esr_lts_init(struct esr_lts *l, const struct esr_model *m)
 {
     memset(l, 0, sizeof(*l));
@@ -376,8 +382,7 @@ int esr_lts_run(struct esr_lts *l, const struct esr_model *m, const float *sdf, 
     if (mc->n_kept == 0)
         return ESR_OK;
     if (!l->normal_sdf || (!l->edit && m->step % NORMAL_REFRESH == 0)) {
-        free(l->normal_sdf);
-        l->normal_sdf = NULL;
+        esr_lts_refresh_normals(l);
         ESR_TRY(esr_model_normal_sdf(m, &l->normal_sdf));
         if (!l->normal_sdf) { /* smoothing off: the raw SDF's own gradient */
             size_t ns = esr_grid_count(esr_model_grid(m, ESR_COMP_SDF));

@@ -121,6 +121,10 @@ struct esr_lts {
 
 int esr_lts_init(struct esr_lts *l, const struct esr_model *m);
 void esr_lts_free(struct esr_lts *l);
+/* The next step recomputes the normals from the model's SDF, as a run resumed from a checkpoint
+ * saved now would (its workspace starts without them): the trainer calls it after each
+ * checkpoint inside a stage, so a resumed stage trains exactly as one never stopped. */
+void esr_lts_refresh_normals(struct esr_lts *l);
 
 /* The LTS loss on points taken from mc's kept list (the primary batch's last forward), its
  * gradient ADDED into grads (flat base) and g_sdf (the SDF the fields read). `sdf` is that SDF.

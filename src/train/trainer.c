@@ -381,8 +381,11 @@ static int run_stage(struct run *r, struct esr_model *m, enum esr_stage s)
         m->inv_s = esr_stage_inv_s(&m->cfg, s, m->step);
         if (m->step % r->cfg.log_every == 0 || m->step == sc->iters)
             report_window(r, m, s, &w, m->step, sc->iters, B);
-        if (m->step % r->cfg.save_every == 0 && m->step < sc->iters)
+        if (m->step % r->cfg.save_every == 0 && m->step < sc->iters) {
             rc = save(r, m, s);
+            if (b.has_lts) /* what a run resumed from this checkpoint computes first */
+                esr_lts_refresh_normals(&b.lts);
+        }
         if (r->o->stop_test_iter > 0 && s == r->o->stop_test_stage &&
             m->step == r->o->stop_test_iter) {
             r->stopped = 1;
