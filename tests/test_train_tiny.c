@@ -597,6 +597,8 @@ static void test_pdra_finds_lights(void **state)
         {"--light 0 --method relit", "--method: expected direct, ratio or finetune"},
         {"--light 0 --method finetune --iters 0", "--iters: expected 1..1000000"},
         {"--intensity 2", "--intensity before any --light"},
+        {"--light all --intensity 1e40", "--intensity: expected a finite number >= 0 and at most"},
+        {"--light 0 --intensity 2 --light 1", "--light 1 has no --intensity or --color"},
     };
     char edit_out[4400];
     snprintf(edit_out, sizeof edit_out, "%s/edit_bad", test_tmpdir);
@@ -616,6 +618,55 @@ static void test_pdra_finds_lights(void **state)
             fail_msg("esr %s: expected '%s' in:\n%s", cmd, bad[i].message, out);
         assert_false(esr_file_exists(edit_out));
     }
+
+    /* lights too dim for the threshold: the pdra stage ends with none and says so (decided over
+     * the whole surface the cameras see, not over the last batch's rays) */
+    char dim_run[4400];
+    snprintf(dim_run, sizeof dim_run, "%s/run_dim", test_tmpdir);
+    snprintf(cmd, sizeof cmd, "mkdir -p '%s' && cp '%s'/runs/full/ckpt_*.bin '%s'/", dim_run,
+             test_tmpdir, dim_run);
+    assert_int_equal(system(cmd), 0);
+    opts_for(&o, dim_run, ESR_STAGE_PDRA, &lc);
+    o.resume = 1;
+    o.cfg.pdra_k0 = o.cfg.pdra_k_end = 1e3f; /* far above any emission the field learned */
+    if (esr_train_run(&o) != ESR_OK)
+        fail_msg("%s", esr_error_message());
+    assert_non_null(strstr(lc.text, "no emitters found: no surface point"));
+    assert_null(strstr(lc.text, "lights found"));
+    snprintf(cmd, sizeof cmd, "%s/ckpt_pdra.bin", dim_run);
+    struct esr_model dim;
+    assert_int_equal(esr_model_load(&dim, cmd), ESR_OK);
+    assert_int_equal(dim.lights.n, 0);
+    assert_true(dim.stage_done);
+    esr_model_free(&dim);
+
+    /* a run whose pdra stage found no emitters: `esr lights` keeps none and says so (it used to
+     * search again whenever the set was empty, inventing lights), and edits are refused */
+    char none_run[4400];
+    snprintf(none_run, sizeof none_run, "%s/run_no_lights", test_tmpdir);
+    snprintf(cmd, sizeof cmd, "mkdir -p '%s' && cp '%s'/config.json '%s'/run.json '%s'/", none_run,
+             run, run, none_run);
+    assert_int_equal(system(cmd), 0);
+    struct esr_model none;
+    snprintf(cmd, sizeof cmd, "%s/ckpt_pdra.bin", run);
+    assert_int_equal(esr_model_load(&none, cmd), ESR_OK);
+    esr_lights_free(&none.lights);
+    snprintf(cmd, sizeof cmd, "%s/ckpt_pdra.bin", none_run);
+    assert_int_equal(esr_model_save(&none, cmd), ESR_OK);
+    esr_model_free(&none);
+    snprintf(cmd, sizeof cmd, "lights %s", none_run);
+    assert_int_equal(test_run_esr(cmd, out, sizeof out), 0);
+    assert_non_null(strstr(out, "0 lights"));
+    assert_non_null(strstr(out, "found no emitters"));
+    snprintf(cmd, sizeof cmd, "%s/ckpt_pdra.bin", none_run);
+    assert_int_equal(esr_model_load(&none, cmd), ESR_OK);
+    assert_int_equal(none.lights.n, 0);
+    esr_model_free(&none);
+    snprintf(cmd, sizeof cmd, "edit %s --light all --intensity 0 --out %s --orbit 1", none_run,
+             edit_out);
+    assert_int_equal(test_run_esr(cmd, out, sizeof out), 1);
+    assert_non_null(strstr(out, "no lights"));
+    assert_false(esr_file_exists(edit_out));
 
     if (m.lights.n > 0) {
         /* an output folder that cannot be created */

@@ -58,6 +58,9 @@ const struct esr_command cmd_edit = {
     1, /* view_loop */
 };
 
+/* The largest intensity multiplier (a million times the light as found). */
+#define MAX_INTENSITY 1e6
+
 struct edit_args {
     const char *run, *out, *views, *data, *frames;
     int orbit, spp, n_groups, iters;
@@ -65,7 +68,7 @@ struct edit_args {
     struct {
         int light; /* -1 = all */
         struct esr_light_edit e;
-        int has_intensity;
+        int has_edit; /* an --intensity or a --color follows */
     } g[ESR_MAX_LIGHTS * 2];
 };
 
@@ -112,15 +115,17 @@ static int parse(int argc, char **argv, struct edit_args *a)
             if (!strcmp(o, "--intensity")) {
                 char *end;
                 const double x = strtod(v, &end);
-                if (end == v || *end || !isfinite(x) || x < 0.0)
-                    return cli_fail(&cmd_edit, "--intensity: expected a finite number >= 0, got '%s'", v);
+                /* the cap keeps the edited radiance (and its image) finite in float */
+                if (end == v || *end || !isfinite(x) || x < 0.0 || x > MAX_INTENSITY)
+                    return cli_fail(&cmd_edit, "--intensity: expected a finite number >= 0 and at "
+                                    "most %g, got '%s'", MAX_INTENSITY, v);
                 e->intensity = (float)x;
-                a->g[a->n_groups - 1].has_intensity = 1;
             } else {
                 if (parse_hs(v, &e->hue, &e->sat))
                     return cli_fail(&cmd_edit, "--color: expected H,S with both in [0,1], got '%s'", v);
                 e->recolour = 1;
             }
+            a->g[a->n_groups - 1].has_edit = 1;
         } else if (!strcmp(o, "--method") && has) {
             const char *v = argv[++i];
             if (esr_edit_method_from_name(v, &a->method))
@@ -156,6 +161,14 @@ static int parse(int argc, char **argv, struct edit_args *a)
         return cli_fail(&cmd_edit, "missing --out DIR");
     if (a->n_groups == 0)
         return cli_fail(&cmd_edit, "nothing to edit: give at least one --light ID|all");
+    for (int i = 0; i < a->n_groups; i++)
+        if (!a->g[i].has_edit) {
+            char id[16] = "all";
+            if (a->g[i].light >= 0)
+                snprintf(id, sizeof id, "%d", a->g[i].light);
+            return cli_fail(&cmd_edit, "--light %s has no --intensity or --color after it: nothing "
+                            "to change", id);
+        }
     if (a->views && a->orbit)
         return cli_fail(&cmd_edit, "--views and --orbit exclude each other");
     return 0;

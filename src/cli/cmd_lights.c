@@ -30,8 +30,8 @@ const struct esr_command cmd_lights = {
     "   \"emitter_k\", \"checkpoint\"}\n"
     "\n"
     "options:\n"
-    "  --recompute   find and calibrate the lights again (also for a checkpoint written before\n"
-    "                esr stored lights) and store them in the checkpoint\n"
+    "  --recompute   find and calibrate the lights again and store them in the checkpoint (a\n"
+    "                run whose pdra stage found none keeps none unless asked)\n"
     "  --data DIR    dataset (default: the one RUN was trained on; --recompute reads its\n"
     "                lights-off training images)\n"
     "  -h, --help    this text\n",
@@ -94,7 +94,7 @@ static int lights(const char *run, const char *data_override, int again)
     struct esr_model m;
     ESR_TRY(esr_model_load_finished_pdra(&m, run));
     int rc = ESR_OK;
-    if (again || m.lights.n == 0) {
+    if (again) {
         rc = esr_run_data_dir(run, data_override, data, sizeof data);
         if (rc == ESR_OK)
             rc = recompute(&m, data);
@@ -107,8 +107,12 @@ static int lights(const char *run, const char *data_override, int again)
         esr_lights_unseen_points(&m.lights, unseen);
         printf("%d light%s (emitter threshold k %.3g):\n", m.lights.n, m.lights.n == 1 ? "" : "s",
                (double)m.cfg.emitter_k);
-        printf("  id  centroid                 area    emitted radiance (linear RGB)   power    "
-               "strength scale\n");
+        if (m.lights.n == 0)
+            printf("  the pdra stage found no emitters (RUN/log says why); --recompute searches "
+                   "again\n");
+        else
+            printf("  id  centroid                 area    emitted radiance (linear RGB)   power    "
+                   "strength scale\n");
         for (int i = 0; i < m.lights.n; i++) {
             const struct esr_light *l = &m.lights.light[i];
             const int fitted = esr_light_strength_fitted(&m.lights, i);

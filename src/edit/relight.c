@@ -39,8 +39,8 @@ int esr_relight_init(struct esr_relight *r, const struct esr_model *m, int spp,
     memset(r, 0, sizeof(*r));
     r->mode = mode;
     if (m->lights.n == 0)
-        return ESR_FAIL("relight: the model has no lights (the pdra stage finds them; run `esr "
-                        "lights RUN --recompute` for an older checkpoint)");
+        return ESR_FAIL("relight: the model has no lights: its pdra stage found no emitters (the "
+                        "run's log says why), so there is nothing to relight");
     if (spp < 1)
         return ESR_FAIL("relight: %d light samples per pixel (need at least 1)", spp);
     r->spp = spp;

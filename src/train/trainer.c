@@ -297,6 +297,12 @@ static int build_mask(struct run *r, struct esr_model *m)
 static int find_lights(struct run *r, struct esr_model *m, enum esr_stage s)
 {
     ESR_TRY(esr_lights_find(m, r->rays.orig3, r->rays.dir3, r->rays.n));
+    if (m->lights.n == 0) { /* decided over the whole surface, not one batch's rays */
+        say(r, s, "no emitters found: no surface point the cameras see has emission above k = "
+                  "%.3g (the scene's lights are off or too dim to tell from reflection)",
+            (double)m->cfg.emitter_k);
+        return ESR_OK;
+    }
     ESR_TRY(esr_lights_calibrate(m, r->rays.orig3, r->rays.dir3, r->rays.n_off,
                                  ESR_LIGHTS_CALIB_POINTS, (uint64_t)r->cfg.seed));
     say(r, s, "lights found: %d", m->lights.n);
@@ -395,11 +401,7 @@ static int run_stage(struct run *r, struct esr_model *m, enum esr_stage s)
     }
     if (rc == ESR_OK && esr_stage_info(s)->builds_mask)
         rc = build_mask(r, m);
-    if (rc == ESR_OK && b.has_pdra && b.pdra.n_certain == B)
-        say(r, s, "no emitters found: every ray of the last batch has emission at most k = %.3g "
-                  "(the scene's lights are off or too dim to tell from reflection)",
-            (double)b.pdra.k);
-    else if (rc == ESR_OK && esr_stage_info(s)->finds_lights)
+    if (rc == ESR_OK && esr_stage_info(s)->finds_lights)
         rc = find_lights(r, m, s);
     if (rc == ESR_OK) {
         m->stage_done = 1;
