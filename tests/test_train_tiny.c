@@ -19,6 +19,7 @@
 #include "io/image.h"
 #include "io/json_file.h"
 #include "test_support.h"
+#include "model/material_fields.h"
 #include "model/model.h"
 #include "eval/evaluate.h"
 #include "eval/quick_eval.h"
@@ -461,27 +462,51 @@ static void test_emitter_stages_need_both_lightings(void **state)
         snprintf(data, sizeof data, "%s/data_%s", test_tmpdir, keep[k]);
         snprintf(run, sizeof run, "%s/run_%s", test_tmpdir, keep[k]);
         one_lighting_dataset(data, keep[k]);
-        snprintf(cmd, sizeof cmd,
-                 "mkdir -p '%s' && cp '%s'/runs/full/ckpt_alphamask.bin '%s'/runs/full/ckpt_coarse.bin "
-                 "'%s'/runs/full/ckpt_fine.bin '%s'/",
-                 run, test_tmpdir, test_tmpdir, test_tmpdir, run);
-        assert_int_equal(system(cmd), 0);
+        if (k == 1) { /* the geometry from the full run; no lights-off images: a fresh run */
+            snprintf(cmd, sizeof cmd,
+                     "mkdir -p '%s' && cp '%s'/runs/full/ckpt_alphamask.bin "
+                     "'%s'/runs/full/ckpt_coarse.bin '%s'/runs/full/ckpt_fine.bin '%s'/",
+                     run, test_tmpdir, test_tmpdir, test_tmpdir, run);
+            assert_int_equal(system(cmd), 0);
+        }
         opts_for(&o, run, ESR_STAGE_PDRA, &lc);
         o.data_dir = data;
-        o.resume = 1;
+        o.resume = k == 1;
         esr_error_clear();
         int rc = esr_train_run(&o);
-        if (k == 0) {
+        if (k == 0) { /* refused before any stage trains */
             assert_int_equal(rc, ESR_ERR);
             assert_non_null(strstr(esr_error_message(), "needs lights-off training images"));
+            snprintf(cmd, sizeof cmd, "%s/ckpt_alphamask.bin", run);
+            assert_false(esr_file_exists(cmd));
         } else {
             if (rc != ESR_OK)
                 fail_msg("%s", esr_error_message());
+            assert_non_null(strstr(lc.text, "stage lts trains materials and the environment only"));
             assert_non_null(strstr(lc.text, "stage pdra skipped"));
-            snprintf(cmd, sizeof cmd, "%s/ckpt_lts.bin", run);
-            assert_true(esr_file_exists(cmd));
             snprintf(cmd, sizeof cmd, "%s/ckpt_pdra.bin", run);
             assert_false(esr_file_exists(cmd));
+            /* nothing tells emission from reflection: the lts model emits nothing */
+            snprintf(cmd, sizeof cmd, "%s/ckpt_lts.bin", run);
+            struct esr_model m;
+            assert_int_equal(esr_model_load(&m, cmd), ESR_OK);
+            assert_int_equal(m.cfg.emission, 0);
+            struct esr_material_fields mf;
+            assert_int_equal(esr_material_fields_init(&mf, &m, 64, 0), ESR_OK);
+            float pos[64 * 3];
+            for (int i = 0; i < 64 * 3; i++)
+                pos[i] = 0.6f * ((float)((i * 37) % 101) / 50.0f - 1.0f);
+            assert_int_equal(esr_material_fields_fwd(&mf, &m, esr_model_values(&m, ESR_COMP_SDF),
+                                                     pos, 64), ESR_OK);
+            double sum_e = 0.0, sum_b = 0.0;
+            for (int i = 0; i < 64 * 3; i++)
+                sum_e += fabsf(mf.emit3[i]);
+            for (int i = 0; i < 64 * ESR_BRDF_CHANNELS; i++)
+                sum_b += fabsf(mf.brdf5[i]);
+            assert_true(sum_e == 0.0);
+            assert_true(sum_b > 0.0); /* the materials are there */
+            esr_material_fields_free(&mf);
+            esr_model_free(&m);
         }
         esr_error_clear();
     }

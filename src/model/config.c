@@ -93,6 +93,10 @@ static const struct opt opts[] = {
      "the odd incident directions) instead of squaring one error, so the estimate's variance, "
      "which pushes glossy surfaces rough, is not penalised; needs lts_estimator 0 and an even "
      "lts_lobe_dirs above 0 (e.g. 4)"},
+    {"emission", OPT_INT, OFF(emission), 0, 1, DEF(1, 1),
+     "lts/pdra: 0 = the scene has no lights-on images, so nothing tells emission from reflection: "
+     "E is 0 and the light-transport loss has no lights-on term (esr train sets it, saying so, "
+     "for such a dataset)"},
     {"lts_weight", OPT_FLOAT, OFF(lts_weight), 0, 1e6, DEF(0.01, 0.01),
      "lts: weight of the light-transport MSE (off + emo)"},
     {"field_width", OPT_INT, OFF(field_width), 8, 256, DEF(64, 128),

@@ -67,6 +67,7 @@ struct esr_train_config {
     int lts_points;         /* lts: points per step of the light-transport loss */
     int lts_dirs;           /* lts: incident directions per point */
     int lts_estimator;      /* lts: incident radiance estimator (enum esr_lts_estimator) */
+    int emission;           /* lts/pdra: 0 = no lights-on images: E is 0, no emo term */
     int lts_split;          /* lts: loss = product of two independent half-estimates' errors */
     int lts_lobe_dirs;      /* lts: of lts_dirs, per outgoing direction, from the BRDF's lobe */
     float lts_weight;       /* lts: weight of the light-transport MSE */

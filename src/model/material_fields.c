@@ -102,6 +102,8 @@ int esr_material_fields_fwd(struct esr_material_fields *mf, const struct esr_mod
     esr_rows_copy_cols(mf->geo, (size_t)mf->geo_dim, mf->x_e + C + pp, ni, n, mf->geo_dim);
     const float *w = m->params.w;
     ESR_TRY(mlp_run(mf, esr_model_mlp(m, ESR_COMP_EMIT_MLP), w, &mf->ctx_e, mf->x_e, mf->emit3, n));
+    if (!m->cfg.emission) /* a scene without lights-on images emits nothing (option emission) */
+        memset(mf->emit3, 0, n * 3 * sizeof(float));
     if (mf->emission_only)
         return ESR_OK;
     /* the BRDF rows: own features, the same PE and geometry columns */
@@ -131,6 +133,8 @@ int esr_material_fields_bwd(struct esr_material_fields *mf, const struct esr_mod
 {
     const size_t n = mf->n, ni = (size_t)mf->n_in;
     const int gcol = mf->ch + esr_pe_out_dims(&m->pe_pos), gd = mf->geo_dim;
+    if (!m->cfg.emission) /* E is the constant 0 */
+        d_emit3 = NULL;
     if (n == 0 || (!d_emit3 && !d_brdf5))
         return ESR_OK;
     if (!mf->train)

@@ -74,6 +74,7 @@ int esr_lts_init(struct esr_lts *l, const struct esr_model *m)
     /* esr_config_validate keeps the counts even: each half holds half of each technique's
      * directions, the same balance-heuristic estimate with half the samples */
     l->split = m->cfg.lts_split;
+    l->emo = m->cfg.emission ? 1.0f : 0.0f;
     const size_t P = (size_t)l->P, PM = P * (size_t)l->M;
     struct {
         float **p;
@@ -252,7 +253,8 @@ static void point_loss(struct esr_lts *l, size_t p, float scale, float w_l, floa
             hat_out[3 + c] = hat_emo[c];
             const float L_off = lin[row_off * 3 + c];
             const float L_emo = lin[row_on * 3 + c] - L_off; /* L_on = sg(L_off) + L_emo */
-            const float e_off = L_off - hat_off[c], e_emo = L_emo - hat_emo[c];
+            /* without lights-on images (l->emo 0) the emo error is dropped: L_emo never saw data */
+            const float e_off = L_off - hat_off[c], e_emo = l->emo * (L_emo - hat_emo[c]);
             *se_off += (double)e_off * e_off;
             *se_emo += (double)e_emo * e_emo;
             l->d_lin3[row_off * 3 + c] += 2.0f * scale * e_off;
@@ -266,14 +268,14 @@ static void point_loss(struct esr_lts *l, size_t p, float scale, float w_l, floa
                 float eo = e_off, ee = e_emo;
                 if (l->split) { /* half h's estimate is 2 x its sum: the other half's error */
                     eo = L_off - 2.0f * half_off[1 - h][c];
-                    ee = L_emo - e_on * E[c] - 2.0f * half_emo[1 - h][c];
+                    ee = l->emo * (L_emo - e_on * E[c] - 2.0f * half_emo[1 - h][c]);
                 }
                 d_hat_off[h][c] = -2.0f * scale * eo;
                 d_hat_emo[h][c] = -2.0f * scale * ee;
             }
             if (l->split)
                 *prod += (double)(L_off - 2.0f * half_off[0][c]) * (L_off - 2.0f * half_off[1][c]) +
-                         (double)(L_emo - e_on * E[c] - 2.0f * half_emo[0][c]) *
+                         (double)l->emo * (L_emo - e_on * E[c] - 2.0f * half_emo[0][c]) *
                              (L_emo - e_on * E[c] - 2.0f * half_emo[1][c]);
         }
         for (size_t j = 0; j < M; j++) {

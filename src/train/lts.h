@@ -52,6 +52,8 @@ struct esr_lts {
     int P, M;                  /* points, incident directions per point */
     int estimator;             /* enum esr_lts_estimator */
     int lobe;                  /* first hit: directions per outgoing direction from the BRDF's lobe */
+    float emo;                 /* 1, or 0 without lights-on images (option emission): the emo
+                                  term's error is dropped */
     int split;                 /* option lts_split in force: the loss is (L - A)(L - B), A and B
                                   the estimates from the even and the odd directions alone
                                   (independent, each unbiased), whose expectation is the squared

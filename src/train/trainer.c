@@ -439,11 +439,7 @@ static int check_lighting(struct run *r, enum esr_stage s, int *skip)
     if (!esr_stage_info(s)->lts_loss)
         return ESR_OK;
     const size_t n_on = r->rays.n - r->rays.n_off;
-    if (r->rays.n_off == 0)
-        return ESR_FAIL("stage %s needs lights-off training images to tell emission from "
-                        "reflection, and this dataset has none (train with --until fine)",
-                        esr_stage_name(s));
-    if (n_on > 0)
+    if (n_on > 0) /* and lights-off ones: esr_train_run refused the run before any stage else */
         return ESR_OK;
     if (esr_stage_info(s)->ray_groups) {
         say(r, s, "no lights-on training images: no emitters to find, stage %s skipped",
@@ -451,7 +447,8 @@ static int check_lighting(struct run *r, enum esr_stage s, int *skip)
         *skip = 1;
     } else {
         say(r, s, "no lights-on training images: stage %s trains materials and the environment "
-                  "only (emission stays untrained)", esr_stage_name(s));
+                  "only (emission 0: no emission field, no lights-on term)", esr_stage_name(s));
+        r->cfg.emission = 0; /* the stage's model takes it from here (and its checkpoint keeps it) */
     }
     return ESR_OK;
 }
@@ -566,6 +563,12 @@ int esr_train_run(const struct esr_train_opts *o)
     r.o = o;
     r.cfg = o->cfg;
     int rc = setup(&r);
+    /* refused before the geometry stages spend minutes: the emitter stages would stop there */
+    for (int s = 0; rc == ESR_OK && s <= (int)o->until; s++)
+        if (esr_stage_info((enum esr_stage)s)->lts_loss && r.rays.n_off == 0)
+            rc = ESR_FAIL("stage %s needs lights-off training images to tell emission from "
+                          "reflection, and this dataset has none (train with --until fine; "
+                          "nothing was trained)", esr_stage_name((enum esr_stage)s));
     struct esr_model prev, cur;
     int have_prev = 0;
     for (int s = 0; rc == ESR_OK && s <= (int)o->until; s++) {
