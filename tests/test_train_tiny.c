@@ -381,6 +381,41 @@ static void test_nan_is_recovered_then_stops(void **state)
     esr_model_free(&m);
 }
 
+/* A non-finite gradient inside lts (before the stage's first checkpoint after its start) and
+ * inside pdra (after one): reloaded, learning rate halved, and the run ends with lights found. */
+static void test_nan_in_emitter_stages_is_recovered(void **state)
+{
+    (void)state;
+    char run[4300], cmd[9000];
+    const struct {
+        enum esr_stage stage;
+        long iter;
+    } at[] = {{ESR_STAGE_LTS, 5}, {ESR_STAGE_PDRA, 25}};
+    for (int i = 0; i < 2; i++) {
+        const char *name = esr_stage_name(at[i].stage);
+        snprintf(run, sizeof run, "%s/nan_%s", test_tmpdir, name);
+        snprintf(cmd, sizeof cmd, "mkdir -p '%s' && cp '%s'/runs/full/ckpt_alphamask.bin "
+                 "'%s'/runs/full/ckpt_coarse.bin '%s'/runs/full/ckpt_fine.bin '%s'/", run,
+                 test_tmpdir, test_tmpdir, test_tmpdir, run);
+        assert_int_equal(system(cmd), 0);
+        struct esr_train_opts o;
+        struct log_capture lc;
+        opts_for(&o, run, ESR_STAGE_PDRA, &lc);
+        o.resume = 1;
+        o.nan_test_iter = at[i].iter;
+        o.nan_test_times = 1;
+        o.nan_test_stage = at[i].stage;
+        if (esr_train_run(&o) != ESR_OK)
+            fail_msg("%s", esr_error_message());
+        snprintf(cmd, sizeof cmd, "non-finite loss or gradient at %s iteration %ld: reloaded",
+                 name, at[i].iter);
+        if (!strstr(lc.text, cmd))
+            fail_msg("expected '%s' in:\n%s", cmd, lc.text);
+        assert_non_null(strstr(lc.text, "learning rate halved"));
+        assert_non_null(strstr(lc.text, "lights found"));
+    }
+}
+
 static void test_corrupt_checkpoints_are_refused(void **state)
 {
     (void)state;
@@ -1096,6 +1131,7 @@ int main(void)
         cmocka_unit_test(test_resume_inside_lts_and_pdra_is_exact),
         cmocka_unit_test(test_resume_applies_set),
         cmocka_unit_test(test_nan_is_recovered_then_stops),
+        cmocka_unit_test(test_nan_in_emitter_stages_is_recovered),
         cmocka_unit_test(test_corrupt_checkpoints_are_refused),
         cmocka_unit_test(test_empty_mask_cache_is_refused),
         cmocka_unit_test(test_emitter_stages_need_both_lightings),

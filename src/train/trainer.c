@@ -369,7 +369,8 @@ static int run_stage(struct run *r, struct esr_model *m, enum esr_stage s)
         rc = iterate(r, m, &b, s, it, &w, &loss);
         if (rc != ESR_OK)
             break;
-        if (r->o->nan_test_iter == it && r->nan_injected < r->o->nan_test_times) {
+        if (r->o->nan_test_iter == it && s >= r->o->nan_test_stage &&
+            r->nan_injected < r->o->nan_test_times) {
             r->nan_injected++;
             m->params.g[m->params.count / 2] = NAN;
         }

@@ -55,8 +55,9 @@ struct esr_train_opts {
     esr_train_report_fn report;    /* may be NULL */
     void *user;
     long nan_test_iter;            /* test hook: poison the gradient at this iteration of every
-                                      stage (-1 = never) ... */
+                                      stage from nan_test_stage on (-1 = never) ... */
     int nan_test_times;            /* ... at most this many times in the run */
+    enum esr_stage nan_test_stage; /* (0, alphamask: every stage) */
     long stop_test_iter;           /* test hook: return ESR_OK right after this iteration of
                                       stage stop_test_stage, without saving, as a kill -9 would
                                       leave the run (0 = never) */
