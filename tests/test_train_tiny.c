@@ -666,11 +666,30 @@ static void test_pdra_finds_lights(void **state)
     snprintf(cmd, sizeof cmd, "edit %s/runs/full --light 0 --intensity 0 --out %s --orbit 1",
              test_tmpdir, edit_out);
     assert_int_equal(test_run_esr(cmd, out, sizeof out), 1);
-    assert_non_null(strstr(out, "ckpt_pdra.bin"));
+    assert_non_null(strstr(out, "has no pdra checkpoint"));
     assert_false(esr_file_exists(edit_out));
     snprintf(cmd, sizeof cmd, "lights %s/runs/full", test_tmpdir);
     assert_int_equal(test_run_esr(cmd, out, sizeof out), 1);
-    assert_non_null(strstr(out, "ckpt_pdra.bin"));
+    assert_non_null(strstr(out, "has no pdra checkpoint"));
+    /* a pdra stage stopped before its end (its periodic checkpoint) */
+    char unfinished[4400];
+    snprintf(unfinished, sizeof unfinished, "%s/run_pdra_unfinished", test_tmpdir);
+    snprintf(cmd, sizeof cmd, "mkdir -p '%s' && cp '%s'/config.json '%s'/run.json '%s'/",
+             unfinished, run, run, unfinished);
+    assert_int_equal(system(cmd), 0);
+    struct esr_model part;
+    snprintf(cmd, sizeof cmd, "%s/ckpt_pdra.bin", run);
+    assert_int_equal(esr_model_load(&part, cmd), ESR_OK);
+    part.stage_done = 0;
+    part.step = 20;
+    snprintf(cmd, sizeof cmd, "%s/ckpt_pdra.bin", unfinished);
+    assert_int_equal(esr_model_save(&part, cmd), ESR_OK);
+    esr_model_free(&part);
+    snprintf(cmd, sizeof cmd, "edit %s --light 0 --intensity 0 --out %s --orbit 1", unfinished,
+             edit_out);
+    assert_int_equal(test_run_esr(cmd, out, sizeof out), 1);
+    assert_non_null(strstr(out, "the pdra stage has not finished (step 20)"));
+    assert_false(esr_file_exists(edit_out));
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
         snprintf(cmd, sizeof cmd, "edit %s %s --out %s --orbit 1", run, bad[i].args, edit_out);
         assert_int_equal(test_run_esr(cmd, out, sizeof out), 1);

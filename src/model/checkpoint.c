@@ -389,6 +389,10 @@ int esr_model_load_finished_pdra(struct esr_model *m, const char *run)
 {
     char ckpt[4200];
     snprintf(ckpt, sizeof ckpt, "%s/ckpt_pdra.bin", run);
+    if (!esr_file_exists(ckpt))
+        return ESR_FAIL("%s has no pdra checkpoint (ckpt_pdra.bin): the lights are found by the "
+                        "last stage, pdra (esr train DATA --out RUN runs all five; a run whose "
+                        "dataset has no lights-on images skips it: it has no lights)", run);
     ESR_TRY(esr_model_load(m, ckpt));
     if (m->stage_done)
         return ESR_OK;
