@@ -97,6 +97,14 @@ static void test_round_trip_is_exact(void **state)
     assert_true(cJSON_Compare(a, b, 1));
     cJSON_Delete(a);
     cJSON_Delete(b);
+    assert_true(r.lr_scale == 1.0f); /* the header says nothing: the full rate */
+    esr_model_free(&r);
+    /* after non-finite steps the learning rates' factor travels with the checkpoint */
+    f->m.lr_scale = 0.25f;
+    assert_int_equal(esr_model_save(&f->m, f->path), 0);
+    f->m.lr_scale = 1.0f;
+    assert_int_equal(esr_model_load(&r, f->path), 0);
+    assert_true(r.lr_scale == 0.25f);
     esr_model_free(&r);
 }
 
@@ -230,6 +238,11 @@ static void set_bad_option(cJSON *h)
     cJSON_AddNumberToObject(cJSON_GetObjectItemCaseSensitive(h, "config"), "fine.wobble", 3);
 }
 
+static void set_bad_lr_scale(cJSON *h)
+{
+    cJSON_AddNumberToObject(h, "lr_scale", 2.0);
+}
+
 static void test_mismatches_refused(void **state)
 {
     struct fx *f = *state;
@@ -248,6 +261,9 @@ static void test_mismatches_refused(void **state)
     assert_int_equal(esr_file_write_atomic(f->path, orig, n), 0);
     rewrite(f->path, set_bad_option, 2);
     assert_refused(f->path, "unknown option 'fine.wobble'");
+    assert_int_equal(esr_file_write_atomic(f->path, orig, n), 0);
+    rewrite(f->path, set_bad_lr_scale, 2);
+    assert_refused(f->path, "lr_scale must be a number in (0, 1]");
     orig[0] = 'X';
     assert_int_equal(esr_file_write_atomic(f->path, orig, n), 0);
     assert_refused(f->path, "bad magic");

@@ -414,6 +414,35 @@ static void test_nan_in_emitter_stages_is_recovered(void **state)
         assert_non_null(strstr(lc.text, "learning rate halved"));
         assert_non_null(strstr(lc.text, "lights found"));
     }
+    /* killed after the recovery (pdra step 35 of 40; the last checkpoint is the one at step 20
+     * that the recovery reloaded) and resumed: the recovery saved the halved learning rate in that
+     * checkpoint, so pdra ends as in the run above */
+    char straight[4300], pa[4400], pb[4400], cp[16384];
+    snprintf(straight, sizeof straight, "%s/nan_pdra", test_tmpdir);
+    snprintf(run, sizeof run, "%s/nan_pdra_cut", test_tmpdir);
+    const char *copy[] = {"config.json", "ckpt_alphamask.bin", "ckpt_coarse.bin", "ckpt_fine.bin",
+                          "ckpt_lts.bin"};
+    for (int i = 0; i < 5; i++) {
+        snprintf(cp, sizeof cp, "mkdir -p '%s' && cp '%s/%s' '%s/'", run, straight, copy[i], run);
+        assert_int_equal(system(cp), 0);
+    }
+    struct esr_train_opts o;
+    opts_for(&o, run, ESR_STAGE_PDRA, NULL);
+    o.resume = 1;
+    o.nan_test_iter = 25;
+    o.nan_test_times = 1;
+    o.nan_test_stage = ESR_STAGE_PDRA;
+    o.stop_test_stage = ESR_STAGE_PDRA;
+    o.stop_test_iter = 35;
+    if (esr_train_run(&o) != ESR_OK)
+        fail_msg("%s", esr_error_message());
+    opts_for(&o, run, ESR_STAGE_PDRA, NULL);
+    o.resume = 1;
+    if (esr_train_run(&o) != ESR_OK)
+        fail_msg("%s", esr_error_message());
+    snprintf(pa, sizeof pa, "%s/ckpt_pdra.bin", straight);
+    snprintf(pb, sizeof pb, "%s/ckpt_pdra.bin", run);
+    assert_same_model(pa, pb);
 }
 
 static void test_corrupt_checkpoints_are_refused(void **state)

@@ -4,6 +4,7 @@
  *   u8 light labels [lattice points] (when it has lights)
  * with the header
  *   {"stage": "fine", "step": 2000, "done": 1, "scene_min": [..], "scene_max": [..],
+ *    "lr_scale": 0.5 (only after a non-finite step: the learning rates' factor),
  *    "config": {every option, flat}, "params": n,
  *    "components": [{"name": "sdf", "offset": 0, "count": 2097152}, ...],
  *    "mask": {"dims": [nx, ny, nz], "bmin": [..], "bmax": [..]},
@@ -36,6 +37,8 @@ static cJSON *header_json(const struct esr_model *m)
     cJSON_AddStringToObject(h, "stage", esr_stage_name((enum esr_stage)m->stage));
     cJSON_AddNumberToObject(h, "step", (double)m->step);
     cJSON_AddNumberToObject(h, "done", m->stage_done);
+    if (m->lr_scale != 1.0f) /* after a non-finite step (train/trainer.c) */
+        cJSON_AddNumberToObject(h, "lr_scale", (double)m->lr_scale);
     cJSON_AddItemToObject(h, "scene_min", esr_json_float_array(m->scene_min, 3));
     cJSON_AddItemToObject(h, "scene_max", esr_json_float_array(m->scene_max, 3));
     cJSON_AddItemToObject(h, "config", esr_config_to_json(&m->cfg));
@@ -190,6 +193,11 @@ static int model_from_header(struct esr_model *m, const cJSON *h, const char *pa
     m->step = (long)step;
     m->stage_done = (int)done;
     m->inv_s = esr_stage_inv_s(&m->cfg, stage, m->step);
+    const cJSON *lr = cJSON_GetObjectItemCaseSensitive(h, "lr_scale");
+    if (lr && !(cJSON_IsNumber(lr) && lr->valuedouble > 0.0 && lr->valuedouble <= 1.0))
+        return ESR_FAIL("checkpoint %s: lr_scale must be a number in (0, 1]", path);
+    if (lr)
+        m->lr_scale = (float)lr->valuedouble;
     return ESR_OK;
 }
 

@@ -198,6 +198,7 @@ int esr_model_init(struct esr_model *m, const struct esr_train_config *cfg, enum
     if (rc == ESR_OK && prev && prev->has_mask)
         rc = inherit_mask(m, prev);
     m->inv_s = esr_stage_inv_s(&m->cfg, stage, 0);
+    m->lr_scale = 1.0f;
     if (rc != ESR_OK)
         esr_model_free(m);
     return rc;

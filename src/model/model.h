@@ -57,6 +57,9 @@ struct esr_model {
     int has_mask;
     struct esr_lights lights; /* the lights found after pdra (n 0: none / not yet) */
     float inv_s;          /* NeuS s at the current step (esr_stage_inv_s) */
+    float lr_scale;       /* the stage's learning rates x this: 1, halved after each non-finite
+                             step (train/trainer.c), kept in the checkpoint so a resumed stage
+                             trains at the rate the stopped one had */
     /* encodings and the geometry feature the MLP components read */
     struct esr_geo_feature_params geo;
     struct esr_pe pe_pos, pe_dir, pe_tone;

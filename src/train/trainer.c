@@ -210,7 +210,9 @@ static void report_window(struct run *r, const struct esr_model *m, enum esr_sta
 }
 
 /* Reloads the stage's last checkpoint into m (same layout) after a NaN. */
-static int recover(struct run *r, struct esr_model *m, enum esr_stage s, long it, float *lr_scale)
+static int save(struct run *r, const struct esr_model *m, enum esr_stage s);
+
+static int recover(struct run *r, struct esr_model *m, enum esr_stage s, long it)
 {
     char path[4200];
     ckpt_path(r, s, path, sizeof path);
@@ -227,11 +229,13 @@ static int recover(struct run *r, struct esr_model *m, enum esr_stage s, long it
     m->step = good.step;
     m->inv_s = good.inv_s;
     esr_model_free(&good);
-    *lr_scale *= 0.5f;
+    m->lr_scale *= 0.5f;
     say(r, s, "non-finite loss or gradient at %s iteration %ld: reloaded %s (iteration %ld), "
               "learning rate halved (x%g), continuing",
-        esr_stage_name(s), it, path, m->step, (double)*lr_scale);
-    return ESR_OK;
+        esr_stage_name(s), it, path, m->step, (double)m->lr_scale);
+    /* the checkpoint now says at which rate its step goes on: a run killed before the next
+     * checkpoint resumes from it as this one continues */
+    return save(r, m, s);
 }
 
 /* Forward + loss + backward + regularisers for iteration it; returns the loss in *loss. */
@@ -354,7 +358,6 @@ static int run_stage(struct run *r, struct esr_model *m, enum esr_stage s)
     int rc = ESR_OK;
     if (m->step == 0)
         rc = save(r, m, s);
-    float lr_scale = 1.0f;
     struct window w;
     memset(&w, 0, sizeof w);
     double t_start = omp_get_wtime();
@@ -375,12 +378,14 @@ static int run_stage(struct run *r, struct esr_model *m, enum esr_stage s)
             m->params.g[m->params.count / 2] = NAN;
         }
         if (!isfinite(loss) || !esr_nn_all_finite(m->params.g, m->params.count)) {
-            rc = recover(r, m, s, it, &lr_scale);
+            rc = recover(r, m, s, it);
+            if (b.has_lts) /* the reloaded SDF's, as a run resumed from the checkpoint has */
+                esr_lts_refresh_normals(&b.lts);
             memset(&w, 0, sizeof w);
             w.t0 = omp_get_wtime();
             continue;
         }
-        adam_all(m, s, f * lr_scale, it + 1);
+        adam_all(m, s, f * m->lr_scale, it + 1);
         /* inv-s follows the step, as esr_model_init and a checkpoint's load set it: what
          * follows a stage (the mask, the lights, the next stage's start, which renders this
          * model: lts's environment level) sees the model a resumed run loads */
