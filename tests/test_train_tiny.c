@@ -445,6 +445,46 @@ static void test_nan_in_emitter_stages_is_recovered(void **state)
     assert_same_model(pa, pb);
 }
 
+/* A bad dataset is refused before anything is written: a new RUN folder is not created, and an
+ * existing run's config.json and run.json stay byte for byte (a failed `esr train` used to
+ * rewrite them first, pointing the run at the bad data). */
+static void test_bad_dataset_writes_nothing(void **state)
+{
+    (void)state;
+    char run[4300], fresh[4300], notds[4300], cmd[16384], out[4096];
+    snprintf(run, sizeof run, "%s/existing_run", test_tmpdir);
+    snprintf(fresh, sizeof fresh, "%s/never_created", test_tmpdir);
+    snprintf(notds, sizeof notds, "%s/not_a_dataset", test_tmpdir);
+    snprintf(cmd, sizeof cmd, "mkdir -p '%s' '%s' && cp '%s'/runs/full/config.json "
+             "'%s'/runs/full/run.json '%s'/", run, notds, test_tmpdir, test_tmpdir, run);
+    assert_int_equal(system(cmd), 0);
+    const char *files[] = {"config.json", "run.json"};
+    unsigned char *before[2];
+    size_t n_before[2];
+    for (int i = 0; i < 2; i++) {
+        snprintf(cmd, sizeof cmd, "%s/%s", run, files[i]);
+        assert_int_equal(esr_file_read_all(cmd, &before[i], &n_before[i]), ESR_OK);
+    }
+    snprintf(cmd, sizeof cmd, "train '%s' --out '%s' --set seed=7", notds, run);
+    assert_int_equal(test_run_esr(cmd, out, sizeof out), 1);
+    assert_non_null(strstr(out, "is not a dataset"));
+    for (int i = 0; i < 2; i++) {
+        unsigned char *after;
+        size_t n_after;
+        snprintf(cmd, sizeof cmd, "%s/%s", run, files[i]);
+        assert_int_equal(esr_file_read_all(cmd, &after, &n_after), ESR_OK);
+        assert_int_equal(n_after, n_before[i]);
+        assert_memory_equal(after, before[i], n_after);
+        free(after);
+        free(before[i]);
+    }
+    snprintf(cmd, sizeof cmd, "%s/log", run);
+    assert_false(esr_file_exists(cmd));
+    snprintf(cmd, sizeof cmd, "train '%s' --out '%s'", notds, fresh);
+    assert_int_equal(test_run_esr(cmd, out, sizeof out), 1);
+    assert_false(esr_file_exists(fresh));
+}
+
 static void test_corrupt_checkpoints_are_refused(void **state)
 {
     (void)state;
@@ -1180,6 +1220,7 @@ int main(void)
         cmocka_unit_test(test_resume_applies_set),
         cmocka_unit_test(test_nan_is_recovered_then_stops),
         cmocka_unit_test(test_nan_in_emitter_stages_is_recovered),
+        cmocka_unit_test(test_bad_dataset_writes_nothing),
         cmocka_unit_test(test_corrupt_checkpoints_are_refused),
         cmocka_unit_test(test_empty_mask_cache_is_refused),
         cmocka_unit_test(test_emitter_stages_need_both_lightings),

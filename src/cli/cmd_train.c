@@ -49,7 +49,10 @@ const struct esr_command cmd_train = {
 };
 
 struct progress_sink {
+    const char *log_path; /* RUN/log, opened at the first line: the trainer creates RUN only
+                             once the dataset has passed its checks */
     FILE *log;
+    int log_failed;
     int tty;
     int last_was_progress;
 };
@@ -92,6 +95,8 @@ static void on_progress(void *user, const struct esr_train_progress *p)
                      100.0 * p->uncertain_frac);
         }
     }
+    if (!s->log && !s->log_failed && !(s->log = fopen(s->log_path, "a")))
+        s->log_failed = 1; /* the terminal still gets the line */
     if (s->log) {
         fprintf(s->log, "%s\n", line);
         fflush(s->log);
@@ -218,12 +223,9 @@ static int run_train(int argc, char **argv)
         o.resume_set = sets;
         o.n_resume_set = n_sets;
     }
-    struct progress_sink sink = {NULL, isatty(2), 0};
-    if (esr_dir_create(o.run_dir) != ESR_OK)
-        return cli_fail(&cmd_train, "%s", esr_error_message());
     char log_path[4200];
     snprintf(log_path, sizeof log_path, "%s/log", o.run_dir);
-    sink.log = fopen(log_path, "a");
+    struct progress_sink sink = {log_path, NULL, 0, isatty(2), 0};
     o.report = on_progress;
     o.user = &sink;
     int rc = esr_train_run(&o);

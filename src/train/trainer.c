@@ -514,12 +514,15 @@ static int write_run_record(const char *run_dir, const char *data_dir)
     return esr_json_write_atomic(path, root);
 }
 
+/* The run's options and training rays. The options, the dataset and every training image are
+ * checked before anything is written: a bad dataset leaves a new RUN folder uncreated and an
+ * existing run's config.json and run.json as they were. */
 static int setup(struct run *r)
 {
     char path[4200];
-    ESR_TRY(esr_dir_prepare_output(r->o->run_dir));
     snprintf(path, sizeof path, "%s/config.json", r->o->run_dir);
-    if (r->o->resume && esr_file_exists(path)) {
+    const int stored = r->o->resume && esr_file_exists(path);
+    if (stored) {
         esr_config_defaults(&r->cfg, ESR_PRESET_FAST);
         ESR_TRY(esr_config_load_json(&r->cfg, path));
         /* options changed for the stages still to train (an A/B from one run's checkpoints);
@@ -527,18 +530,9 @@ static int setup(struct run *r)
          * begun with these options */
         for (int i = 0; i < r->o->n_resume_set; i++)
             ESR_TRY(esr_config_set(&r->cfg, r->o->resume_set[i]));
-        if (r->o->n_resume_set > 0) {
-            ESR_TRY(esr_config_validate(&r->cfg));
-            ESR_TRY(esr_config_write_json(&r->cfg, path));
-            for (int i = 0; i < r->o->n_resume_set; i++)
-                say(r, ESR_STAGE_COUNT, "resume: %s (written to %s)", r->o->resume_set[i], path);
-        }
-    } else {
-        ESR_TRY(esr_config_validate(&r->cfg));
-        ESR_TRY(esr_config_write_json(&r->cfg, path));
     }
-    ESR_TRY(write_run_record(r->o->run_dir, r->o->data_dir));
-    snprintf(r->log_path, sizeof r->log_path, "%s/train_log.jsonl", r->o->run_dir);
+    if (!stored || r->o->n_resume_set > 0)
+        ESR_TRY(esr_config_validate(&r->cfg));
     if (r->cfg.threads > 0)
         omp_set_num_threads(r->cfg.threads);
     struct esr_dataset ds;
@@ -548,18 +542,28 @@ static int setup(struct run *r)
         r->scene_max[a] = ds.bbox_max[a];
     }
     int rc = esr_ray_set_build(&r->rays, &ds, ESR_PHASE_TRAIN);
-    if (rc == ESR_OK)
-        say(r, ESR_STAGE_COUNT, "dataset %s: %zu training rays (%zu lights-off)", ds.root,
-            r->rays.n, r->rays.n_off);
-    if (rc == ESR_OK && r->cfg.background == ESR_BACKGROUND_AUTO) {
+    char root[sizeof ds.root];
+    snprintf(root, sizeof root, "%s", ds.root);
+    esr_dataset_free(&ds);
+    if (rc != ESR_OK)
+        return rc;
+    ESR_TRY(esr_dir_prepare_output(r->o->run_dir));
+    if (!stored || r->o->n_resume_set > 0)
+        ESR_TRY(esr_config_write_json(&r->cfg, path));
+    for (int i = 0; stored && i < r->o->n_resume_set; i++)
+        say(r, ESR_STAGE_COUNT, "resume: %s (written to %s)", r->o->resume_set[i], path);
+    ESR_TRY(write_run_record(r->o->run_dir, r->o->data_dir));
+    snprintf(r->log_path, sizeof r->log_path, "%s/train_log.jsonl", r->o->run_dir);
+    say(r, ESR_STAGE_COUNT, "dataset %s: %zu training rays (%zu lights-off)", root, r->rays.n,
+        r->rays.n_off);
+    if (r->cfg.background == ESR_BACKGROUND_AUTO) {
         r->cfg.background = r->rays.transparent ? ESR_BACKGROUND_WHITE : ESR_BACKGROUND_LEARNED;
         say(r, ESR_STAGE_COUNT, "background: %s", r->rays.transparent
             ? "white (the training images have alpha: rays that leave the scene see white)"
             : "learned (no training image has transparent pixels: photos, whose rays leave the "
               "scene into a room; fields/background.h)");
     }
-    esr_dataset_free(&ds);
-    return rc;
+    return ESR_OK;
 }
 
 int esr_train_run(const struct esr_train_opts *o)
