@@ -8,6 +8,7 @@
 #include <stdint.h>
 #include <cmocka.h>
 #include <cjson/cJSON.h>
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -264,6 +265,22 @@ static void test_mismatches_refused(void **state)
     assert_int_equal(esr_file_write_atomic(f->path, orig, n), 0);
     rewrite(f->path, set_bad_lr_scale, 2);
     assert_refused(f->path, "lr_scale must be a number in (0, 1]");
+    /* damage a render would not show: bytes after the end, a NaN weight, an infinite moment */
+    unsigned char *longer = malloc(n + 100);
+    assert_non_null(longer);
+    memcpy(longer, orig, n);
+    memset(longer + n, 0x5a, 100);
+    assert_int_equal(esr_file_write_atomic(f->path, longer, n + 100), 0);
+    assert_refused(f->path, "100 bytes after its end");
+    free(longer);
+    f->m.params.w[f->m.params.count / 3] = NAN;
+    assert_int_equal(esr_model_save(&f->m, f->path), 0);
+    assert_refused(f->path, "non-finite weights");
+    f->m.params.w[f->m.params.count / 3] = 0.0f;
+    f->m.adam.v[7] = INFINITY;
+    assert_int_equal(esr_model_save(&f->m, f->path), 0);
+    assert_refused(f->path, "non-finite weights or optimiser moments");
+    f->m.adam.v[7] = 0.0f;
     orig[0] = 'X';
     assert_int_equal(esr_file_write_atomic(f->path, orig, n), 0);
     assert_refused(f->path, "bad magic");

@@ -26,6 +26,7 @@
 #include "io/file.h"
 #include "io/json_file.h"
 #include "model/model.h"
+#include "nn/guard.h"
 
 #define CKPT_MAGIC "ESRCKPT"
 #define CKPT_VERSION 2u
@@ -345,10 +346,21 @@ static int deserialise(struct esr_model *m, struct rbuf *b)
     if (rc == ESR_OK) {
         rc = read_components(m, h, b->p + b->at, n, b->path);
         b->at += 3 * (size_t)n * sizeof(float);
+        /* training never saves a non-finite value (nn/guard stops it first): these are a
+         * damaged file, which would render as silent garbage */
+        const size_t count = m->params.count;
+        if (rc == ESR_OK && !(esr_nn_all_finite(m->params.w, count) &&
+                              esr_nn_all_finite(m->adam.m, count) &&
+                              esr_nn_all_finite(m->adam.v, count)))
+            rc = ESR_FAIL("checkpoint %s: non-finite weights or optimiser moments (a corrupt "
+                          "file)", b->path);
         if (rc == ESR_OK)
             rc = read_mask(m, h, b);
         if (rc == ESR_OK)
             rc = read_lights(m, h, b);
+        if (rc == ESR_OK && b->at != b->n)
+            rc = ESR_FAIL("checkpoint %s: %zu bytes after its end (a corrupt file)", b->path,
+                          b->n - b->at);
         if (rc != ESR_OK)
             esr_model_free(m);
     }
