@@ -434,8 +434,9 @@ static void test_select(void **state)
     assert_int_equal(idx[0], 0);
     free(idx);
     static const char *const bad[] = {"c999", "c000_on,c000_on", ",c000_on", ""};
-    static const char *const msg[] = {"no frame called 'c999'", "selected twice", "no frame called ''", NULL};
-    for (int i = 0; i < 3; i++) {
+    static const char *const msg[] = {"no frame called 'c999'", "selected twice", "no frame called ''",
+                                      "an empty list of frame names"};
+    for (int i = 0; i < 4; i++) {
         esr_error_clear();
         assert_int_equal(esr_select_frames(ph, "test_nv", bad[i], 0, &idx, &n), ESR_ERR);
         assert_null(idx);

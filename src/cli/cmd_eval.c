@@ -65,6 +65,7 @@ struct eval_args {
     int limit, rerender;
     int spp, iters;
     enum esr_edit_method method;
+    const char *edit_option; /* the first of --method, --spp, --iters given (edit phases only) */
 };
 
 static void show_progress(void *user, const struct esr_view_progress *p)
@@ -332,7 +333,7 @@ static int run_eval(int argc, char **argv)
 {
     if (cli_wants_help(&cmd_eval, argc, argv))
         return 0;
-    struct eval_args a = {NULL, "test_nv", NULL, NULL, 0, 0, 8, 0, ESR_EDIT_DIRECT};
+    struct eval_args a = {NULL, "test_nv", NULL, NULL, 0, 0, 8, 0, ESR_EDIT_DIRECT, NULL};
     for (int i = 1; i < argc; i++) {
         const char *s = argv[i];
         int has_value = i + 1 < argc;
@@ -345,19 +346,22 @@ static int run_eval(int argc, char **argv)
         else if (!strcmp(s, "--rerender"))
             a.rerender = 1;
         else if (!strcmp(s, "--method") && has_value) {
+            a.edit_option = a.edit_option ? a.edit_option : s;
             const char *mth = argv[++i];
             if (esr_edit_method_from_name(mth, &a.method))
                 return cli_fail(&cmd_eval, "--method: expected direct, ratio or finetune, got '%s'", mth);
         } else if (!strcmp(s, "--iters") && has_value) {
+            a.edit_option = a.edit_option ? a.edit_option : s;
             if (cli_parse_int(argv[++i], 1, 1000000, &a.iters))
                 return cli_fail(&cmd_eval, "--iters must be an integer in 1..1000000, got '%s'", argv[i]);
         } else if (!strcmp(s, "--spp") && has_value) {
+            a.edit_option = a.edit_option ? a.edit_option : s;
             if (cli_parse_int(argv[++i], 1, 4096, &a.spp))
                 return cli_fail(&cmd_eval, "--spp must be an integer in 1..4096, got '%s'", argv[i]);
         }
         else if (!strcmp(s, "--limit") && has_value) {
-            if (cli_parse_int(argv[++i], 0, 1000000, &a.limit))
-                return cli_fail(&cmd_eval, "--limit must be a non-negative integer, got '%s'", argv[i]);
+            if (cli_parse_int(argv[++i], 1, 1000000, &a.limit))
+                return cli_fail(&cmd_eval, "--limit must be an integer in 1..1000000 (leave it out for every frame), got '%s'", argv[i]);
         } else if (s[0] == '-' && s[1])
             return cli_fail(&cmd_eval, "unknown option or missing value: '%s'", s);
         else if (a.run)
@@ -379,6 +383,9 @@ static int run_eval(int argc, char **argv)
     const int edit_phase = status == ESR_OK && (sel.phase == ESR_PHASE_TEST_NVI ||
                                                 sel.phase == ESR_PHASE_TEST_NVC ||
                                                 sel.phase == ESR_PHASE_TEST_NVIC);
+    if (status == ESR_OK && !edit_phase && a.edit_option)
+        status = ESR_FAIL("%s applies to the edit phases (test_nvi, test_nvc, test_nvic), not to "
+                          "%s", a.edit_option, a.phase);
     if (status == ESR_OK && edit_phase)
         status = evaluate_edits(&a, &sel);
     else if (status == ESR_OK)

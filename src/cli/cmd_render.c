@@ -76,8 +76,8 @@ static int run_render(int argc, char **argv)
         else if (!strcmp(a, "--data") && has_value)
             data = argv[++i];
         else if (!strcmp(a, "--limit") && has_value) {
-            if (cli_parse_int(argv[++i], 0, 1000000, &limit))
-                return cli_fail(&cmd_render, "--limit must be a non-negative integer, got '%s'", argv[i]);
+            if (cli_parse_int(argv[++i], 1, 1000000, &limit))
+                return cli_fail(&cmd_render, "--limit must be an integer in 1..1000000 (leave it out for every frame), got '%s'", argv[i]);
         } else if (a[0] == '-' && a[1])
             return cli_fail(&cmd_render, "unknown option or missing value: '%s'", a);
         else if (run)

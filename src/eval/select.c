@@ -44,6 +44,9 @@ int esr_select_frames(const struct esr_phase *ph, const char *phase_name, const 
         return ESR_FAIL("frame limit must be >= 0, got %d", limit);
     if (!ph->present || ph->n_frames <= 0)
         return ESR_FAIL("the dataset has no frames in phase %s", phase_name);
+    if (names && !*names) /* --frames "": a list that lost its names, not "every frame" */
+        return ESR_FAIL("an empty list of frame names (phase %s; leave the option out for every "
+                        "frame)", phase_name);
     int *sel = malloc((size_t)ph->n_frames * sizeof *sel);
     if (!sel)
         return ESR_FAIL("out of memory selecting frames of phase %s", phase_name);
