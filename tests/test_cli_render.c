@@ -304,6 +304,19 @@ static void test_errors(void **state)
         if (rc != 1 || !strstr(out, cases[i].expect))
             fail_msg("esr %s: exit %d, expected 1 and '%s' in:\n%s", args, rc, cases[i].expect, out);
     }
+    /* a broken ground-truth image stops eval before it renders anything */
+    char broken[1200], cmd[8192];
+    snprintf(broken, sizeof broken, "%s/broken_data", test_tmpdir);
+    snprintf(cmd, sizeof cmd, "rm -rf '%s' && cp -r '%s' '%s' && head -c 300 '%s/test_nv/c000_on.png' "
+             "> '%s/t.png' && mv '%s/t.png' '%s/test_nv/c000_on.png' && rm -rf '%s/render'",
+             broken, ds_dir, broken, ds_dir, broken, broken, broken, run_dir);
+    assert_int_equal(system(cmd), 0);
+    snprintf(args, sizeof args, "eval '%s' --data '%s' --frames c000_off,c000_on", run_dir, broken);
+    assert_int_equal(test_run_esr(args, out, sizeof out), 1);
+    assert_non_null(strstr(out, "c000_on.png"));
+    assert_non_null(strstr(out, "truncated"));
+    snprintf(cmd, sizeof cmd, "%s/render", run_dir);
+    assert_false(esr_file_exists(cmd));
     /* a run that does not record its dataset needs --data */
     snprintf(args, sizeof args, "eval '%s'", test_tmpdir);
     assert_int_equal(test_run_esr(args, out, sizeof out), 1);

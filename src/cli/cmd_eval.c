@@ -226,6 +226,7 @@ static int make_paths(const char *run, const char *phase, struct eval_paths *p)
 static int evaluate(const struct eval_args *a, const struct esr_run_selection *sel, const struct eval_paths *p)
 {
     struct esr_eval_result res;
+    ESR_TRY(esr_eval_check_truth(&sel->ds, sel->phase, sel->idx, sel->n));
     ESR_TRY(ensure_renders(a, sel, p->render));
     int status = esr_eval_phase(&sel->ds, sel->phase, sel->idx, sel->n, p->render, &res);
     if (status == ESR_OK)

@@ -171,6 +171,29 @@ static int eval_view(const struct esr_dataset *ds, const struct esr_frame *f, co
     return status;
 }
 
+int esr_eval_check_truth(const struct esr_dataset *ds, enum esr_phase_id phase, const int *idx,
+                         int n)
+{
+    const struct esr_phase *ph = &ds->phases[phase];
+    for (int i = 0; i < n; i++) {
+        const struct esr_frame *f = &ph->frames[idx[i]];
+        struct esr_image img = {0};
+        ESR_TRY(esr_frame_load_rgb(ds, f, &img, NULL));
+        esr_image_free(&img);
+        char path[ESR_PATH_MAX];
+        esr_frame_exr_path(ds, f, path, sizeof path);
+        if (!esr_file_exists(path))
+            continue;
+        ESR_TRY(esr_exr_read(path, &img));
+        const int w = img.width, h = img.height;
+        esr_image_free(&img);
+        if (w != ds->width || h != ds->height)
+            return ESR_FAIL("%s is %dx%d, the dataset's images are %dx%d", path, w, h, ds->width,
+                            ds->height);
+    }
+    return ESR_OK;
+}
+
 /* Mean of the views whose mode is `mode` (every view when mode < 0). */
 static struct esr_eval_mean mean_of(const struct esr_eval_result *res, int mode)
 {

@@ -65,6 +65,13 @@ int esr_eval_phase(const struct esr_dataset *ds, enum esr_phase_id phase, const 
                    const char *render_dir, struct esr_eval_result *res);
 void esr_eval_result_free(struct esr_eval_result *res);
 
+/* Reads the ground truth esr_eval_phase compares with (each frame's image and, when the dataset
+ * has it, its linear EXR) and fails naming the first file that is missing, unreadable or of
+ * another size: called before rendering, so a broken dataset stops an evaluation before it
+ * spends minutes on renders it cannot score. */
+int esr_eval_check_truth(const struct esr_dataset *ds, enum esr_phase_id phase, const int *idx,
+                         int n);
+
 /* Writes the result as JSON (atomically):
  *   {"phase": "test_nv", "dataset": ds->root, "render_dir": ..., "psnr_cap": 100, "n_views": V,
  *    "views": [{"name", "mode", "psnr", "ssim", "psnr_linear", "ssim_linear", "hdr_mse",
