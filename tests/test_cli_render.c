@@ -305,7 +305,7 @@ static void test_errors(void **state)
             fail_msg("esr %s: exit %d, expected 1 and '%s' in:\n%s", args, rc, cases[i].expect, out);
     }
     /* a broken ground-truth image stops eval before it renders anything */
-    char broken[1200], cmd[8192];
+    char broken[1200], cmd[12288];
     snprintf(broken, sizeof broken, "%s/broken_data", test_tmpdir);
     snprintf(cmd, sizeof cmd, "rm -rf '%s' && cp -r '%s' '%s' && head -c 300 '%s/test_nv/c000_on.png' "
              "> '%s/t.png' && mv '%s/t.png' '%s/test_nv/c000_on.png' && rm -rf '%s/render'",
