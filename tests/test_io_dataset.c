@@ -282,11 +282,33 @@ static void test_bad_files(void **state)
     assert_int_equal(unlink(path), 0);
     expect_check_problem(dir, "masks/nv_c000_on_l0.png", 3);
 
-    /* An unreadable first image makes loading fail (the size comes from it). */
+    /* An unreadable first image is one of the problems the check lists (the size comes from
+     * the training images that decode); a dataset whose training images all fail to decode
+     * does not load, naming the first. */
     dir = make_esr_fixture("first_missing");
     snprintf(path, sizeof path, "%s/train/r_000.png", dir);
     assert_int_equal(unlink(path), 0);
+    expect_check_problem(dir, "train/r_000.png", 1);
+    snprintf(path, sizeof path, "%s/train/r_001.png", dir);
+    assert_int_equal(unlink(path), 0);
     expect_load_error(dir, "train/r_000.png", "cannot open");
+    /* the size most training images have: an odd-sized first one is the problem, not the rest */
+    dir = make_esr_fixture("first_odd_size");
+    write_text(dir, "transforms/transforms_train.json",
+               "{\"camera_angle_x\": 0.6911, \"frames\": ["
+               "{\"file_path\":\"train/r_000\",\"transform_matrix\":" MATRIX
+               ",\"lights\":[" LIGHT("off", "0.0", "") "]},"
+               "{\"file_path\":\"train/r_001\",\"transform_matrix\":" MATRIX
+               ",\"lights\":[" LIGHT("on", "1.0", "") "]},"
+               "{\"file_path\":\"train/r_002\",\"transform_matrix\":" MATRIX
+               ",\"lights\":[" LIGHT("on", "1.0", "") "]}]}");
+    write_png(dir, "train/r_000.png", 7, 5, 4);
+    write_png(dir, "train/r_002.png", 4, 4, 4);
+    struct esr_dataset odd;
+    assert_int_equal(esr_dataset_load(dir, &odd), ESR_OK);
+    assert_int_equal(odd.width, 4);
+    esr_dataset_free(&odd);
+    expect_check_problem(dir, "train/r_000.png", 1);
 }
 
 static void test_lamp_scene(void **state)

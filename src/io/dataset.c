@@ -391,17 +391,43 @@ int esr_dataset_parse_scene(struct esr_dataset *ds, const char *text, size_t siz
     return status;
 }
 
-/* Size from the first frame's image (the check compares every other image with it). */
+/* Size most common among the first few training images that decode (the check compares every
+ * other image with it and reports those that differ or do not decode: `esr info` lists every
+ * problem, where a broken or odd-sized first image used to stop it or make every other image
+ * "wrong"). Fails with the first image's error when none decodes. */
+#define SIZE_VOTES 5
 static int load_size(struct esr_dataset *ds)
 {
-    const struct esr_frame *first = &ds->phases[ESR_PHASE_TRAIN].frames[0];
-    char path[ESR_PATH_MAX * 2 + 8];
-    esr_frame_image_path(ds, first, path, sizeof path);
-    struct esr_image img;
-    ESR_TRY(esr_image_read(path, &img));
-    ds->width = img.width;
-    ds->height = img.height;
-    esr_image_free(&img);
+    const struct esr_phase *train = &ds->phases[ESR_PHASE_TRAIN];
+    char path[ESR_PATH_MAX * 2 + 8], first_error[1024] = "";
+    int w[SIZE_VOTES], h[SIZE_VOTES], got = 0;
+    for (int f = 0; f < train->n_frames && got < SIZE_VOTES; f++) {
+        esr_frame_image_path(ds, &train->frames[f], path, sizeof path);
+        struct esr_image img;
+        if (esr_image_read(path, &img) == ESR_OK) {
+            w[got] = img.width;
+            h[got++] = img.height;
+            esr_image_free(&img);
+        } else {
+            if (f == 0)
+                snprintf(first_error, sizeof first_error, "%s", esr_error_message());
+            esr_error_clear();
+        }
+    }
+    if (got == 0)
+        return ESR_FAIL("%s", first_error);
+    int best = 0, best_votes = 0;
+    for (int a = 0; a < got; a++) {
+        int votes = 0;
+        for (int b = 0; b < got; b++)
+            votes += w[b] == w[a] && h[b] == h[a];
+        if (votes > best_votes) {
+            best = a;
+            best_votes = votes;
+        }
+    }
+    ds->width = w[best];
+    ds->height = h[best];
     ds->focal = esr_focal_from_fov(ds->width, ds->camera_angle_x);
     for (int p = 0; p < ESR_PHASE_COUNT; p++)
         for (int i = 0; i < ds->phases[p].n_frames; i++) {

@@ -66,7 +66,7 @@ struct esr_true_light {
 struct esr_dataset {
     char root[ESR_PATH_MAX];
     enum esr_layout layout;
-    int width, height;        /* from the first image of the first phase */
+    int width, height;        /* the size most of the first 5 decodable training images have */
     float camera_angle_x;
     float focal;
     int n_lights;
@@ -77,12 +77,14 @@ struct esr_dataset {
     struct esr_phase phases[ESR_PHASE_COUNT];
 };
 
-/* Reads the transforms JSON of every phase and the size of the first image. The layout is
+/* Reads the transforms JSON of every phase and the image size (the one most of the first 5
+ * training images that decode have; esr_dataset_check reports the images that differ). The layout is
  * detected: DIR/transforms/transforms_train.json (ESR; test phases whose file is absent are
  * marked not present) or DIR/transforms_train.json (NeRF-synthetic: train, val, test -> the
  * test_nv slot; no lights). Fails with a message naming the file (and frame) and the problem on
  * malformed or incomplete JSON, unknown light modes, non-finite or degenerate matrices, a light
- * count that differs between frames, or an unreadable first image. On failure ds is left freed. */
+ * count that differs between frames, or no training image among them that decodes. On failure ds
+ * is left freed. */
 int esr_dataset_load(const char *dir, struct esr_dataset *ds);
 void esr_dataset_free(struct esr_dataset *ds);
 
