@@ -317,6 +317,13 @@ static void test_errors(void **state)
     assert_non_null(strstr(out, "truncated"));
     snprintf(cmd, sizeof cmd, "%s/render", run_dir);
     assert_false(esr_file_exists(cmd));
+    /* both exports or neither: a glTF that cannot be written takes the PLY back */
+    snprintf(args, sizeof args, "export '%s' --mesh '%s/both.ply' --gltf /proc/esr_cannot.glb",
+             run_dir, test_tmpdir);
+    assert_int_equal(test_run_esr(args, out, sizeof out), 1);
+    assert_non_null(strstr(out, "/proc/esr_cannot.glb"));
+    snprintf(cmd, sizeof cmd, "%s/both.ply", test_tmpdir);
+    assert_false(esr_file_exists(cmd));
     /* a run that does not record its dataset needs --data */
     snprintf(args, sizeof args, "eval '%s'", test_tmpdir);
     assert_int_equal(test_run_esr(args, out, sizeof out), 1);

@@ -2,6 +2,7 @@
  * relightable glTF asset. */
 #include <stdio.h>
 #include <string.h>
+#include <unistd.h>
 
 #include "cli/commands.h"
 #include "core/error.h"
@@ -58,6 +59,8 @@ static int export_mesh(const char *run, const char *mesh_path, const char *gltf_
         if (status == ESR_OK)
             fprintf(stderr, "wrote %s: the surface and %d light node(s) (%s model)\n", gltf_path,
                     model.lights.n, esr_stage_name((enum esr_stage)model.stage));
+        else if (mesh_path && unlink(mesh_path) == 0) /* both or neither */
+            fprintf(stderr, "removed %s again: the glTF could not be written\n", mesh_path);
     }
     esr_mesh_free(&mesh);
     esr_model_free(&model);
