@@ -324,6 +324,15 @@ static void test_errors(void **state)
     assert_non_null(strstr(out, "/proc/esr_cannot.glb"));
     snprintf(cmd, sizeof cmd, "%s/both.ply", test_tmpdir);
     assert_false(esr_file_exists(cmd));
+    /* a damaged run.json is named as such */
+    char damaged[1200];
+    snprintf(damaged, sizeof damaged, "%s/damaged_run", test_tmpdir);
+    snprintf(cmd, sizeof cmd, "mkdir -p '%s' && printf '{\"data\": \"/x' > '%s/run.json'", damaged,
+             damaged);
+    assert_int_equal(system(cmd), 0);
+    snprintf(args, sizeof args, "render '%s'", damaged);
+    assert_int_equal(test_run_esr(args, out, sizeof out), 1);
+    assert_non_null(strstr(out, "run.json is not valid JSON"));
     /* a run that does not record its dataset needs --data */
     snprintf(args, sizeof args, "eval '%s'", test_tmpdir);
     assert_int_equal(test_run_esr(args, out, sizeof out), 1);

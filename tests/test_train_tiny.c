@@ -657,6 +657,8 @@ static void test_pdra_finds_lights(void **state)
         fail_msg("%s", esr_error_message());
     print_message("%s", strstr(lc.text, "lights found") ? strstr(lc.text, "lights found") : lc.text);
     assert_non_null(strstr(lc.text, "lights found: "));
+    /* checkpoints but no config.json: --resume says it starts the run's options afresh */
+    assert_non_null(strstr(lc.text, "holds no run yet (no config.json)"));
     struct esr_model m;
     snprintf(cmd, sizeof cmd, "%s/ckpt_pdra.bin", run);
     assert_int_equal(esr_model_load(&m, cmd), ESR_OK);
@@ -667,6 +669,9 @@ static void test_pdra_finds_lights(void **state)
         for (int c = 0; c < 3; c++)
             assert_true(isfinite(l->scale[c]) && l->scale[c] >= 0.0f);
     }
+    snprintf(cmd, sizeof cmd, "lights %s --data /nonexistent", run);
+    assert_int_equal(test_run_esr(cmd, out, sizeof out), 1);
+    assert_non_null(strstr(out, "--data is read only with --recompute"));
     snprintf(cmd, sizeof cmd, "lights %s", run);
     assert_int_equal(test_run_esr(cmd, out, sizeof out), 0);
     snprintf(cmd, sizeof cmd, "%d light", m.lights.n);

@@ -163,5 +163,8 @@ static int run_lights(int argc, char **argv)
     }
     if (!run)
         return cli_fail(&cmd_lights, "missing RUN directory");
+    if (data && !again)
+        return cli_fail(&cmd_lights, "--data is read only with --recompute (the lights are stored "
+                        "in RUN's pdra checkpoint)");
     return lights(run, data, again) == ESR_OK ? 0 : cli_fail_lib(&cmd_lights);
 }

@@ -59,6 +59,18 @@ int esr_run_data_dir(const char *run, const char *override, char *out, size_t n)
         }
     }
     esr_error_clear();
+    snprintf(path, sizeof path, "%s/run.json", run);
+    unsigned char *text;
+    size_t size;
+    if (esr_file_exists(path) && esr_file_read_all(path, &text, &size) == ESR_OK) {
+        cJSON *root = cJSON_ParseWithLength((const char *)text, size);
+        free(text);
+        cJSON_Delete(root);
+        if (!root)
+            return ESR_FAIL("%s is not valid JSON (a damaged file: `esr train DATA --out %s "
+                            "--resume` writes it again); give --data DIR", path, run);
+    }
+    esr_error_clear();
     return ESR_FAIL("run '%s' does not record its dataset (no \"data\" in %s/run.json or %s/config.json); give "
                     "--data DIR",
                     run, run, run);

@@ -548,6 +548,9 @@ static int setup(struct run *r)
     if (rc != ESR_OK)
         return rc;
     ESR_TRY(esr_dir_prepare_output(r->o->run_dir));
+    if (r->o->resume && !stored) /* esr demo resumes whatever is there, even nothing */
+        say(r, ESR_STAGE_COUNT, "resume: %s holds no run yet (no config.json): training from the "
+                                "start", r->o->run_dir);
     if (!stored || r->o->n_resume_set > 0)
         ESR_TRY(esr_config_write_json(&r->cfg, path));
     for (int i = 0; stored && i < r->o->n_resume_set; i++)
