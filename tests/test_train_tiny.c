@@ -641,6 +641,45 @@ static void test_geometry_from_lights_on_only(void **state)
 
 /* The pdra stage, continuing the full run's lts checkpoint, ends by finding the lights and
  * storing them in its checkpoint; `esr lights` lists them and writes RUN/lights.json. */
+/* dst: a copy of run's config.json, run.json and ckpt_pdra.bin, the checkpoint changed by
+ * `change`. */
+static void copy_run_changed(const char *run, const char *dst, void (*change)(struct esr_model *))
+{
+    char cmd[24576];
+    snprintf(cmd, sizeof cmd, "mkdir -p '%s' && cp '%s'/config.json '%s'/run.json '%s'/", dst, run,
+             run, dst);
+    assert_int_equal(system(cmd), 0);
+    struct esr_model m;
+    snprintf(cmd, sizeof cmd, "%s/ckpt_pdra.bin", run);
+    assert_int_equal(esr_model_load(&m, cmd), ESR_OK);
+    change(&m);
+    snprintf(cmd, sizeof cmd, "%s/ckpt_pdra.bin", dst);
+    assert_int_equal(esr_model_save(&m, cmd), ESR_OK);
+    esr_model_free(&m);
+}
+
+static void make_unfinished(struct esr_model *m)
+{
+    m->stage_done = 0;
+    m->step = 20;
+}
+
+static void remove_lights(struct esr_model *m)
+{
+    esr_lights_free(&m->lights);
+}
+
+/* `esr edit` of every light on run fails saying `message`, and out_dir is not created. */
+static void expect_edit_refused(const char *run, const char *out_dir, const char *message)
+{
+    char cmd[16384], out[8192];
+    snprintf(cmd, sizeof cmd, "edit %s --light all --intensity 0 --out %s --orbit 1", run, out_dir);
+    assert_int_equal(test_run_esr(cmd, out, sizeof out), 1);
+    if (!strstr(out, message))
+        fail_msg("esr %s: expected '%s' in:\n%s", cmd, message, out);
+    assert_false(esr_file_exists(out_dir));
+}
+
 static void test_pdra_finds_lights(void **state)
 {
     (void)state;
@@ -748,22 +787,8 @@ static void test_pdra_finds_lights(void **state)
     /* a pdra stage stopped before its end (its periodic checkpoint) */
     char unfinished[4400];
     snprintf(unfinished, sizeof unfinished, "%s/run_pdra_unfinished", test_tmpdir);
-    snprintf(cmd, sizeof cmd, "mkdir -p '%s' && cp '%s'/config.json '%s'/run.json '%s'/",
-             unfinished, run, run, unfinished);
-    assert_int_equal(system(cmd), 0);
-    struct esr_model part;
-    snprintf(cmd, sizeof cmd, "%s/ckpt_pdra.bin", run);
-    assert_int_equal(esr_model_load(&part, cmd), ESR_OK);
-    part.stage_done = 0;
-    part.step = 20;
-    snprintf(cmd, sizeof cmd, "%s/ckpt_pdra.bin", unfinished);
-    assert_int_equal(esr_model_save(&part, cmd), ESR_OK);
-    esr_model_free(&part);
-    snprintf(cmd, sizeof cmd, "edit %s --light 0 --intensity 0 --out %s --orbit 1", unfinished,
-             edit_out);
-    assert_int_equal(test_run_esr(cmd, out, sizeof out), 1);
-    assert_non_null(strstr(out, "the pdra stage has not finished (step 20)"));
-    assert_false(esr_file_exists(edit_out));
+    copy_run_changed(run, unfinished, make_unfinished);
+    expect_edit_refused(unfinished, edit_out, "the pdra stage has not finished (step 20)");
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
         snprintf(cmd, sizeof cmd, "edit %s %s --out %s --orbit 1", run, bad[i].args, edit_out);
         assert_int_equal(test_run_esr(cmd, out, sizeof out), 1);
@@ -797,16 +822,8 @@ static void test_pdra_finds_lights(void **state)
      * search again whenever the set was empty, inventing lights), and edits are refused */
     char none_run[4400];
     snprintf(none_run, sizeof none_run, "%s/run_no_lights", test_tmpdir);
-    snprintf(cmd, sizeof cmd, "mkdir -p '%s' && cp '%s'/config.json '%s'/run.json '%s'/", none_run,
-             run, run, none_run);
-    assert_int_equal(system(cmd), 0);
+    copy_run_changed(run, none_run, remove_lights);
     struct esr_model none;
-    snprintf(cmd, sizeof cmd, "%s/ckpt_pdra.bin", run);
-    assert_int_equal(esr_model_load(&none, cmd), ESR_OK);
-    esr_lights_free(&none.lights);
-    snprintf(cmd, sizeof cmd, "%s/ckpt_pdra.bin", none_run);
-    assert_int_equal(esr_model_save(&none, cmd), ESR_OK);
-    esr_model_free(&none);
     snprintf(cmd, sizeof cmd, "lights %s", none_run);
     assert_int_equal(test_run_esr(cmd, out, sizeof out), 0);
     assert_non_null(strstr(out, "0 lights"));
@@ -815,11 +832,7 @@ static void test_pdra_finds_lights(void **state)
     assert_int_equal(esr_model_load(&none, cmd), ESR_OK);
     assert_int_equal(none.lights.n, 0);
     esr_model_free(&none);
-    snprintf(cmd, sizeof cmd, "edit %s --light all --intensity 0 --out %s --orbit 1", none_run,
-             edit_out);
-    assert_int_equal(test_run_esr(cmd, out, sizeof out), 1);
-    assert_non_null(strstr(out, "no lights"));
-    assert_false(esr_file_exists(edit_out));
+    expect_edit_refused(none_run, edit_out, "no lights");
 
     if (m.lights.n > 0) {
         /* an output folder that cannot be created */
