@@ -189,14 +189,14 @@ static int model_from_header(struct esr_model *m, const cJSON *h, const char *pa
     if (!cJSON_IsObject(cj))
         return ESR_FAIL("checkpoint %s: header has no config object", path);
     ESR_TRY(esr_config_from_json(&cfg, cj, path, NULL));
+    const cJSON *lr = cJSON_GetObjectItemCaseSensitive(h, "lr_scale");
+    if (lr && !(cJSON_IsNumber(lr) && lr->valuedouble > 0.0 && lr->valuedouble <= 1.0))
+        return ESR_FAIL("checkpoint %s: lr_scale must be a number in (0, 1]", path);
     if (esr_model_init(m, &cfg, stage, NULL, smin, smax) != ESR_OK)
         return ESR_FAIL("checkpoint %s: invalid stored configuration: %s", path, esr_error_message());
     m->step = (long)step;
     m->stage_done = (int)done;
     m->inv_s = esr_stage_inv_s(&m->cfg, stage, m->step);
-    const cJSON *lr = cJSON_GetObjectItemCaseSensitive(h, "lr_scale");
-    if (lr && !(cJSON_IsNumber(lr) && lr->valuedouble > 0.0 && lr->valuedouble <= 1.0))
-        return ESR_FAIL("checkpoint %s: lr_scale must be a number in (0, 1]", path);
     if (lr)
         m->lr_scale = (float)lr->valuedouble;
     return ESR_OK;
