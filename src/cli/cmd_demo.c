@@ -193,8 +193,8 @@ static int run_demo(int argc, char **argv)
     t_train = now_s() - t_train;
 
     snprintf(probe, sizeof probe, "%s/ckpt_pdra.bin", run);
-    char *lights[] = {"lights", run, "--data", (char *)data};
-    if (is_file(probe) && step(4, &cmd_lights, 4, lights))
+    char *lights[] = {"lights", run};
+    if (is_file(probe) && step(4, &cmd_lights, 2, lights))
         return 1;
 
     if (is_file(probe) && demo_edits(run, data))
