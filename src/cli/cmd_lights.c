@@ -32,8 +32,8 @@ const struct esr_command cmd_lights = {
     "options:\n"
     "  --recompute   find and calibrate the lights again and store them in the checkpoint (a\n"
     "                run whose pdra stage found none keeps none unless asked)\n"
-    "  --data DIR    dataset (default: the one RUN was trained on; --recompute reads its\n"
-    "                lights-off training images)\n"
+    "  --data DIR    with --recompute: the dataset whose lights-off training images it reads\n"
+    "                (default: the one RUN was trained on)\n"
     "  -h, --help    this text\n",
     run_lights,
     0, /* view_loop */
