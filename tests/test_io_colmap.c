@@ -27,6 +27,7 @@
 #include "io/dataset.h"
 #include "io/exif.h"
 #include "io/image.h"
+#include "io/file.h"
 #include "test_support.h"
 
 /* ---- fixtures: models, JPEGs, poses ---- */
@@ -1166,6 +1167,16 @@ static void test_import_bad_captures(void **state)
     assert_import_fails(root, "masks/on/shot1.jpg.png' is 32x24 but its photo");
     assert_int_equal(test_write_file(path, "not a png"), 0);
     assert_import_fails(root, "masks/on/shot1.jpg.png");
+    /* --out the photos' own folder, with --force: refused, the photos kept */
+    snprintf(root, sizeof root, "%s/onto_inputs", test_tmpdir);
+    make_capture(root, 0, 6);
+    char args[8192], out[8192];
+    snprintf(args, sizeof args, "import colmap '%s/sparse' '%s/images' --out '%s/images' --size 32 --force",
+             root, root, root);
+    assert_int_equal(test_run_esr(args, out, sizeof out), 1);
+    assert_non_null(strstr(out, "would delete the input"));
+    snprintf(path, sizeof path, "%s/images/on/shot1.jpg", root);
+    assert_true(esr_file_exists(path));
 }
 
 int main(void)

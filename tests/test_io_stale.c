@@ -13,6 +13,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include "core/error.h"
 #include "io/dir.h"
 #include "io/file.h"
 #include "io/stale.h"
@@ -99,11 +100,50 @@ static void test_killed_staging_is_swept_by_the_next_run(void **state)
     assert_int_equal(esr_dir_prepare_output(parent), 0);
 }
 
+/* An output folder must stay apart from the inputs it is made from: the same folder, one
+ * containing an input, or an existing folder of the input's own inside it, also through a
+ * symbolic link or `..`, are refused; a new folder inside an input, an earlier import's output
+ * there, and a sibling that only shares a name prefix are fine. */
+static void test_output_apart_from_inputs(void **state)
+{
+    (void)state;
+    char root[4200], in[4300], link[4300], cmd[32768];
+    snprintf(root, sizeof root, "%s/apart", test_tmpdir);
+    snprintf(in, sizeof in, "%s/photos", root);
+    snprintf(link, sizeof link, "%s/alias", root);
+    /* photos/off holds a photo; photos/done an earlier import (import.json) */
+    snprintf(cmd, sizeof cmd, "mkdir -p '%s/off' '%s/done' && touch '%s/off/a.png' "
+             "'%s/done/import.json' && ln -s '%s' '%s'", in, in, in, in, in, link);
+    assert_int_equal(system(cmd), 0);
+    const char *const inputs[] = {NULL, in};
+    static const struct {
+        const char *out; /* below root */
+        int ok;
+    } cases[] = {
+        {"photos", 0},         {"photos/", 0},     {"photos/off", 0},  {"", 0},
+        {"alias", 0},          {"alias/off", 0},   {"photos/../photos", 0},
+        {"photos/new/sub", 1}, {"photos/done", 1}, {"photos2", 1},     {"data", 1},
+        {"data/new/sub", 1},   {"photo", 1},
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        char out[8600];
+        snprintf(out, sizeof out, "%s/%s", root, cases[i].out);
+        esr_error_clear();
+        const int rc = esr_staging_check_apart(out, inputs, 2);
+        if ((rc == ESR_OK) != cases[i].ok)
+            fail_msg("'%s' against '%s': %s", out, in, rc == ESR_OK ? "accepted" : esr_error_message());
+        if (rc != ESR_OK)
+            assert_non_null(strstr(esr_error_message(), "would delete the input"));
+    }
+    esr_error_clear();
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_sweep_removes_only_dead_writers_leftovers),
         cmocka_unit_test(test_killed_staging_is_swept_by_the_next_run),
+        cmocka_unit_test(test_output_apart_from_inputs),
     };
     return cmocka_run_group_tests(tests, test_setup_tmpdir, test_teardown_tmpdir);
 }

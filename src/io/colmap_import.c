@@ -284,6 +284,9 @@ static int import_model(const struct esr_colmap_import_opts *o, const struct esr
     ESR_TRY(plan_frames(o, m, &plans));
     int status = place_scene(o, m, truth, &view, r);
     char staging[ESR_PATH_MAX];
+    const char *const inputs[] = {o->model_dir, o->images_dir, o->masks_dir, o->align_to};
+    if (status == ESR_OK)
+        status = esr_staging_check_apart(o->out_dir, inputs, 4);
     if (status == ESR_OK)
         status = esr_staging_begin(o->out_dir, o->force, staging, sizeof staging);
     if (status == ESR_OK) {

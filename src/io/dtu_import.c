@@ -277,6 +277,8 @@ static int import_frames(const struct esr_dtu_import_opts *o, struct dtu_frame *
     r->focal = view.focal;
     r->camera_angle_x = 2.0 * atan(0.5 * view.width / view.focal);
     char staging[ESR_PATH_MAX];
+    const char *const inputs[] = {o->scan_dir};
+    ESR_TRY(esr_staging_check_apart(o->out_dir, inputs, 1));
     ESR_TRY(esr_staging_begin(o->out_dir, o->force, staging, sizeof staging));
     status = write_dataset(o, f, n, &view, r, staging);
     if (status == ESR_OK)

@@ -4,6 +4,7 @@
 #include <dirent.h>
 #include <errno.h>
 #include <ftw.h>
+#include <limits.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -26,6 +27,70 @@ static int dir_is_empty(const char *dir)
             empty = 0;
     closedir(d);
     return empty;
+}
+
+/* The absolute, resolved form of path, which need not exist: its longest existing prefix
+ * resolved by realpath (links, `..`), the rest appended as written. */
+static int resolve_path(const char *path, char *out, size_t n)
+{
+    char abs[PATH_MAX], head[PATH_MAX], resolved[PATH_MAX], cwd[PATH_MAX];
+    if (path[0] != '/' && !getcwd(cwd, sizeof cwd))
+        return ESR_FAIL("cannot resolve '%s': %s", path, strerror(errno));
+    const int la = path[0] == '/' ? snprintf(abs, sizeof abs, "%s", path)
+                                  : snprintf(abs, sizeof abs, "%s/%s", cwd, path);
+    if (la < 0 || (size_t)la >= sizeof abs)
+        return ESR_FAIL("path '%s' is too long", path);
+    size_t cut = (size_t)la;
+    for (;;) { /* abs[0..cut) is tried; "/" always resolves */
+        memcpy(head, abs, cut);
+        head[cut] = '\0';
+        if (realpath(cut ? head : "/", resolved))
+            break;
+        while (cut > 0 && abs[cut - 1] != '/')
+            cut--;
+        if (cut > 0)
+            cut--; /* and the slash before that component */
+    }
+    const char *rest = abs + cut;
+    while (*rest == '/')
+        rest++;
+    const int root = !strcmp(resolved, "/");
+    const int len = snprintf(out, n, "%s%s%s", resolved, *rest && !root ? "/" : "", rest);
+    if (len < 0 || (size_t)len >= n)
+        return ESR_FAIL("path '%s' is too long", path);
+    for (int k = len; k > 1 && out[k - 1] == '/'; k--) /* "a/b/" -> "a/b" */
+        out[k - 1] = '\0';
+    return ESR_OK;
+}
+
+/* 1 when a is b or lies below it (path components, not string prefixes: /a/bc is not in /a/b). */
+static int path_within(const char *a, const char *b)
+{
+    const size_t nb = strlen(b);
+    if (!strcmp(b, "/"))
+        return 1;
+    return !strncmp(a, b, nb) && (a[nb] == '\0' || a[nb] == '/');
+}
+
+int esr_staging_check_apart(const char *out_dir, const char *const *inputs, int n)
+{
+    char out[PATH_MAX], in[PATH_MAX], marker[PATH_MAX + 16];
+    ESR_TRY(resolve_path(out_dir, out, sizeof out));
+    snprintf(marker, sizeof marker, "%s/import.json", out);
+    struct stat st;
+    /* what --force may replace inside an input: nothing yet, or an earlier import's output */
+    const int replaceable = stat(out, &st) != 0 || dir_is_empty(out) || stat(marker, &st) == 0;
+    for (int i = 0; i < n; i++) {
+        if (!inputs[i])
+            continue;
+        ESR_TRY(resolve_path(inputs[i], in, sizeof in));
+        const int same = !strcmp(out, in), holds_input = path_within(in, out);
+        if (same || holds_input || (path_within(out, in) && !replaceable))
+            return ESR_FAIL("the output folder '%s' %s the input '%s': writing it would delete "
+                            "the input; choose a folder apart from the inputs", out_dir,
+                            same ? "is" : holds_input ? "contains" : "is a part of", inputs[i]);
+    }
+    return ESR_OK;
 }
 
 /* "<parent>/.<base>.<tag>-<pid>-XXXXXX" for out_dir (trailing slashes ignored). */

@@ -9,6 +9,13 @@
  * only with force. Creates the staging directory (a sibling of out_dir) and returns its path in
  * staging (n bytes). */
 int esr_staging_begin(const char *out_dir, int force, char *staging, size_t n);
+/* Refuses an out_dir that is or contains one of the n input folders (NULL entries skipped), or
+ * lies inside one and already holds something other than an earlier import (no import.json):
+ * replacing it would delete input (`esr import ... --out IMAGES --force` did). A new or empty
+ * folder inside an input (SCAN/data) is fine. Paths are compared after resolving symbolic links
+ * and `..`; an out_dir that does not exist yet is resolved through its nearest existing
+ * ancestor. */
+int esr_staging_check_apart(const char *out_dir, const char *const *inputs, int n);
 /* Moves staging onto out_dir (replacing an existing out_dir, whose old contents are deleted). */
 int esr_staging_commit(const char *staging, const char *out_dir);
 /* Deletes a directory tree (no symlinks followed); used to drop a failed staging directory. */
