@@ -297,6 +297,10 @@ static void test_errors(void **state)
         {"export '%s' --mesh x.ply --res 2", "--res must be"},
         {"export /nonexistent-run --mesh x.ply", "/nonexistent-run"},
         {"bench --wat", "unknown option"},
+        /* refused before any measuring, not after it */
+        {"bench --quick --out /proc/esr_bench.json", "cannot create a temporary file next to"},
+        {"bench --quick --run /nonexistent-run", "has no pdra or lts checkpoint"},
+        {"bench --quick --data /nonexistent-data", "/nonexistent-data' is not a dataset"},
     };
     for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
         snprintf(args, sizeof args, cases[i].fmt, run_dir);

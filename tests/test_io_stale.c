@@ -138,12 +138,36 @@ static void test_output_apart_from_inputs(void **state)
     esr_error_clear();
 }
 
+/* esr_file_check_writable: fine for a new file in a folder that exists, refused for a missing
+ * folder and for a directory, and leaves nothing behind either way. */
+static void test_check_writable(void **state)
+{
+    (void)state;
+    char dir[4200], path[4300], cmd[9000];
+    snprintf(dir, sizeof dir, "%s/writable", test_tmpdir);
+    snprintf(cmd, sizeof cmd, "mkdir -p '%s/sub'", dir);
+    assert_int_equal(system(cmd), 0);
+    snprintf(path, sizeof path, "%s/out.json", dir);
+    assert_int_equal(esr_file_check_writable(path), ESR_OK);
+    snprintf(path, sizeof path, "%s/missing/out.json", dir);
+    assert_int_equal(esr_file_check_writable(path), ESR_ERR);
+    assert_non_null(strstr(esr_error_message(), "missing/out.json"));
+    esr_error_clear();
+    snprintf(path, sizeof path, "%s/sub", dir);
+    assert_int_equal(esr_file_check_writable(path), ESR_ERR);
+    assert_non_null(strstr(esr_error_message(), "is a directory"));
+    esr_error_clear();
+    snprintf(cmd, sizeof cmd, "test \"$(ls -A '%s')\" = sub", dir); /* nothing but sub/ */
+    assert_int_equal(system(cmd), 0);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_sweep_removes_only_dead_writers_leftovers),
         cmocka_unit_test(test_killed_staging_is_swept_by_the_next_run),
         cmocka_unit_test(test_output_apart_from_inputs),
+        cmocka_unit_test(test_check_writable),
     };
     return cmocka_run_group_tests(tests, test_setup_tmpdir, test_teardown_tmpdir);
 }

@@ -459,6 +459,31 @@ static int bench_all(const struct bench_opts *o, cJSON *root)
     return status;
 }
 
+/* What would otherwise fail only after minutes of measuring: the output file, --data's
+ * dataset, and --run's checkpoint and dataset. */
+static int check_inputs(const struct bench_opts *o)
+{
+    ESR_TRY(esr_file_check_writable(o->out));
+    struct esr_dataset ds;
+    if (o->data) {
+        ESR_TRY(esr_dataset_load(o->data, &ds));
+        esr_dataset_free(&ds);
+    }
+    if (!o->run)
+        return ESR_OK;
+    char ckpt[4200], data[4096];
+    snprintf(ckpt, sizeof ckpt, "%s/ckpt_pdra.bin", o->run);
+    if (!esr_file_exists(ckpt))
+        snprintf(ckpt, sizeof ckpt, "%s/ckpt_lts.bin", o->run);
+    if (!esr_file_exists(ckpt))
+        return ESR_FAIL("--run: '%s' has no pdra or lts checkpoint (ckpt_pdra.bin, ckpt_lts.bin)",
+                        o->run);
+    ESR_TRY(esr_run_data_dir(o->run, o->data, data, sizeof data));
+    ESR_TRY(esr_dataset_load(data, &ds));
+    esr_dataset_free(&ds);
+    return ESR_OK;
+}
+
 static int run_bench(int argc, char **argv)
 {
     if (cli_wants_help(&cmd_bench, argc, argv))
@@ -484,6 +509,8 @@ static int run_bench(int argc, char **argv)
         else
             return cli_fail(&cmd_bench, "unknown option or missing value: '%s'", a);
     }
+    if (check_inputs(&o) != ESR_OK)
+        return cli_fail_lib(&cmd_bench);
     cJSON *root = cJSON_CreateObject();
     if (!root)
         return cli_fail(&cmd_bench, "out of memory");

@@ -45,15 +45,37 @@ int esr_file_read_all(const char *path, unsigned char **data, size_t *size)
     return ESR_OK;
 }
 
-int esr_file_write_atomic(const char *path, const void *data, size_t size)
+/* Creates esr_file_write_atomic's temporary file for path (its name in tmp); returns the fd. */
+static int open_temp_for(const char *path, char tmp[4096], int *fd)
 {
-    char tmp[4096], prefix[4096];
+    char prefix[4096];
     if (snprintf(prefix, sizeof prefix, "%s.tmp-", path) >= (int)sizeof prefix)
         return ESR_FAIL("path too long: '%s'", path);
-    ESR_TRY(esr_stale_template(tmp, sizeof tmp, prefix));
-    int fd = mkstemp(tmp);
-    if (fd < 0)
+    ESR_TRY(esr_stale_template(tmp, 4096, prefix));
+    *fd = mkstemp(tmp);
+    if (*fd < 0)
         return ESR_FAIL("cannot create a temporary file next to '%s': %s", path, strerror(errno));
+    return ESR_OK;
+}
+
+int esr_file_check_writable(const char *path)
+{
+    char tmp[4096];
+    int fd = -1;
+    ESR_TRY(open_temp_for(path, tmp, &fd));
+    close(fd);
+    unlink(tmp);
+    struct stat st;
+    if (stat(path, &st) == 0 && S_ISDIR(st.st_mode))
+        return ESR_FAIL("cannot write '%s': it is a directory", path);
+    return ESR_OK;
+}
+
+int esr_file_write_atomic(const char *path, const void *data, size_t size)
+{
+    char tmp[4096];
+    int fd = -1;
+    ESR_TRY(open_temp_for(path, tmp, &fd));
     fchmod(fd, 0644); /* mkstemp creates 0600; outputs are meant to be shared */
     FILE *f = fdopen(fd, "wb");
     if (!f) {

@@ -14,6 +14,11 @@ int esr_file_read_all(const char *path, unsigned char **data, size_t *size);
  * path. On failure the temporary file is removed and path is left untouched. */
 int esr_file_write_atomic(const char *path, const void *data, size_t size);
 
+/* Fails, naming path and the reason, when esr_file_write_atomic could not write path (its
+ * folder missing or not writable, or path a directory); writes nothing. For commands that
+ * would otherwise find out only after minutes of work. */
+int esr_file_check_writable(const char *path);
+
 /* Copies the file src to dst with esr_file_write_atomic (dst never half-written). */
 int esr_file_copy(const char *src, const char *dst);
 
