@@ -301,6 +301,10 @@ static void test_errors(void **state)
         {"bench --quick --out /proc/esr_bench.json", "cannot create a temporary file next to"},
         {"bench --quick --run /nonexistent-run", "has no pdra or lts checkpoint"},
         {"bench --quick --data /nonexistent-data", "/nonexistent-data' is not a dataset"},
+        {"import dtu /nonexistent-scan --out /nonexistent-out --align-to /tmp",
+         "--align-to is for 'colmap' imports (a DTU scan's cameras are known"},
+        {"import dtu /nonexistent-scan --out /nonexistent-out --masks /tmp",
+         "--masks is for 'colmap' imports (a DTU scan's masks are SCAN/mask/)"},
     };
     for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
         snprintf(args, sizeof args, cases[i].fmt, run_dir);

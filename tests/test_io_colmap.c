@@ -14,6 +14,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
+#include <unistd.h>
 
 #include <cjson/cJSON.h>
 #include <jpeglib.h>
@@ -1117,6 +1118,10 @@ static void test_import_bad_captures(void **state)
     snprintf(path, sizeof path, "%s/images/on/shot1.jpg", root);
     assert_int_equal(remove(path), 0);
     assert_import_fails(root, "images/on/shot1.jpg' is missing");
+    /* a folder where a photo should be */
+    assert_int_equal(mkdir(path, 0755), 0);
+    assert_import_fails(root, "images/on/shot1.jpg' is not a file");
+    assert_int_equal(rmdir(path), 0);
     /* a JPEG that does not decode */
     assert_int_equal(test_write_file(path, "\xff\xd8\xff garbage"), 0);
     assert_import_fails(root, "images/on/shot1.jpg' is not a valid JPEG");

@@ -171,9 +171,12 @@ static int run_import(int argc, char **argv)
                         "dataset's image size");
     int tty = isatty(STDERR_FILENO);
     if (!strcmp(positional[0], "dtu")) {
-        if (o.align_to || o.masks_dir)
-            return cli_fail(&cmd_import, "%s is for 'colmap' imports (a DTU scan's masks are SCAN/mask/)",
-                            o.align_to ? "--align-to" : "--masks");
+        if (o.masks_dir)
+            return cli_fail(&cmd_import, "--masks is for 'colmap' imports (a DTU scan's masks are "
+                            "SCAN/mask/)");
+        if (o.align_to)
+            return cli_fail(&cmd_import, "--align-to is for 'colmap' imports (a DTU scan's "
+                            "cameras are known already)");
         return run_dtu(positional, n_pos, &o, &tty);
     }
     if (n_pos < 3)

@@ -6,6 +6,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 
 #include "core/error.h"
 #include "io/colmap_camera.h"
@@ -79,6 +80,10 @@ static int plan_frame(const struct esr_colmap_import_opts *o, const char *model_
             (int)sizeof p->out_name ||
         snprintf(p->src_path, sizeof p->src_path, "%s/%s", o->images_dir, im->name) >= (int)sizeof p->src_path)
         return ESR_FAIL("'%s': image name '%s' is too long", model_file, im->name);
+    struct stat st;
+    if (stat(p->src_path, &st) == 0 && !S_ISREG(st.st_mode))
+        return ESR_FAIL("'%s' is not a file (image %u of the COLMAP model in '%s')", p->src_path,
+                        im->id, o->model_dir);
     if (!esr_file_exists(p->src_path))
         return ESR_FAIL("'%s' is missing (image %u of the COLMAP model in '%s')", p->src_path, im->id, o->model_dir);
     return o->masks_dir ? find_mask(o->masks_dir, im->name, (int)(dot - im->name), p) : ESR_OK;
