@@ -45,7 +45,8 @@ int esr_file_read_all(const char *path, unsigned char **data, size_t *size)
     return ESR_OK;
 }
 
-/* Creates esr_file_write_atomic's temporary file for path (its name in tmp); returns the fd. */
+/* Creates esr_file_write_atomic's temporary file for path: its name in tmp, its open
+ * descriptor in *fd. */
 static int open_temp_for(const char *path, char tmp[4096], int *fd)
 {
     char prefix[4096];
