@@ -533,6 +533,12 @@ static void test_bad_models(void **state)
         snprintf(dir, sizeof dir, "%s/dup_camera_%d", test_tmpdir, text);
         write_model(dir, &m, text);
         assert_read_fails(dir, "camera id 3 appears twice");
+        /* a duplicated image id */
+        small_model(&m, cams, ims, pts);
+        ims[2].id = ims[0].id;
+        snprintf(dir, sizeof dir, "%s/dup_image_%d", test_tmpdir, text);
+        write_model(dir, &m, text);
+        assert_read_fails(dir, "image id 10 appears twice");
         /* a 3D point that is not finite (the scene's placement takes quantiles of the points) */
         small_model(&m, cams, ims, pts);
         pts[4] = NAN;

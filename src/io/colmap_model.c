@@ -61,6 +61,32 @@ static int all_finite(const double *v, int n)
     return 1;
 }
 
+static int compare_u32(const void *a, const void *b)
+{
+    const uint32_t x = *(const uint32_t *)a, y = *(const uint32_t *)b;
+    return (x > y) - (x < y);
+}
+
+/* COLMAP never writes two images with one id; a model that has them is damaged (the points'
+ * tracks name images by id), so it is refused rather than imported. */
+static int check_image_ids_unique(const struct esr_colmap_model *m, const char *images_file)
+{
+    if (m->n_images < 2)
+        return ESR_OK;
+    uint32_t *ids = malloc((size_t)m->n_images * sizeof *ids);
+    if (!ids)
+        return ESR_FAIL("out of memory checking %d image ids", m->n_images);
+    for (int i = 0; i < m->n_images; i++)
+        ids[i] = m->images[i].id;
+    qsort(ids, (size_t)m->n_images, sizeof *ids, compare_u32);
+    int rc = ESR_OK;
+    for (int i = 1; i < m->n_images && rc == ESR_OK; i++)
+        if (ids[i] == ids[i - 1])
+            rc = ESR_FAIL("'%s': image id %u appears twice", images_file, ids[i]);
+    free(ids);
+    return rc;
+}
+
 int esr_colmap_model_validate(const struct esr_colmap_model *m, const char *cameras_file, const char *images_file,
                               const char *points_file)
 {
@@ -87,6 +113,7 @@ int esr_colmap_model_validate(const struct esr_colmap_model *m, const char *came
             return ESR_FAIL("'%s': image %u ('%s') refers to camera %u, which is not in '%s'", images_file, im->id,
                             im->name, im->camera_id, cameras_file);
     }
+    ESR_TRY(check_image_ids_unique(m, images_file));
     /* (the scene's placement takes medians and quantiles of the points) */
     for (long i = 0; i < m->n_points; i++)
         if (!all_finite(m->points + 3 * i, 3))
