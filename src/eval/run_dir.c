@@ -11,23 +11,30 @@
 #include "eval/select.h"
 #include "io/file.h"
 
-int esr_run_data_key(const char *text, size_t size, char *out, size_t n)
+/* The dataset path recorded in a run file's parsed JSON (root may be NULL); 1 when found. */
+static int data_key_in(const cJSON *root, char *out, size_t n)
 {
     static const char *const keys[] = {"data", "data_dir", "dataset"};
-    cJSON *root = cJSON_ParseWithLength(text, size);
-    int found = 0;
-    for (size_t k = 0; k < sizeof keys / sizeof keys[0] && !found; k++) {
+    for (size_t k = 0; k < sizeof keys / sizeof keys[0]; k++) {
         const cJSON *v = cJSON_GetObjectItemCaseSensitive(root, keys[k]);
         if (cJSON_IsString(v) && v->valuestring[0] && strlen(v->valuestring) < n) {
             snprintf(out, n, "%s", v->valuestring);
-            found = 1;
+            return 1;
         }
     }
+    return 0;
+}
+
+int esr_run_data_key(const char *text, size_t size, char *out, size_t n)
+{
+    cJSON *root = cJSON_ParseWithLength(text, size);
+    const int found = data_key_in(root, out, n);
     cJSON_Delete(root);
     return found;
 }
 
-/* esr_run_data_key on `file`; 0 when it is absent or unreadable. */
+/* The dataset path in `file`: 1 when found; 0 when the file is absent, unreadable or has no
+ * such key; -1 when it exists but is not JSON (a damaged file, which the caller names). */
 static int data_key_of(const char *file, char *out, size_t n)
 {
     unsigned char *text;
@@ -36,8 +43,10 @@ static int data_key_of(const char *file, char *out, size_t n)
         return 0;
     if (esr_file_read_all(file, &text, &size) != ESR_OK)
         return 0;
-    int found = esr_run_data_key((const char *)text, size, out, n);
+    cJSON *root = cJSON_ParseWithLength((const char *)text, size);
     free(text);
+    const int found = root ? data_key_in(root, out, n) : -1;
+    cJSON_Delete(root);
     return found;
 }
 
@@ -50,27 +59,21 @@ int esr_run_data_dir(const char *run, const char *override, char *out, size_t n)
         return ESR_OK;
     }
     static const char *const files[] = {"run.json", "config.json"};
-    char path[ESR_PATH_MAX];
+    char path[ESR_PATH_MAX], damaged[ESR_PATH_MAX] = "";
     for (size_t i = 0; i < sizeof files / sizeof files[0]; i++) {
         snprintf(path, sizeof path, "%s/%s", run, files[i]);
-        if (data_key_of(path, out, n)) {
+        const int found = data_key_of(path, out, n);
+        if (found > 0) {
             esr_error_clear(); /* a file without the key is not an error */
             return ESR_OK;
         }
+        if (found < 0 && i == 0) /* run.json: the file esr train writes for this */
+            snprintf(damaged, sizeof damaged, "%s", path);
     }
     esr_error_clear();
-    snprintf(path, sizeof path, "%s/run.json", run);
-    unsigned char *text;
-    size_t size;
-    if (esr_file_exists(path) && esr_file_read_all(path, &text, &size) == ESR_OK) {
-        cJSON *root = cJSON_ParseWithLength((const char *)text, size);
-        free(text);
-        cJSON_Delete(root);
-        if (!root)
-            return ESR_FAIL("%s is not valid JSON (a damaged file: `esr train DATA --out %s "
-                            "--resume` writes it again); give --data DIR", path, run);
-    }
-    esr_error_clear();
+    if (damaged[0])
+        return ESR_FAIL("%s is not valid JSON (a damaged file: `esr train DATA --out %s "
+                        "--resume` writes it again); give --data DIR", damaged, run);
     return ESR_FAIL("run '%s' does not record its dataset (no \"data\" in %s/run.json or %s/config.json); give "
                     "--data DIR",
                     run, run, run);
