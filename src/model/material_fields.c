@@ -101,8 +101,9 @@ int esr_material_fields_fwd(struct esr_material_fields *mf, const struct esr_mod
     esr_rows_pe(&m->pe_pos, pos3, n, mf->x_e + C, ni);
     esr_rows_copy_cols(mf->geo, (size_t)mf->geo_dim, mf->x_e + C + pp, ni, n, mf->geo_dim);
     const float *w = m->params.w;
-    ESR_TRY(mlp_run(mf, esr_model_mlp(m, ESR_COMP_EMIT_MLP), w, &mf->ctx_e, mf->x_e, mf->emit3, n));
-    if (!m->cfg.emission) /* a scene without lights-on images emits nothing (option emission) */
+    if (m->cfg.emission)
+        ESR_TRY(mlp_run(mf, esr_model_mlp(m, ESR_COMP_EMIT_MLP), w, &mf->ctx_e, mf->x_e, mf->emit3, n));
+    else /* a scene without lights-on images emits nothing (option emission; no backward) */
         memset(mf->emit3, 0, n * 3 * sizeof(float));
     if (mf->emission_only)
         return ESR_OK;
