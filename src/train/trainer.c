@@ -209,10 +209,26 @@ static void report_window(struct run *r, const struct esr_model *m, enum esr_sta
     w->t0 = now;
 }
 
-/* Reloads the stage's last checkpoint into m (same layout) after a NaN. */
-static int save(struct run *r, const struct esr_model *m, enum esr_stage s);
+static int save(struct run *r, const struct esr_model *m, enum esr_stage s)
+{
+    char path[4200];
+    ckpt_path(r, s, path, sizeof path);
+    return esr_model_save(m, path);
+}
 
-static int recover(struct run *r, struct esr_model *m, enum esr_stage s, long it)
+/* A checkpoint inside a stage: the next step recomputes the LTS normals from the model's SDF,
+ * as a run resumed from this checkpoint computes them first. */
+static int save_in_stage(struct run *r, const struct esr_model *m, enum esr_stage s,
+                         struct esr_train_step *b)
+{
+    if (b->has_lts)
+        esr_lts_refresh_normals(&b->lts);
+    return save(r, m, s);
+}
+
+/* Reloads the stage's last checkpoint into m (same layout) after a NaN. */
+static int recover(struct run *r, struct esr_model *m, enum esr_stage s, long it,
+                   struct esr_train_step *b)
 {
     char path[4200];
     ckpt_path(r, s, path, sizeof path);
@@ -234,8 +250,8 @@ static int recover(struct run *r, struct esr_model *m, enum esr_stage s, long it
               "learning rate halved (x%g), continuing",
         esr_stage_name(s), it, path, m->step, (double)m->lr_scale);
     /* the checkpoint now says at which rate its step goes on: a run killed before the next
-     * checkpoint resumes from it as this one continues */
-    return save(r, m, s);
+     * checkpoint resumes from it as this one continues (normals from the reloaded SDF) */
+    return save_in_stage(r, m, s, b);
 }
 
 /* Forward + loss + backward + regularisers for iteration it; returns the loss in *loss. */
@@ -269,13 +285,6 @@ static int iterate(struct run *r, struct esr_model *m, struct esr_train_step *b,
     }
     w->iters++;
     return ESR_OK;
-}
-
-static int save(struct run *r, const struct esr_model *m, enum esr_stage s)
-{
-    char path[4200];
-    ckpt_path(r, s, path, sizeof path);
-    return esr_model_save(m, path);
 }
 
 /* Builds the mask cache from the trained density grid. */
@@ -378,9 +387,7 @@ static int run_stage(struct run *r, struct esr_model *m, enum esr_stage s)
             m->params.g[m->params.count / 2] = NAN;
         }
         if (!isfinite(loss) || !esr_nn_all_finite(m->params.g, m->params.count)) {
-            rc = recover(r, m, s, it);
-            if (b.has_lts) /* the reloaded SDF's, as a run resumed from the checkpoint has */
-                esr_lts_refresh_normals(&b.lts);
+            rc = recover(r, m, s, it, &b);
             memset(&w, 0, sizeof w);
             w.t0 = omp_get_wtime();
             continue;
@@ -393,11 +400,8 @@ static int run_stage(struct run *r, struct esr_model *m, enum esr_stage s)
         m->inv_s = esr_stage_inv_s(&m->cfg, s, m->step);
         if (m->step % r->cfg.log_every == 0 || m->step == sc->iters)
             report_window(r, m, s, &w, m->step, sc->iters, B);
-        if (m->step % r->cfg.save_every == 0 && m->step < sc->iters) {
-            rc = save(r, m, s);
-            if (b.has_lts) /* what a run resumed from this checkpoint computes first */
-                esr_lts_refresh_normals(&b.lts);
-        }
+        if (m->step % r->cfg.save_every == 0 && m->step < sc->iters)
+            rc = save_in_stage(r, m, s, &b);
         if (r->o->stop_test_iter > 0 && s == r->o->stop_test_stage &&
             m->step == r->o->stop_test_iter) {
             r->stopped = 1;
