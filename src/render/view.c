@@ -42,11 +42,15 @@ int esr_view_render(const struct esr_model *m, const struct esr_camera *cam, int
     if (status == ESR_OK)
         esr_camera_pixel_rays(cam, origins, dirs);
     if (status == ESR_OK) {
+        /* with lights, the emitted radiance is theirs: E elsewhere is not a light (a reflection
+         * the search left out, E below k on the rest of the surface) */
+        const int lit = m->lights.n > 0;
         struct esr_render_out o = {.rgb = out->rgb.data,         .linear = out->linear.data,
                                    .depth = out->depth.data,     .normal = out->normal.data,
                                    .opacity = out->opacity.data, .emission = out->emission.data,
-                                   .emitted = out->emitted.data, .material = out->material,
-                                   .light_id = out->light_id,
+                                   .emitted = lit ? NULL : out->emitted.data,
+                                   .emitted_lights = lit ? out->emitted.data : NULL,
+                                   .material = out->material,    .light_id = out->light_id,
                                    .linear_other = out->emo.data}; /* lights off, for emo */
         status = esr_model_render_rays(m, origins, dirs, n, lights_on, &o);
     }

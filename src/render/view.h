@@ -20,8 +20,9 @@ struct esr_view_images {
     struct esr_image opacity; /* 1 ch: 1 - final transmittance */
     struct esr_image emission; /* 3 ch: composited emission E of the field, linear HDR (lts
                                   stage on; else empty: data NULL); the emitter mask's source */
-    struct esr_image emitted;  /* 3 ch: composited emitted radiance, E at its light's calibrated
-                                  strength (model/lights.h), like emission */
+    struct esr_image emitted;  /* 3 ch: composited emitted radiance: a model with lights, E at
+                                  its light's calibrated strength on the lights and 0 elsewhere
+                                  (model/lights.h); else E, like emission */
     struct esr_image emo;      /* 3 ch: lights-on views of an lts+ model: the emission's effect,
                                   linear on - linear off (the illumination decomposition); else
                                   empty */
@@ -49,10 +50,11 @@ void esr_view_images_free(struct esr_view_images *v);
  *                  > 0.5 (0 = nearest); pixels of lower opacity are white
  *   N_depth.exr    raw depth (float, one channel)
  * and with an emission image (lts stage on):
- *   N_emission.exr composited emitted radiance (E at its light's calibrated strength; linear
- *                  RGB, float)
+ *   N_emission.exr composited emitted radiance (a model with lights: E at its light's
+ *                  calibrated strength on the lights, nothing elsewhere; else E; linear RGB, float)
  *   N_emission.png its sRGB OETF clipped to [0,1], 8-bit
  *   N_emitter.png  emitter mask, grey 0 or 255: any channel of the field's E above emitter_k
+ *                  and, for a model with lights, the pixel's surface on one of them
  *   N_emo.exr, N_emo.png  lights-on views: the emission's effect, linear on - off (float; PNG:
  *                  sRGB OETF clipped), so that off + emo = on (the illumination decomposition)
  *   N_lights.png   a model with lights: grey, 0 off the emitter mask, else 1 + the id of the

@@ -97,7 +97,10 @@ static int write_emission(const char *dir, const char *name, const struct esr_vi
     const long long n = (long long)grey->width * grey->height;
     for (long long i = 0; i < n; i++) {
         const float *e = v->emission.data + 3 * i;
-        grey->data[i] = fmaxf(e[0], fmaxf(e[1], e[2])) > v->emitter_k ? 1.0f : 0.0f;
+        grey->data[i] = (v->light_id ? esr_view_light_code(e, v->light_id[i], v->emitter_k) > 0.0f
+                                     : fmaxf(e[0], fmaxf(e[1], e[2])) > v->emitter_k)
+                            ? 1.0f
+                            : 0.0f;
     }
     ESR_TRY(write_png(dir, name, "_emitter.png", grey));
     if (!v->light_id)
