@@ -281,6 +281,10 @@ static void test_errors(void **state)
         {"render", "missing RUN"},
         {"render /nonexistent-run", "run directory '/nonexistent-run' does not exist"},
         {"eval /nonexistent-run", "run directory '/nonexistent-run' does not exist"},
+        {"render /etc/passwd", "'/etc/passwd' is not a run directory (it is a file)"},
+        {"eval '%s' --iters 5", "--iters is read only with --method finetune"},
+        {"eval '%s' --limit ' 2'", "--limit must be an integer in 1.."},
+        {"render '%s' --limit 0x2", "--limit must be an integer in 1.."},
         {"render '%s' --phase bogus", "unknown phase 'bogus'"},
         {"eval '%s' --phase bogus", "unknown phase 'bogus'"},
         {"render '%s' --phase test_nvi", "not supported yet"},
@@ -312,6 +316,10 @@ static void test_errors(void **state)
         if (rc != 1 || !strstr(out, cases[i].expect))
             fail_msg("esr %s: exit %d, expected 1 and '%s' in:\n%s", args, rc, cases[i].expect, out);
     }
+    /* renders into the dataset would replace its photos */
+    snprintf(args, sizeof args, "render '%s' --out '%s/test_nv'", run_dir, ds_dir);
+    assert_int_equal(test_run_esr(args, out, sizeof out), 1);
+    assert_non_null(strstr(out, "lies inside the dataset"));
     /* a broken ground-truth image stops eval before it renders anything */
     char broken[1200], cmd[12288];
     snprintf(broken, sizeof broken, "%s/broken_data", test_tmpdir);

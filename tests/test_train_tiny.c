@@ -27,6 +27,7 @@
 #include "edit/editor.h"
 #include "edit/finetune.h"
 #include "io/dataset.h"
+#include "io/dir.h"
 #include "render/view.h"
 #include "train/trainer.h"
 
@@ -764,13 +765,20 @@ static void test_pdra_finds_lights(void **state)
         const char *args, *message;
     } bad[] = {
         {"--light 15 --intensity 0", "no light 15"},
-        {"--light all --intensity -1", "--intensity: expected a finite number >= 0"},
-        {"--light all --intensity nan", "--intensity: expected a finite number >= 0"},
+        {"--light all --intensity -1", "--intensity: expected a number >= 0 and at most"},
+        {"--light all --intensity nan", "--intensity: expected a number >= 0 and at most"},
+        {"--light all --intensity 0x10", "--intensity: expected a number >= 0 and at most"},
+        {"--light all --intensity ' 1'", "--intensity: expected a number >= 0 and at most"},
+        {"--light +0 --intensity 2", "--light: expected a light id"},
         {"--light 0 --color 1.5,0.2", "--color: expected H,S with both in [0,1]"},
         {"--light 0 --method relit", "--method: expected direct, ratio or finetune"},
         {"--light 0 --method finetune --iters 0", "--iters: expected 1..1000000"},
+        {"--light 0 --intensity 2 --iters 5", "--iters is read only with --method finetune"},
+        {"--light 0 --intensity 2 --frames c000_on", "--frames and --orbit exclude each other"},
+        {"--light 0 --intensity 2 --spp 2 --spp 3", "--spp given twice"},
+        {"--light 0 --intensity 2 --intensity 3", "--intensity given twice after one --light"},
         {"--intensity 2", "--intensity before any --light"},
-        {"--light all --intensity 1e40", "--intensity: expected a finite number >= 0 and at most"},
+        {"--light all --intensity 1e40", "--intensity: expected a number >= 0 and at most"},
         {"--light 0 --intensity 2 --light 1", "--light 1 has no --intensity or --color"},
     };
     char edit_out[4400];
@@ -835,6 +843,35 @@ static void test_pdra_finds_lights(void **state)
     expect_edit_refused(none_run, edit_out, "no lights");
 
     if (m.lights.n > 0) {
+        /* groups add up; two that set one thing for one light are refused */
+        snprintf(cmd, sizeof cmd, "edit %s --light all --intensity 0 --light 0 --intensity 2 --out "
+                 "%s --orbit 1", run, edit_out);
+        assert_int_equal(test_run_esr(cmd, out, sizeof out), 1);
+        assert_non_null(strstr(out, "light 0 gets its --intensity from two groups (--light all "
+                                    "and --light 0)"));
+        assert_false(esr_file_exists(edit_out));
+        /* an output folder inside the dataset or the run's renders would replace their files */
+        const char *inside[2] = {data_dir, run};
+        for (int k = 0; k < 2; k++) {
+            snprintf(cmd, sizeof cmd, "edit %s --light 0 --intensity 2 --out %s/%s --orbit 1", run,
+                     inside[k], k ? "render/test_nv" : "test_nv");
+            assert_int_equal(test_run_esr(cmd, out, sizeof out), 1);
+            if (!strstr(out, k ? "lies inside the run's render folder" : "lies inside the dataset"))
+                fail_msg("esr %s: %s", cmd, out);
+        }
+        /* a view that cannot be written: the views written before it are removed */
+        char blocked[4400];
+        snprintf(blocked, sizeof blocked, "%s/edit_blocked/orbit_001.png", test_tmpdir);
+        assert_int_equal(esr_dir_create(blocked), ESR_OK);
+        snprintf(cmd, sizeof cmd, "edit %s --light all --color 0.6,1 --light 0 --intensity 2 --out "
+                 "%s/edit_blocked --orbit 3", run, test_tmpdir);
+        assert_int_equal(test_run_esr(cmd, out, sizeof out), 1);
+        assert_non_null(strstr(out, "orbit_001.png"));
+        const char *gone[3] = {"orbit_000.exr", "orbit_000.png", "orbit_001.exr"};
+        for (int k = 0; k < 3; k++) {
+            snprintf(cmd, sizeof cmd, "%s/edit_blocked/%s", test_tmpdir, gone[k]);
+            assert_false(esr_file_exists(cmd));
+        }
         /* an output folder that cannot be created */
         snprintf(cmd, sizeof cmd, "edit %s --light all --intensity 0 --out /proc/esr_cannot --orbit 1",
                  run);

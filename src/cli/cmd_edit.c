@@ -12,6 +12,7 @@
 #include "edit/editor.h"
 #include "eval/run_dir.h"
 #include "io/dir.h"
+#include "io/staging.h"
 #include "io/image.h"
 #include "model/model.h"
 #include "render/view.h"
@@ -29,8 +30,11 @@ const struct esr_command cmd_edit = {
     "starts a group; the --intensity and --color after it apply to that light (or to every light\n"
     "with `all`); lights not named stay as found. Intensity multiplies the light's strength (0 =\n"
     "off); --color H,S replaces its hue and saturation, keeping its value (seed eqs. 10-15).\n"
+    "Groups add up: `--light all --color 0.6,1 --light 0 --intensity 2` recolours every light and\n"
+    "doubles light 0; two groups that set the same thing for one light are refused.\n"
     "Writes per view DIR/N.png (linear through the sRGB curve, clipped) and DIR/N.exr (linear\n"
-    "RGB on white).\n"
+    "RGB on white); DIR may not lie in the dataset or in RUN's render or eval folders. On an\n"
+    "error the views already written are removed.\n"
     "\n"
     "methods:\n"
     "  direct     (default) the lights-off radiance plus the direct light of every light at its\n"
@@ -49,7 +53,7 @@ const struct esr_command cmd_edit = {
     "  --views PHASE  the cameras of a dataset phase (default: test_nv; its on frames' names)\n"
     "  --orbit N      N cameras on a circle around the scene at the first test camera's distance\n"
     "                 and height, written orbit_000 .. orbit_<N-1>\n"
-    "  --frames a,b   only these frames of the phase, by name\n"
+    "  --frames a,b   only these frames of the phase, by name (not with --orbit)\n"
     "  --spp N        light samples per pixel and light (default 8; finetune: on lights' pixels)\n"
     "  --iters N      finetune: steps of the fine-tune (default 300)\n"
     "  --data DIR     dataset (default: the one RUN was trained on)\n"
@@ -65,12 +69,22 @@ struct edit_args {
     const char *run, *out, *views, *data, *frames;
     int orbit, spp, n_groups, iters;
     enum esr_edit_method method;
+    int has_method, has_spp;
     struct {
         int light; /* -1 = all */
         struct esr_light_edit e;
-        int has_edit; /* an --intensity or a --color follows */
+        int has_intensity, has_colour; /* an --intensity, a --color follows */
     } g[ESR_MAX_LIGHTS * 2];
 };
+
+/* The option o's value, refused when o was given before (*seen). */
+static int once(const char *o, int *seen)
+{
+    if (*seen)
+        return cli_fail(&cmd_edit, "%s given twice", o);
+    *seen = 1;
+    return 0;
+}
 
 /* "H,S" in [0,1] each. */
 static int parse_hs(const char *text, float *h, float *s)
@@ -88,6 +102,15 @@ static int parse_hs(const char *text, float *h, float *s)
     return 0;
 }
 
+/* A text option's value (once). */
+static int text_value(const char *o, const char *v, const char **out)
+{
+    if (*out)
+        return cli_fail(&cmd_edit, "%s given twice", o);
+    *out = v;
+    return 0;
+}
+
 static int parse(int argc, char **argv, struct edit_args *a)
 {
     memset(a, 0, sizeof(*a));
@@ -100,10 +123,10 @@ static int parse(int argc, char **argv, struct edit_args *a)
             if (a->n_groups == (int)(sizeof a->g / sizeof a->g[0]))
                 return cli_fail(&cmd_edit, "too many --light groups");
             const char *v = argv[++i];
-            int id = -1;
-            if (strcmp(v, "all") && cli_parse_int(v, 0, ESR_MAX_LIGHTS - 1, &id))
-                return cli_fail(&cmd_edit, "--light: expected a light id (0..%d) or 'all', got '%s'",
-                                ESR_MAX_LIGHTS - 1, v);
+            int id = -1; /* the run's own range is checked once its lights are loaded */
+            if (strcmp(v, "all") && cli_parse_int(v, 0, 1000000, &id))
+                return cli_fail(&cmd_edit, "--light: expected a light id (0, 1, ...) or 'all', got "
+                                "'%s'", v);
             a->g[a->n_groups].light = id;
             a->g[a->n_groups].e.intensity = 1.0f;
             a->n_groups++;
@@ -113,38 +136,54 @@ static int parse(int argc, char **argv, struct edit_args *a)
             const char *v = argv[++i];
             struct esr_light_edit *e = &a->g[a->n_groups - 1].e;
             if (!strcmp(o, "--intensity")) {
-                char *end;
-                const double x = strtod(v, &end);
+                double x;
+                if (a->g[a->n_groups - 1].has_intensity)
+                    return cli_fail(&cmd_edit, "--intensity given twice after one --light");
+                a->g[a->n_groups - 1].has_intensity = 1;
                 /* the cap keeps the edited radiance (and its image) finite in float */
-                if (end == v || *end || !isfinite(x) || x < 0.0 || x > MAX_INTENSITY)
-                    return cli_fail(&cmd_edit, "--intensity: expected a finite number >= 0 and at "
-                                    "most %g, got '%s'", MAX_INTENSITY, v);
+                if (cli_parse_double(v, 0.0, MAX_INTENSITY, &x))
+                    return cli_fail(&cmd_edit, "--intensity: expected a number >= 0 and at most "
+                                    "%g, got '%s'", MAX_INTENSITY, v);
                 e->intensity = (float)x;
             } else {
+                if (a->g[a->n_groups - 1].has_colour)
+                    return cli_fail(&cmd_edit, "--color given twice after one --light");
+                a->g[a->n_groups - 1].has_colour = 1;
                 if (parse_hs(v, &e->hue, &e->sat))
                     return cli_fail(&cmd_edit, "--color: expected H,S with both in [0,1], got '%s'", v);
                 e->recolour = 1;
             }
-            a->g[a->n_groups - 1].has_edit = 1;
         } else if (!strcmp(o, "--method") && has) {
             const char *v = argv[++i];
+            if (once(o, &a->has_method))
+                return 1;
             if (esr_edit_method_from_name(v, &a->method))
                 return cli_fail(&cmd_edit, "--method: expected direct, ratio or finetune, got '%s'", v);
         } else if (!strcmp(o, "--out") && has) {
-            a->out = argv[++i];
+            if (text_value(o, argv[++i], &a->out))
+                return 1;
         } else if (!strcmp(o, "--views") && has) {
-            a->views = argv[++i];
+            if (text_value(o, argv[++i], &a->views))
+                return 1;
         } else if (!strcmp(o, "--data") && has) {
-            a->data = argv[++i];
+            if (text_value(o, argv[++i], &a->data))
+                return 1;
         } else if (!strcmp(o, "--frames") && has) {
-            a->frames = argv[++i];
+            if (text_value(o, argv[++i], &a->frames))
+                return 1;
         } else if (!strcmp(o, "--orbit") && has) {
+            if (a->orbit)
+                return cli_fail(&cmd_edit, "--orbit given twice");
             if (cli_parse_int(argv[++i], 1, 3600, &a->orbit))
                 return cli_fail(&cmd_edit, "--orbit: expected 1..3600 views, got '%s'", argv[i]);
         } else if (!strcmp(o, "--iters") && has) {
+            if (a->iters)
+                return cli_fail(&cmd_edit, "--iters given twice");
             if (cli_parse_int(argv[++i], 1, 1000000, &a->iters))
                 return cli_fail(&cmd_edit, "--iters: expected 1..1000000, got '%s'", argv[i]);
         } else if (!strcmp(o, "--spp") && has) {
+            if (once(o, &a->has_spp))
+                return 1;
             if (cli_parse_int(argv[++i], 1, 4096, &a->spp))
                 return cli_fail(&cmd_edit, "--spp: expected 1..4096, got '%s'", argv[i]);
         } else if (o[0] == '-' && o[1]) {
@@ -162,7 +201,7 @@ static int parse(int argc, char **argv, struct edit_args *a)
     if (a->n_groups == 0)
         return cli_fail(&cmd_edit, "nothing to edit: give at least one --light ID|all");
     for (int i = 0; i < a->n_groups; i++)
-        if (!a->g[i].has_edit) {
+        if (!a->g[i].has_intensity && !a->g[i].has_colour) {
             char id[16] = "all";
             if (a->g[i].light >= 0)
                 snprintf(id, sizeof id, "%d", a->g[i].light);
@@ -171,21 +210,55 @@ static int parse(int argc, char **argv, struct edit_args *a)
         }
     if (a->views && a->orbit)
         return cli_fail(&cmd_edit, "--views and --orbit exclude each other");
+    if (a->frames && a->orbit)
+        return cli_fail(&cmd_edit, "--frames and --orbit exclude each other (the orbit's views are "
+                        "new cameras, not the phase's frames)");
+    if (a->iters && a->method != ESR_EDIT_FINETUNE)
+        return cli_fail(&cmd_edit, "--iters is read only with --method finetune");
     return 0;
 }
 
-/* The per-light edits of the groups, for a model of n lights; fails on an unknown id. */
+/* The per-light edits of the groups, for a model of n lights: each group sets what it gives
+ * (intensity, colour) for its lights; fails on an unknown id or on two groups setting one thing
+ * for one light. */
 static int edits_of(const struct edit_args *a, int n, struct esr_light_edit *edits)
 {
-    for (int k = 0; k < n; k++)
+    int by_intensity[ESR_MAX_LIGHTS], by_colour[ESR_MAX_LIGHTS]; /* the group that set it, or -1 */
+    for (int k = 0; k < n; k++) {
         edits[k] = (struct esr_light_edit){1.0f, 0, 0.0f, 0.0f};
+        by_intensity[k] = by_colour[k] = -1;
+    }
     for (int i = 0; i < a->n_groups; i++) {
         if (a->g[i].light >= n)
             return ESR_FAIL("no light %d: the run found %d light%s (ids 0..%d; `esr lights %s`)",
                             a->g[i].light, n, n == 1 ? "" : "s", n - 1, a->run);
-        for (int k = 0; k < n; k++)
-            if (a->g[i].light < 0 || a->g[i].light == k)
-                edits[k] = a->g[i].e;
+        for (int k = 0; k < n; k++) {
+            if (a->g[i].light >= 0 && a->g[i].light != k)
+                continue;
+            const int *by = a->g[i].has_intensity && by_intensity[k] >= 0 ? by_intensity
+                            : a->g[i].has_colour && by_colour[k] >= 0   ? by_colour
+                                                                         : NULL;
+            if (by) {
+                char first[16] = "all", second[16] = "all";
+                if (a->g[by[k]].light >= 0)
+                    snprintf(first, sizeof first, "%d", a->g[by[k]].light);
+                if (a->g[i].light >= 0)
+                    snprintf(second, sizeof second, "%d", a->g[i].light);
+                return ESR_FAIL("light %d gets its %s from two groups (--light %s and --light %s): "
+                                "give it once", k, by == by_intensity ? "--intensity" : "--color",
+                                first, second);
+            }
+            if (a->g[i].has_intensity) {
+                edits[k].intensity = a->g[i].e.intensity;
+                by_intensity[k] = i;
+            }
+            if (a->g[i].has_colour) {
+                edits[k].recolour = 1;
+                edits[k].hue = a->g[i].e.hue;
+                edits[k].sat = a->g[i].e.sat;
+                by_colour[k] = i;
+            }
+        }
     }
     return ESR_OK;
 }
@@ -209,11 +282,14 @@ static struct esr_camera orbit_camera(const struct esr_camera *first, const floa
     return c;
 }
 
-static int write_view(const char *dir, const char *name, const struct esr_image *lin)
+/* Writes the view's N.exr and N.png; *written counts the files in place (0, 1 or 2). */
+static int write_view(const char *dir, const char *name, const struct esr_image *lin, int *written)
 {
     char path[4200];
+    *written = 0;
     ESR_TRY(esr_view_path(path, sizeof path, dir, name, ".exr"));
     ESR_TRY(esr_exr_write(path, lin, 0));
+    *written = 1;
     struct esr_image png;
     ESR_TRY(esr_image_alloc(&png, lin->width, lin->height, 3));
     for (size_t i = 0; i < esr_image_count(lin); i++)
@@ -222,7 +298,33 @@ static int write_view(const char *dir, const char *name, const struct esr_image 
     if (rc == ESR_OK)
         rc = esr_png_write(path, &png, 8);
     esr_image_free(&png);
+    *written += rc == ESR_OK;
     return rc;
+}
+
+/* After an error: removes the first n views' files this edit wrote (the last one's first
+ * `last_files`), so that a failed edit leaves nothing behind. */
+static void remove_views(const char *dir, const char *const *names, int n, int last_files)
+{
+    static const char *const ext[2] = {".exr", ".png"};
+    for (int v = 0; v < n; v++)
+        for (int f = 0; f < (v == n - 1 ? last_files : 2); f++) {
+            char path[4200];
+            if (esr_view_path(path, sizeof path, dir, names[v], ext[f]) == ESR_OK)
+                remove(path);
+        }
+}
+
+/* Refuses an output folder in the dataset or in RUN's own render and eval folders: edited views
+ * would replace the photos, or renders that render.json vouches for. */
+static int check_out(const struct edit_args *a, const char *dataset)
+{
+    char render[4200], eval[4200];
+    snprintf(render, sizeof render, "%s/render", a->run);
+    snprintf(eval, sizeof eval, "%s/eval", a->run);
+    const char *const folders[3] = {dataset, render, eval};
+    const char *const what[3] = {"the dataset", "the run's render folder", "the run's eval folder"};
+    return esr_output_check_outside(a->out, folders, what, 3);
 }
 
 static int edit(const struct edit_args *a)
@@ -242,6 +344,8 @@ static int edit(const struct edit_args *a)
     if (a->iters)
         ft.iters = a->iters;
     if (rc == ESR_OK)
+        rc = check_out(a, sel.ds.root);
+    if (rc == ESR_OK)
         rc = esr_dir_prepare_output(a->out);
     if (rc == ESR_OK)
         rc = esr_editor_init(&ed, &m, &sel.ds, a->method, a->spp, &ft);
@@ -258,26 +362,38 @@ static int edit(const struct edit_args *a)
     const float centre[3] = {0.5f * (m.scene_min[0] + m.scene_max[0]),
                              0.5f * (m.scene_min[1] + m.scene_max[1]),
                              0.5f * (m.scene_min[2] + m.scene_max[2])};
+    char(*names)[ESR_NAME_MAX] = rc == ESR_OK ? calloc((size_t)views, sizeof *names) : NULL;
+    const char **name_of = rc == ESR_OK ? calloc((size_t)views, sizeof *name_of) : NULL;
+    if (rc == ESR_OK && !(names && name_of))
+        rc = ESR_FAIL("out of memory for %d view names", views);
+    int done = 0, last_files = 0; /* views whose files were (partly) written */
     for (int v = 0; rc == ESR_OK && v < views; v++) {
         const struct esr_frame *f = &ph->frames[sel.idx[a->orbit ? 0 : v]];
-        char name[ESR_NAME_MAX];
+        char *name = names[v];
+        name_of[v] = name;
         struct esr_camera cam = f->camera;
         if (a->orbit) {
             cam = orbit_camera(&f->camera, centre, v, a->orbit);
-            snprintf(name, sizeof name, "orbit_%03d", v);
+            snprintf(name, ESR_NAME_MAX, "orbit_%03d", v);
         } else {
-            snprintf(name, sizeof name, "%s", f->name);
+            snprintf(name, ESR_NAME_MAX, "%s", f->name);
         }
         const double t0 = omp_get_wtime();
         struct esr_image lin;
         rc = esr_editor_view(&ed, &cam, (uint64_t)v, &lin);
         const double secs = omp_get_wtime() - t0;
-        if (rc == ESR_OK)
-            rc = write_view(a->out, name, &lin);
+        if (rc == ESR_OK) {
+            done = v + 1;
+            rc = write_view(a->out, name, &lin, &last_files);
+        }
         esr_image_free(&lin);
         if (rc == ESR_OK)
             fprintf(stderr, "  %-16s %4d / %-4d  %.2f s\n", name, v + 1, views, secs);
     }
+    if (rc != ESR_OK && done > 0)
+        remove_views(a->out, name_of, done, last_files);
+    free(names);
+    free(name_of);
     esr_editor_free(&ed);
     esr_model_free(&m);
     esr_run_selection_free(&sel);

@@ -372,6 +372,8 @@ static int run_eval(int argc, char **argv)
     }
     if (!a.run)
         return cli_fail(&cmd_eval, "missing RUN directory");
+    if (a.iters && a.method != ESR_EDIT_FINETUNE)
+        return cli_fail(&cmd_eval, "--iters is read only with --method finetune");
     struct eval_paths paths;
     struct esr_run_selection sel;
     memset(&sel, 0, sizeof sel);

@@ -126,7 +126,7 @@ static int lights(const char *run, const char *data_override, int again)
         for (int i = 0; i < m.lights.n; i++)
             if (unseen[i])
                 printf("  light %d: %ld of its %ld surface points are seen by no camera; they emit its\n"
-                       "    mean field (grown from the seen part: a lampshade's closed bottom)\n",
+                       "    mean field (the part no camera looks at, such as a lampshade's bottom)\n",
                        i, unseen[i], m.lights.light[i].points);
         if (borrowed)
             printf("  * under %.0f%% of the lights' area: too small to fit from the light it casts; it\n"

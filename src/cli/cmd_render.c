@@ -6,6 +6,7 @@
 #include "cli/commands.h"
 #include "core/error.h"
 #include "eval/run_dir.h"
+#include "io/staging.h"
 #include "render/view.h"
 #include "model/model.h"
 
@@ -25,12 +26,22 @@ const struct esr_command cmd_render = {
     "  N_normal.png  world-space normal mapped to [0,1], white background\n"
     "  N_depth.png   depth, 0 = nearest .. 1 = farthest surface pixel, white background\n"
     "  N_depth.exr   depth in world units\n"
+    "  N_normal.exr  the composited normal (RGB, not normalised) and opacity (A)\n"
+    "and for a model of the lts or pdra stage (linear values as EXR, PNG through the sRGB curve):\n"
+    "  N_emission.exr/.png  emitted radiance (pdra: the found lights' only, at their strength)\n"
+    "  N_emitter.png        emitter mask, 0 or 255 (the mask emitter IoU is scored on)\n"
+    "  N_lights.png         0 off the lights, else 1 + the light's id (`esr lights RUN`); stretch\n"
+    "                       its contrast to see it\n"
+    "  N_emo.exr/.png       lights-on views: the emission's effect, on - off\n"
+    "  N_basecolor.png, N_roughness.png, N_metallic.png  the reconstructed BRDF\n"
+    "  env.exr/.png         the environment map, equirectangular, once per folder\n"
+    "and render.json, the record of which frames are current for the checkpoint.\n"
     "Light-edit phases (test_nvi, test_nvc, test_nvic): `esr eval RUN --phase P` relights and\n"
     "scores them; `esr edit` relights the scene as you choose.\n"
     "\n"
     "options:\n"
     "  --phase P        phase to render (default: test_nv)\n"
-    "  --out DIR        output directory (default: RUN/render/P)\n"
+    "  --out DIR        output directory (default: RUN/render/P; not inside the dataset)\n"
     "  --frames a,b,..  only these frames, by name (e.g. c000_off,c003_on)\n"
     "  --limit N        only the first N (selected) frames\n"
     "  --data DIR       dataset directory (default: the one recorded in RUN)\n"
@@ -92,6 +103,9 @@ static int run_render(int argc, char **argv)
         return cli_fail(&cmd_render, "run path '%s' is too long", run);
     struct esr_run_selection sel;
     int status = esr_run_select(run, data, phase, frames, limit, &sel);
+    const char *const dataset[1] = {sel.ds.root}, *const what[1] = {"the dataset"};
+    if (status == ESR_OK && out) /* renders would replace its photos */
+        status = esr_output_check_outside(out, dataset, what, 1);
     if (status == ESR_OK)
         status = render_selected(run, &sel, out ? out : out_dir);
     esr_run_selection_free(&sel);

@@ -20,6 +20,9 @@ int cli_fail_lib(const struct esr_command *cmd);
 int cli_wants_help(const struct esr_command *cmd, int argc, char **argv);
 /* Parses a whole-string decimal integer in [lo, hi] (lo, hi within int); 0 on success, -1 else. */
 int cli_parse_int(const char *text, long lo, long hi, int *out);
+/* A decimal number in [lo, hi] (no leading space or '+', no hexadecimal, inf or nan): 0 on
+ * success, -1 otherwise. */
+int cli_parse_double(const char *text, double lo, double hi, double *out);
 
 /* Add `extern const struct esr_command cmd_<name>;` here and a row in main.c's table. */
 extern const struct esr_command cmd_metrics;

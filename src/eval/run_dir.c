@@ -97,15 +97,20 @@ int esr_run_select(const char *run, const char *data_override, const char *phase
 {
     memset(sel, 0, sizeof *sel);
     struct stat st;
-    if (stat(run, &st) != 0 || !S_ISDIR(st.st_mode))
+    if (stat(run, &st) != 0)
         return ESR_FAIL("run directory '%s' does not exist", run);
+    if (!S_ISDIR(st.st_mode))
+        return ESR_FAIL("'%s' is not a run directory (it is a file)", run);
     ESR_TRY(parse_phase(phase, &sel->phase));
     char data[ESR_PATH_MAX];
     ESR_TRY(esr_run_data_dir(run, data_override, data, sizeof data));
     ESR_TRY(esr_dataset_load(data, &sel->ds));
-    if (!sel->ds.phases[sel->phase].present)
-        return ESR_FAIL("dataset '%s' has no phase %s (no %s)", data, phase,
-                        esr_phase_file_name(&sel->ds, sel->phase));
+    if (!sel->ds.phases[sel->phase].present) {
+        const char *file = esr_phase_file_name(&sel->ds, sel->phase);
+        if (!file) /* a phase this dataset layout cannot hold */
+            return ESR_FAIL("dataset '%s' has no phase %s (its layout has none)", data, phase);
+        return ESR_FAIL("dataset '%s' has no phase %s (no %s)", data, phase, file);
+    }
     return esr_select_frames(&sel->ds.phases[sel->phase], phase, frames, limit, &sel->idx, &sel->n);
 }
 

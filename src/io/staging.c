@@ -93,6 +93,23 @@ int esr_staging_check_apart(const char *out_dir, const char *const *inputs, int 
     return ESR_OK;
 }
 
+int esr_output_check_outside(const char *out_dir, const char *const *folders,
+                             const char *const *what, int n)
+{
+    char out[PATH_MAX], in[PATH_MAX];
+    ESR_TRY(resolve_path(out_dir, out, sizeof out));
+    for (int i = 0; i < n; i++) {
+        if (!folders[i])
+            continue;
+        ESR_TRY(resolve_path(folders[i], in, sizeof in));
+        if (path_within(out, in))
+            return ESR_FAIL("the output folder '%s' %s %s '%s': writing there would replace its "
+                            "files; choose a folder outside it", out_dir,
+                            strcmp(out, in) ? "lies inside" : "is", what[i], folders[i]);
+    }
+    return ESR_OK;
+}
+
 /* "<parent>/.<base>.<tag>-<pid>-XXXXXX" for out_dir (trailing slashes ignored). */
 static int sibling_template(const char *out_dir, const char *tag, char *buf, size_t n)
 {

@@ -16,6 +16,12 @@ int esr_staging_begin(const char *out_dir, int force, char *staging, size_t n);
  * and `..`; an out_dir that does not exist yet is resolved through its nearest existing
  * ancestor. */
 int esr_staging_check_apart(const char *out_dir, const char *const *inputs, int n);
+/* Refuses an out_dir that is or lies inside one of the n folders (NULL entries skipped): folders
+ * whose files a command's output would replace (a dataset's images, a run's own renders whose
+ * record would then describe other pixels). what[i] names folder i in the message. Paths are
+ * resolved as in esr_staging_check_apart. */
+int esr_output_check_outside(const char *out_dir, const char *const *folders,
+                             const char *const *what, int n);
 /* Moves staging onto out_dir (replacing an existing out_dir, whose old contents are deleted). */
 int esr_staging_commit(const char *staging, const char *out_dir);
 /* Deletes a directory tree (no symlinks followed); used to drop a failed staging directory. */

@@ -142,8 +142,8 @@ static int get(struct rbuf *b, void *dst, size_t n)
 static int has_bytes(const struct rbuf *b, size_t n, const char *what)
 {
     if (n > b->n - b->at)
-        return ESR_FAIL("checkpoint %s: truncated (%zu bytes; the %s takes %zu, %zu are left)", b->path, b->n,
-                        what, n, b->n - b->at);
+        return ESR_FAIL("checkpoint %s: truncated (%zu bytes; %zu needed for the %s, %zu left)",
+                        b->path, b->n, n, what, b->n - b->at);
     return ESR_OK;
 }
 
@@ -409,6 +409,11 @@ int esr_model_load_finished_pdra(struct esr_model *m, const char *run)
 {
     char ckpt[4200];
     snprintf(ckpt, sizeof ckpt, "%s/ckpt_pdra.bin", run);
+    struct stat st;
+    if (stat(run, &st) != 0)
+        return ESR_FAIL("run directory '%s' does not exist", run);
+    if (!S_ISDIR(st.st_mode))
+        return ESR_FAIL("'%s' is not a run directory (it is a file)", run);
     if (!esr_file_exists(ckpt))
         return ESR_FAIL("%s has no pdra checkpoint (ckpt_pdra.bin): the lights are found by the "
                         "last stage, pdra (esr train DATA --out RUN runs all five; a run whose "
