@@ -113,6 +113,35 @@ static int score_view(const struct esr_dataset *ds, const struct esr_frame *f,
     return rc;
 }
 
+/* What frame f asks of each dataset light, for the reports: "lampshade x0.5; bulb hue 0.50 sat
+ * 1.00". */
+static void describe_edit(const struct esr_dataset *ds, const struct esr_frame *f, char *buf,
+                          size_t n)
+{
+    size_t used = 0;
+    buf[0] = '\0';
+    for (int k = 0; k < ds->n_lights && used < n; k++) {
+        const struct esr_light_state *s = &f->lights[k];
+        char name[ESR_NAME_MAX + 16], what[64] = "on", colour[48] = "";
+        if (k < ds->n_true_lights && ds->true_lights[k].name[0])
+            snprintf(name, sizeof name, "%s", ds->true_lights[k].name);
+        else
+            snprintf(name, sizeof name, "light %d", k);
+        if (s->mode == ESR_LIGHT_C_CHANGE || s->mode == ESR_LIGHT_IC_CHANGE)
+            snprintf(colour, sizeof colour, "hue %.2f sat %.2f", (double)s->hsv[0], (double)s->hsv[1]);
+        if (s->mode == ESR_LIGHT_OFF)
+            snprintf(what, sizeof what, "off");
+        else if (s->mode == ESR_LIGHT_I_CHANGE)
+            snprintf(what, sizeof what, "x%.3g", (double)s->intensity);
+        else if (s->mode == ESR_LIGHT_C_CHANGE)
+            snprintf(what, sizeof what, "%s", colour);
+        else if (s->mode == ESR_LIGHT_IC_CHANGE)
+            snprintf(what, sizeof what, "x%.3g, %s", (double)s->intensity, colour);
+        const int w = snprintf(buf + used, n - used, "%s%s %s", k ? "; " : "", name, what);
+        used += w > 0 ? (size_t)w : 0;
+    }
+}
+
 /* Frame order for the editor: frames with the same edit together, groups in first-seen order
  * (each distinct edit is fine-tuned once). O(n^2) over a phase's few dozen frames. */
 static void order_by_edit(const struct esr_light_edit (*edits)[ESR_MAX_LIGHTS], int n, int n_lights,
@@ -169,6 +198,7 @@ int esr_edit_eval_phase(struct esr_model *m, const struct esr_dataset *ds,
         const struct esr_frame *f = &ph->frames[idx[i]];
         struct esr_edit_eval_view *v = &res->views[i];
         snprintf(v->name, sizeof v->name, "%s", f->name);
+        describe_edit(ds, f, v->edit, sizeof v->edit);
         rc = esr_editor_set(&ed, edits[i], 0x5eedULL);
         struct esr_image lin = {0};
         const double t0 = omp_get_wtime();
@@ -216,6 +246,7 @@ int esr_edit_eval_write_json(const char *path, const struct esr_edit_eval *res)
     for (int i = 0; i < res->n; i++) {
         cJSON *o = cJSON_CreateObject();
         cJSON_AddStringToObject(o, "name", res->views[i].name);
+        cJSON_AddStringToObject(o, "edit", res->views[i].edit);
         cJSON_AddNumberToObject(o, "psnr", res->views[i].psnr);
         cJSON_AddNumberToObject(o, "ssim", res->views[i].ssim);
         cJSON_AddNumberToObject(o, "seconds", res->views[i].seconds);
@@ -262,16 +293,22 @@ int esr_edit_eval_write_html(const char *path, const char *title, const struct e
     for (int k = 0; k < res->split.n; k++)
         fprintf(out, "<tr><td>%d %s</td><td>%d</td><td>%.3f</td></tr>\n", res->split.rows[k].light,
                 res->split.rows[k].name, res->split.rows[k].esr_light, res->split.rows[k].iou);
-    fputs("</table>\n<table><tr><th>view</th><th>original (lights on)</th><th>edit</th>"
-          "<th>ground truth</th><th>PSNR</th><th>SSIM</th></tr>\n", out);
+    fprintf(out, "</table>\n<p>Each dataset light is edited through the esr light whose pixels "
+                 "best overlap its mask (IoU over %d of the phase's views, spread evenly; the masks "
+                 "are used by evaluation only).</p>\n",
+            res->split.views);
+    fputs("<table><tr><th>view</th><th>edit asked</th><th>esr, unedited (lights on)</th>"
+          "<th>esr, edited</th><th>ground truth</th><th>PSNR</th><th>SSIM</th></tr>\n", out);
     for (int i = 0; i < res->n; i++) {
         const char *name = res->views[i].name;
         const int cam_len = (int)strcspn(name, "_");
-        fprintf(out, "<tr><td>%s</td><td><img src=\"%s/%.*s_on.png\" width=\"160\"></td>"
-                     "<td><img src=\"%s/%s.png\" width=\"160\"></td>"
-                     "<td><img src=\"%s/%s_gt.png\" width=\"160\"></td><td>%.2f</td><td>%.4f</td></tr>\n",
-                name, orig_href, cam_len, name, render_href, name, render_href, name,
-                res->views[i].psnr, res->views[i].ssim);
+        fprintf(out, "<tr><td>%s</td><td>%s</td><td><img src=\"%s/%.*s_on.png\" width=\"160\" "
+                     "alt=\"esr's render of the view, lights on, unedited\"></td>"
+                     "<td><img src=\"%s/%s.png\" width=\"160\" alt=\"esr's edited render\"></td>"
+                     "<td><img src=\"%s/%s_gt.png\" width=\"160\" alt=\"ground truth\"></td>"
+                     "<td>%.2f</td><td>%.4f</td></tr>\n",
+                name, res->views[i].edit, orig_href, cam_len, name, render_href, name, render_href,
+                name, res->views[i].psnr, res->views[i].ssim);
     }
     fputs("</table></body></html>\n", out);
     fclose(out);

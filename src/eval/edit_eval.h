@@ -18,6 +18,7 @@
 
 struct esr_edit_eval_view {
     char name[ESR_NAME_MAX];
+    char edit[160]; /* what the frame asks of each dataset light, e.g. "lampshade x0.5; bulb on" */
     double psnr, ssim, seconds;
 };
 

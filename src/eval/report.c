@@ -115,7 +115,9 @@ static void put_split(FILE *out, const struct esr_light_split *sp)
     fputs("<table><tr><th>dataset light</th><th>esr light</th><th>IoU</th></tr>\n", out);
     for (int k = 0; k < sp->n; k++) {
         const struct esr_light_split_row *r = &sp->rows[k];
-        fprintf(out, "<tr><td>%d %s</td><td>%d</td>", r->light, r->name, r->esr_light);
+        fprintf(out, "<tr><td>%d ", r->light);
+        put_escaped(out, r->name);
+        fprintf(out, "</td><td>%d</td>", r->esr_light);
         put_number(out, "%.3f", r->iou);
         fputs("</tr>\n", out);
     }
@@ -141,16 +143,31 @@ static void put_light_edits(FILE *out, const struct esr_report_spec *spec, int k
         slash[1] = '\0';
     else
         dir[0] = '\0';
+    /* the folders' names and edits are `esr demo`'s (cli/cmd_demo.c) */
     static const char *const what[] = {"off", "recoloured"};
+    static const char *const caption[] = {"off", "recoloured (hue 0.6, saturation 1)"};
+    int shown = 0;
     for (int w = 0; w < 2; w++) {
         snprintf(path, sizeof path, "%sedits/light%d_%s/%s.png", dir, k, what[w], view);
         if (!esr_file_exists(path))
             continue;
+        if (!shown++) { /* the view as found, beside its edits */
+            fprintf(out, "<p>Light %d edited in view ", k);
+            put_escaped(out, view);
+            fputs(" (<code>esr edit --method ratio</code>):</p>\n<figure style=\"display:inline-block\">"
+                  "<img src=\"", out);
+            put_escaped(out, spec->render_href);
+            fputc('/', out);
+            put_escaped(out, view);
+            fputs(".png\" width=\"160\" alt=\"as found\"><figcaption>as found</figcaption>"
+                  "</figure>\n", out);
+        }
         fprintf(out, "<figure style=\"display:inline-block\"><img src=\"edits/light%d_%s/", k,
                 what[w]);
         put_escaped(out, view);
-        fprintf(out, ".png\" width=\"160\" alt=\"\"><figcaption>light %d %s</figcaption></figure>\n",
-                k, what[w]);
+        fprintf(out, ".png\" width=\"160\" alt=\"light %d %s\"><figcaption>light %d %s"
+                     "</figcaption></figure>\n",
+                k, what[w], k, caption[w]);
     }
 }
 
@@ -160,25 +177,41 @@ static void put_lights(FILE *out, const struct esr_report_spec *spec)
     const struct esr_lights *L = spec->lights;
     if (!L || L->n == 0)
         return;
+    const struct esr_light_split *sp = &spec->res->split;
     fprintf(out, "<h2>Lights found (%d)</h2>\n<table><tr><th>id</th><th>centroid</th><th>area</th>"
                  "<th>points seen by no camera</th><th>emitted radiance (linear RGB)</th>"
-                 "<th>power</th><th>strength scale</th><th>strength</th></tr>\n",
-            L->n);
+                 "<th>power</th><th>strength scale</th><th>strength</th>%s</tr>\n",
+            L->n, sp->views ? "<th>dataset light (evaluation)</th>" : "");
     long unseen[ESR_MAX_LIGHTS];
     esr_lights_unseen_points(L, unseen);
     for (int i = 0; i < L->n; i++) {
         const struct esr_light *l = &L->light[i];
         fprintf(out, "<tr><td>%d</td><td>%.2f, %.2f, %.2f</td><td>%.3g</td><td>%ld of %ld</td>"
-                     "<td>%.3g, %.3g, %.3g</td><td>%.3g</td><td>%.2f, %.2f, %.2f</td><td>%s</td></tr>\n",
+                     "<td>%.3g, %.3g, %.3g</td><td>%.3g</td><td>%.2f, %.2f, %.2f</td><td>%s</td>",
                 i, (double)l->centroid[0], (double)l->centroid[1], (double)l->centroid[2],
                 (double)l->area, unseen[i], l->points, (double)l->radiance[0], (double)l->radiance[1],
                 (double)l->radiance[2], (double)l->power, (double)l->scale[0],
                 (double)l->scale[1], (double)l->scale[2],
                 esr_light_strength_fitted(L, i) ? "fitted" : "too small to fit: the fitted lights' mean");
+        if (sp->views) { /* the dataset lights matched to it, or none: not a light of the scene */
+            int matched = 0;
+            fputs("<td>", out);
+            for (int k = 0; k < sp->n; k++)
+                if (sp->rows[k].esr_light == i) {
+                    fprintf(out, "%s%d ", matched++ ? ", " : "", sp->rows[k].light);
+                    put_escaped(out, sp->rows[k].name);
+                    fprintf(out, " (IoU %.3f)", sp->rows[k].iou);
+                }
+            fputs(matched ? "</td>" : "none: not one of the dataset's lights</td>", out);
+        }
+        fputs("</tr>\n", out);
     }
     fputs("</table>\n<p>Connected emitting surfaces; the part no camera sees (a lampshade's "
           "bottom) emits the light's mean field; strength calibrated by the light each casts "
-          "on the non-emitting surfaces (<code>esr lights</code>, RUN/lights.json).</p>\n", out);
+          "on the non-emitting surfaces (<code>esr lights RUN</code> writes RUN/lights.json). "
+          "Centroid and area in scene units; radiance in the dataset's linear radiance units; "
+          "power = pi x area x the radiance's luminance (Lambertian, one side); strength scale = "
+          "radiance / the emission field's mean, which clipped photos pin near 1.</p>\n", out);
     for (int i = 0; i < L->n; i++)
         put_light_edits(out, spec, i);
 }
