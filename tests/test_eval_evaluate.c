@@ -391,7 +391,7 @@ static void test_normals(void **state)
     path_in(html_path, sizeof html_path, test_tmpdir, "report_normals.html");
     path_in(gt_dir, sizeof gt_dir, test_tmpdir, "eval/test_nv_gt");
     struct esr_report_spec spec = {html_path, "run", &ds, &res, "render", gt_dir, "eval/test_nv_gt", NULL,
-                                   NULL};
+                                   NULL, NULL};
     assert_int_equal(esr_report_write(&spec), ESR_OK);
     unsigned char *html;
     size_t size;
@@ -467,6 +467,27 @@ static void test_curve(void **state)
     assert_int_equal(esr_curve_load_jsonl(path, "absent", &c), ESR_OK);
     assert_int_equal(c.n, 0);
     esr_curve_free(&c);
+    /* stages: where each begins; a loss over orders of magnitude on a log scale */
+    assert_int_equal(test_write_file(path, "{\"stage\": \"coarse\", \"loss\": 1}\n"
+                                           "{\"stage\": \"coarse\", \"loss\": 0.1}\n"
+                                           "{\"stage\": \"<fine>\", \"loss\": 0.01}\n"),
+                     0);
+    assert_int_equal(esr_curve_load_jsonl(path, "loss", &c), ESR_OK);
+    assert_int_equal(c.n_stages, 2);
+    assert_true(c.stage_x[0] == 0.0 && c.stage_x[1] == 2.0);
+    assert_string_equal(c.stage[1], "<fine>");
+    char *svg = NULL;
+    size_t svg_size = 0;
+    FILE *mem = open_memstream(&svg, &svg_size);
+    assert_non_null(mem);
+    assert_int_equal(esr_curve_write_svg(mem, &c, "loss", 300, 120), ESR_OK);
+    fclose(mem);
+    assert_non_null(strstr(svg, "loss (log scale)"));
+    assert_non_null(strstr(svg, "&lt;fine>"));
+    /* on a log scale the middle value lies halfway up: 1 at the bottom (96), 0.01 at the top (20) */
+    assert_non_null(strstr(svg, ",58.0 "));
+    free(svg);
+    esr_curve_free(&c);
     assert_int_equal(test_write_file(path, "{\"loss\": 1}\nnot json\n"), 0);
     esr_error_clear();
     assert_int_equal(esr_curve_load_jsonl(path, "loss", &c), ESR_ERR);
@@ -492,8 +513,13 @@ static void test_report(void **state)
     lights.n = 1;
     lights.light[0].radiance[0] = 12.5f;
     lights.light[0].points = 40; /* no labels: none of them unseen */
+    const struct esr_chamfer_result geometry = {0.0125, 0.0375, 0.025, 1000};
+    /* an edit phase's page next to the report gets a link */
+    char edit_page[1400];
+    path_in(edit_page, sizeof edit_page, test_tmpdir, "report_test_nvc_ratio.html");
+    assert_int_equal(test_write_file(edit_page, "<html></html>"), 0);
     struct esr_report_spec spec = {path, "run <x>", &ds, &res, "render", gt_dir, "eval/test_nv_gt", log,
-                                   &lights};
+                                   &lights, &geometry};
     assert_int_equal(esr_report_write(&spec), ESR_OK);
     unsigned char *html;
     size_t size;
@@ -501,7 +527,9 @@ static void test_report(void **state)
     static const char *const expected[] = {"<h1>run &lt;x&gt;</h1>", "<img src=\"render/c000_on.png\"",
                                            "render/c000_on_linear.png", "render/c000_on_normal.png",
                                            "eval/test_nv_gt/c000_off.png", "<polyline", "13.98",
-                                           "Lights found (1)", "<td>0 of 40</td>", "12.5, 0, 0", "</html>"};
+                                           "Lights found (1)", "<td>0 of 40</td>", "12.5, 0, 0", "</html>",
+                                           "<h2>Geometry</h2>", "<td>0.02500</td><td>0.01250</td>",
+                                           "<a href=\"report_test_nvc_ratio.html\">"};
     for (size_t i = 0; i < sizeof expected / sizeof expected[0]; i++)
         if (!strstr((char *)html, expected[i]))
             fail_msg("'%s' missing from the report", expected[i]);

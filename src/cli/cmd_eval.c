@@ -223,7 +223,37 @@ static int make_paths(const char *run, const char *phase, struct eval_paths *p)
     return too_long ? ESR_FAIL("run path '%s' is too long", run) : ESR_OK;
 }
 
-static int evaluate(const struct eval_args *a, const struct esr_run_selection *sel, const struct eval_paths *p)
+/* Chamfer distance of the model's surface to the dataset's ground-truth mesh, when both exist
+ * (*scored set then, *r the result), written to eval/geometry.json. */
+static int score_geometry(const char *run, const struct esr_dataset *ds, const struct eval_paths *p,
+                          struct esr_chamfer_result *r, int *scored)
+{
+    char gt[ESR_PATH_MAX], json[ESR_PATH_MAX];
+    *scored = 0;
+    if (!esr_geometry_gt_path(ds->root, gt, sizeof gt))
+        return ESR_OK;
+    struct esr_model model;
+    if (esr_model_load(&model, run) != ESR_OK) {
+        esr_error_clear(); /* renders-only runs have no surface to score */
+        return ESR_OK;
+    }
+    int status = esr_geometry_score(&model, gt, r);
+    esr_model_free(&model);
+    if (snprintf(json, sizeof json, "%s/geometry.json", p->eval) >= (int)sizeof json)
+        return ESR_FAIL("run path '%s' is too long", run);
+    if (status == ESR_OK)
+        status = esr_dir_prepare_output(p->eval);
+    if (status == ESR_OK)
+        status = esr_geometry_write_json(json, gt, r);
+    if (status == ESR_OK)
+        printf("geometry vs %s: chamfer %.5f  (accuracy %.5f, completeness %.5f; %zu samples each)\n", gt,
+               r->chamfer, r->accuracy, r->completeness, r->n_samples);
+    *scored = status == ESR_OK;
+    return status;
+}
+
+static int evaluate(const struct eval_args *a, const struct esr_run_selection *sel,
+                    const struct eval_paths *p, const struct esr_chamfer_result *geometry)
 {
     struct esr_eval_result res;
     ESR_TRY(esr_eval_check_truth(&sel->ds, sel->phase, sel->idx, sel->n));
@@ -241,8 +271,8 @@ static int evaluate(const struct eval_args *a, const struct esr_run_selection *s
     if (status == ESR_OK && esr_file_exists(ckpt))
         status = esr_model_load(&m, ckpt);
     if (status == ESR_OK) {
-        struct esr_report_spec spec = {p->report, a->run,  &sel->ds, &res,     p->render_href,
-                                       p->gt,     p->gt_href, p->log, &m.lights};
+        struct esr_report_spec spec = {p->report, a->run,    &sel->ds, &res,     p->render_href,
+                                       p->gt,     p->gt_href, p->log,   &m.lights, geometry};
         status = esr_report_write(&spec);
     }
     esr_model_free(&m);
@@ -306,30 +336,6 @@ static int evaluate_edits(const struct eval_args *a, const struct esr_run_select
     return status;
 }
 
-/* Chamfer distance of the model's surface to the dataset's ground-truth mesh, when both exist. */
-static int score_geometry(const char *run, const struct esr_dataset *ds, const struct eval_paths *p)
-{
-    char gt[ESR_PATH_MAX], json[ESR_PATH_MAX];
-    if (!esr_geometry_gt_path(ds->root, gt, sizeof gt))
-        return ESR_OK;
-    struct esr_model model;
-    if (esr_model_load(&model, run) != ESR_OK) {
-        esr_error_clear(); /* renders-only runs have no surface to score */
-        return ESR_OK;
-    }
-    struct esr_chamfer_result r;
-    int status = esr_geometry_score(&model, gt, &r);
-    esr_model_free(&model);
-    if (snprintf(json, sizeof json, "%s/geometry.json", p->eval) >= (int)sizeof json)
-        return ESR_FAIL("run path '%s' is too long", run);
-    if (status == ESR_OK)
-        status = esr_geometry_write_json(json, gt, &r);
-    if (status == ESR_OK)
-        printf("geometry vs %s: chamfer %.5f  (accuracy %.5f, completeness %.5f; %zu samples each)\n", gt,
-               r.chamfer, r.accuracy, r.completeness, r.n_samples);
-    return status;
-}
-
 static int run_eval(int argc, char **argv)
 {
     if (cli_wants_help(&cmd_eval, argc, argv))
@@ -389,12 +395,14 @@ static int run_eval(int argc, char **argv)
     if (status == ESR_OK && !edit_phase && a.edit_option)
         status = ESR_FAIL("%s applies to the edit phases (test_nvi, test_nvc, test_nvic), not to "
                           "%s", a.edit_option, a.phase);
+    struct esr_chamfer_result geometry;
+    int scored = 0;
     if (status == ESR_OK && edit_phase)
         status = evaluate_edits(&a, &sel);
     else if (status == ESR_OK)
-        status = evaluate(&a, &sel, &paths);
+        status = score_geometry(a.run, &sel.ds, &paths, &geometry, &scored);
     if (status == ESR_OK && !edit_phase)
-        status = score_geometry(a.run, &sel.ds, &paths);
+        status = evaluate(&a, &sel, &paths, scored ? &geometry : NULL);
     esr_run_selection_free(&sel);
     return status == ESR_OK ? 0 : cli_fail_lib(&cmd_eval);
 }

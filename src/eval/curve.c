@@ -3,6 +3,7 @@
 
 #include <cJSON.h>
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -49,6 +50,13 @@ int esr_curve_parse_jsonl(const char *text, size_t size, const char *name, const
             status = ESR_FAIL("'%s' line %d is not a JSON object", name, line_no);
         } else {
             const cJSON *v = cJSON_GetObjectItemCaseSensitive(obj, key);
+            const cJSON *st = cJSON_GetObjectItemCaseSensitive(obj, "stage");
+            if (cJSON_IsString(st) && c->n_stages < ESR_CURVE_MAX_STAGES &&
+                (c->n_stages == 0 || strncmp(c->stage[c->n_stages - 1], st->valuestring,
+                                             sizeof c->stage[0] - 1))) {
+                c->stage_x[c->n_stages] = record;
+                snprintf(c->stage[c->n_stages++], sizeof c->stage[0], "%s", st->valuestring);
+            }
             if (cJSON_IsNumber(v) && isfinite(v->valuedouble))
                 status = append_point(c, &cap, record, v->valuedouble);
             record++;
@@ -93,18 +101,31 @@ int esr_curve_write_svg(FILE *out, const struct esr_curve *c, const char *label,
         ylo = fmin(ylo, c->y[i]);
         yhi = fmax(yhi, c->y[i]);
     }
-    const double margin = 40.0; /* room for the range labels */
+    /* a loss falls over orders of magnitude: linear, all but its first records lie flat */
+    const int log_y = ylo > 0.0 && yhi > 20.0 * ylo;
+    const double top = 20.0, bottom = height - 24.0, margin = 40.0; /* room for the labels */
     fprintf(out, "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"%d\" height=\"%d\">\n", width, height);
     fprintf(out, "<rect width=\"100%%\" height=\"100%%\" fill=\"#fff\" stroke=\"#ccc\"/>\n");
-    fprintf(out, "<text x=\"%g\" y=\"14\" font-size=\"12\">%s</text>\n", margin, label);
-    fprintf(out, "<text x=\"2\" y=\"%g\" font-size=\"10\">%.4g</text>\n", margin, yhi);
-    fprintf(out, "<text x=\"2\" y=\"%d\" font-size=\"10\">%.4g</text>\n", height - 20, ylo);
-    fprintf(out, "<text x=\"%g\" y=\"%d\" font-size=\"10\">record %.0f .. %.0f</text>\n", margin, height - 4, xlo,
-            xhi);
+    fprintf(out, "<text x=\"%g\" y=\"14\" font-size=\"12\">%s%s</text>\n", margin, label,
+            log_y ? " (log scale)" : "");
+    fprintf(out, "<text x=\"2\" y=\"%g\" font-size=\"10\">%.4g</text>\n", top + 8.0, yhi);
+    fprintf(out, "<text x=\"2\" y=\"%g\" font-size=\"10\">%.4g</text>\n", bottom, ylo);
+    fprintf(out, "<text x=\"%g\" y=\"%d\" font-size=\"10\">log records %.0f .. %.0f (the stages in "
+                 "turn)</text>\n", margin, height - 4, xlo, xhi);
+    for (int s = 0; s < c->n_stages; s++) {
+        const double x = map_range(c->stage_x[s], xlo, xhi, margin, width - 8.0);
+        fprintf(out, "<line x1=\"%.1f\" y1=\"%g\" x2=\"%.1f\" y2=\"%g\" stroke=\"#bbb\"/>"
+                     "<text x=\"%.1f\" y=\"%g\" font-size=\"9\" fill=\"#777\">",
+                x, top, x, bottom, x + 2.0, top + 8.0 + 10.0 * (s % 2));
+        for (const char *p = c->stage[s]; *p; p++) /* a log's own text: escaped */
+            fputs(*p == '<' ? "&lt;" : *p == '&' ? "&amp;" : (char[2]){*p, 0}, out);
+        fputs("</text>\n", out);
+    }
+    const double ly0 = log_y ? log(ylo) : ylo, ly1 = log_y ? log(yhi) : yhi;
     fprintf(out, "<polyline fill=\"none\" stroke=\"#1f5fbf\" stroke-width=\"1.2\" points=\"");
     for (int i = 0; i < c->n; i++)
         fprintf(out, "%.1f,%.1f ", map_range(c->x[i], xlo, xhi, margin, width - 8.0),
-                map_range(c->y[i], ylo, yhi, height - 24.0, margin - 20.0));
+                map_range(log_y ? log(c->y[i]) : c->y[i], ly0, ly1, bottom, top));
     fprintf(out, "\"/>\n</svg>\n");
     return ferror(out) ? ESR_FAIL("error writing an SVG curve") : ESR_OK;
 }

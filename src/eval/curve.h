@@ -4,9 +4,14 @@
 
 #include <stdio.h>
 
+#define ESR_CURVE_MAX_STAGES 8
+
 struct esr_curve {
     int n;
     double *x, *y; /* x = record number (0-based line of the log), y = the field's value */
+    int n_stages;  /* where each stage's records begin (records with a "stage" member) */
+    double stage_x[ESR_CURVE_MAX_STAGES];
+    char stage[ESR_CURVE_MAX_STAGES][16];
 };
 
 /* Reads every line of a JSON-lines file (one object per line, blank lines skipped) and keeps the
@@ -18,7 +23,9 @@ int esr_curve_parse_jsonl(const char *text, size_t size, const char *name, const
 void esr_curve_free(struct esr_curve *c);
 
 /* Writes the curve as an inline <svg> element of width x height pixels: a polyline, the y range
- * and the x range as text, titled `label`. Needs c->n >= 1. Returns the stream's error state. */
+ * and the x range as text, the stages' starts as labelled lines, titled `label`; y on a log scale
+ * when every value is positive and they span more than a factor of 20 (the title says so). Needs
+ * c->n >= 1. Returns the stream's error state. */
 int esr_curve_write_svg(FILE *out, const struct esr_curve *c, const char *label, int width, int height);
 
 #endif

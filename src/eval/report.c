@@ -126,6 +126,17 @@ static void put_split(FILE *out, const struct esr_light_split *sp)
             sp->views);
 }
 
+/* The report's folder with a trailing '/', or "" for the working directory. */
+static void report_dir(const struct esr_report_spec *spec, char *dir, size_t n)
+{
+    snprintf(dir, n, "%s", spec->path);
+    char *slash = strrchr(dir, '/');
+    if (slash)
+        slash[1] = '\0';
+    else
+        dir[0] = '\0';
+}
+
 /* Edits of light k next to the report (RUN/edits/light<k>_<what>/<view>.png, as `esr demo`
  * writes them with `esr edit`), for the first lights-on view: thumbnails with captions. */
 static void put_light_edits(FILE *out, const struct esr_report_spec *spec, int k)
@@ -137,12 +148,7 @@ static void put_light_edits(FILE *out, const struct esr_report_spec *spec, int k
     if (!view)
         return;
     char dir[ESR_PATH_MAX], path[ESR_PATH_MAX * 2];
-    snprintf(dir, sizeof dir, "%s", spec->path);
-    char *slash = strrchr(dir, '/');
-    if (slash)
-        slash[1] = '\0';
-    else
-        dir[0] = '\0';
+    report_dir(spec, dir, sizeof dir);
     /* the folders' names and edits are `esr demo`'s (cli/cmd_demo.c) */
     static const char *const what[] = {"off", "recoloured"};
     static const char *const caption[] = {"off", "recoloured (hue 0.6, saturation 1)"};
@@ -214,6 +220,20 @@ static void put_lights(FILE *out, const struct esr_report_spec *spec)
           "radiance / the emission field's mean, which clipped photos pin near 1.</p>\n", out);
     for (int i = 0; i < L->n; i++)
         put_light_edits(out, spec, i);
+}
+
+/* The surface against the dataset's mesh (eval/geometry.h), when scored. */
+static void put_geometry(FILE *out, const struct esr_chamfer_result *g)
+{
+    if (!g)
+        return;
+    fprintf(out, "<h2>Geometry</h2>\n<table><tr><th>Chamfer distance</th><th>accuracy</th>"
+                 "<th>completeness</th><th>samples</th></tr>\n<tr><td>%.5f</td><td>%.5f</td>"
+                 "<td>%.5f</td><td>%zu</td></tr>\n</table>\n<p>Mean distance, in scene units, "
+                 "from points on the marching-cubes surface to the dataset's mesh (accuracy) and "
+                 "back (completeness); the Chamfer distance is their mean (RUN/eval/geometry.json)."
+                 "</p>\n",
+            g->chamfer, g->accuracy, g->completeness, g->n_samples);
 }
 
 /* The pooled normal error, or a line saying the dataset has no ground-truth normal maps. */
@@ -300,8 +320,8 @@ static void put_views(FILE *out, const struct esr_report_spec *spec)
             if (v->mode == ESR_LIGHT_ON) { /* the decomposition: off (the _off row) + effect */
                 put_thumb(out, spec->render_href, v->name, "_emo.png");
                 put_thumb(out, spec->gt_href, v->name, "_emo_true.png");
-            } else {
-                fputs("<td></td><td></td>", out);
+            } else { /* lights off: no emission to have an effect */
+                fputs("<td>-</td><td>-</td>", out);
             }
         }
         put_metric_cells(out, v->psnr, v->ssim, v->psnr_linear, v->ssim_linear, v->hdr_mse);
@@ -395,6 +415,27 @@ static int write_gt_copies(const struct esr_report_spec *spec)
     return ESR_OK;
 }
 
+/* Links to the edit phases' pages next to the report (report_<phase>_<method>.html, as `esr eval
+ * RUN --phase P --method M` writes them), when there are any. */
+static void put_edit_links(FILE *out, const struct esr_report_spec *spec)
+{
+    static const char *const phases[] = {"test_nvi", "test_nvc", "test_nvic"};
+    static const char *const methods[] = {"direct", "ratio", "finetune"};
+    char dir[ESR_PATH_MAX], path[ESR_PATH_MAX * 2];
+    report_dir(spec, dir, sizeof dir);
+    int shown = 0;
+    for (int p = 0; p < 3; p++)
+        for (int m = 0; m < 3; m++) {
+            snprintf(path, sizeof path, "%sreport_%s_%s.html", dir, phases[p], methods[m]);
+            if (!esr_file_exists(path))
+                continue;
+            fprintf(out, "%s<a href=\"report_%s_%s.html\">%s, %s</a>", shown++ ? " | " : "<p>Relit: ",
+                    phases[p], methods[m], phases[p], methods[m]);
+        }
+    if (shown)
+        fputs("</p>\n", out);
+}
+
 static int put_page(FILE *out, const struct esr_report_spec *spec)
 {
     fputs("<!DOCTYPE html>\n<html><head><meta charset=\"utf-8\"><title>esr report: ", out);
@@ -407,7 +448,9 @@ static int put_page(FILE *out, const struct esr_report_spec *spec)
     fprintf(out, "</h1>\n<p>phase %s of dataset ", esr_phase_name(spec->res->phase));
     put_escaped(out, spec->ds->root);
     fputs("</p>\n", out);
+    put_edit_links(out, spec);
     put_summary(out, spec->res);
+    put_geometry(out, spec->geometry);
     put_normals(out, spec->res);
     put_emitters(out, spec->res);
     put_lights(out, spec);

@@ -5,6 +5,7 @@
 #ifndef ESR_EVAL_REPORT_H
 #define ESR_EVAL_REPORT_H
 
+#include "eval/chamfer.h"
 #include "eval/evaluate.h"
 #include "model/lights.h"
 #include "io/dataset.h"
@@ -21,6 +22,7 @@ struct esr_report_spec {
     const char *gt_href;     /* gt_dir relative to the report */
     const char *train_log;   /* JSON-lines training log, or NULL / a missing file for none */
     const struct esr_lights *lights; /* the lights the model found (model/lights.h), or NULL */
+    const struct esr_chamfer_result *geometry; /* against the dataset's mesh, or NULL */
 };
 
 /* Writes the ground-truth copies and the page (atomically). Fails naming the file on a write
