@@ -483,8 +483,8 @@ static void test_curve(void **state)
     assert_int_equal(esr_curve_write_svg(mem, &c, "loss", 300, 120), ESR_OK);
     fclose(mem);
     assert_non_null(strstr(svg, "loss (log scale)"));
-    assert_non_null(strstr(svg, "&lt;fine>"));
-    /* on a log scale the middle value lies halfway up: 1 at the bottom (96), 0.01 at the top (20) */
+    assert_non_null(strstr(svg, "&lt;fine&gt;"));
+    /* on a log scale the middle value lies halfway: 1 at the top (20), 0.01 at the bottom (96) */
     assert_non_null(strstr(svg, ",58.0 "));
     free(svg);
     esr_curve_free(&c);

@@ -122,8 +122,9 @@ static void test_output_apart_from_inputs(void **state)
     } cases[] = {
         {"photos", 0},         {"photos/", 0},     {"photos/off", 0},  {"", 0},
         {"alias", 0},          {"alias/off", 0},   {"photos/../photos", 0},
+        {"new/../photos", 0},  {"new/./x/../../photos/off", 0},
         {"photos/new/sub", 1}, {"photos/done", 1}, {"photos2", 1},     {"data", 1},
-        {"data/new/sub", 1},   {"photo", 1},
+        {"data/new/sub", 1},   {"photo", 1},       {"new/../photos2", 1},
     };
     for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
         char out[8600];
@@ -134,6 +135,42 @@ static void test_output_apart_from_inputs(void **state)
             fail_msg("'%s' against '%s': %s", out, in, rc == ESR_OK ? "accepted" : esr_error_message());
         if (rc != ESR_OK)
             assert_non_null(strstr(esr_error_message(), "would delete the input"));
+    }
+    esr_error_clear();
+}
+
+/* esr_output_check_outside: refused in or under a listed folder however the path is spelled
+ * ('..' through folders that do not exist yet, links), fine beside it and inside the allowed
+ * folder (a run kept inside its dataset). */
+static void test_output_outside(void **state)
+{
+    (void)state;
+    char root[4200], data[4300], run[4400], cmd[32768];
+    snprintf(root, sizeof root, "%s/outside", test_tmpdir);
+    snprintf(data, sizeof data, "%s/data", root);
+    snprintf(run, sizeof run, "%s/run", data);
+    snprintf(cmd, sizeof cmd, "mkdir -p '%s/test_nv' '%s' && ln -s '%s' '%s/alias'", data, run, data,
+             root);
+    assert_int_equal(system(cmd), 0);
+    const char *const folders[1] = {data}, *const what[1] = {"the dataset"};
+    static const struct {
+        const char *out; /* below root */
+        int ok;
+    } cases[] = {
+        {"data", 0},           {"data/test_nv", 0},         {"data/new/sub", 0},
+        {"alias/test_nv", 0},  {"new/../data/test_nv", 0},  {"data/run/../test_nv", 0},
+        {"data/run", 1},       {"data/run/edits/x", 1},     {"alias/run/new", 1},
+        {"data2", 1},          {"new/../data2", 1},         {"edits", 1},
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        char out[8600];
+        snprintf(out, sizeof out, "%s/%s", root, cases[i].out);
+        esr_error_clear();
+        const int rc = esr_output_check_outside(out, folders, what, 1, run);
+        if ((rc == ESR_OK) != cases[i].ok)
+            fail_msg("'%s' against '%s': %s", out, data, rc == ESR_OK ? "accepted" : esr_error_message());
+        if (rc != ESR_OK)
+            assert_non_null(strstr(esr_error_message(), "the dataset"));
     }
     esr_error_clear();
 }
@@ -167,6 +204,7 @@ int main(void)
         cmocka_unit_test(test_sweep_removes_only_dead_writers_leftovers),
         cmocka_unit_test(test_killed_staging_is_swept_by_the_next_run),
         cmocka_unit_test(test_output_apart_from_inputs),
+        cmocka_unit_test(test_output_outside),
         cmocka_unit_test(test_check_writable),
     };
     return cmocka_run_group_tests(tests, test_setup_tmpdir, test_teardown_tmpdir);

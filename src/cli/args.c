@@ -35,7 +35,8 @@ int cli_parse_double(const char *text, double lo, double hi, double *out)
     if (!plain_number(text))
         return -1;
     const double v = strtod(text, &end);
-    if (end == text || *end || !isfinite(v) || !(v >= lo && v <= hi))
+    /* ERANGE: 1e-400 would be taken as 0 */
+    if (errno || end == text || *end || !isfinite(v) || !(v >= lo && v <= hi))
         return -1;
     *out = v;
     return 0;

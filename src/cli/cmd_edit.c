@@ -86,16 +86,17 @@ static int once(const char *o, int *seen)
     return 0;
 }
 
-/* "H,S" in [0,1] each. */
+/* "H,S" in [0,1] each (each as cli_parse_double reads numbers). */
 static int parse_hs(const char *text, float *h, float *s)
 {
-    char *end;
-    double a = strtod(text, &end);
-    if (end == text || *end != ',')
+    const char *comma = strchr(text, ',');
+    char first[64];
+    double a, b;
+    if (!comma || (size_t)(comma - text) >= sizeof first)
         return -1;
-    const char *t2 = end + 1;
-    double b = strtod(t2, &end);
-    if (end == t2 || *end || !(a >= 0.0 && a <= 1.0) || !(b >= 0.0 && b <= 1.0))
+    memcpy(first, text, (size_t)(comma - text));
+    first[comma - text] = '\0';
+    if (cli_parse_double(first, 0.0, 1.0, &a) || cli_parse_double(comma + 1, 0.0, 1.0, &b))
         return -1;
     *h = (float)a;
     *s = (float)b;
@@ -303,7 +304,7 @@ static int write_view(const char *dir, const char *name, const struct esr_image 
 }
 
 /* After an error: removes the first n views' files this edit wrote (the last one's first
- * `last_files`), so that a failed edit leaves nothing behind. */
+ * `last_files`), so that a failed edit leaves none of its views (a folder it created stays). */
 static void remove_views(const char *dir, const char *const *names, int n, int last_files)
 {
     static const char *const ext[2] = {".exr", ".png"};
@@ -315,25 +316,32 @@ static void remove_views(const char *dir, const char *const *names, int n, int l
         }
 }
 
-/* Refuses an output folder in the dataset or in RUN's own render and eval folders: edited views
- * would replace the photos, or renders that render.json vouches for. */
+/* Refuses an output folder in RUN's own render and eval folders, or in the dataset outside RUN
+ * (a run may live inside its dataset): edited views would replace renders that render.json
+ * vouches for, or the photos. */
 static int check_out(const struct edit_args *a, const char *dataset)
 {
     char render[4200], eval[4200];
     snprintf(render, sizeof render, "%s/render", a->run);
     snprintf(eval, sizeof eval, "%s/eval", a->run);
-    const char *const folders[3] = {dataset, render, eval};
-    const char *const what[3] = {"the dataset", "the run's render folder", "the run's eval folder"};
-    return esr_output_check_outside(a->out, folders, what, 3);
+    const char *const run_folders[2] = {render, eval};
+    const char *const run_what[2] = {"the run's render folder", "the run's eval folder"};
+    const char *const what = "the dataset";
+    ESR_TRY(esr_output_check_outside(a->out, run_folders, run_what, 2, NULL));
+    return esr_output_check_outside(a->out, &dataset, &what, 1, a->run);
 }
 
 static int edit(const struct edit_args *a)
 {
-    struct esr_run_selection sel;
-    ESR_TRY(esr_run_select(a->run, a->data, a->views ? a->views : "test_nv", a->frames, 0, &sel));
+    /* the run's lights first: a folder that is no finished run is named as such, not as one
+     * that does not record its dataset */
     struct esr_model m;
     memset(&m, 0, sizeof m);
     int rc = esr_model_load_finished_pdra(&m, a->run);
+    struct esr_run_selection sel;
+    memset(&sel, 0, sizeof sel);
+    if (rc == ESR_OK)
+        rc = esr_run_select(a->run, a->data, a->views ? a->views : "test_nv", a->frames, 0, &sel);
     struct esr_light_edit edits[ESR_MAX_LIGHTS];
     if (rc == ESR_OK)
         rc = edits_of(a, m.lights.n, edits);

@@ -242,8 +242,6 @@ static int score_geometry(const char *run, const struct esr_dataset *ds, const s
     if (snprintf(json, sizeof json, "%s/geometry.json", p->eval) >= (int)sizeof json)
         return ESR_FAIL("run path '%s' is too long", run);
     if (status == ESR_OK)
-        status = esr_dir_prepare_output(p->eval);
-    if (status == ESR_OK)
         status = esr_geometry_write_json(json, gt, r);
     if (status == ESR_OK)
         printf("geometry vs %s: chamfer %.5f  (accuracy %.5f, completeness %.5f; %zu samples each)\n", gt,
@@ -253,7 +251,7 @@ static int score_geometry(const char *run, const struct esr_dataset *ds, const s
 }
 
 static int evaluate(const struct eval_args *a, const struct esr_run_selection *sel,
-                    const struct eval_paths *p, const struct esr_chamfer_result *geometry)
+                    const struct eval_paths *p)
 {
     struct esr_eval_result res;
     ESR_TRY(esr_eval_check_truth(&sel->ds, sel->phase, sel->idx, sel->n));
@@ -263,6 +261,10 @@ static int evaluate(const struct eval_args *a, const struct esr_run_selection *s
         status = esr_dir_prepare_output(p->eval);
     if (status == ESR_OK)
         status = esr_eval_write_json(p->json, &sel->ds, &res);
+    struct esr_chamfer_result geometry; /* the surface, for the report too */
+    int scored = 0;
+    if (status == ESR_OK)
+        status = score_geometry(a->run, &sel->ds, p, &geometry, &scored);
     /* the lights the run found, for the report (a run without a pdra checkpoint has none) */
     struct esr_model m;
     memset(&m, 0, sizeof m);
@@ -272,7 +274,8 @@ static int evaluate(const struct eval_args *a, const struct esr_run_selection *s
         status = esr_model_load(&m, ckpt);
     if (status == ESR_OK) {
         struct esr_report_spec spec = {p->report, a->run,    &sel->ds, &res,     p->render_href,
-                                       p->gt,     p->gt_href, p->log,   &m.lights, geometry};
+                                       p->gt,     p->gt_href, p->log,   &m.lights,
+                                       scored ? &geometry : NULL};
         status = esr_report_write(&spec);
     }
     esr_model_free(&m);
@@ -395,14 +398,10 @@ static int run_eval(int argc, char **argv)
     if (status == ESR_OK && !edit_phase && a.edit_option)
         status = ESR_FAIL("%s applies to the edit phases (test_nvi, test_nvc, test_nvic), not to "
                           "%s", a.edit_option, a.phase);
-    struct esr_chamfer_result geometry;
-    int scored = 0;
     if (status == ESR_OK && edit_phase)
         status = evaluate_edits(&a, &sel);
     else if (status == ESR_OK)
-        status = score_geometry(a.run, &sel.ds, &paths, &geometry, &scored);
-    if (status == ESR_OK && !edit_phase)
-        status = evaluate(&a, &sel, &paths, scored ? &geometry : NULL);
+        status = evaluate(&a, &sel, &paths);
     esr_run_selection_free(&sel);
     return status == ESR_OK ? 0 : cli_fail_lib(&cmd_eval);
 }

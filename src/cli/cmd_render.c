@@ -30,8 +30,8 @@ const struct esr_command cmd_render = {
     "and for a model of the lts or pdra stage (linear values as EXR, PNG through the sRGB curve):\n"
     "  N_emission.exr/.png  emitted radiance (pdra: the found lights' only, at their strength)\n"
     "  N_emitter.png        emitter mask, 0 or 255 (the mask emitter IoU is scored on)\n"
-    "  N_lights.png         0 off the lights, else 1 + the light's id (`esr lights RUN`); stretch\n"
-    "                       its contrast to see it\n"
+    "  N_lights.png         with lights found: 0 off the lights, else 1 + the light's id (`esr\n"
+    "                       lights RUN`); stretch its contrast to see it\n"
     "  N_emo.exr/.png       lights-on views: the emission's effect, on - off\n"
     "  N_basecolor.png, N_roughness.png, N_metallic.png  the reconstructed BRDF\n"
     "  env.exr/.png         the environment map, equirectangular, once per folder\n"
@@ -41,7 +41,8 @@ const struct esr_command cmd_render = {
     "\n"
     "options:\n"
     "  --phase P        phase to render (default: test_nv)\n"
-    "  --out DIR        output directory (default: RUN/render/P; not inside the dataset)\n"
+    "  --out DIR        output directory (default: RUN/render/P; not inside the dataset, unless\n"
+    "                   inside RUN)\n"
     "  --frames a,b,..  only these frames, by name (e.g. c000_off,c003_on)\n"
     "  --limit N        only the first N (selected) frames\n"
     "  --data DIR       dataset directory (default: the one recorded in RUN)\n"
@@ -105,7 +106,7 @@ static int run_render(int argc, char **argv)
     int status = esr_run_select(run, data, phase, frames, limit, &sel);
     const char *const dataset[1] = {sel.ds.root}, *const what[1] = {"the dataset"};
     if (status == ESR_OK && out) /* renders would replace its photos */
-        status = esr_output_check_outside(out, dataset, what, 1);
+        status = esr_output_check_outside(out, dataset, what, 1, run);
     if (status == ESR_OK)
         status = render_selected(run, &sel, out ? out : out_dir);
     esr_run_selection_free(&sel);

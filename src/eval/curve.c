@@ -8,6 +8,7 @@
 #include <string.h>
 
 #include "core/error.h"
+#include "eval/html.h"
 #include "io/file.h"
 
 static int append_point(struct esr_curve *c, int *cap, double x, double y)
@@ -117,8 +118,7 @@ int esr_curve_write_svg(FILE *out, const struct esr_curve *c, const char *label,
         fprintf(out, "<line x1=\"%.1f\" y1=\"%g\" x2=\"%.1f\" y2=\"%g\" stroke=\"#bbb\"/>"
                      "<text x=\"%.1f\" y=\"%g\" font-size=\"9\" fill=\"#777\">",
                 x, top, x, bottom, x + 2.0, top + 8.0 + 10.0 * (s % 2));
-        for (const char *p = c->stage[s]; *p; p++) /* a log's own text: escaped */
-            fputs(*p == '<' ? "&lt;" : *p == '&' ? "&amp;" : (char[2]){*p, 0}, out);
+        esr_html_put_escaped(out, c->stage[s]); /* a log's own text */
         fputs("</text>\n", out);
     }
     const double ly0 = log_y ? log(ylo) : ylo, ly1 = log_y ? log(yhi) : yhi;

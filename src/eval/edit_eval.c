@@ -11,6 +11,7 @@
 #include "core/colour.h"
 #include "core/error.h"
 #include "edit/editor.h"
+#include "eval/html.h"
 #include "eval/metrics.h"
 #include "io/dir.h"
 #include "io/file.h"
@@ -278,37 +279,56 @@ int esr_edit_eval_write_html(const char *path, const char *title, const struct e
     FILE *out = open_memstream(&buf, &size);
     if (!out)
         return ESR_FAIL("out of memory for %s", path);
-    fprintf(out, "<!DOCTYPE html>\n<html><head><meta charset=\"utf-8\"><title>%s %s</title>"
-                 "<style>body{font-family:sans-serif}td{padding:2px 6px}</style></head><body>\n"
-                 "<h1>%s: %s, %s relighting</h1>\n<p>Mean PSNR %.2f dB, SSIM %.4f over %d views "
+    const char *phase = esr_phase_name(res->phase);
+    fputs("<!DOCTYPE html>\n<html><head><meta charset=\"utf-8\"><title>", out);
+    esr_html_put_escaped(out, title);
+    fprintf(out, " %s</title><style>body{font-family:sans-serif}td{padding:2px 6px}</style>"
+                 "</head><body>\n<h1>", phase);
+    esr_html_put_escaped(out, title);
+    fprintf(out, ": %s, %s relighting</h1>\n<p>Mean PSNR %.2f dB, SSIM %.4f over %d views "
                  "(%.2f s per view",
-            title, esr_phase_name(res->phase), title, esr_phase_name(res->phase),
-            esr_edit_method_name(res->method), res->psnr, res->ssim, res->n, res->seconds);
+            phase, esr_edit_method_name(res->method), res->psnr, res->ssim, res->n, res->seconds);
     if (res->method != ESR_EDIT_FINETUNE)
         fprintf(out, ", %d light samples per pixel and light).</p>\n", res->spp);
     else
         fprintf(out, ", after one fine-tune per distinct edit: %d, %.1f s each).</p>\n",
                 res->n_edits, res->finetune_seconds);
     fputs("<table><tr><th>dataset light</th><th>esr light</th><th>IoU</th></tr>\n", out);
-    for (int k = 0; k < res->split.n; k++)
-        fprintf(out, "<tr><td>%d %s</td><td>%d</td><td>%.3f</td></tr>\n", res->split.rows[k].light,
-                res->split.rows[k].name, res->split.rows[k].esr_light, res->split.rows[k].iou);
+    for (int k = 0; k < res->split.n; k++) {
+        fprintf(out, "<tr><td>%d ", res->split.rows[k].light);
+        esr_html_put_escaped(out, res->split.rows[k].name);
+        fprintf(out, "</td><td>%d</td><td>%.3f</td></tr>\n", res->split.rows[k].esr_light,
+                res->split.rows[k].iou);
+    }
     fprintf(out, "</table>\n<p>Each dataset light is edited through the esr light whose pixels "
                  "best overlap its mask (IoU over %d of the phase's views, spread evenly; the masks "
-                 "are used by evaluation only).</p>\n",
+                 "are used by evaluation only). The renders are linear radiance through the sRGB "
+                 "curve, as the edits are written.</p>\n",
             res->split.views);
     fputs("<table><tr><th>view</th><th>edit asked</th><th>esr, unedited (lights on)</th>"
           "<th>esr, edited</th><th>ground truth</th><th>PSNR</th><th>SSIM</th></tr>\n", out);
     for (int i = 0; i < res->n; i++) {
         const char *name = res->views[i].name;
-        const int cam_len = (int)strcspn(name, "_");
-        fprintf(out, "<tr><td>%s</td><td>%s</td><td><img src=\"%s/%.*s_on.png\" width=\"160\" "
-                     "alt=\"esr's render of the view, lights on, unedited\"></td>"
-                     "<td><img src=\"%s/%s.png\" width=\"160\" alt=\"esr's edited render\"></td>"
-                     "<td><img src=\"%s/%s_gt.png\" width=\"160\" alt=\"ground truth\"></td>"
-                     "<td>%.2f</td><td>%.4f</td></tr>\n",
-                name, res->views[i].edit, orig_href, cam_len, name, render_href, name, render_href,
-                name, res->views[i].psnr, res->views[i].ssim);
+        char camera[ESR_NAME_MAX]; /* the unedited view: the camera's lights-on render */
+        snprintf(camera, sizeof camera, "%.*s_on", (int)strcspn(name, "_"), name);
+        const char *const dir[3] = {orig_href, render_href, render_href};
+        const char *const file[3] = {camera, name, name};
+        static const char *const suffix[3] = {"_linear.png", ".png", "_gt.png"};
+        static const char *const alt[3] = {"esr's render of the view, lights on, unedited",
+                                           "esr's edited render", "ground truth"};
+        fputs("<tr><td>", out);
+        esr_html_put_escaped(out, name);
+        fputs("</td><td>", out);
+        esr_html_put_escaped(out, res->views[i].edit);
+        fputs("</td>", out);
+        for (int k = 0; k < 3; k++) {
+            fputs("<td><img src=\"", out);
+            esr_html_put_escaped(out, dir[k]);
+            fputc('/', out);
+            esr_html_put_escaped(out, file[k]);
+            fprintf(out, "%s\" width=\"160\" alt=\"%s\"></td>", suffix[k], alt[k]);
+        }
+        fprintf(out, "<td>%.2f</td><td>%.4f</td></tr>\n", res->views[i].psnr, res->views[i].ssim);
     }
     fputs("</table></body></html>\n", out);
     fclose(out);

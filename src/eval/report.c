@@ -9,24 +9,12 @@
 #include "core/colour.h"
 #include "core/error.h"
 #include "eval/curve.h"
+#include "eval/html.h"
 #include "io/dir.h"
 #include "io/file.h"
 #include "render/view.h"
 #include "train/lights.h"
 
-/* Writes text with the HTML special characters escaped. */
-static void put_escaped(FILE *out, const char *text)
-{
-    for (const char *p = text; *p; p++) {
-        switch (*p) {
-        case '&': fputs("&amp;", out); break;
-        case '<': fputs("&lt;", out); break;
-        case '>': fputs("&gt;", out); break;
-        case '"': fputs("&quot;", out); break;
-        default: fputc(*p, out);
-        }
-    }
-}
 
 /* A metric cell: "-" when the value is missing (NAN). */
 static void put_number(FILE *out, const char *fmt, double v)
@@ -96,9 +84,10 @@ static void put_emitters(FILE *out, const struct esr_eval_result *res)
           "<th>error</th><th>strength found</th></tr>\n", out);
     for (int k = 0; k < res->radiance.n; k++) {
         const struct esr_emitter_radiance *r = &res->radiance.lights[k];
-        fprintf(out, "<tr><td>%d %s</td><td>%.3g, %.3g, %.3g</td><td>%.3g, %.3g, %.3g</td>",
-                r->light, r->name, r->mean[0], r->mean[1], r->mean[2], r->truth[0], r->truth[1],
-                r->truth[2]);
+        fprintf(out, "<tr><td>%d ", r->light);
+        esr_html_put_escaped(out, r->name);
+        fprintf(out, "</td><td>%.3g, %.3g, %.3g</td><td>%.3g, %.3g, %.3g</td>", r->mean[0],
+                r->mean[1], r->mean[2], r->truth[0], r->truth[1], r->truth[2]);
         put_number(out, "%.1f%%", r->error_pct);
         put_number(out, "%.0f%%", 100.0 * r->ratio);
         fputs("</tr>\n", out);
@@ -116,7 +105,7 @@ static void put_split(FILE *out, const struct esr_light_split *sp)
     for (int k = 0; k < sp->n; k++) {
         const struct esr_light_split_row *r = &sp->rows[k];
         fprintf(out, "<tr><td>%d ", r->light);
-        put_escaped(out, r->name);
+        esr_html_put_escaped(out, r->name);
         fprintf(out, "</td><td>%d</td>", r->esr_light);
         put_number(out, "%.3f", r->iou);
         fputs("</tr>\n", out);
@@ -159,18 +148,18 @@ static void put_light_edits(FILE *out, const struct esr_report_spec *spec, int k
             continue;
         if (!shown++) { /* the view as found, beside its edits */
             fprintf(out, "<p>Light %d edited in view ", k);
-            put_escaped(out, view);
+            esr_html_put_escaped(out, view);
             fputs(" (<code>esr edit --method ratio</code>):</p>\n<figure style=\"display:inline-block\">"
                   "<img src=\"", out);
-            put_escaped(out, spec->render_href);
+            esr_html_put_escaped(out, spec->render_href);
             fputc('/', out);
-            put_escaped(out, view);
-            fputs(".png\" width=\"160\" alt=\"as found\"><figcaption>as found</figcaption>"
-                  "</figure>\n", out);
+            esr_html_put_escaped(out, view);
+            fputs("_linear.png\" width=\"160\" alt=\"as found\"><figcaption>as found</figcaption>"
+                  "</figure>\n", out); /* linear through the sRGB curve, as the edits are */
         }
         fprintf(out, "<figure style=\"display:inline-block\"><img src=\"edits/light%d_%s/", k,
                 what[w]);
-        put_escaped(out, view);
+        esr_html_put_escaped(out, view);
         fprintf(out, ".png\" width=\"160\" alt=\"light %d %s\"><figcaption>light %d %s"
                      "</figcaption></figure>\n",
                 k, what[w], k, caption[w]);
@@ -205,7 +194,7 @@ static void put_lights(FILE *out, const struct esr_report_spec *spec)
             for (int k = 0; k < sp->n; k++)
                 if (sp->rows[k].esr_light == i) {
                     fprintf(out, "%s%d ", matched++ ? ", " : "", sp->rows[k].light);
-                    put_escaped(out, sp->rows[k].name);
+                    esr_html_put_escaped(out, sp->rows[k].name);
                     fprintf(out, " (IoU %.3f)", sp->rows[k].iou);
                 }
             fputs(matched ? "</td>" : "none: not one of the dataset's lights</td>", out);
@@ -283,14 +272,14 @@ static int put_curves(FILE *out, const char *log_path)
 static void put_thumb(FILE *out, const char *href, const char *name, const char *suffix)
 {
     fputs("<td><a href=\"", out);
-    put_escaped(out, href);
+    esr_html_put_escaped(out, href);
     fputc('/', out);
-    put_escaped(out, name);
+    esr_html_put_escaped(out, name);
     fputs(suffix, out);
     fputs("\"><img src=\"", out);
-    put_escaped(out, href);
+    esr_html_put_escaped(out, href);
     fputc('/', out);
-    put_escaped(out, name);
+    esr_html_put_escaped(out, name);
     fputs(suffix, out);
     fputs("\" width=\"128\" alt=\"\"></a></td>", out);
 }
@@ -307,7 +296,7 @@ static void put_views(FILE *out, const struct esr_report_spec *spec)
     for (int i = 0; i < spec->res->n_views; i++) {
         const struct esr_eval_view *v = &spec->res->views[i];
         fputs("<tr><td>", out);
-        put_escaped(out, v->name);
+        esr_html_put_escaped(out, v->name);
         fprintf(out, "</td><td>%s</td>", esr_light_mode_name(v->mode));
         put_thumb(out, spec->gt_href, v->name, ".png");
         put_thumb(out, spec->render_href, v->name, ".png");
@@ -439,14 +428,14 @@ static void put_edit_links(FILE *out, const struct esr_report_spec *spec)
 static int put_page(FILE *out, const struct esr_report_spec *spec)
 {
     fputs("<!DOCTYPE html>\n<html><head><meta charset=\"utf-8\"><title>esr report: ", out);
-    put_escaped(out, spec->title);
+    esr_html_put_escaped(out, spec->title);
     fputs("</title>\n<style>body{font-family:sans-serif;margin:1em}table{border-collapse:collapse}"
           "td,th{border:1px solid #ccc;padding:2px 6px;text-align:right}img{display:block}</style>\n"
           "</head><body>\n<h1>",
           out);
-    put_escaped(out, spec->title);
+    esr_html_put_escaped(out, spec->title);
     fprintf(out, "</h1>\n<p>phase %s of dataset ", esr_phase_name(spec->res->phase));
-    put_escaped(out, spec->ds->root);
+    esr_html_put_escaped(out, spec->ds->root);
     fputs("</p>\n", out);
     put_edit_links(out, spec);
     put_summary(out, spec->res);

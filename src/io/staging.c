@@ -51,15 +51,35 @@ static int resolve_path(const char *path, char *out, size_t n)
         if (cut > 0)
             cut--; /* and the slash before that component */
     }
-    const char *rest = abs + cut;
-    while (*rest == '/')
-        rest++;
-    const int root = !strcmp(resolved, "/");
-    const int len = snprintf(out, n, "%s%s%s", resolved, *rest && !root ? "/" : "", rest);
-    if (len < 0 || (size_t)len >= n)
+    /* the part that does not exist yet, component by component: "." dropped, ".." takes the
+     * last component off (no link can hide below a folder that does not exist) */
+    if (strlen(resolved) >= n)
         return ESR_FAIL("path '%s' is too long", path);
-    for (int k = len; k > 1 && out[k - 1] == '/'; k--) /* "a/b/" -> "a/b" */
-        out[k - 1] = '\0';
+    strcpy(out, resolved);
+    size_t len = strlen(out);
+    for (const char *c = abs + cut; *c;) {
+        while (*c == '/')
+            c++;
+        const size_t w = strcspn(c, "/");
+        if (w == 0)
+            break;
+        if (w == 2 && c[0] == '.' && c[1] == '.') {
+            while (len > 1 && out[len - 1] != '/')
+                len--;
+            if (len > 1)
+                len--; /* the slash before it */
+            out[len] = '\0';
+        } else if (!(w == 1 && c[0] == '.')) {
+            if (len + (len > 1) + w >= n)
+                return ESR_FAIL("path '%s' is too long", path);
+            if (len > 1)
+                out[len++] = '/';
+            memcpy(out + len, c, w);
+            len += w;
+            out[len] = '\0';
+        }
+        c += w;
+    }
     return ESR_OK;
 }
 
@@ -94,10 +114,15 @@ int esr_staging_check_apart(const char *out_dir, const char *const *inputs, int 
 }
 
 int esr_output_check_outside(const char *out_dir, const char *const *folders,
-                             const char *const *what, int n)
+                             const char *const *what, int n, const char *allowed)
 {
     char out[PATH_MAX], in[PATH_MAX];
     ESR_TRY(resolve_path(out_dir, out, sizeof out));
+    if (allowed) {
+        ESR_TRY(resolve_path(allowed, in, sizeof in));
+        if (path_within(out, in))
+            return ESR_OK;
+    }
     for (int i = 0; i < n; i++) {
         if (!folders[i])
             continue;

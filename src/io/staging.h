@@ -18,10 +18,11 @@ int esr_staging_begin(const char *out_dir, int force, char *staging, size_t n);
 int esr_staging_check_apart(const char *out_dir, const char *const *inputs, int n);
 /* Refuses an out_dir that is or lies inside one of the n folders (NULL entries skipped): folders
  * whose files a command's output would replace (a dataset's images, a run's own renders whose
- * record would then describe other pixels). what[i] names folder i in the message. Paths are
+ * record would then describe other pixels), unless out_dir is or lies inside `allowed` (NULL:
+ * none; a run kept inside its dataset). what[i] names folder i in the message. Paths are
  * resolved as in esr_staging_check_apart. */
 int esr_output_check_outside(const char *out_dir, const char *const *folders,
-                             const char *const *what, int n);
+                             const char *const *what, int n, const char *allowed);
 /* Moves staging onto out_dir (replacing an existing out_dir, whose old contents are deleted). */
 int esr_staging_commit(const char *staging, const char *out_dir);
 /* Deletes a directory tree (no symlinks followed); used to drop a failed staging directory. */

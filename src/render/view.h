@@ -99,12 +99,17 @@ typedef void (*esr_view_progress_fn)(void *user, const struct esr_view_progress 
 int esr_view_render_frames(const struct esr_model *m, const struct esr_dataset *ds, enum esr_phase_id phase,
                            const int *idx, int n, const char *dir, esr_view_progress_fn progress, void *user);
 
+/* What a view's files mean; render.json records it, so that renders written before a change
+ * of meaning are stale (2: with lights found, N_emission.exr and N_emitter.png are the lights'). */
+#define ESR_VIEW_OUTPUTS_VERSION 2
+
 /* 1 when frame `name`'s outputs exist in dir and dir/render.json says this model (stage, step
- * and lights) rendered them, else 0 (render again). */
+ * and lights) rendered them with today's outputs, else 0 (render again). */
 int esr_view_is_current(const char *dir, const struct esr_model *m, const char *name);
 /* A stamp's text (size bytes, no NUL needed) read for a model of this stage, step and lights
- * fingerprint: its "frames" array (the caller deletes it) when the stamp names that model, else
- * NULL (unparsable or another model's: render again). Never an error. */
+ * fingerprint: its "frames" array (the caller deletes it) when the stamp names that model and
+ * ESR_VIEW_OUTPUTS_VERSION, else NULL (unparsable, another model's or older outputs: render
+ * again). Never an error. */
 cJSON *esr_view_stamp_frames(const char *text, size_t size, const char *stage, long step, const char *lights);
 
 #endif

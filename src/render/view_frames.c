@@ -51,10 +51,12 @@ cJSON *esr_view_stamp_frames(const char *text, size_t size, const char *stage, l
     const cJSON *st = cJSON_GetObjectItemCaseSensitive(root, "stage");
     const cJSON *sp = cJSON_GetObjectItemCaseSensitive(root, "step");
     const cJSON *li = cJSON_GetObjectItemCaseSensitive(root, "lights");
+    const cJSON *ou = cJSON_GetObjectItemCaseSensitive(root, "outputs");
     cJSON *frames = cJSON_DetachItemFromObjectCaseSensitive(root, "frames");
     int match = cJSON_IsString(st) && cJSON_IsNumber(sp) && cJSON_IsArray(frames) && cJSON_IsString(li) &&
                 !strcmp(st->valuestring, stage) && sp->valuedouble == (double)step &&
-                !strcmp(li->valuestring, lights);
+                !strcmp(li->valuestring, lights) && cJSON_IsNumber(ou) &&
+                ou->valuedouble == ESR_VIEW_OUTPUTS_VERSION;
     cJSON_Delete(root);
     if (!match) {
         cJSON_Delete(frames);
@@ -118,6 +120,7 @@ static int write_stamp(const char *dir, const struct esr_model *m, cJSON *frames
     char fp[24];
     lights_fingerprint(m, fp);
     cJSON_AddStringToObject(root, "lights", fp);
+    cJSON_AddNumberToObject(root, "outputs", ESR_VIEW_OUTPUTS_VERSION);
     cJSON_AddItemToObject(root, "frames", frames);
     if (stamp_path(path, sizeof path, dir) != ESR_OK) {
         cJSON_Delete(root);
