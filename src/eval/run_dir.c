@@ -5,10 +5,10 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/stat.h>
 
 #include "core/error.h"
 #include "eval/select.h"
+#include "io/dir.h"
 #include "io/file.h"
 
 /* The dataset path recorded in a run file's parsed JSON (root may be NULL); 1 when found. */
@@ -96,11 +96,7 @@ int esr_run_select(const char *run, const char *data_override, const char *phase
                    struct esr_run_selection *sel)
 {
     memset(sel, 0, sizeof *sel);
-    struct stat st;
-    if (stat(run, &st) != 0)
-        return ESR_FAIL("run directory '%s' does not exist", run);
-    if (!S_ISDIR(st.st_mode))
-        return ESR_FAIL("'%s' is not a run directory (it is a file)", run);
+    ESR_TRY(esr_dir_check_run(run));
     ESR_TRY(parse_phase(phase, &sel->phase));
     char data[ESR_PATH_MAX];
     ESR_TRY(esr_run_data_dir(run, data_override, data, sizeof data));

@@ -45,3 +45,13 @@ int esr_dir_prepare_output(const char *path)
     ESR_TRY(esr_dir_create(path));
     return esr_stale_sweep(path, NULL);
 }
+
+int esr_dir_check_run(const char *run)
+{
+    struct stat st;
+    if (stat(run, &st) != 0)
+        return ESR_FAIL("run directory '%s' does not exist", run);
+    if (!S_ISDIR(st.st_mode))
+        return ESR_FAIL("'%s' is not a run directory (it is a file)", run);
+    return ESR_OK;
+}

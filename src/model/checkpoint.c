@@ -23,6 +23,7 @@
 #include <sys/stat.h>
 
 #include "core/error.h"
+#include "io/dir.h"
 #include "io/file.h"
 #include "io/json_file.h"
 #include "model/model.h"
@@ -409,11 +410,7 @@ int esr_model_load_finished_pdra(struct esr_model *m, const char *run)
 {
     char ckpt[4200];
     snprintf(ckpt, sizeof ckpt, "%s/ckpt_pdra.bin", run);
-    struct stat st;
-    if (stat(run, &st) != 0)
-        return ESR_FAIL("run directory '%s' does not exist", run);
-    if (!S_ISDIR(st.st_mode))
-        return ESR_FAIL("'%s' is not a run directory (it is a file)", run);
+    ESR_TRY(esr_dir_check_run(run));
     if (!esr_file_exists(ckpt))
         return ESR_FAIL("%s has no pdra checkpoint (ckpt_pdra.bin): the lights are found by the "
                         "last stage, pdra (esr train DATA --out RUN runs all five; a run whose "
