@@ -100,6 +100,36 @@ static void test_killed_staging_is_swept_by_the_next_run(void **state)
     assert_int_equal(esr_dir_prepare_output(parent), 0);
 }
 
+/* An output-folder case: a path below the test's root, and whether the check accepts it. */
+struct out_case {
+    const char *out;
+    int ok;
+};
+
+/* Runs check(root/out, ctx) on every case: accepted or refused as the case says, a refusal's
+ * message holding `refusal`; `against` names the folder in a failure. */
+static void expect_out_cases(const char *root, const struct out_case *cases, size_t n,
+                             int (*check)(const char *out, const void *ctx), const void *ctx,
+                             const char *against, const char *refusal)
+{
+    for (size_t i = 0; i < n; i++) {
+        char out[8600];
+        snprintf(out, sizeof out, "%s/%s", root, cases[i].out);
+        esr_error_clear();
+        const int rc = check(out, ctx);
+        if ((rc == ESR_OK) != cases[i].ok)
+            fail_msg("'%s' against '%s': %s", out, against, rc == ESR_OK ? "accepted" : esr_error_message());
+        if (rc != ESR_OK)
+            assert_non_null(strstr(esr_error_message(), refusal));
+    }
+    esr_error_clear();
+}
+
+static int check_apart(const char *out, const void *ctx)
+{
+    return esr_staging_check_apart(out, (const char *const *)ctx, 2);
+}
+
 /* An output folder must stay apart from the inputs it is made from: the same folder, one
  * containing an input, or an existing folder of the input's own inside it, also through a
  * symbolic link or `..`, are refused; a new folder inside an input, an earlier import's output
@@ -116,27 +146,27 @@ static void test_output_apart_from_inputs(void **state)
              "'%s/done/import.json' && ln -s '%s' '%s'", in, in, in, in, in, link);
     assert_int_equal(system(cmd), 0);
     const char *const inputs[] = {NULL, in};
-    static const struct {
-        const char *out; /* below root */
-        int ok;
-    } cases[] = {
+    static const struct out_case cases[] = {
         {"photos", 0},         {"photos/", 0},     {"photos/off", 0},  {"", 0},
         {"alias", 0},          {"alias/off", 0},   {"photos/../photos", 0},
         {"new/../photos", 0},  {"new/./x/../../photos/off", 0},
         {"photos/new/sub", 1}, {"photos/done", 1}, {"photos2", 1},     {"data", 1},
         {"data/new/sub", 1},   {"photo", 1},       {"new/../photos2", 1},
     };
-    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
-        char out[8600];
-        snprintf(out, sizeof out, "%s/%s", root, cases[i].out);
-        esr_error_clear();
-        const int rc = esr_staging_check_apart(out, inputs, 2);
-        if ((rc == ESR_OK) != cases[i].ok)
-            fail_msg("'%s' against '%s': %s", out, in, rc == ESR_OK ? "accepted" : esr_error_message());
-        if (rc != ESR_OK)
-            assert_non_null(strstr(esr_error_message(), "would delete the input"));
-    }
-    esr_error_clear();
+    expect_out_cases(root, cases, sizeof cases / sizeof cases[0], check_apart, inputs, in,
+                     "would delete the input");
+}
+
+/* The dataset folder and the run inside it that esr_output_check_outside is given. */
+struct outside_args {
+    const char *data, *run;
+};
+
+static int check_outside(const char *out, const void *ctx)
+{
+    const struct outside_args *a = ctx;
+    const char *const what = "the dataset";
+    return esr_output_check_outside(out, &a->data, &what, 1, a->run);
 }
 
 /* esr_output_check_outside: refused in or under a listed folder however the path is spelled
@@ -152,27 +182,15 @@ static void test_output_outside(void **state)
     snprintf(cmd, sizeof cmd, "mkdir -p '%s/test_nv' '%s' && ln -s '%s' '%s/alias'", data, run, data,
              root);
     assert_int_equal(system(cmd), 0);
-    const char *const folders[1] = {data}, *const what[1] = {"the dataset"};
-    static const struct {
-        const char *out; /* below root */
-        int ok;
-    } cases[] = {
+    const struct outside_args args = {data, run};
+    static const struct out_case cases[] = {
         {"data", 0},           {"data/test_nv", 0},         {"data/new/sub", 0},
         {"alias/test_nv", 0},  {"new/../data/test_nv", 0},  {"data/run/../test_nv", 0},
         {"data/run", 1},       {"data/run/edits/x", 1},     {"alias/run/new", 1},
         {"data2", 1},          {"new/../data2", 1},         {"edits", 1},
     };
-    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
-        char out[8600];
-        snprintf(out, sizeof out, "%s/%s", root, cases[i].out);
-        esr_error_clear();
-        const int rc = esr_output_check_outside(out, folders, what, 1, run);
-        if ((rc == ESR_OK) != cases[i].ok)
-            fail_msg("'%s' against '%s': %s", out, data, rc == ESR_OK ? "accepted" : esr_error_message());
-        if (rc != ESR_OK)
-            assert_non_null(strstr(esr_error_message(), "the dataset"));
-    }
-    esr_error_clear();
+    expect_out_cases(root, cases, sizeof cases / sizeof cases[0], check_outside, &args, data,
+                     "the dataset");
 }
 
 /* esr_file_check_writable: fine for a new file in a folder that exists, refused for a missing

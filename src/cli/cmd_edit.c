@@ -77,11 +77,16 @@ struct edit_args {
     } g[ESR_MAX_LIGHTS * 2];
 };
 
+static int twice(const char *o)
+{
+    return cli_fail(&cmd_edit, "%s given twice", o);
+}
+
 /* The option o's value, refused when o was given before (*seen). */
 static int once(const char *o, int *seen)
 {
     if (*seen)
-        return cli_fail(&cmd_edit, "%s given twice", o);
+        return twice(o);
     *seen = 1;
     return 0;
 }
@@ -107,7 +112,7 @@ static int parse_hs(const char *text, float *h, float *s)
 static int text_value(const char *o, const char *v, const char **out)
 {
     if (*out)
-        return cli_fail(&cmd_edit, "%s given twice", o);
+        return twice(o);
     *out = v;
     return 0;
 }
@@ -174,12 +179,12 @@ static int parse(int argc, char **argv, struct edit_args *a)
                 return 1;
         } else if (!strcmp(o, "--orbit") && has) {
             if (a->orbit)
-                return cli_fail(&cmd_edit, "--orbit given twice");
+                return twice(o);
             if (cli_parse_int(argv[++i], 1, 3600, &a->orbit))
                 return cli_fail(&cmd_edit, "--orbit: expected 1..3600 views, got '%s'", argv[i]);
         } else if (!strcmp(o, "--iters") && has) {
             if (a->iters)
-                return cli_fail(&cmd_edit, "--iters given twice");
+                return twice(o);
             if (cli_parse_int(argv[++i], 1, 1000000, &a->iters))
                 return cli_fail(&cmd_edit, "--iters: expected 1..1000000, got '%s'", argv[i]);
         } else if (!strcmp(o, "--spp") && has) {
@@ -305,7 +310,7 @@ static int write_view(const char *dir, const char *name, const struct esr_image 
 
 /* After an error: removes the first n views' files this edit wrote (the last one's first
  * `last_files`), so that a failed edit leaves none of its views (a folder it created stays). */
-static void remove_views(const char *dir, const char *const *names, int n, int last_files)
+static void remove_views(const char *dir, char (*names)[ESR_NAME_MAX], int n, int last_files)
 {
     static const char *const ext[2] = {".exr", ".png"};
     for (int v = 0; v < n; v++)
@@ -371,14 +376,12 @@ static int edit(const struct edit_args *a)
                              0.5f * (m.scene_min[1] + m.scene_max[1]),
                              0.5f * (m.scene_min[2] + m.scene_max[2])};
     char(*names)[ESR_NAME_MAX] = rc == ESR_OK ? calloc((size_t)views, sizeof *names) : NULL;
-    const char **name_of = rc == ESR_OK ? calloc((size_t)views, sizeof *name_of) : NULL;
-    if (rc == ESR_OK && !(names && name_of))
+    if (rc == ESR_OK && !names)
         rc = ESR_FAIL("out of memory for %d view names", views);
     int done = 0, last_files = 0; /* views whose files were (partly) written */
     for (int v = 0; rc == ESR_OK && v < views; v++) {
         const struct esr_frame *f = &ph->frames[sel.idx[a->orbit ? 0 : v]];
         char *name = names[v];
-        name_of[v] = name;
         struct esr_camera cam = f->camera;
         if (a->orbit) {
             cam = orbit_camera(&f->camera, centre, v, a->orbit);
@@ -399,9 +402,8 @@ static int edit(const struct edit_args *a)
             fprintf(stderr, "  %-16s %4d / %-4d  %.2f s\n", name, v + 1, views, secs);
     }
     if (rc != ESR_OK && done > 0)
-        remove_views(a->out, name_of, done, last_files);
+        remove_views(a->out, names, done, last_files);
     free(names);
-    free(name_of);
     esr_editor_free(&ed);
     esr_model_free(&m);
     esr_run_selection_free(&sel);

@@ -15,7 +15,6 @@
 #include "render/view.h"
 #include "train/lights.h"
 
-
 /* A metric cell: "-" when the value is missing (NAN). */
 static void put_number(FILE *out, const char *fmt, double v)
 {

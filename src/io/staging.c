@@ -30,7 +30,8 @@ static int dir_is_empty(const char *dir)
 }
 
 /* The absolute, resolved form of path, which need not exist: its longest existing prefix
- * resolved by realpath (links, `..`), the rest appended as written. */
+ * resolved by realpath (links, `..`), the rest appended component by component ("." dropped,
+ * ".." taking one off). */
 static int resolve_path(const char *path, char *out, size_t n)
 {
     char abs[PATH_MAX], head[PATH_MAX], resolved[PATH_MAX], cwd[PATH_MAX];
