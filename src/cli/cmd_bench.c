@@ -182,14 +182,21 @@ static int render_section(const struct bench_opts *o, cJSON *root)
     return ESR_OK;
 }
 
-/* The LTS estimators on run's last emitter-stage checkpoint (pdra, else lts), into root's
- * "lts_estimators" (name given for the JSON's "checkpoint"). */
+/* run's last emitter-stage checkpoint (pdra, else lts) into ckpt; 0 when it has neither. */
+static int emitter_checkpoint(const char *run, char ckpt[4200])
+{
+    snprintf(ckpt, 4200, "%s/ckpt_pdra.bin", run);
+    if (!esr_file_exists(ckpt))
+        snprintf(ckpt, 4200, "%s/ckpt_lts.bin", run);
+    return esr_file_exists(ckpt);
+}
+
+/* The LTS estimators on run's last emitter-stage checkpoint, into root's "lts_estimators" (name
+ * given for the JSON's "checkpoint"). */
 static int lts_section(const char *run, const char *data, int repeats, cJSON *root)
 {
     char ckpt[4200];
-    snprintf(ckpt, sizeof ckpt, "%s/ckpt_pdra.bin", run);
-    if (!esr_file_exists(ckpt))
-        snprintf(ckpt, sizeof ckpt, "%s/ckpt_lts.bin", run);
+    emitter_checkpoint(run, ckpt);
     struct esr_bench_lts_result r;
     ESR_TRY(esr_bench_lts(ckpt, data, repeats, &r));
     cJSON *j = cJSON_AddObjectToObject(root, "lts_estimators");
@@ -472,10 +479,7 @@ static int check_inputs(const struct bench_opts *o)
     if (!o->run)
         return ESR_OK;
     char ckpt[4200], data[4096];
-    snprintf(ckpt, sizeof ckpt, "%s/ckpt_pdra.bin", o->run);
-    if (!esr_file_exists(ckpt))
-        snprintf(ckpt, sizeof ckpt, "%s/ckpt_lts.bin", o->run);
-    if (!esr_file_exists(ckpt))
+    if (!emitter_checkpoint(o->run, ckpt))
         return ESR_FAIL("--run: '%s' has no pdra or lts checkpoint (ckpt_pdra.bin, ckpt_lts.bin)",
                         o->run);
     ESR_TRY(esr_run_data_dir(o->run, o->data, data, sizeof data));
