@@ -216,6 +216,40 @@ static void test_check_writable(void **state)
     assert_int_equal(system(cmd), 0);
 }
 
+/* esr_dir_create_made names the outermost folder it made, and esr_dir_remove_made takes back
+ * exactly those folders while they are empty: a failed command leaves no folder it made, and
+ * never one that was there before or that holds a file. */
+static void test_dir_remove_made(void **state)
+{
+    (void)state;
+    char base[4200], path[4400], made[4400], want[4400];
+    snprintf(base, sizeof base, "%s/made", test_tmpdir);
+    assert_int_equal(esr_dir_create(base), ESR_OK);
+    snprintf(path, sizeof path, "%s/a/b/c/", base);
+    assert_int_equal(esr_dir_create_made(path, made, sizeof made), ESR_OK);
+    snprintf(want, sizeof want, "%s/a", base);
+    assert_string_equal(made, want);
+    esr_dir_remove_made(path, made);
+    assert_false(has(base, "a"));
+    assert_true(has(test_tmpdir, "made")); /* there before */
+    /* all there: nothing made, nothing removed */
+    snprintf(path, sizeof path, "%s/a/b", base);
+    assert_int_equal(esr_dir_create(path), ESR_OK);
+    assert_int_equal(esr_dir_create_made(path, made, sizeof made), ESR_OK);
+    assert_string_equal(made, "");
+    esr_dir_remove_made(path, made);
+    assert_true(has(base, "a/b"));
+    /* a made folder that holds a file stays, with its parents */
+    snprintf(path, sizeof path, "%s/a/b/c/d", base);
+    assert_int_equal(esr_dir_create_made(path, made, sizeof made), ESR_OK);
+    snprintf(want, sizeof want, "%s/a/b/c", base);
+    assert_string_equal(made, want);
+    put(want, "kept.txt");
+    esr_dir_remove_made(path, made);
+    assert_false(has(base, "a/b/c/d"));
+    assert_true(has(base, "a/b/c/kept.txt"));
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -224,6 +258,7 @@ int main(void)
         cmocka_unit_test(test_output_apart_from_inputs),
         cmocka_unit_test(test_output_outside),
         cmocka_unit_test(test_check_writable),
+        cmocka_unit_test(test_dir_remove_made),
     };
     return cmocka_run_group_tests(tests, test_setup_tmpdir, test_teardown_tmpdir);
 }

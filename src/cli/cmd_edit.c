@@ -34,7 +34,8 @@ const struct esr_command cmd_edit = {
     "doubles light 0; two groups that set the same thing for one light are refused.\n"
     "Writes per view DIR/N.png (linear through the sRGB curve, clipped) and DIR/N.exr (linear\n"
     "RGB on white); DIR may not lie in RUN's render or eval folders, nor in the dataset unless\n"
-    "inside RUN. On an error the views already written are removed.\n"
+    "inside RUN. On an error the views already written are removed, and so is any folder the\n"
+    "edit made.\n"
     "\n"
     "methods:\n"
     "  direct     (default) the lights-off radiance plus the direct light of every light at its\n"
@@ -309,7 +310,7 @@ static int write_view(const char *dir, const char *name, const struct esr_image 
 }
 
 /* After an error: removes the first n views' files this edit wrote (the last one's first
- * `last_files`), so that a failed edit leaves none of its views (a folder it created stays). */
+ * `last_files`), so that a failed edit leaves none of its views (and then no folder it made). */
 static void remove_views(const char *dir, char (*names)[ESR_NAME_MAX], int n, int last_files)
 {
     static const char *const ext[2] = {".exr", ".png"};
@@ -358,8 +359,9 @@ static int edit(const struct edit_args *a)
         ft.iters = a->iters;
     if (rc == ESR_OK)
         rc = check_out(a, sel.ds.root);
+    char made[4200] = ""; /* the outermost folder of --out this edit created */
     if (rc == ESR_OK)
-        rc = esr_dir_prepare_output(a->out);
+        rc = esr_dir_prepare_output_made(a->out, made, sizeof made);
     if (rc == ESR_OK)
         rc = esr_editor_init(&ed, &m, &sel.ds, a->method, a->spp, &ft);
     if (rc == ESR_OK && a->method == ESR_EDIT_FINETUNE)
@@ -403,6 +405,8 @@ static int edit(const struct edit_args *a)
     }
     if (rc != ESR_OK && done > 0)
         remove_views(a->out, names, done, last_files);
+    if (rc != ESR_OK)
+        esr_dir_remove_made(a->out, made);
     free(names);
     esr_editor_free(&ed);
     esr_model_free(&m);

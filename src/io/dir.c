@@ -2,18 +2,24 @@
 #include "io/dir.h"
 
 #include <errno.h>
+#include <stdio.h>
 #include <string.h>
 #include <sys/stat.h>
+#include <unistd.h>
 
 #include "core/error.h"
 #include "io/dataset.h"
 #include "io/stale.h"
 
-static int make_one(const char *path)
+/* Makes one folder; *made = 1 when this call created it. */
+static int make_one(const char *path, int *made)
 {
     struct stat st;
-    if (mkdir(path, 0777) == 0)
+    *made = 0;
+    if (mkdir(path, 0777) == 0) {
+        *made = 1;
         return ESR_OK;
+    }
     int err = errno;
     if (err == EEXIST && stat(path, &st) == 0 && S_ISDIR(st.st_mode))
         return ESR_OK;
@@ -21,29 +27,65 @@ static int make_one(const char *path)
                     err == EEXIST ? "a file of that name exists" : strerror(err));
 }
 
-int esr_dir_create(const char *path)
+int esr_dir_create_made(const char *path, char *made, size_t made_size)
 {
     char buf[ESR_PATH_MAX];
     size_t len = strlen(path);
+    if (made && made_size)
+        made[0] = '\0';
     if (len == 0 || len >= sizeof buf)
         return ESR_FAIL("cannot create directory '%s': empty or too long path", path);
     memcpy(buf, path, len + 1);
     /* Every prefix ending before a '/' is a parent; the leading '/' of an absolute path is not. */
-    for (size_t i = 1; i < len; i++) {
-        if (buf[i] != '/' || buf[i - 1] == '/')
+    for (size_t i = 1; i <= len; i++) {
+        if (i < len && (buf[i] != '/' || buf[i - 1] == '/'))
             continue;
         buf[i] = '\0';
-        int status = make_one(buf);
-        buf[i] = '/';
+        int created = 0;
+        int status = make_one(buf, &created);
+        if (status == ESR_OK && created && made && made_size && !made[0])
+            snprintf(made, made_size, "%s", buf);
+        if (i < len)
+            buf[i] = '/';
         ESR_TRY(status);
     }
-    return make_one(buf);
+    return ESR_OK;
+}
+
+int esr_dir_create(const char *path)
+{
+    return esr_dir_create_made(path, NULL, 0);
+}
+
+void esr_dir_remove_made(const char *path, const char *made)
+{
+    if (!made || !made[0] || strncmp(path, made, strlen(made)) != 0)
+        return;
+    char buf[ESR_PATH_MAX];
+    snprintf(buf, sizeof buf, "%s", path);
+    /* from the innermost folder outwards; rmdir leaves any that is not empty */
+    for (;;) {
+        size_t len = strlen(buf);
+        while (len > 1 && buf[len - 1] == '/')
+            buf[--len] = '\0';
+        if (rmdir(buf) != 0 || len <= strlen(made))
+            return;
+        char *slash = strrchr(buf, '/');
+        if (!slash || slash == buf)
+            return;
+        *slash = '\0';
+    }
+}
+
+int esr_dir_prepare_output_made(const char *path, char *made, size_t made_size)
+{
+    ESR_TRY(esr_dir_create_made(path, made, made_size));
+    return esr_stale_sweep(path, NULL);
 }
 
 int esr_dir_prepare_output(const char *path)
 {
-    ESR_TRY(esr_dir_create(path));
-    return esr_stale_sweep(path, NULL);
+    return esr_dir_prepare_output_made(path, NULL, 0);
 }
 
 int esr_dir_check_run(const char *run)

@@ -2,12 +2,23 @@
 #ifndef ESR_IO_DIR_H
 #define ESR_IO_DIR_H
 
+#include <stddef.h>
+
 /* Creates directory `path` and any missing parents (like `mkdir -p`); an existing directory is
  * fine. Fails naming the path when a component exists but is not a directory or cannot be made. */
 int esr_dir_create(const char *path);
+/* esr_dir_create that also says which folders it made: `made` gets the outermost folder this call
+ * created ("" when all existed), for esr_dir_remove_made. */
+int esr_dir_create_made(const char *path, char *made, size_t made_size);
+/* Undoes esr_dir_create_made after a failed command: removes path and its parents up to and
+ * including `made` while they are empty (nothing when made is ""), so a command that fails
+ * leaves no folder it made. */
+void esr_dir_remove_made(const char *path, const char *made);
 /* An output folder about to be written: esr_dir_create, then a killed run's temporary files and
  * staging folders in it are removed (io/stale.h). */
 int esr_dir_prepare_output(const char *path);
+/* esr_dir_prepare_output saying, as esr_dir_create_made, which folders it made. */
+int esr_dir_prepare_output_made(const char *path, char *made, size_t made_size);
 /* A run directory to read: fails naming it when it does not exist or is a file. */
 int esr_dir_check_run(const char *run);
 
