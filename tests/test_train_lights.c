@@ -19,6 +19,7 @@
 #include "model/model.h"
 #include "test_model.h"
 #include "test_support.h"
+#include "train/light_direct.h"
 #include "train/lights.h"
 
 #define RES 48
@@ -395,6 +396,55 @@ static void test_small_light_shares_the_fitted_scale(void **state)
     assert_true(esr_light_strength_fitted(&L, 2));
 }
 
+/* The direct-light kernel (train/light_direct.h) against the formula it estimates, with nothing in
+ * the way: one light sample y of area A and emission e, facing x, gives e R(wo, wi) |n_y . wi| A /
+ * d^2 with wi and d taken from the lit point x itself, not from where its shadow ray starts (one
+ * voxel up the normal): measured from there, a light 3 voxels above x came out 2.25x too bright. */
+static void test_direct_light_is_measured_from_the_point(void **state)
+{
+    (void)state;
+    struct esr_grid g;
+    const float bmin[3] = {-1, -1, -1}, bmax[3] = {1, 1, 1};
+    assert_int_equal(esr_grid_init(&g, 1, RES, RES, RES, bmin, bmax), ESR_OK);
+    static float sdf[RES * RES * RES];
+    for (size_t i = 0; i < esr_grid_voxels(&g); i++)
+        sdf[i] = 1.0f; /* empty: every shadow ray gets through */
+    struct esr_light_shadows sh;
+    memset(&sh, 0, sizeof sh);
+    assert_int_equal(esr_first_hit_shadow_setup(&sh.grid, &sh.params, &g, sdf), ESR_OK);
+    sh.voxel = esr_grid_voxel_size(&g, 0);
+    const float h = sh.voxel;
+    const struct esr_material mat = {{0.8f, 0.6f, 0.4f}, 0.5f, 0.2f};
+    const struct esr_vec3 x = {0.1f, -0.2f, -0.5f}, n = {0, 0, 1};
+    const struct esr_vec3 wo = esr_v3_normalize((struct esr_vec3){0.3f, 0.2f, 1.0f});
+    /* the sample: above x (and off to one side), facing down-ish */
+    const float up[4] = {3, 6, 12, 24}, side[2] = {0, 4};
+    for (int k = 0; k < 4; k++)
+        for (int j = 0; j < 2; j++) {
+            const struct esr_vec3 y = {x.x + side[j] * h, x.y, x.z + up[k] * h};
+            const struct esr_vec3 ny = esr_v3_normalize((struct esr_vec3){-0.2f, 0.1f, -1.0f});
+            float pos3[3] = {y.x, y.y, y.z}, nrm3[3] = {ny.x, ny.y, ny.z};
+            float emit3[3] = {2.0f, 3.0f, 5.0f}, area = 0.7f * h * h;
+            const struct esr_light_samples ls = {1, pos3, nrm3, emit3, &area, area, 5.0f};
+            float got[1][3] = {{0}};
+            struct esr_rng rng = esr_rng_init(7, 0);
+            assert_int_equal((int)esr_light_direct_point(&sh, &ls, NULL, 1, &mat, x, n, &wo, 1,
+                                                         1.0f, &rng, got, NULL), 1);
+            const struct esr_vec3 v = esr_v3_sub(y, x);
+            const float d = esr_v3_length(v);
+            const struct esr_vec3 wi = esr_v3_scale(v, 1.0f / d);
+            float R[3];
+            esr_brdf_eval(&mat, n, wo, wi, R);
+            for (int c = 0; c < 3; c++) {
+                const float want = emit3[c] * R[c] * fabsf(esr_v3_dot(ny, wi)) * area / (d * d);
+                if (fabsf(got[0][c] - want) > 1e-4f * want)
+                    fail_msg("light %g voxels up, %g aside, channel %d: %g, want %g", (double)up[k],
+                             (double)side[j], c, (double)got[0][c], (double)want);
+            }
+        }
+    esr_first_hit_grid_free(&sh.grid);
+}
+
 int main(void)
 {
     make_rays();
@@ -406,6 +456,7 @@ int main(void)
         cmocka_unit_test(test_unseen_cavity_is_no_light),
         cmocka_unit_test(test_light_grows_over_its_unseen_part),
         cmocka_unit_test(test_small_light_shares_the_fitted_scale),
+        cmocka_unit_test(test_direct_light_is_measured_from_the_point),
     };
     return cmocka_run_group_tests(tests, test_setup_tmpdir, test_teardown_tmpdir);
 }

@@ -50,7 +50,8 @@ void esr_light_shadows_free(struct esr_light_shadows *s);
 
 /* One surface point x (unit normal n, material mat) and light ls: spp area samples, stratified
  * over the light's points (stored in lattice order, so the strata are patches of its surface),
- * each with a shadow ray from x + 1 voxel n to 1.5 voxels short of the sample. ADDS
+ * each with a shadow ray from x + 1 voxel n to 1.5 voxels short of the sample (wi and d are
+ * measured from x itself; a sample within 2.5 voxels of x is left out). ADDS
  * scale e R(wo_w, wi) |n_y . wi| A N / (spp d^2) per sample and channel (N: the light's point
  * count, A the sample's area) into edited[w] for each of the n_wo
  * outgoing directions wo (e: the sample's emission edited by *edit, or as found when edit is
@@ -69,7 +70,8 @@ size_t esr_light_direct_point(const struct esr_light_shadows *sh, const struct e
  * whose surface samples ls[] are given, each sample's emission edited by edits[K] (NULL: as the
  * samples carry it); out_found (or NULL), the same for the emission as found, from the same
  * samples and shadow rays (what fine-tuning compares). Zero for a back-facing wo.
- * Deterministic in seed. */
+ * Deterministic in seed. Fails (writing nothing) unless pts->n_wo is 1..ESR_DIRECT_MAX_WO and
+ * n_lights 0..ESR_MAX_LIGHTS. */
 int esr_lights_direct(const struct esr_light_shadows *sh, const struct esr_light_samples *ls, int n_lights,
                       const struct esr_light_edit *edits, const struct esr_direct_points *pts,
                       int spp, uint64_t seed, double *out, double *out_found);
