@@ -39,7 +39,8 @@ struct esr_editor {
 
 /* An editor of model m (a finished pdra model; modified in place by finetune until
  * esr_editor_free puts it back). ds: the run's dataset (finetune trains on its training
- * cameras; unused by direct and ratio). spp: light samples per pixel (direct, ratio). ft: fine-tuning options
+ * cameras; unused by direct and ratio). spp: light samples per pixel (direct and ratio; finetune's
+ * on the pixels that see a light). ft: fine-tuning options
  * (NULL: the defaults). */
 int esr_editor_init(struct esr_editor *e, struct esr_model *m, const struct esr_dataset *ds,
                     enum esr_edit_method method, int spp, const struct esr_finetune_opts *ft);

@@ -132,7 +132,7 @@ int esr_finetune_init(struct esr_finetune *f, struct esr_model *m, const struct 
         f->dir3 = malloc(R * 3 * sizeof(float));
         f->rgb3 = malloc(R * 3 * sizeof(float));
         f->on = malloc(R);
-        f->g_sdf = malloc(esr_grid_count(esr_model_grid(m, ESR_COMP_SDF)) * sizeof(float));
+        f->g_sdf = calloc(esr_grid_count(esr_model_grid(m, ESR_COMP_SDF)), sizeof(float));
         if (!f->orig3 || !f->dir3 || !f->rgb3 || !f->on || !f->g_sdf)
             rc = ESR_FAIL("finetune: out of memory for a batch of %zu rays", R);
     }

@@ -72,7 +72,8 @@ struct esr_finetune {
     const struct esr_model *m;     /* for the LTS hook */
     uint64_t seed;
     long step;                     /* the light samples are a function of (seed, step) */
-    float *g_sdf;                  /* SDF gradient scratch (not used: the geometry is frozen) */
+    float *g_sdf;                  /* SDF gradient the LTS adds into and nothing reads (the
+                                      geometry is frozen); zeroed once */
     float *orig3, *dir3, *rgb3;    /* [rays * 3] */
     uint8_t *on;                   /* [rays] */
     int applied;                   /* an edit is in the model */

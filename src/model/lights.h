@@ -31,11 +31,12 @@ struct esr_light_edit {
 
 struct esr_light {
     float centroid[3];    /* world position, mean of the light's surface points */
-    float area;           /* surface area, world units^2 (surface points x voxel face area) */
+    float area;           /* surface area, world units^2 (each surface point's share of the
+                             voxel faces its normal crosses, train/lights.c point_area) */
     long points;          /* surface lattice points labelled with this light, its unseen part's
                              included */
-    float field_rgb[3];   /* mean E of the emission field over the points a camera sees
-                             (uncalibrated; the unseen part emits it too) */
+    float field_rgb[3];   /* mean E of the emission field over the light's emitting points (E > k
+                             on the outer surface; uncalibrated), which its unseen part emits */
     float scale[3];       /* per-channel strength calibration (1 = the field as trained) */
     float radiance[3];    /* emitted radiance found: scale x field_rgb (linear RGB) */
     float power;          /* emitted power, luminance x pi x area (Lambertian, one side; W-like
