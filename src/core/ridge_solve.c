@@ -4,6 +4,8 @@
 #include <math.h>
 #include <stdlib.h>
 
+#include "core/order.h"
+
 /* Solves G s = r by Gaussian elimination with partial pivoting; G and r are overwritten. */
 static void solve_dense(int K, double *G, double *r, double *s)
 {
@@ -122,12 +124,6 @@ static void normal_equations(int K, size_t n, const double *a, const double *y, 
     }
 }
 
-static int cmp_double(const void *x, const void *y)
-{
-    const double u = *(const double *)x, v = *(const double *)y;
-    return (u > v) - (u < v);
-}
-
 int esr_ridge_fit_robust(int K, size_t n, const double *a, const double *y, double ridge,
                          int rounds, double *s)
 {
@@ -149,8 +145,7 @@ int esr_ridge_fit_robust(int K, size_t n, const double *a, const double *y, doub
             res[p] = fabs(v);
             sorted[p] = res[p];
         }
-        qsort(sorted, n, sizeof(double), cmp_double);
-        const double med = n % 2 ? sorted[n / 2] : 0.5 * (sorted[n / 2 - 1] + sorted[n / 2]);
+        const double med = esr_median_doubles(sorted, n);
         const double cut = 1.345 * 1.4826 * med;
         if (!(cut > 0.0))
             break; /* most rows fit exactly: nothing to down-weight */

@@ -8,6 +8,7 @@
 #include <string.h>
 
 #include "core/error.h"
+#include "core/order.h"
 #include "io/file.h"
 
 double esr_normal_angle_deg(const float a[3], const float b[3])
@@ -87,12 +88,6 @@ void esr_normal_errors_free(struct esr_normal_errors *e)
     memset(e, 0, sizeof *e);
 }
 
-static int cmp_float(const void *a, const void *b)
-{
-    float x = *(const float *)a, y = *(const float *)b;
-    return (x > y) - (x < y);
-}
-
 struct esr_normal_stats esr_normal_stats_of(float *deg, size_t n, long n_gt)
 {
     struct esr_normal_stats s;
@@ -102,7 +97,7 @@ struct esr_normal_stats esr_normal_stats_of(float *deg, size_t n, long n_gt)
     s.coverage = n_gt > 0 ? (double)n / (double)n_gt : NAN;
     if (n == 0)
         return s;
-    qsort(deg, n, sizeof *deg, cmp_float);
+    esr_sort_floats(deg, n);
     double sum = 0.0;
     size_t good = 0;
     for (size_t i = 0; i < n; i++) {

@@ -10,6 +10,7 @@
 #include <cjson/cJSON.h>
 
 #include "core/error.h"
+#include "core/order.h"
 #include "io/colmap_camera.h"
 #include "io/file.h"
 
@@ -24,17 +25,10 @@ static const struct esr_frame *true_frame(const struct esr_phase *train, const c
     return NULL;
 }
 
-static int compare_double(const void *a, const void *b)
-{
-    double x = *(const double *)a, y = *(const double *)b;
-    return (x > y) - (x < y);
-}
-
 /* Median (mean of the middle two for even n) and maximum of v[0..n-1], n > 0; sorts v. */
 static void median_max(double *v, int n, double *median, double *max)
 {
-    qsort(v, (size_t)n, sizeof *v, compare_double);
-    *median = n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+    *median = esr_median_doubles(v, (size_t)n);
     *max = v[n - 1];
 }
 

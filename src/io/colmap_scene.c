@@ -6,18 +6,13 @@
 #include <string.h>
 
 #include "core/error.h"
+#include "core/order.h"
 #include "io/colmap_camera.h"
-
-static int compare_double(const void *a, const void *b)
-{
-    double x = *(const double *)a, y = *(const double *)b;
-    return (x > y) - (x < y);
-}
 
 /* The q-quantile (0..1, nearest rank) of v[0..n-1], n > 0; v is sorted in place. */
 static double quantile(double *v, long n, double q)
 {
-    qsort(v, (size_t)n, sizeof *v, compare_double);
+    esr_sort_doubles(v, (size_t)n);
     long i = (long)floor(q * (double)(n - 1) + 0.5);
     return v[i];
 }

@@ -8,6 +8,7 @@
 #include "core/brdf.h"
 #include "core/colour.h"
 #include "core/error.h"
+#include "core/order.h"
 #include "core/ridge_solve.h"
 #include "core/rng.h"
 #include "core/vec3.h"
@@ -29,13 +30,15 @@
 #define LIGHTS_MIN_POINTS 8
 /* material-field evaluations per batch */
 #define EVAL_CHUNK 16384
-/* calibration: LTS points per call, directions per point, camera rays traced per batch */
+/* calibration: LTS points per call, hemisphere directions per point, area samples per point and
+ * light */
 #define CALIB_CHUNK 250
 #define CALIB_DIRS 128
 #define CALIB_LIGHT_SPP 64
 /* points whose lights-on linear radiance exceeds this in a channel are clipped in the LDR images
  * (sRGB 0.9) and left out */
 #define CALIB_MAX_ON 0.79f
+/* camera rays traced per round of the search for calibration points, and rounds at most */
 #define CALIB_RAYS 8192
 #define CALIB_MAX_ROUNDS 64
 /* a calibration point: a ray's strongest sample of at least this weight (a surface) ... */
@@ -401,8 +404,8 @@ int esr_lights_find(struct esr_model *m, const float *orig3, const float *dir3, 
     return rc;
 }
 
-/* Calibration points: the strongest sample (weight >= CALIB_SURFACE_WEIGHT) of evenly spread
- * rays, kept when it lies on no light and its E is well below k. */
+/* Calibration points: the strongest sample (weight >= CALIB_SURFACE_WEIGHT) of random rays,
+ * kept when it lies on no light and its E is well below k. */
 static int calib_points(const struct esr_model *m, const float *orig3, const float *dir3, size_t n,
                         int want, uint64_t seed, float *pos3, float *dir_out3, int *got)
 {
@@ -480,12 +483,6 @@ struct calib_rows {
     double *r;      /* [cap * 3] L_off / L^_off */
 };
 
-static int compare_double(const void *a, const void *b)
-{
-    const double x = *(const double *)a, y = *(const double *)b;
-    return (x > y) - (x < y);
-}
-
 /* Adds one LTS call's points as rows: A from esr_lights_direct, B from the hemisphere directions
  * (the other surfaces' emo radiance, and the lights' own reflected part L_emo - E where a
  * direction hits one). */
@@ -545,6 +542,10 @@ int esr_lights_calibrate(struct esr_model *m, const float *orig3, const float *d
     const int K = m->lights.n;
     if (K == 0 || want <= 0)
         return ESR_OK;
+    if (n == 0)
+        return ESR_FAIL("lights: no lights-off rays to calibrate the lights' strength with");
+    struct esr_light keep[ESR_MAX_LIGHTS]; /* put back if the calibration fails */
+    memcpy(keep, m->lights.light, sizeof keep);
     /* solved from the field itself: the light samples below carry E at scale 1 */
     for (int a = 0; a < K; a++)
         for (int c = 0; c < 3; c++)
@@ -553,8 +554,6 @@ int esr_lights_calibrate(struct esr_model *m, const float *orig3, const float *d
     memset(ls, 0, sizeof ls);
     double *Abuf = malloc((size_t)CALIB_CHUNK * 2 * ESR_MAX_LIGHTS * 3 * sizeof(double));
     float *pos = malloc((size_t)want * 3 * sizeof(float)), *dir = malloc((size_t)want * 3 * sizeof(float));
-    const size_t ns = esr_grid_count(esr_model_grid(m, ESR_COMP_SDF));
-    float *grads = calloc(m->params.count, sizeof(float)), *g_sdf = calloc(ns, sizeof(float));
     struct calib_rows rows = {0, (size_t)want, malloc((size_t)want * 3 * K * sizeof(double)),
                               malloc((size_t)want * 3 * sizeof(double)),
                               malloc((size_t)want * 3 * sizeof(double)),
@@ -562,7 +561,7 @@ int esr_lights_calibrate(struct esr_model *m, const float *orig3, const float *d
     double *ca = malloc((size_t)want * K * sizeof(double)), *cy = malloc((size_t)want * sizeof(double));
     double seen[ESR_MAX_LIGHTS] = {0};
     int got = 0;
-    int rc = pos && dir && grads && g_sdf && rows.a && rows.emo && rows.b && rows.r && ca && cy && Abuf
+    int rc = pos && dir && rows.a && rows.emo && rows.b && rows.r && ca && cy && Abuf
                  ? ESR_OK
                  : ESR_FAIL("lights: out of memory for the calibration");
     for (int a = 0; rc == ESR_OK && a < K; a++)
@@ -598,7 +597,7 @@ int esr_lights_calibrate(struct esr_model *m, const float *orig3, const float *d
         pts.kpos3 = pos + (size_t)p0 * 3;
         pts.kdir3 = dir + (size_t)p0 * 3;
         struct esr_lts_stats st;
-        rc = esr_lts_run(&l, m, sdf, g_sdf, grads, &pts, NULL, seed + (uint64_t)p0, &st);
+        rc = esr_lts_run(&l, m, sdf, NULL, NULL, &pts, NULL, seed + (uint64_t)p0, &st);
         if (rc == ESR_OK)
             rc = esr_material_fields_fwd(&mf, m, sdf, l.hit_pos3, P * CALIB_DIRS);
         /* A_K: the samples carry the field's E (scales 1), the scale is what is solved for */
@@ -619,8 +618,7 @@ int esr_lights_calibrate(struct esr_model *m, const float *orig3, const float *d
     for (int c = 0; rc == ESR_OK && c < 3; c++) {
         for (size_t p = 0; p < rows.n; p++) /* the median correction (cy as scratch) */
             cy[p] = rows.r[p * 3 + (size_t)c];
-        qsort(cy, rows.n, sizeof(double), compare_double);
-        const double median = rows.n ? cy[rows.n / 2] : 1.0;
+        const double median = rows.n ? esr_median_doubles(cy, rows.n) : 1.0;
         for (size_t p = 0; p < rows.n; p++) { /* channel c's rows of the fitted lights */
             const size_t row = p * 3 + (size_t)c;
             const double r = rows.r[row] / median;
@@ -645,8 +643,10 @@ int esr_lights_calibrate(struct esr_model *m, const float *orig3, const float *d
     }
     for (int a = 0; a < K; a++)
         esr_light_samples_free(&ls[a]);
-    free(pos), free(dir), free(grads), free(g_sdf), free(rows.a), free(rows.emo), free(rows.b), free(rows.r), free(ca), free(cy);
+    free(pos), free(dir), free(rows.a), free(rows.emo), free(rows.b), free(rows.r), free(ca), free(cy);
     free(Abuf);
+    if (rc != ESR_OK)
+        memcpy(m->lights.light, keep, sizeof keep);
     return rc;
 }
 

@@ -12,7 +12,7 @@
  * the SDF closes and no camera looks up at. They are labelled ESR_LIGHT_UNSEEN and emit the
  * light's mean field E (their own E learned only from the light they cast, which clipped images
  * understate); the light's area, points, centroid and power count them (it emits over all of
- * its surface), its mean field E only the seen part.
+ * its surface), its mean field E only the part found emitting.
  *
  * Strength: the emission field learns from LDR images, where every emitter is clipped to white,
  * so E comes out near 1 whatever the true strength. What does pin the strength is the light the
@@ -22,7 +22,8 @@
  *     A_K(x) = the light that light K's field E sends to x: area samples over K's surface (64 per
  *              point), E(y) R(x, wo, wi) |n_y . wi| dA / d^2, a shadow ray to each
  *     B(x)   = the other incident emo radiance (other surfaces, the lights' own reflected part
- *              L_emo(y) - E(y)), from CALIB_DIRS cosine directions and their first hits
+ *              L_emo(y) - E(y)), from CALIB_DIRS hemisphere directions (cosine-weighted;
+ *              with the run's lts_lobe_dirs, some from the BRDF's lobe) and their first hits
  * (seed eq. 4 with the trained BRDF; sampling the lights by area, not by direction, keeps A
  * nearly noise-free, and noise in A would bias a small light's least-squares scale towards 0).
  * The scales s_K come from least squares over calib_points points seen by the lights-off
@@ -60,7 +61,8 @@ extern "C" {
 int esr_lights_find(struct esr_model *m, const float *orig3, const float *dir3, size_t n_rays);
 
 /* Calibrates the strength of m's lights from calib_points surface points of the lights-off rays
- * (orig3/dir3 [n*3]; rays are picked evenly). Sets scale, radiance, power, calib_points. */
+ * (orig3/dir3 [n*3]; rays drawn at random, seeded). Sets scale, radiance, power, calib_points;
+ * on failure (n 0, out of memory) the lights are left as they were. */
 int esr_lights_calibrate(struct esr_model *m, const float *orig3, const float *dir3, size_t n,
                          int calib_points, uint64_t seed);
 

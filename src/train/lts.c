@@ -444,11 +444,14 @@ int esr_lts_run(struct esr_lts *l, const struct esr_model *m, const float *sdf, 
         for (size_t p = 0; p < P; p++)
             point_loss(l, p, scale, w_l, w_r, pair, &se_off, &se_emo, &prod);
     }
-    const size_t hits = esr_lts_incident_scatter(l, P, g_sdf);
-    ESR_TRY(esr_point_fields_bwd(&l->pf, m, g_sdf, grads, l->d_tone3, l->d_lin3));
-    if (!l->edit) {
-        ESR_TRY(esr_material_fields_bwd(&l->mf, m, g_sdf, grads, l->d_emit3, l->d_brdf5));
-        esr_env_sg_bwd(env, lobes, l->wi3, PM, l->d_env3, grads + m->part[ESR_COMP_ENV].off);
+    size_t hits = 0;
+    if (grads) { /* NULL: forward only (the calibration reads the estimates, not a gradient) */
+        hits = esr_lts_incident_scatter(l, P, g_sdf);
+        ESR_TRY(esr_point_fields_bwd(&l->pf, m, g_sdf, grads, l->d_tone3, l->d_lin3));
+        if (!l->edit) {
+            ESR_TRY(esr_material_fields_bwd(&l->mf, m, g_sdf, grads, l->d_emit3, l->d_brdf5));
+            esr_env_sg_bwd(env, lobes, l->wi3, PM, l->d_env3, grads + m->part[ESR_COMP_ENV].off);
+        }
     }
     const double n = (double)(P * 2 * 3);
     out->mse_off = se_off / n;

@@ -6,6 +6,7 @@
 #include <string.h>
 
 #include "core/error.h"
+#include "core/order.h"
 #include "volume/composite.h"
 
 /* The emitters' level: this percentile of the batch's composited max-channel E. */
@@ -52,19 +53,13 @@ float esr_pdra_k(const struct esr_train_config *cfg, long step, long iters)
     return (float)(cfg->pdra_k0 + (cfg->pdra_k_end - cfg->pdra_k0) * f);
 }
 
-static int cmp_float(const void *a, const void *b)
-{
-    float x = *(const float *)a, y = *(const float *)b;
-    return (x > y) - (x < y);
-}
-
 /* The emitters' level in this batch: the 99.5th percentile of the rays' max-channel E
  * (pd->sorted: scratch of max_rays floats). */
 static float emitter_level(struct esr_pdra *pd, int n)
 {
     for (int r = 0; r < n; r++)
         pd->sorted[r] = fmaxf(pd->e_ray3[r * 3], fmaxf(pd->e_ray3[r * 3 + 1], pd->e_ray3[r * 3 + 2]));
-    qsort(pd->sorted, (size_t)n, sizeof(float), cmp_float);
+    esr_sort_floats(pd->sorted, (size_t)n);
     return pd->sorted[(size_t)(EMITTER_LEVEL_PERCENTILE * (n - 1))];
 }
 

@@ -319,6 +319,12 @@ static int find_lights(struct run *r, struct esr_model *m, enum esr_stage s)
     ESR_TRY(esr_lights_calibrate(m, r->rays.orig3, r->rays.dir3, r->rays.n_off,
                                  ESR_LIGHTS_CALIB_POINTS, (uint64_t)r->cfg.seed));
     say(r, s, "lights found: %d", m->lights.n);
+    float calib = 0.0f;
+    for (int i = 0; i < m->lights.n; i++)
+        calib += m->lights.light[i].calib_points;
+    if (calib == 0.0f)
+        say(r, s, "no lit surface point away from the lights could calibrate their strength: each "
+                  "keeps its field's (clipped, too weak) strength");
     for (int i = 0; i < m->lights.n; i++) {
         const struct esr_light *l = &m->lights.light[i];
         say(r, s, "  light %d: at (%.2f, %.2f, %.2f), area %.3g, emitted radiance %.3g %.3g %.3g "
