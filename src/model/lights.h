@@ -32,7 +32,7 @@ struct esr_light_edit {
 struct esr_light {
     float centroid[3];    /* world position, mean of the light's surface points */
     float area;           /* surface area, world units^2 (each surface point's share of the
-                             voxel faces its normal crosses, train/lights.c point_area) */
+                             voxel faces its normal crosses, esr_light_point_area) */
     long points;          /* surface lattice points labelled with this light, its unseen part's
                              included */
     float field_rgb[3];   /* mean E of the emission field over the light's emitting points (E > k

@@ -17,7 +17,7 @@
 #include "core/rng.h"
 #include "core/vec3.h"
 #include "model/model.h"
-#include "train/lights.h"
+#include "train/light_surface.h"
 #include "volume/first_hit.h"
 
 #ifdef __cplusplus

@@ -83,19 +83,6 @@ int esr_light_strength_fitted(const struct esr_lights *L, int id);
  * guess of its exposure. */
 void esr_lights_share_scale(struct esr_lights *L, int c);
 
-/* Surface samples of one light for direct lighting (edit/relight.h): the light's labelled
- * surface points, unit normals, calibrated emitted radiance (scale x E) and the area each stands
- * for (as in the light's area). */
-struct esr_light_samples {
-    size_t n;
-    float *pos3, *nrm3, *emit3, *area;
-    double total_area;
-    float max_emit;       /* largest channel of any sample's emission (0: the light is dark) */
-};
-
-int esr_light_samples_get(const struct esr_model *m, int id, struct esr_light_samples *out);
-void esr_light_samples_free(struct esr_light_samples *s);
-
 #ifdef __cplusplus
 }
 #endif

@@ -1,0 +1,53 @@
+/* The lights' surface (train/lights.h), what finding, calibrating and lighting them share: the
+ * SDF lattice points next to the zero level set projected onto it, the area each stands for, the
+ * emission field there, and one light's surface samples for direct lighting. */
+#ifndef ESR_TRAIN_LIGHT_SURFACE_H
+#define ESR_TRAIN_LIGHT_SURFACE_H
+
+#include <math.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include "fields/grid.h"
+#include "model/model.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* Index of lattice point (x, y, z) of g. */
+static inline size_t esr_lattice_index(const struct esr_grid *g, int x, int y, int z)
+{
+    return ((size_t)z * (size_t)g->ny + (size_t)y) * (size_t)g->nx + (size_t)x;
+}
+
+/* The largest of an RGB triple's channels. */
+static inline float esr_max3(const float *v) { return fmaxf(v[0], fmaxf(v[1], v[2])); }
+
+/* Lattice points of m's SDF with a sign change to an axis neighbour: their indices, surface
+ * positions (projected along the SDF gradient by at most a voxel) and unit normals, allocated
+ * (*n_out of each; free them). */
+int esr_light_surface_points(const struct esr_model *m, uint32_t **idx_out, float **pos_out,
+                             float **nrm_out, size_t *n_out);
+/* The area a surface point with unit normal nrm stands for, on a lattice of spacing h. */
+float esr_light_point_area(float h, const float *nrm);
+/* The emission field E at n points (emit3 [n*3]), in chunks. */
+int esr_light_emission_at(const struct esr_model *m, const float *pos3, size_t n, float *emit3);
+
+/* Surface samples of one light for direct lighting (edit/relight.h): the light's labelled
+ * surface points, unit normals, calibrated emitted radiance (scale x E) and the area each stands
+ * for (as in the light's area). */
+struct esr_light_samples {
+    size_t n;
+    float *pos3, *nrm3, *emit3, *area;
+    double total_area;
+    float max_emit;       /* largest channel of any sample's emission (0: the light is dark) */
+};
+
+int esr_light_samples_get(const struct esr_model *m, int id, struct esr_light_samples *out);
+void esr_light_samples_free(struct esr_light_samples *s);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

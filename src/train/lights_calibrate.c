@@ -1,0 +1,331 @@
+/* The lights' strength, calibrated against the light they cast (see lights.h). */
+#include "train/lights.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "core/brdf.h"
+#include "core/colour.h"
+#include "core/error.h"
+#include "core/order.h"
+#include "core/ridge_solve.h"
+#include "core/rng.h"
+#include "core/vec3.h"
+#include "model/material_fields.h"
+#include "model/trace.h"
+#include "train/light_direct.h"
+#include "train/light_surface.h"
+#include "train/lts.h"
+
+/* calibration: LTS points per call, hemisphere directions per point, area samples per point and
+ * light */
+#define CALIB_CHUNK 250
+#define CALIB_DIRS 128
+#define CALIB_LIGHT_SPP 64
+/* points whose lights-on linear radiance exceeds this in a channel are clipped in the LDR images
+ * (sRGB 0.9) and left out */
+#define CALIB_MAX_ON 0.79f
+/* camera rays traced per round of the search for calibration points, and rounds at most */
+#define CALIB_RAYS 8192
+#define CALIB_MAX_ROUNDS 64
+/* a calibration point: a ray's strongest sample of at least this weight (a surface) ... */
+#define CALIB_SURFACE_WEIGHT 0.3f
+/* ... whose emission stays below this share of k (not an emitter, nor its fringe) */
+#define CALIB_E_SHARE 0.25f
+/* the lights-off correction of a point's base colour, L_off / L^_off, is clamped to
+ * [1 / this, this] */
+#define CALIB_MAX_CORRECTION 4.0
+/* ridge towards scale 1, relative to each light's own normal-equation diagonal */
+#define CALIB_RIDGE 1e-3
+/* Huber reweighting rounds of the fit (core/ridge_solve.h) */
+#define CALIB_ROBUST_ROUNDS 8
+_Static_assert(ESR_MAX_LIGHTS <= ESR_RIDGE_MAX, "the calibration solves one unknown per light");
+
+/* Calibration points: the strongest sample (weight >= CALIB_SURFACE_WEIGHT) of random rays,
+ * kept when it lies on no light and its E is well below k. */
+static int calib_points(const struct esr_model *m, const float *orig3, const float *dir3, size_t n,
+                        int want, uint64_t seed, float *pos3, float *dir_out3, int *got)
+{
+    const float *sdf = esr_model_values(m, ESR_COMP_SDF);
+    const float k = m->cfg.emitter_k;
+    struct esr_trace t;
+    struct esr_material_fields mf;
+    ESR_TRY(esr_trace_init(&t, m, CALIB_RAYS, 0));
+    int rc = esr_material_fields_init(&mf, m, CALIB_RAYS, ESR_MATERIAL_EMISSION_ONLY);
+    float *o = malloc(CALIB_RAYS * 3 * sizeof(float)), *d = malloc(CALIB_RAYS * 3 * sizeof(float));
+    float *cand = malloc(CALIB_RAYS * 6 * sizeof(float));
+    uint8_t *on = calloc(CALIB_RAYS, 1);
+    if (rc == ESR_OK && (!o || !d || !cand || !on))
+        rc = ESR_FAIL("lights: out of memory for the calibration rays");
+    *got = 0;
+    /* rounds of CALIB_RAYS random rays (a fixed stride would alias with the image width) */
+    struct esr_rng rng = esr_rng_init(seed, 0x11ad5);
+    for (int round = 0; rc == ESR_OK && *got < want && round < CALIB_MAX_ROUNDS; round++) {
+        const int nr = CALIB_RAYS;
+        for (int i = 0; i < nr; i++) {
+            const size_t r = (size_t)(esr_rng_u64(&rng) % n);
+            memcpy(o + i * 3, orig3 + r * 3, 3 * sizeof(float));
+            memcpy(d + i * 3, dir3 + r * 3, 3 * sizeof(float));
+        }
+        rc = esr_trace_fwd(&t, m, sdf, o, d, on, nr, seed);
+        const struct esr_march *mc = &t.march;
+        int nc = 0;
+        for (int r = 0; rc == ESR_OK && r < nr; r++) {
+            size_t best = 0;
+            const float wmax = esr_march_strongest_kept(mc, r, &best);
+            if (wmax < CALIB_SURFACE_WEIGHT || esr_lights_id_at(&m->lights, mc->kpos3 + best * 3) >= 0)
+                continue;
+            memcpy(cand + nc * 6, mc->kpos3 + best * 3, 3 * sizeof(float));
+            memcpy(cand + nc * 6 + 3, mc->kdir3 + best * 3, 3 * sizeof(float));
+            nc++;
+        }
+        for (int c = 0; c < nc; c++) /* positions contiguous for the E query */
+            memcpy(o + c * 3, cand + c * 6, 3 * sizeof(float));
+        if (rc == ESR_OK && nc > 0)
+            rc = esr_material_fields_fwd(&mf, m, sdf, o, (size_t)nc);
+        for (int c = 0; rc == ESR_OK && c < nc && *got < want; c++) {
+            if (esr_max3(mf.emit3 + c * 3) >= CALIB_E_SHARE * k)
+                continue;
+            memcpy(pos3 + *got * 3, cand + c * 6, 3 * sizeof(float));
+            memcpy(dir_out3 + *got * 3, cand + c * 6 + 3, 3 * sizeof(float));
+            (*got)++;
+        }
+    }
+    free(o), free(d), free(cand), free(on);
+    esr_material_fields_free(&mf);
+    esr_trace_free(&t);
+    return rc;
+}
+
+/* Point p of an LTS call: its normal, camera direction and material; 0 when the camera sees it
+ * from behind (nothing to estimate). */
+static int point_frame(const struct esr_lts *l, size_t p, struct esr_vec3 *n, struct esr_vec3 *wo,
+                       struct esr_material *mat)
+{
+    *n = esr_v3_at(l->nrm3, p);
+    *wo = esr_v3_at(l->wo3, 2 * p); /* the camera direction */
+    *mat = esr_material_of_row(l->mf.brdf5 + p * ESR_BRDF_CHANNELS, 1.0f);
+    return esr_v3_dot(*n, *wo) > 0.0f;
+}
+
+/* Calibration rows, one per point and channel: L_emo - r B ~ sum_K s_K r A_K, both sides times
+ * esr_image_error_scale at the point's lights-on radiance, r the lights-off correction of the
+ * point's base colour over its median (train/lights.h says why). Kept apart until the medians
+ * are known. */
+struct calib_rows {
+    size_t n, cap;  /* points */
+    double *a;      /* [cap * 3 * K] weighted A: point p, channel c at (p * 3 + c) * K */
+    double *emo;    /* [cap * 3] weighted L_emo */
+    double *b;      /* [cap * 3] weighted B */
+    double *r;      /* [cap * 3] L_off / L^_off */
+};
+
+/* Adds one LTS call's points as rows: A from esr_lights_direct, B from the hemisphere directions
+ * (the other surfaces' emo radiance, and the lights' own reflected part L_emo - E where a
+ * direction hits one). */
+static void accumulate(const struct esr_model *m, const struct esr_lts *l, size_t P,
+                       const float *hit_emit3, const double *Aall, struct calib_rows *rows,
+                       double *seen)
+{
+    const int K = m->lights.n;
+    const size_t M = (size_t)l->M;
+    for (size_t p = 0; p < P && rows->n < rows->cap; p++) {
+        struct esr_vec3 n, wo;
+        struct esr_material mat;
+        if (!point_frame(l, p, &n, &wo, &mat))
+            continue;
+        /* a point the on images show clipped says only "at least this bright" */
+        const float *L_on = l->pf.lin3 + (p * 4 + 1) * 3;
+        if (fmaxf(L_on[0], fmaxf(L_on[1], L_on[2])) > CALIB_MAX_ON)
+            continue;
+        const double *A = Aall + p * 2 * ESR_MAX_LIGHTS * 3; /* the camera direction's */
+        double B[3] = {0, 0, 0};
+        for (size_t j = 0; j < M; j++) {
+            const size_t i = p * M + j;
+            if (l->hit_row[i] < 0)
+                continue;
+            float R[3];
+            const float *wi = l->wi3 + i * 3;
+            esr_brdf_eval(&mat, n, wo, esr_v3(wi[0], wi[1], wi[2]), R);
+            const int on_light = esr_lights_id_at(&m->lights, l->hit_pos3 + i * 3) >= 0;
+            for (int c = 0; c < 3; c++) {
+                const double w = (double)R[c] * l->wt[i], li = l->li_emo3[i * 3 + c];
+                B[c] += (on_light ? li - hit_emit3[i * 3 + c] : li) * w;
+            }
+        }
+        /* L_emo at the point for the camera direction: on row minus off row */
+        const float *lin = l->pf.lin3;
+        for (int c = 0; c < 3; c++) {
+            const size_t row = rows->n * 3 + (size_t)c;
+            const double w = esr_image_error_scale(L_on[c]); /* row weight: judged as images */
+            const double off = lin[(p * 4) * 3 + c], hat_off = l->hat3[(p * 2) * 6 + c];
+            rows->emo[row] = w * ((double)lin[(p * 4 + 1) * 3 + c] - off);
+            rows->b[row] = w * B[c];
+            rows->r[row] = hat_off > 1e-6 ? fmin(fmax(off / hat_off, 1.0 / CALIB_MAX_CORRECTION),
+                                                 CALIB_MAX_CORRECTION)
+                                          : 1.0;
+            for (int a = 0; a < K; a++)
+                rows->a[row * (size_t)K + (size_t)a] = w * A[a * 3 + c];
+        }
+        rows->n++;
+        for (int a = 0; a < K; a++)
+            seen[a] += A[a * 3] + A[a * 3 + 1] + A[a * 3 + 2] > 0.0;
+    }
+}
+
+int esr_lights_calibrate(struct esr_model *m, const float *orig3, const float *dir3, size_t n,
+                         int want, uint64_t seed)
+{
+    const int K = m->lights.n;
+    if (K == 0 || want <= 0)
+        return ESR_OK;
+    if (n == 0)
+        return ESR_FAIL("lights: no lights-off rays to calibrate the lights' strength with");
+    struct esr_light keep[ESR_MAX_LIGHTS]; /* put back if the calibration fails */
+    memcpy(keep, m->lights.light, sizeof keep);
+    /* solved from the field itself: the light samples below carry E at scale 1 */
+    for (int a = 0; a < K; a++)
+        for (int c = 0; c < 3; c++)
+            m->lights.light[a].scale[c] = 1.0f;
+    struct esr_light_samples ls[ESR_MAX_LIGHTS];
+    memset(ls, 0, sizeof ls);
+    double *Abuf = malloc((size_t)CALIB_CHUNK * 2 * ESR_MAX_LIGHTS * 3 * sizeof(double));
+    float *pos = malloc((size_t)want * 3 * sizeof(float)), *dir = malloc((size_t)want * 3 * sizeof(float));
+    struct calib_rows rows = {0, (size_t)want, malloc((size_t)want * 3 * K * sizeof(double)),
+                              malloc((size_t)want * 3 * sizeof(double)),
+                              malloc((size_t)want * 3 * sizeof(double)),
+                              malloc((size_t)want * 3 * sizeof(double))};
+    double *ca = malloc((size_t)want * K * sizeof(double)), *cy = malloc((size_t)want * sizeof(double));
+    double seen[ESR_MAX_LIGHTS] = {0};
+    int got = 0;
+    int rc = pos && dir && rows.a && rows.emo && rows.b && rows.r && ca && cy && Abuf
+                 ? ESR_OK
+                 : ESR_FAIL("lights: out of memory for the calibration");
+    for (int a = 0; rc == ESR_OK && a < K; a++)
+        rc = esr_light_samples_get(m, a, &ls[a]);
+    if (rc == ESR_OK)
+        rc = calib_points(m, orig3, dir3, n, want, seed, pos, dir, &got);
+    /* the LTS machinery at these points: its own sizes, first hit; restored below */
+    const struct esr_train_config keep_cfg = m->cfg;
+    const long keep_step = m->step;
+    m->cfg.lts_points = CALIB_CHUNK;
+    m->cfg.lts_dirs = CALIB_DIRS;
+    m->cfg.lts_estimator = ESR_LTS_FIRST_HIT;
+    m->step = 1; /* off the normal SDF's refresh period: computed once */
+    struct esr_lts l;
+    memset(&l, 0, sizeof l);
+    if (rc == ESR_OK)
+        rc = esr_lts_init(&l, m);
+    struct esr_material_fields mf;
+    memset(&mf, 0, sizeof mf);
+    if (rc == ESR_OK)
+        rc = esr_material_fields_init(&mf, m, (size_t)CALIB_CHUNK * CALIB_DIRS,
+                                      ESR_MATERIAL_EMISSION_ONLY);
+    const float *sdf = esr_model_values(m, ESR_COMP_SDF);
+    struct esr_light_shadows shadows;
+    memset(&shadows, 0, sizeof shadows);
+    if (rc == ESR_OK)
+        rc = esr_light_shadows_init(&shadows, m);
+    for (int p0 = 0; rc == ESR_OK && p0 < got; p0 += CALIB_CHUNK) {
+        const size_t P = (size_t)(got - p0 < CALIB_CHUNK ? got - p0 : CALIB_CHUNK);
+        struct esr_march pts; /* the points as a kept list: the LTS takes each once */
+        memset(&pts, 0, sizeof pts);
+        pts.n_kept = P;
+        pts.kpos3 = pos + (size_t)p0 * 3;
+        pts.kdir3 = dir + (size_t)p0 * 3;
+        struct esr_lts_stats st;
+        rc = esr_lts_run(&l, m, sdf, NULL, NULL, &pts, NULL, seed + (uint64_t)p0, &st);
+        if (rc == ESR_OK)
+            rc = esr_material_fields_fwd(&mf, m, sdf, l.hit_pos3, P * CALIB_DIRS);
+        /* A_K: the samples carry the field's E (scales 1), the scale is what is solved for */
+        const struct esr_direct_points dp = {P, l.pos3, l.nrm3, l.mf.brdf5, l.wo3, 2};
+        if (rc == ESR_OK)
+            rc = esr_lights_direct(&shadows, ls, K, NULL, &dp, CALIB_LIGHT_SPP,
+                                   seed ^ (uint64_t)(p0 + 1) * 0x9e3779b97f4a7c15ULL, Abuf, NULL);
+        if (rc == ESR_OK)
+            accumulate(m, &l, P, mf.emit3, Abuf, &rows, seen);
+    }
+    esr_material_fields_free(&mf);
+    esr_lts_free(&l);
+    esr_light_shadows_free(&shadows);
+    m->cfg = keep_cfg;
+    m->step = keep_step;
+    int fit[ESR_MAX_LIGHTS];
+    const int nf = esr_lights_fitted(&m->lights, fit);
+    for (int c = 0; rc == ESR_OK && c < 3; c++) {
+        for (size_t p = 0; p < rows.n; p++) /* the median correction (cy as scratch) */
+            cy[p] = rows.r[p * 3 + (size_t)c];
+        const double median = rows.n ? esr_median_doubles(cy, rows.n) : 1.0;
+        for (size_t p = 0; p < rows.n; p++) { /* channel c's rows of the fitted lights */
+            const size_t row = p * 3 + (size_t)c;
+            const double r = rows.r[row] / median;
+            cy[p] = rows.emo[row] - r * rows.b[row];
+            for (int f = 0; f < nf; f++)
+                ca[p * (size_t)nf + (size_t)f] = r * rows.a[row * (size_t)K + (size_t)fit[f]];
+        }
+        double s[ESR_MAX_LIGHTS];
+        if (esr_ridge_fit_robust(nf, rows.n, ca, cy, CALIB_RIDGE, CALIB_ROBUST_ROUNDS, s) != 0)
+            rc = ESR_FAIL("lights: out of memory for the calibration");
+        for (int f = 0; rc == ESR_OK && f < nf; f++)
+            m->lights.light[fit[f]].scale[c] = (float)s[f];
+        if (rc == ESR_OK)
+            esr_lights_share_scale(&m->lights, c);
+    }
+    for (int a = 0; rc == ESR_OK && a < K; a++) {
+        struct esr_light *lt = &m->lights.light[a];
+        for (int c = 0; c < 3; c++)
+            lt->radiance[c] = lt->scale[c] * lt->field_rgb[c];
+        lt->power = esr_luminance(lt->radiance) * (float)M_PI * lt->area;
+        lt->calib_points = (float)seen[a];
+    }
+    for (int a = 0; a < K; a++)
+        esr_light_samples_free(&ls[a]);
+    free(pos), free(dir), free(rows.a), free(rows.emo), free(rows.b), free(rows.r), free(ca), free(cy);
+    free(Abuf);
+    if (rc != ESR_OK)
+        memcpy(m->lights.light, keep, sizeof keep);
+    return rc;
+}
+
+static int is_fitted(const struct esr_lights *L, int a, double total_area)
+{
+    return L->light[a].area >= ESR_LIGHTS_SMALL_SHARE * total_area;
+}
+
+static double lights_area(const struct esr_lights *L)
+{
+    double total = 0.0;
+    for (int a = 0; a < L->n; a++)
+        total += L->light[a].area;
+    return total;
+}
+
+int esr_lights_fitted(const struct esr_lights *L, int *fit)
+{
+    const double total = lights_area(L);
+    int nf = 0;
+    for (int a = 0; a < L->n; a++)
+        if (is_fitted(L, a, total))
+            fit[nf++] = a;
+    return nf;
+}
+
+int esr_light_strength_fitted(const struct esr_lights *L, int id)
+{
+    return id >= 0 && id < L->n && is_fitted(L, id, lights_area(L));
+}
+
+void esr_lights_share_scale(struct esr_lights *L, int c)
+{
+    const double total = lights_area(L);
+    double mean = 0.0, area = 0.0;
+    for (int a = 0; a < L->n; a++)
+        if (is_fitted(L, a, total)) {
+            mean += (double)L->light[a].scale[c] * L->light[a].area;
+            area += L->light[a].area;
+        }
+    for (int a = 0; a < L->n; a++)
+        if (!is_fitted(L, a, total))
+            L->light[a].scale[c] = (float)(area > 0.0 ? mean / area : 1.0);
+}
