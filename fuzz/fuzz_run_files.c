@@ -33,11 +33,11 @@ static void curve(const char *text, size_t size, const char *key)
 }
 
 /* Render again (NULL) or the stamp of exactly this model (the seed render.json's): its frames an
- * array. */
+ * object. */
 static void stamp(const char *text, size_t size)
 {
-    cJSON *frames = esr_view_stamp_frames(text, size, "alphamask", 20, "4d25767f9dce13f5");
-    if (frames && !cJSON_IsArray(frames))
+    cJSON *frames = esr_view_stamp_frames(text, size, "4d25767f9dce13f5");
+    if (frames && !cJSON_IsObject(frames))
         abort();
     cJSON_Delete(frames);
     if (esr_error_message()[0])

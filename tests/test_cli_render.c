@@ -183,6 +183,53 @@ static void test_eval(void **state)
     run_ok(args);
     assert_non_null(strstr(out, "rendering 1 of 2"));
     assert_true(esr_file_exists(path));
+    /* renders of other cameras are stale: a dataset whose test cameras differ (--data), then the
+     * run's own again */
+    struct esr_synth_options opt;
+    memset(&opt, 0, sizeof opt);
+    opt.scene = "default";
+    opt.res = RES;
+    opt.spp = 1;
+    opt.n_train = 1;
+    opt.n_test = 1;
+    opt.seed = 2;
+    char ds2[1200];
+    snprintf(ds2, sizeof ds2, "%s/ds_seed2", test_tmpdir);
+    assert_int_equal(esr_synth_write_dataset(ds2, &opt), ESR_OK);
+    snprintf(args, sizeof args, "eval '%s' --data '%s'", run_dir, ds2);
+    run_ok(args);
+    assert_non_null(strstr(out, "rendering 2 of 2"));
+    snprintf(args, sizeof args, "eval '%s'", run_dir);
+    run_ok(args);
+    assert_non_null(strstr(out, "rendering 2 of 2"));
+    /* and so are another model's at the same stage and step (a run trained again) */
+    struct esr_dataset ds;
+    assert_int_equal(esr_dataset_load(ds_dir, &ds), ESR_OK);
+    char aside[1300];
+    snprintf(aside, sizeof aside, "%s_first", run_dir);
+    assert_int_equal(rename(run_dir, aside), 0);
+    make_run(&ds, run_dir); /* the same sphere: the same model */
+    esr_dataset_free(&ds);
+    char move[4000];
+    snprintf(move, sizeof move, "mv '%s/render' '%s/render' && rm -rf '%s'", aside, run_dir, aside);
+    assert_int_equal(system(move), 0);
+    snprintf(args, sizeof args, "eval '%s'", run_dir);
+    run_ok(args);
+    assert_null(strstr(out, "rendering")); /* bit for bit the model that rendered them */
+    struct esr_model m;
+    snprintf(path, sizeof path, "%s/ckpt_coarse.bin", run_dir);
+    assert_int_equal(esr_model_load(&m, path), ESR_OK);
+    assert_int_equal(esr_sdf_init_sphere(esr_model_grid(&m, ESR_COMP_SDF), esr_model_values(&m, ESR_COMP_SDF),
+                                         0.8f * SPHERE_RADIUS), ESR_OK);
+    assert_int_equal(esr_model_save(&m, path), ESR_OK);
+    esr_model_free(&m);
+    run_ok(args);
+    assert_non_null(strstr(out, "rendering 2 of 2"));
+    assert_int_equal(esr_model_load(&m, path), ESR_OK); /* the sphere the later tests expect */
+    assert_int_equal(esr_sdf_init_sphere(esr_model_grid(&m, ESR_COMP_SDF), esr_model_values(&m, ESR_COMP_SDF),
+                                         SPHERE_RADIUS), ESR_OK);
+    assert_int_equal(esr_model_save(&m, path), ESR_OK);
+    esr_model_free(&m);
 }
 
 /* Without a model, complete renders are evaluated as they are: ground-truth copies give the

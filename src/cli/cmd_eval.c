@@ -97,13 +97,17 @@ static int ensure_renders(const struct eval_args *a, const struct esr_run_select
         return ESR_OK;
     }
     int *todo = malloc((size_t)sel->n * sizeof *todo), n_todo = 0;
-    if (!todo) {
+    uint8_t *current = malloc((size_t)sel->n);
+    if (!todo || !current) {
+        free(todo), free(current);
         esr_model_free(&model);
         return ESR_FAIL("out of memory");
     }
+    esr_view_current(render_dir, &model, &sel->ds, sel->phase, sel->idx, sel->n, current);
     for (int i = 0; i < sel->n; i++)
-        if (a->rerender || !esr_view_is_current(render_dir, &model, ph->frames[sel->idx[i]].name))
+        if (a->rerender || !current[i])
             todo[n_todo++] = sel->idx[i];
+    free(current);
     int status = ESR_OK;
     if (n_todo > 0) {
         fprintf(stderr, "rendering %d of %d frame(s) with the %s model (step %ld) into %s\n", n_todo, sel->n,

@@ -2,6 +2,7 @@
 #include "model/lights.h"
 
 #include "core/colour.h"
+#include "core/hash.h"
 #include "fields/trilerp.h"
 
 #include <math.h>
@@ -14,28 +15,20 @@ void esr_lights_free(struct esr_lights *L)
     memset(L, 0, sizeof(*L));
 }
 
-static uint64_t fnv1a(uint64_t h, const void *data, size_t n)
-{
-    const unsigned char *p = data;
-    for (size_t i = 0; i < n; i++)
-        h = (h ^ p[i]) * 0x100000001b3ULL;
-    return h;
-}
-
 uint64_t esr_lights_fingerprint(const struct esr_lights *L)
 {
-    uint64_t h = fnv1a(0xcbf29ce484222325ULL, &L->n, sizeof L->n);
+    uint64_t h = esr_hash_bytes(ESR_HASH_INIT, &L->n, sizeof L->n);
     for (int i = 0; i < L->n; i++) { /* field by field: no struct padding in the hash */
         const struct esr_light *l = &L->light[i];
         const long points = l->points;
-        h = fnv1a(h, l->centroid, sizeof l->centroid);
-        h = fnv1a(h, &l->area, sizeof l->area);
-        h = fnv1a(h, &points, sizeof points);
-        h = fnv1a(h, l->field_rgb, sizeof l->field_rgb);
-        h = fnv1a(h, l->scale, sizeof l->scale);
+        h = esr_hash_bytes(h, l->centroid, sizeof l->centroid);
+        h = esr_hash_bytes(h, &l->area, sizeof l->area);
+        h = esr_hash_bytes(h, &points, sizeof points);
+        h = esr_hash_bytes(h, l->field_rgb, sizeof l->field_rgb);
+        h = esr_hash_bytes(h, l->scale, sizeof l->scale);
     }
     if (L->n > 0 && L->label)
-        h = fnv1a(h, L->label, esr_grid_voxels(&L->grid));
+        h = esr_hash_bytes(h, L->label, esr_grid_voxels(&L->grid));
     return h;
 }
 

@@ -6,6 +6,7 @@
 #include <string.h>
 
 #include "core/error.h"
+#include "core/hash.h"
 #include "core/limits.h"
 #include "core/rng.h"
 #include "fields/density.h"
@@ -158,6 +159,18 @@ int esr_model_memory_need(const struct esr_train_config *cfg, enum esr_stage sta
 size_t esr_model_memory_held(const struct esr_model *m)
 {
     return m->params.count * 4 * sizeof(float) + mask_bytes(m);
+}
+
+uint64_t esr_model_fingerprint(const struct esr_model *m)
+{
+    const uint64_t lights = esr_lights_fingerprint(&m->lights);
+    uint64_t h = esr_hash_bytes(ESR_HASH_INIT, &m->stage, sizeof m->stage);
+    h = esr_hash_bytes(h, &m->step, sizeof m->step);
+    h = esr_hash_floats(h, m->params.w, m->params.count);
+    h = esr_hash_floats(h, &m->density_shift, 1);
+    if (m->has_mask && m->mask.occ)
+        h = esr_hash_bytes(h, m->mask.occ, (size_t)m->mask.nx * m->mask.ny * m->mask.nz);
+    return esr_hash_bytes(h, &lights, sizeof lights);
 }
 
 /* Refuses a model that would not fit in memory before any of it is allocated: a wrong option or

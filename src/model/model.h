@@ -98,6 +98,10 @@ int esr_model_memory_need(const struct esr_train_config *cfg, enum esr_stage sta
                           const float scene_max[3], size_t *bytes, size_t *n_params);
 /* Bytes an allocated model holds, counted the same way. */
 size_t esr_model_memory_held(const struct esr_model *m);
+/* A 64-bit fingerprint of what a render of m depends on: stage, step, every parameter, the mask
+ * cache and the lights (esr_lights_fingerprint). Renders record it (render/view.h), so another
+ * run's model at the same stage and step, or lights found again, make them stale. */
+uint64_t esr_model_fingerprint(const struct esr_model *m);
 
 /* Loads a model: `path` is a checkpoint file, or a run directory (then the most advanced stage's
  * checkpoint in it is used). The checkpoint stores its options as JSON and its parameters as

@@ -91,8 +91,9 @@ typedef void (*esr_view_progress_fn)(void *user, const struct esr_view_progress 
 
 /* Renders frames idx[0..n) of `phase` into dir (created if absent), each with its own camera and
  * lighting (frame mode "off" or "on"), writing the files of esr_view_write, then records the
- * model's stage, step and lights fingerprint and the frames rendered by that model in
- * dir/render.json (frames of an earlier model are dropped from the record), plus the
+ * model's stage, step and fingerprint and the frames rendered by that model, each with its
+ * view's fingerprint, in dir/render.json (frames of an earlier model are dropped from the
+ * record), plus the
  * environment map (esr_view_write_env). Edit frames (i_change, c_change, ic_change) are refused
  * before anything is rendered: edit/editor.h renders those.
  * `progress` may be NULL. */
@@ -100,16 +101,20 @@ int esr_view_render_frames(const struct esr_model *m, const struct esr_dataset *
                            const int *idx, int n, const char *dir, esr_view_progress_fn progress, void *user);
 
 /* What a view's files mean; render.json records it, so that renders written before a change
- * of meaning are stale (2: with lights found, N_emission.exr and N_emitter.png are the lights'). */
-#define ESR_VIEW_OUTPUTS_VERSION 2
+ * of meaning are stale (2: with lights found, N_emission.exr and N_emitter.png are the lights';
+ * 3: the record names the model by its fingerprint and each frame by its view's). */
+#define ESR_VIEW_OUTPUTS_VERSION 3
 
-/* 1 when frame `name`'s outputs exist in dir and dir/render.json says this model (stage, step
- * and lights) rendered them with today's outputs, else 0 (render again). */
-int esr_view_is_current(const char *dir, const struct esr_model *m, const char *name);
-/* A stamp's text (size bytes, no NUL needed) read for a model of this stage, step and lights
- * fingerprint: its "frames" array (the caller deletes it) when the stamp names that model and
- * ESR_VIEW_OUTPUTS_VERSION, else NULL (unparsable, another model's or older outputs: render
- * again). Never an error. */
-cJSON *esr_view_stamp_frames(const char *text, size_t size, const char *stage, long step, const char *lights);
+/* current[i] = 1 when frame idx[i] of `phase` has its outputs in dir and dir/render.json says
+ * this model (esr_model_fingerprint) rendered it from the view the dataset has now (camera,
+ * size, lighting) with today's outputs, else 0 (render again): another run's model, lights found
+ * again, or another dataset's cameras (`esr eval --data`) make renders stale. */
+int esr_view_current(const char *dir, const struct esr_model *m, const struct esr_dataset *ds,
+                     enum esr_phase_id phase, const int *idx, int n, uint8_t *current);
+/* A stamp's text (size bytes, no NUL needed) read for the model of fingerprint `model` (16 hex
+ * digits): its "frames" object, frame name -> view fingerprint (the caller deletes it), when
+ * the stamp names that model and ESR_VIEW_OUTPUTS_VERSION, else NULL (unparsable, another
+ * model's or older outputs: render again). Never an error. */
+cJSON *esr_view_stamp_frames(const char *text, size_t size, const char *model);
 
 #endif

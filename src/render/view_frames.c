@@ -6,6 +6,7 @@
 #include <string.h>
 
 #include "core/error.h"
+#include "core/hash.h"
 #include "io/dir.h"
 #include "io/file.h"
 #include "render/view.h"
@@ -31,32 +32,39 @@ static int check_lighting(const struct esr_dataset *ds, const struct esr_frame *
     return ESR_OK;
 }
 
-/* dir/render.json: {"stage": "fine", "step": 1234, "lights": "<16 hex digits>",
- * "frames": ["c000_off", ...]}. */
+/* dir/render.json: {"stage": "fine", "step": 1234, "model": "<16 hex digits>", "outputs": 3,
+ * "frames": {"c000_off": "<16 hex digits>", ...}}: the model's fingerprint and, per frame, its
+ * view's (camera and lighting). */
 static int stamp_path(char *path, size_t n, const char *dir)
 {
     return esr_view_path(path, n, dir, "render", ".json");
 }
 
-/* The model's lights fingerprint as 16 hex digits: the same stage and step with other lights
- * (`esr lights --recompute`) is another model to a render. */
-static void lights_fingerprint(const struct esr_model *m, char out[24])
+static void hex16(uint64_t h, char out[24])
 {
-    snprintf(out, 24, "%016llx", (unsigned long long)esr_lights_fingerprint(&m->lights));
+    snprintf(out, 24, "%016llx", (unsigned long long)h);
 }
 
-cJSON *esr_view_stamp_frames(const char *text, size_t size, const char *stage, long step, const char *lights)
+/* The view of frame f as a render sees it: pose, size, focal, lighting. */
+static void view_fingerprint(const struct esr_dataset *ds, const struct esr_frame *f, char out[24])
+{
+    const struct esr_camera *c = &f->camera;
+    const int mode = (int)esr_frame_mode(ds, f);
+    uint64_t h = esr_hash_floats(ESR_HASH_INIT, &c->c2w[0][0], 12);
+    h = esr_hash_bytes(h, &c->width, sizeof c->width);
+    h = esr_hash_bytes(h, &c->height, sizeof c->height);
+    h = esr_hash_floats(h, &c->focal, 1);
+    hex16(esr_hash_bytes(h, &mode, sizeof mode), out);
+}
+
+cJSON *esr_view_stamp_frames(const char *text, size_t size, const char *model)
 {
     cJSON *root = cJSON_ParseWithLength(text, size);
-    const cJSON *st = cJSON_GetObjectItemCaseSensitive(root, "stage");
-    const cJSON *sp = cJSON_GetObjectItemCaseSensitive(root, "step");
-    const cJSON *li = cJSON_GetObjectItemCaseSensitive(root, "lights");
+    const cJSON *mo = cJSON_GetObjectItemCaseSensitive(root, "model");
     const cJSON *ou = cJSON_GetObjectItemCaseSensitive(root, "outputs");
     cJSON *frames = cJSON_DetachItemFromObjectCaseSensitive(root, "frames");
-    int match = cJSON_IsString(st) && cJSON_IsNumber(sp) && cJSON_IsArray(frames) && cJSON_IsString(li) &&
-                !strcmp(st->valuestring, stage) && sp->valuedouble == (double)step &&
-                !strcmp(li->valuestring, lights) && cJSON_IsNumber(ou) &&
-                ou->valuedouble == ESR_VIEW_OUTPUTS_VERSION;
+    const int match = cJSON_IsString(mo) && !strcmp(mo->valuestring, model) && cJSON_IsObject(frames) &&
+                      cJSON_IsNumber(ou) && ou->valuedouble == ESR_VIEW_OUTPUTS_VERSION;
     cJSON_Delete(root);
     if (!match) {
         cJSON_Delete(frames);
@@ -65,9 +73,9 @@ cJSON *esr_view_stamp_frames(const char *text, size_t size, const char *stage, l
     return frames;
 }
 
-/* The frame list of dir's stamp when the stamp names this model; NULL otherwise (no stamp, an
- * unreadable one, or one of another model: those renders are stale). */
-static cJSON *current_frames(const char *dir, const struct esr_model *m)
+/* The frames of dir's stamp when the stamp names this model (fingerprint fp); NULL otherwise
+ * (no stamp, an unreadable one, or one of another model: those renders are stale). */
+static cJSON *current_frames(const char *dir, const char *fp)
 {
     char path[ESR_PATH_MAX];
     unsigned char *text;
@@ -78,36 +86,37 @@ static cJSON *current_frames(const char *dir, const struct esr_model *m)
         esr_error_clear(); /* an unreadable stamp only means "render again" */
         return NULL;
     }
-    char fp[24];
-    lights_fingerprint(m, fp);
-    cJSON *frames =
-        esr_view_stamp_frames((const char *)text, size, esr_stage_name((enum esr_stage)m->stage), m->step, fp);
+    cJSON *frames = esr_view_stamp_frames((const char *)text, size, fp);
     free(text);
     return frames;
 }
 
-static int list_has(const cJSON *frames, const char *name)
+/* 1 when the stamp's frames hold f with its view as the dataset has it now. */
+static int stamped(const cJSON *frames, const struct esr_dataset *ds, const struct esr_frame *f)
 {
-    const cJSON *it;
-    cJSON_ArrayForEach(it, frames) {
-        if (cJSON_IsString(it) && !strcmp(it->valuestring, name))
-            return 1;
+    const cJSON *v = cJSON_GetObjectItemCaseSensitive(frames, f->name);
+    char view[24];
+    view_fingerprint(ds, f, view);
+    return cJSON_IsString(v) && !strcmp(v->valuestring, view);
+}
+
+int esr_view_current(const char *dir, const struct esr_model *m, const struct esr_dataset *ds,
+                     enum esr_phase_id phase, const int *idx, int n, uint8_t *current)
+{
+    char fp[24];
+    hex16(esr_model_fingerprint(m), fp);
+    cJSON *frames = current_frames(dir, fp);
+    const struct esr_phase *ph = &ds->phases[phase];
+    for (int i = 0; i < n; i++) {
+        const struct esr_frame *f = &ph->frames[idx[i]];
+        current[i] = (uint8_t)(frames && stamped(frames, ds, f) && esr_view_outputs_exist(dir, f->name));
     }
-    return 0;
-}
-
-int esr_view_is_current(const char *dir, const struct esr_model *m, const char *name)
-{
-    if (!esr_view_outputs_exist(dir, name))
-        return 0;
-    cJSON *frames = current_frames(dir, m);
-    int has = frames && list_has(frames, name);
     cJSON_Delete(frames);
-    return has;
+    return ESR_OK;
 }
 
-/* Records `frames` (taken over) as rendered by m. */
-static int write_stamp(const char *dir, const struct esr_model *m, cJSON *frames)
+/* Records `frames` (taken over) as rendered by the model of fingerprint fp. */
+static int write_stamp(const char *dir, const struct esr_model *m, const char *fp, cJSON *frames)
 {
     char path[ESR_PATH_MAX];
     cJSON *root = cJSON_CreateObject();
@@ -117,9 +126,7 @@ static int write_stamp(const char *dir, const struct esr_model *m, cJSON *frames
     }
     cJSON_AddStringToObject(root, "stage", esr_stage_name((enum esr_stage)m->stage));
     cJSON_AddNumberToObject(root, "step", (double)m->step);
-    char fp[24];
-    lights_fingerprint(m, fp);
-    cJSON_AddStringToObject(root, "lights", fp);
+    cJSON_AddStringToObject(root, "model", fp);
     cJSON_AddNumberToObject(root, "outputs", ESR_VIEW_OUTPUTS_VERSION);
     cJSON_AddItemToObject(root, "frames", frames);
     if (stamp_path(path, sizeof path, dir) != ESR_OK) {
@@ -152,10 +159,11 @@ int esr_view_render_frames(const struct esr_model *m, const struct esr_dataset *
         ESR_TRY(check_lighting(ds, &ph->frames[idx[i]]));
     }
     ESR_TRY(esr_dir_prepare_output(dir));
-    char path[ESR_PATH_MAX];
-    cJSON *frames = current_frames(dir, m);
+    char path[ESR_PATH_MAX], fp[24];
+    hex16(esr_model_fingerprint(m), fp);
+    cJSON *frames = current_frames(dir, fp);
     if (!frames)
-        frames = cJSON_CreateArray();
+        frames = cJSON_CreateObject();
     /* No record while files change, so an interrupted run leaves nothing marked current. */
     if (!frames || stamp_path(path, sizeof path, dir) != ESR_OK || (esr_file_exists(path) && remove(path) != 0)) {
         cJSON_Delete(frames);
@@ -166,8 +174,12 @@ int esr_view_render_frames(const struct esr_model *m, const struct esr_dataset *
         const struct esr_frame *f = &ph->frames[idx[i]];
         double t0 = omp_get_wtime();
         status = render_one(m, ds, f, dir);
-        if (status == ESR_OK && !list_has(frames, f->name))
-            cJSON_AddItemToArray(frames, cJSON_CreateString(f->name));
+        if (status == ESR_OK) {
+            char view[24];
+            view_fingerprint(ds, f, view);
+            cJSON_DeleteItemFromObjectCaseSensitive(frames, f->name);
+            cJSON_AddStringToObject(frames, f->name, view);
+        }
         if (status == ESR_OK && progress) {
             struct esr_view_progress p = {f->name, i + 1, n, omp_get_wtime() - t0};
             progress(user, &p);
@@ -176,6 +188,6 @@ int esr_view_render_frames(const struct esr_model *m, const struct esr_dataset *
     if (status == ESR_OK)
         status = esr_view_write_env(dir, m);
     /* Frames finished before a failure stay recorded. */
-    int stamped = write_stamp(dir, m, frames);
-    return status == ESR_OK ? stamped : status;
+    const int recorded = write_stamp(dir, m, fp, frames);
+    return status == ESR_OK ? recorded : status;
 }
