@@ -387,6 +387,12 @@ static void test_errors(void **state)
     assert_non_null(strstr(out, "/proc/esr_cannot.glb"));
     snprintf(cmd, sizeof cmd, "%s/both.ply", test_tmpdir);
     assert_false(esr_file_exists(cmd));
+    /* nor one file for both: the glTF would replace the PLY */
+    snprintf(args, sizeof args, "export '%s' --mesh '%s/both.ply' --gltf '%s/./both.ply'", run_dir,
+             test_tmpdir, test_tmpdir);
+    assert_int_equal(test_run_esr(args, out, sizeof out), 1);
+    assert_non_null(strstr(out, "name the same file"));
+    assert_false(esr_file_exists(cmd));
     /* a damaged run.json is named as such */
     char damaged[1200];
     snprintf(damaged, sizeof damaged, "%s/damaged_run", test_tmpdir);

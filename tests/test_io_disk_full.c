@@ -76,6 +76,15 @@ static void test_train_checkpoint_on_full_disk(void **state)
     snprintf(ckpt, sizeof ckpt, "%s/ckpt_coarse.bin", run);
     assert_false(esr_file_exists(ckpt));
     assert_int_equal(test_count_names(run, ".tmp-"), 0);
+    /* RUN/log says why the run stopped, not only the terminal */
+    unsigned char *log;
+    size_t n_log;
+    snprintf(ckpt, sizeof ckpt, "%s/log", run);
+    assert_int_equal(esr_file_read_all(ckpt, &log, &n_log), 0);
+    log[n_log - 1] = '\0';
+    if (!strstr((char *)log, "esr train: error:") || !strstr((char *)log, "File too large"))
+        fail_msg("RUN/log does not say why training stopped:\n%s", (char *)log);
+    free(log);
 }
 
 /* esr export of a trained run onto a full disk: exit 1 naming EFBIG, no mesh and no temporary

@@ -285,6 +285,17 @@ static void test_mismatches_refused(void **state)
     assert_int_equal(esr_file_write_atomic(f->path, orig, n), 0);
     assert_refused(f->path, "bad magic");
     free(orig);
+    /* a fine model under another stage's checkpoint name (copied over it); any other name is
+     * whatever it holds */
+    char other[4300];
+    snprintf(other, sizeof other, "%s/ckpt_coarse.bin", f->dir);
+    assert_int_equal(esr_model_save(&f->m, other), 0);
+    assert_refused(other, "named for the coarse stage but holds a fine-stage model");
+    snprintf(other, sizeof other, "%s/backup.bin", f->dir);
+    assert_int_equal(esr_model_save(&f->m, other), 0);
+    struct esr_model m;
+    assert_int_equal(esr_model_load(&m, other), ESR_OK);
+    esr_model_free(&m);
 }
 
 int main(void)

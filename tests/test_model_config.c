@@ -62,6 +62,12 @@ static void test_set(void **state)
     expect_fail(esr_config_set(&c, "fine.itres=200"), "unknown option 'fine.itres'");
     expect_fail(esr_config_set(&c, "fine.iters=2.5"), "must be an integer");
     expect_fail(esr_config_set(&c, "fine.res=4"), "out of range [8, 512]");
+    /* a float option at its bound, as set and as validated from its stored float (0.01 reads back
+     * as 0.0099999998) */
+    assert_int_equal(esr_config_set(&c, "coarse.s_div=0.01"), 0);
+    assert_int_equal(esr_config_set(&c, "sdf_init_alpha=1e-6"), 0);
+    assert_int_equal(esr_config_validate(&c), 0);
+    expect_fail(esr_config_set(&c, "coarse.s_div=0.0099"), "out of range [0.01, 1e+06]");
     expect_fail(esr_config_set(&c, "batch_rays=abc"), "not a number");
     expect_fail(esr_config_set(&c, "batch_rays"), "expected key=value");
     expect_fail(esr_config_set(&c, "smooth_ksize=4"), "odd");

@@ -321,6 +321,7 @@ static void test_resume_applies_set(void **state)
     if (esr_train_run(&o) != ESR_OK)
         fail_msg("%s", esr_error_message());
     assert_non_null(strstr(lc.text, "resume: coarse.iters=7"));
+    assert_null(strstr(lc.text, "earlier stages were trained on")); /* no record yet */
     struct esr_train_config c;
     esr_config_defaults(&c, ESR_PRESET_FAST);
     assert_int_equal(esr_config_load_json(&c, cfg_path), ESR_OK);
@@ -331,6 +332,13 @@ static void test_resume_applies_set(void **state)
     assert_int_equal(m.step, 7);
     assert_int_equal(m.stage_done, 1);
     esr_model_free(&m);
+    /* resumed on another dataset than the run's record names: said */
+    snprintf(cmd, sizeof cmd, "%s/run.json", run);
+    assert_int_equal(test_write_file(cmd, "{\"data\": \"/elsewhere/other_data\"}"), 0);
+    opts_for(&o, run, ESR_STAGE_COARSE, &lc);
+    o.resume = 1;
+    assert_int_equal(esr_train_run(&o), ESR_OK);
+    assert_non_null(strstr(lc.text, "earlier stages were trained on /elsewhere/other_data"));
     const char *bad[] = {"lts_split=1"}; /* without lobe directions */
     opts_for(&o, run, ESR_STAGE_COARSE, NULL);
     o.resume = 1;
@@ -349,6 +357,17 @@ static void test_resume_applies_set(void **state)
     /* the run's own preset again, as esr demo names it: accepted (the stage is done: no work) */
     snprintf(cmd, sizeof cmd, "train '%s' --out '%s' --resume --preset fast --until coarse", data_dir, run);
     assert_int_equal(test_run_esr(cmd, out, sizeof out), 0);
+    /* trained again without --resume, only to alphamask: the earlier run's coarse checkpoint
+     * goes (it used to stay, and be resumed, rendered and evaluated as this run's) */
+    opts_for(&o, run, ESR_STAGE_ALPHAMASK, &lc);
+    if (esr_train_run(&o) != ESR_OK)
+        fail_msg("%s", esr_error_message());
+    assert_non_null(strstr(lc.text, "starting over: removed the earlier run's checkpoints"));
+    assert_non_null(strstr(lc.text, "ckpt_alphamask.bin, ckpt_coarse.bin"));
+    snprintf(cmd, sizeof cmd, "%s/ckpt_coarse.bin", run);
+    assert_false(esr_file_exists(cmd));
+    snprintf(cmd, sizeof cmd, "%s/ckpt_alphamask.bin", run);
+    assert_true(esr_file_exists(cmd));
 }
 
 static void test_nan_is_recovered_then_stops(void **state)

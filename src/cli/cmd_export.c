@@ -7,6 +7,7 @@
 #include "cli/commands.h"
 #include "core/error.h"
 #include "io/ply.h"
+#include "io/staging.h"
 #include "render/model_gltf.h"
 #include "render/model_mesh.h"
 #include "model/model.h"
@@ -97,5 +98,12 @@ static int run_export(int argc, char **argv)
         return cli_fail(&cmd_export, "missing RUN directory");
     if (!mesh && !gltf)
         return cli_fail(&cmd_export, "missing --mesh OUT.ply or --gltf OUT.glb");
+    if (mesh && gltf) { /* the glTF would replace the PLY just written */
+        char a[4096], b[4096];
+        if (esr_path_resolve(mesh, a, sizeof a) != ESR_OK || esr_path_resolve(gltf, b, sizeof b) != ESR_OK)
+            return cli_fail_lib(&cmd_export);
+        if (!strcmp(a, b))
+            return cli_fail(&cmd_export, "--mesh and --gltf name the same file (%s)", a);
+    }
     return export_mesh(run, mesh, gltf, res, colours) == ESR_OK ? 0 : cli_fail_lib(&cmd_export);
 }

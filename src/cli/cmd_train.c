@@ -231,6 +231,8 @@ static int run_train(int argc, char **argv)
     int rc = esr_train_run(&o);
     if (sink.tty && sink.last_was_progress)
         fprintf(stderr, "\n");
+    if (rc != ESR_OK && sink.log) /* the log a run leaves says why it stopped (a full disk...) */
+        fprintf(sink.log, "esr train: error: %s\n", esr_error_message());
     if (sink.log)
         fclose(sink.log);
     if (rc != ESR_OK)

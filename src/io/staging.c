@@ -29,10 +29,7 @@ static int dir_is_empty(const char *dir)
     return empty;
 }
 
-/* The absolute, resolved form of path, which need not exist: its longest existing prefix
- * resolved by realpath (links, `..`), the rest appended component by component ("." dropped,
- * ".." taking one off). */
-static int resolve_path(const char *path, char *out, size_t n)
+int esr_path_resolve(const char *path, char *out, size_t n)
 {
     char abs[PATH_MAX], head[PATH_MAX], resolved[PATH_MAX], cwd[PATH_MAX];
     if (path[0] != '/' && !getcwd(cwd, sizeof cwd))
@@ -96,7 +93,7 @@ static int path_within(const char *a, const char *b)
 int esr_staging_check_apart(const char *out_dir, const char *const *inputs, int n)
 {
     char out[PATH_MAX], in[PATH_MAX], marker[PATH_MAX + 16];
-    ESR_TRY(resolve_path(out_dir, out, sizeof out));
+    ESR_TRY(esr_path_resolve(out_dir, out, sizeof out));
     snprintf(marker, sizeof marker, "%s/import.json", out);
     struct stat st;
     /* what --force may replace inside an input: nothing yet, or an earlier import's output */
@@ -104,7 +101,7 @@ int esr_staging_check_apart(const char *out_dir, const char *const *inputs, int 
     for (int i = 0; i < n; i++) {
         if (!inputs[i])
             continue;
-        ESR_TRY(resolve_path(inputs[i], in, sizeof in));
+        ESR_TRY(esr_path_resolve(inputs[i], in, sizeof in));
         const int same = !strcmp(out, in), holds_input = path_within(in, out);
         if (same || holds_input || (path_within(out, in) && !replaceable))
             return ESR_FAIL("the output folder '%s' %s the input '%s': writing it would delete "
@@ -118,16 +115,16 @@ int esr_output_check_outside(const char *out_dir, const char *const *folders,
                              const char *const *what, int n, const char *allowed)
 {
     char out[PATH_MAX], in[PATH_MAX];
-    ESR_TRY(resolve_path(out_dir, out, sizeof out));
+    ESR_TRY(esr_path_resolve(out_dir, out, sizeof out));
     if (allowed) {
-        ESR_TRY(resolve_path(allowed, in, sizeof in));
+        ESR_TRY(esr_path_resolve(allowed, in, sizeof in));
         if (path_within(out, in))
             return ESR_OK;
     }
     for (int i = 0; i < n; i++) {
         if (!folders[i])
             continue;
-        ESR_TRY(resolve_path(folders[i], in, sizeof in));
+        ESR_TRY(esr_path_resolve(folders[i], in, sizeof in));
         if (path_within(out, in))
             return ESR_FAIL("the output folder '%s' %s %s '%s': writing there would replace its "
                             "files; choose a folder outside it", out_dir,

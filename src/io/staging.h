@@ -5,6 +5,10 @@
 
 #include <stddef.h>
 
+/* The absolute, resolved form of path, which need not exist: its longest existing prefix
+ * resolved by realpath (links, `..`), the rest appended component by component ("." dropped,
+ * ".." taking one off). Fails on a path too long for n bytes. */
+int esr_path_resolve(const char *path, char *out, size_t n);
 /* Checks that out_dir can be (re)placed: it may be absent or an empty directory; a non-empty one
  * only with force. Creates the staging directory (a sibling of out_dir) and returns its path in
  * staging (n bytes). */

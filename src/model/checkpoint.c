@@ -387,6 +387,27 @@ int esr_model_load_buffer(struct esr_model *m, const void *data, size_t size, co
     return deserialise(m, &b);
 }
 
+/* A file named ckpt_<stage>.bin must hold that stage's model: one copied or renamed over it
+ * would be resumed, rendered or listed as the stage it is not (a finished coarse model as
+ * ckpt_fine.bin: the fine stage never trained). Frees m when it fails. */
+static int check_named_stage(struct esr_model *m, const char *file)
+{
+    const char *base = strrchr(file, '/');
+    base = base ? base + 1 : file;
+    for (int s = 0; s < ESR_STAGE_COUNT; s++) {
+        char name[64];
+        snprintf(name, sizeof name, "ckpt_%s.bin", esr_stage_name((enum esr_stage)s));
+        if (strcmp(base, name) != 0 || m->stage == s)
+            continue;
+        const int held = m->stage;
+        esr_model_free(m);
+        return ESR_FAIL("checkpoint %s is named for the %s stage but holds a %s-stage model (a "
+                        "file copied or renamed over it?)",
+                        file, esr_stage_name((enum esr_stage)s), esr_stage_name((enum esr_stage)held));
+    }
+    return ESR_OK;
+}
+
 int esr_model_load(struct esr_model *m, const char *path)
 {
     memset(m, 0, sizeof(*m));
@@ -403,7 +424,7 @@ int esr_model_load(struct esr_model *m, const char *path)
     ESR_TRY(esr_file_read_all(file, &data, &size));
     int rc = esr_model_load_buffer(m, data, size, file);
     free(data);
-    return rc;
+    return rc == ESR_OK ? check_named_stage(m, file) : rc;
 }
 
 int esr_model_load_finished_pdra(struct esr_model *m, const char *run)

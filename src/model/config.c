@@ -266,7 +266,12 @@ static int opt_check(const struct opt *o, double v, const char *where)
         return ESR_FAIL("%s: option '%s' must be a finite number", where, o->name);
     if (o->type == OPT_INT && v != floor(v))
         return ESR_FAIL("%s: option '%s' must be an integer (got %g)", where, o->name, v);
-    if (v < o->lo || v > o->hi)
+    /* a float option is checked as stored: 0.01 read back from its float is 0.0099999998, which
+     * the bound 0.01 as a double refused ("0.01 is out of range [0.01, ...]") */
+    const double lo = o->type == OPT_FLOAT ? (double)(float)o->lo : o->lo;
+    const double hi = o->type == OPT_FLOAT ? (double)(float)o->hi : o->hi;
+    const double as_stored = o->type == OPT_FLOAT ? (double)(float)v : v;
+    if (as_stored < lo || as_stored > hi)
         return ESR_FAIL("%s: option '%s' = %g is out of range [%g, %g]", where, o->name, v, o->lo,
                         o->hi);
     if ((!strcmp(o->name, "smooth_ksize") || !strcmp(o->name, "normal_ksize")) && v != 0 &&

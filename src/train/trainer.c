@@ -511,17 +511,58 @@ static int stage_model(struct run *r, enum esr_stage s, const struct esr_model *
 }
 
 /* RUN/run.json records the absolute dataset path so that `esr render/eval/export RUN` find the
- * data without --data (eval/run_dir.h reads it). Rewritten on resume: the data may have moved. */
-static int write_run_record(const char *run_dir, const char *data_dir)
+ * data without --data (eval/run_dir.h reads it). Rewritten on resume: the data may have moved;
+ * a resumed run on another dataset than the one recorded is said (its earlier stages learned
+ * that one). */
+static int write_run_record(struct run *r, const char *run_dir, const char *data_dir)
 {
     char abs[PATH_MAX];
     if (!realpath(data_dir, abs))
         return ESR_FAIL("dataset %s: %s", data_dir, strerror(errno));
     char path[4200];
     snprintf(path, sizeof path, "%s/run.json", run_dir);
+    unsigned char *text;
+    size_t size;
+    if (r->o->resume && esr_file_exists(path) && esr_file_read_all(path, &text, &size) != ESR_OK) {
+        esr_error_clear(); /* an unreadable old record is only replaced */
+    } else if (r->o->resume && esr_file_exists(path)) {
+        cJSON *old = cJSON_ParseWithLength((const char *)text, size);
+        const cJSON *d = cJSON_GetObjectItemCaseSensitive(old, "data");
+        char was[PATH_MAX];
+        if (cJSON_IsString(d) && strcmp(d->valuestring, abs) != 0 &&
+            !(realpath(d->valuestring, was) && !strcmp(was, abs)))
+            say(r, ESR_STAGE_COUNT, "resume: the run's earlier stages were trained on %s; the "
+                                    "stages still to train use %s", d->valuestring, abs);
+        cJSON_Delete(old);
+        free(text);
+    }
     cJSON *root = cJSON_CreateObject();
     cJSON_AddStringToObject(root, "data", abs);
     return esr_json_write_atomic(path, root);
+}
+
+/* A run started over in a folder that holds an earlier one: that run's checkpoints (and the
+ * lights listed from its pdra checkpoint) go, or a stage this run does not reach would be
+ * resumed, rendered or evaluated as this run's. */
+static int remove_earlier_run(struct run *r)
+{
+    char path[4200], gone[512] = "";
+    for (int s = 0; s < ESR_STAGE_COUNT; s++) {
+        ckpt_path(r, (enum esr_stage)s, path, sizeof path);
+        if (!esr_file_exists(path))
+            continue;
+        if (remove(path) != 0)
+            return ESR_FAIL("cannot remove the earlier run's checkpoint %s: %s", path, strerror(errno));
+        snprintf(gone + strlen(gone), sizeof gone - strlen(gone), "%s%s", gone[0] ? ", " : "",
+                 strrchr(path, '/') + 1);
+    }
+    snprintf(path, sizeof path, "%s/lights.json", r->o->run_dir);
+    if (esr_file_exists(path))
+        remove(path);
+    if (gone[0])
+        say(r, ESR_STAGE_COUNT, "starting over: removed the earlier run's checkpoints in %s (%s; "
+                                "`esr train --resume` continues a run instead)", r->o->run_dir, gone);
+    return ESR_OK;
 }
 
 /* The run's options and training rays. The options, the dataset and every training image are
@@ -561,11 +602,13 @@ static int setup(struct run *r)
     if (r->o->resume && !stored) /* esr demo resumes whatever is there, even nothing */
         say(r, ESR_STAGE_COUNT, "resume: %s holds no run yet (no config.json): training from the "
                                 "start", r->o->run_dir);
+    if (!stored)
+        ESR_TRY(remove_earlier_run(r));
     if (!stored || r->o->n_resume_set > 0)
         ESR_TRY(esr_config_write_json(&r->cfg, path));
     for (int i = 0; stored && i < r->o->n_resume_set; i++)
         say(r, ESR_STAGE_COUNT, "resume: %s (written to %s)", r->o->resume_set[i], path);
-    ESR_TRY(write_run_record(r->o->run_dir, r->o->data_dir));
+    ESR_TRY(write_run_record(r, r->o->run_dir, r->o->data_dir));
     snprintf(r->log_path, sizeof r->log_path, "%s/train_log.jsonl", r->o->run_dir);
     say(r, ESR_STAGE_COUNT, "dataset %s: %zu training rays (%zu lights-off)", root, r->rays.n,
         r->rays.n_off);
