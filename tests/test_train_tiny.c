@@ -368,6 +368,15 @@ static void test_resume_applies_set(void **state)
     assert_false(esr_file_exists(cmd));
     snprintf(cmd, sizeof cmd, "%s/ckpt_alphamask.bin", run);
     assert_true(esr_file_exists(cmd));
+    /* its metrics start afresh: no coarse line from the earlier run */
+    unsigned char *jl;
+    size_t n_jl;
+    snprintf(cmd, sizeof cmd, "%s/train_log.jsonl", run);
+    assert_int_equal(esr_file_read_all(cmd, &jl, &n_jl), ESR_OK);
+    jl[n_jl - 1] = '\0';
+    assert_null(strstr((char *)jl, "\"coarse\""));
+    assert_non_null(strstr((char *)jl, "\"alphamask\""));
+    free(jl);
 }
 
 static void test_nan_is_recovered_then_stops(void **state)

@@ -34,8 +34,9 @@ void esr_finetune_default_opts(struct esr_finetune_opts *o)
 
 /* The LTS hook: the lights' direct light at the step's points, edited and as found (the same
  * samples), each summed over lights. */
-static int direct_light(void *user, const struct esr_lts *l, size_t P,
-                        const struct esr_light_edit *edits, float *direct3, float *found3)
+static int edited_and_found_direct(void *user, const struct esr_lts *l, size_t P,
+                                   const struct esr_light_edit *edits, float *direct3,
+                                   float *found3)
 {
     struct esr_finetune *f = user;
     const struct esr_direct_points dp = {P, l->pos3, l->nrm3, l->mf.brdf5, l->wo3, 2};
@@ -138,14 +139,9 @@ int esr_finetune_init(struct esr_finetune *f, struct esr_model *m, const struct 
     }
     if (rc == ESR_OK)
         rc = esr_march_init(&f->march, o->rays, 1);
-    if (rc == ESR_OK) { /* the LTS workspace reads its sizes from the options: ours, first hit */
-        const struct esr_train_config keep = m->cfg;
-        m->cfg.lts_points = o->points;
-        m->cfg.lts_dirs = o->dirs;
-        m->cfg.lts_estimator = ESR_LTS_FIRST_HIT;
-        rc = esr_lts_init(&f->lts, m);
-        m->cfg = keep;
-        f->lts.edit_direct = direct_light;
+    if (rc == ESR_OK) { /* the LTS workspace at our sizes, first hit */
+        rc = esr_lts_init_sized(&f->lts, m, o->points, o->dirs, ESR_LTS_FIRST_HIT);
+        f->lts.edit_direct = edited_and_found_direct;
         f->lts.edit_user = f;
         f->lts.edit_ref = &f->trained;
     }

@@ -130,9 +130,10 @@ static int lit_layer(const struct esr_relight *r, const struct view_buf *b, size
  * returns how many shadow rays were traced. A pixel's samples draw from their own stream and
  * add in a fixed order, so the result does not depend on the schedule; nothing is allocated (a
  * view's shadow rays (~200k for lamp's 160x160 at 8 per light) kept in arrays cost more in page faults than in marching). */
-ESR_HOT static size_t direct_light(const struct esr_relight *r, const struct esr_light_edit *edits,
-                                   const struct view_buf *b, size_t n_px, uint64_t seed,
-                                   float *edited3, float *found3)
+ESR_HOT static size_t layers_direct_light(const struct esr_relight *r,
+                                          const struct esr_light_edit *edits,
+                                          const struct view_buf *b, size_t n_px, uint64_t seed,
+                                          float *edited3, float *found3)
 {
     size_t traced = 0;
 #pragma omp parallel for schedule(dynamic, 16) reduction(+ : traced)
@@ -164,8 +165,8 @@ ESR_HOT static size_t direct_light(const struct esr_relight *r, const struct esr
  * of each, so the far side of a silhouette takes its light from the surface it continues),
  * weighted by depth (DENOISE_DEPTH_VOX voxels) and normal agreement (cos^DENOISE_NPOW), on the
  * light per unit opacity divided by the base colour so the texture is not blurred, then
- * multiplied back. Reads the per-layer light (direct_light) and writes each pixel's sum of its
- * layers into out [n * 3]. */
+ * multiplied back. Reads the per-layer light (layers_direct_light) and writes each pixel's sum
+ * of its layers into out [n * 3]. */
 static int denoise_direct(const struct esr_relight *r, const struct view_buf *b, int w, int h,
                           const float *layers3, float *out)
 {
@@ -353,7 +354,7 @@ int esr_relight_view(const struct esr_relight *r, const struct esr_model *m,
             rc = ESR_FAIL("relight: out of memory for the direct light");
         if (rc == ESR_OK) {
             const double t0 = omp_get_wtime();
-            const size_t traced = direct_light(r, edits, &b, n, seed, direct_l, found_l);
+            const size_t traced = layers_direct_light(r, edits, &b, n, seed, direct_l, found_l);
             if (stats) {
                 stats->shadow_rays = traced;
                 stats->direct_seconds = omp_get_wtime() - t0;

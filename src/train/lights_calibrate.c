@@ -206,17 +206,13 @@ int esr_lights_calibrate(struct esr_model *m, const float *orig3, const float *d
         rc = esr_light_samples_get(m, a, &ls[a]);
     if (rc == ESR_OK)
         rc = calib_points(m, orig3, dir3, n, want, seed, pos, dir, &got);
-    /* the LTS machinery at these points: its own sizes, first hit; restored below */
-    const struct esr_train_config keep_cfg = m->cfg;
+    /* the LTS machinery at these points: its own sizes, first hit */
     const long keep_step = m->step;
-    m->cfg.lts_points = CALIB_CHUNK;
-    m->cfg.lts_dirs = CALIB_DIRS;
-    m->cfg.lts_estimator = ESR_LTS_FIRST_HIT;
-    m->step = 1; /* off the normal SDF's refresh period: computed once */
+    m->step = 1; /* off the normal SDF's refresh period: computed once; restored below */
     struct esr_lts l;
     memset(&l, 0, sizeof l);
     if (rc == ESR_OK)
-        rc = esr_lts_init(&l, m);
+        rc = esr_lts_init_sized(&l, m, CALIB_CHUNK, CALIB_DIRS, ESR_LTS_FIRST_HIT);
     struct esr_material_fields mf;
     memset(&mf, 0, sizeof mf);
     if (rc == ESR_OK)
@@ -249,7 +245,6 @@ int esr_lights_calibrate(struct esr_model *m, const float *orig3, const float *d
     esr_material_fields_free(&mf);
     esr_lts_free(&l);
     esr_light_shadows_free(&shadows);
-    m->cfg = keep_cfg;
     m->step = keep_step;
     int fit[ESR_MAX_LIGHTS];
     const int nf = esr_lights_fitted(&m->lights, fit);

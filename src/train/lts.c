@@ -66,11 +66,17 @@ void esr_lts_refresh_normals(struct esr_lts *l)
 
 int esr_lts_init(struct esr_lts *l, const struct esr_model *m)
 {
+    return esr_lts_init_sized(l, m, m->cfg.lts_points, m->cfg.lts_dirs, m->cfg.lts_estimator);
+}
+
+int esr_lts_init_sized(struct esr_lts *l, const struct esr_model *m, int points, int dirs,
+                       int estimator)
+{
     memset(l, 0, sizeof(*l));
-    l->P = m->cfg.lts_points;
-    l->M = m->cfg.lts_dirs;
-    l->estimator = m->cfg.lts_estimator;
-    l->lobe = m->cfg.lts_dirs >= 4 * m->cfg.lts_lobe_dirs ? m->cfg.lts_lobe_dirs : 0;
+    l->P = points;
+    l->M = dirs;
+    l->estimator = estimator;
+    l->lobe = dirs >= 4 * m->cfg.lts_lobe_dirs ? m->cfg.lts_lobe_dirs : 0;
     /* esr_config_validate keeps the counts even: each half holds half of each technique's
      * directions, the same balance-heuristic estimate with half the samples */
     l->split = m->cfg.lts_split;

@@ -122,6 +122,10 @@ struct esr_lts {
 };
 
 int esr_lts_init(struct esr_lts *l, const struct esr_model *m);
+/* esr_lts_init with its own points per call, directions per point and estimator instead of m's
+ * options (the lights' calibration, a fine-tune); the rest (lobe directions, split) as m's. */
+int esr_lts_init_sized(struct esr_lts *l, const struct esr_model *m, int points, int dirs,
+                       int estimator);
 void esr_lts_free(struct esr_lts *l);
 /* The next step recomputes the normals from the model's SDF, as a run resumed from a checkpoint
  * saved now would (its workspace starts without them): the trainer calls it after each

@@ -541,9 +541,10 @@ static int write_run_record(struct run *r, const char *run_dir, const char *data
     return esr_json_write_atomic(path, root);
 }
 
-/* A run started over in a folder that holds an earlier one: that run's checkpoints (and the
- * lights listed from its pdra checkpoint) go, or a stage this run does not reach would be
- * resumed, rendered or evaluated as this run's. */
+/* A run started over in a folder that holds an earlier one: that run's checkpoints go, or a
+ * stage this run does not reach would be resumed, rendered or evaluated as this run's; so do the
+ * lights listed from its pdra checkpoint and its metrics (the report's training curves would
+ * run on from the earlier run's). RUN/log keeps its lines: the new ones follow. */
 static int remove_earlier_run(struct run *r)
 {
     char path[4200], gone[512] = "";
@@ -556,9 +557,12 @@ static int remove_earlier_run(struct run *r)
         snprintf(gone + strlen(gone), sizeof gone - strlen(gone), "%s%s", gone[0] ? ", " : "",
                  strrchr(path, '/') + 1);
     }
-    snprintf(path, sizeof path, "%s/lights.json", r->o->run_dir);
-    if (esr_file_exists(path))
-        remove(path);
+    static const char *const derived[] = {"lights.json", "train_log.jsonl"};
+    for (int i = 0; i < 2; i++) {
+        snprintf(path, sizeof path, "%s/%s", r->o->run_dir, derived[i]);
+        if (esr_file_exists(path) && remove(path) != 0)
+            return ESR_FAIL("cannot remove the earlier run's %s: %s", path, strerror(errno));
+    }
     if (gone[0])
         say(r, ESR_STAGE_COUNT, "starting over: removed the earlier run's checkpoints in %s (%s; "
                                 "`esr train --resume` continues a run instead)", r->o->run_dir, gone);
