@@ -50,10 +50,10 @@ static void make_run(const struct esr_dataset *ds, const char *dir)
     assert_int_equal(test_write_file(path, text), 0);
 }
 
-static int setup(void **state)
+/* The default scene at RES px, 1 sample per pixel, one training and one test camera; `seed`
+ * places the cameras. */
+static int write_dataset(const char *dir, uint64_t seed)
 {
-    if (test_setup_tmpdir(state))
-        return -1;
     struct esr_synth_options opt;
     memset(&opt, 0, sizeof opt);
     opt.scene = "default";
@@ -61,9 +61,16 @@ static int setup(void **state)
     opt.spp = 1;
     opt.n_train = 1;
     opt.n_test = 1;
-    opt.seed = 1;
+    opt.seed = seed;
+    return esr_synth_write_dataset(dir, &opt);
+}
+
+static int setup(void **state)
+{
+    if (test_setup_tmpdir(state))
+        return -1;
     snprintf(ds_dir, sizeof ds_dir, "%s/ds", test_tmpdir);
-    if (esr_synth_write_dataset(ds_dir, &opt) != ESR_OK)
+    if (write_dataset(ds_dir, 1) != ESR_OK)
         return -1;
     struct esr_dataset ds;
     if (esr_dataset_load(ds_dir, &ds) != ESR_OK)
@@ -185,17 +192,9 @@ static void test_eval(void **state)
     assert_true(esr_file_exists(path));
     /* renders of other cameras are stale: a dataset whose test cameras differ (--data), then the
      * run's own again */
-    struct esr_synth_options opt;
-    memset(&opt, 0, sizeof opt);
-    opt.scene = "default";
-    opt.res = RES;
-    opt.spp = 1;
-    opt.n_train = 1;
-    opt.n_test = 1;
-    opt.seed = 2;
     char ds2[1200];
     snprintf(ds2, sizeof ds2, "%s/ds_seed2", test_tmpdir);
-    assert_int_equal(esr_synth_write_dataset(ds2, &opt), ESR_OK);
+    assert_int_equal(write_dataset(ds2, 2), ESR_OK);
     snprintf(args, sizeof args, "eval '%s' --data '%s'", run_dir, ds2);
     run_ok(args);
     assert_non_null(strstr(out, "rendering 2 of 2"));

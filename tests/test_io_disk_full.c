@@ -80,8 +80,7 @@ static void test_train_checkpoint_on_full_disk(void **state)
     unsigned char *log;
     size_t n_log;
     snprintf(ckpt, sizeof ckpt, "%s/log", run);
-    assert_int_equal(esr_file_read_all(ckpt, &log, &n_log), 0);
-    log[n_log - 1] = '\0';
+    assert_int_equal(esr_file_read_all(ckpt, &log, &n_log), 0); /* NUL-terminated */
     if (!strstr((char *)log, "esr train: error:") || !strstr((char *)log, "File too large"))
         fail_msg("RUN/log does not say why training stopped:\n%s", (char *)log);
     free(log);

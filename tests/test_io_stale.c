@@ -248,6 +248,21 @@ static void test_dir_remove_made(void **state)
     esr_dir_remove_made(path, made);
     assert_false(has(base, "a/b/c/d"));
     assert_true(has(base, "a/b/c/kept.txt"));
+    /* ".." in the path: its folders are not tracked (taking back "x" would remove an empty
+     * folder that was there before) */
+    snprintf(path, sizeof path, "%s/x", base);
+    assert_int_equal(esr_dir_create(path), ESR_OK);
+    snprintf(path, sizeof path, "%s/new/../x", base);
+    assert_int_equal(esr_dir_create_made(path, made, sizeof made), ESR_OK);
+    assert_string_equal(made, "");
+    esr_dir_remove_made(path, made);
+    assert_true(has(base, "x"));
+    /* a walk that failed part way (the innermost folder never made) still takes back the rest */
+    snprintf(path, sizeof path, "%s/p/q", base);
+    assert_int_equal(esr_dir_create_made(path, made, sizeof made), ESR_OK);
+    snprintf(want, sizeof want, "%s/p/q/never", base);
+    esr_dir_remove_made(want, made);
+    assert_false(has(base, "p"));
 }
 
 int main(void)

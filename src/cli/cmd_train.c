@@ -25,6 +25,8 @@ const struct esr_command cmd_train = {
     "RUN receives config.json (the resolved options), log (the progress lines),\n"
     "train_log.jsonl (metrics every log_every iterations) and ckpt_<stage>.bin checkpoints,\n"
     "written atomically at the start and end of each stage and every save_every iterations.\n"
+    "Without --resume, a RUN that holds an earlier run loses that run's checkpoints,\n"
+    "lights.json and train_log.jsonl first (its log keeps its lines).\n"
     "A loss or gradient that turns NaN/Inf reloads the last checkpoint with half the learning\n"
     "rate; the third failure stops the run (the checkpoint stays intact).\n"
     "\n"

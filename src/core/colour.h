@@ -32,6 +32,12 @@ void esr_recolour_keep_value(const float rgb[3], float target_h, float target_s,
 /* Relative luminance of linear Rec. 709 / sRGB primaries (ITU-R BT.709: 0.2126 R + 0.7152 G +
  * 0.0722 B). */
 float esr_luminance(const float rgb[3]);
+/* The largest of a colour's three channels. */
+static inline float esr_max_channel(const float rgb[3])
+{
+    const float m = rgb[0] > rgb[1] ? rgb[0] : rgb[1];
+    return m > rgb[2] ? m : rgb[2];
+}
 
 /* PSNR in dB for peak value 1: -10 log10(mse). +INFINITY when mse == 0 (callers that print
  * JSON floor mse first). The one PSNR of the code base: training logs, quick and full eval. */

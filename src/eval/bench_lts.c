@@ -86,11 +86,8 @@ static int pick_points(const struct esr_model *m, const struct esr_dataset *ds, 
 static int run_calls(struct esr_model *m, const struct points *pt, int estimator, int dirs,
                      int calls, uint64_t seed0, float *est, struct esr_bench_lts_row *row)
 {
-    m->cfg.lts_points = pt->n;
-    m->cfg.lts_dirs = dirs;
-    m->cfg.lts_estimator = estimator;
     struct esr_lts l;
-    ESR_TRY(esr_lts_init(&l, m));
+    ESR_TRY(esr_lts_init_sized(&l, m, pt->n, dirs, estimator));
     const size_t ns = esr_grid_count(esr_model_grid(m, ESR_COMP_SDF));
     float *grads = calloc(m->params.count, sizeof(float)), *g_sdf = calloc(ns, sizeof(float));
     int rc = grads && g_sdf ? ESR_OK : ESR_FAIL("bench lts: out of memory for the gradients");

@@ -37,6 +37,11 @@ size_t esr_grid_count(const struct esr_grid *g);
 size_t esr_grid_voxels(const struct esr_grid *g);
 /* World-space spacing between lattice points along axis a (0..2). */
 float esr_grid_voxel_size(const struct esr_grid *g, int axis);
+/* Index of lattice point (x, y, z) among the nx*ny*nz (x fastest). */
+static inline size_t esr_grid_index(const struct esr_grid *g, int x, int y, int z)
+{
+    return ((size_t)z * (size_t)g->ny + (size_t)y) * (size_t)g->nx + (size_t)x;
+}
 /* World position of lattice point (ix, iy, iz). */
 void esr_grid_voxel_pos(const struct esr_grid *g, int ix, int iy, int iz, float pos[3]);
 

@@ -27,6 +27,20 @@ static int make_one(const char *path, int *made)
                     err == EEXIST ? "a file of that name exists" : strerror(err));
 }
 
+/* 1 when some component of path is "..": its folders cannot be told apart by their text. */
+static int has_dotdot(const char *path)
+{
+    for (const char *c = path; *c;) {
+        const size_t w = strcspn(c, "/");
+        if (w == 2 && c[0] == '.' && c[1] == '.')
+            return 1;
+        c += w;
+        while (*c == '/')
+            c++;
+    }
+    return 0;
+}
+
 int esr_dir_create_made(const char *path, char *made, size_t made_size)
 {
     char buf[ESR_PATH_MAX];
@@ -35,6 +49,9 @@ int esr_dir_create_made(const char *path, char *made, size_t made_size)
         made[0] = '\0';
     if (len == 0 || len >= sizeof buf)
         return ESR_FAIL("cannot create directory '%s': empty or too long path", path);
+    /* what was made is tracked only where the text names each folder once (no ".."), and in
+     * full: a path with ".." or a record cut short would take back folders that were there */
+    const int track = made && made_size > len && !has_dotdot(path);
     memcpy(buf, path, len + 1);
     /* Every prefix ending before a '/' is a parent; the leading '/' of an absolute path is not. */
     for (size_t i = 1; i <= len; i++) {
@@ -43,8 +60,8 @@ int esr_dir_create_made(const char *path, char *made, size_t made_size)
         buf[i] = '\0';
         int created = 0;
         int status = make_one(buf, &created);
-        if (status == ESR_OK && created && made && made_size && !made[0])
-            snprintf(made, made_size, "%s", buf);
+        if (status == ESR_OK && created && track && !made[0])
+            memcpy(made, buf, i + 1);
         if (i < len)
             buf[i] = '/';
         ESR_TRY(status);
@@ -59,19 +76,24 @@ int esr_dir_create(const char *path)
 
 void esr_dir_remove_made(const char *path, const char *made)
 {
-    if (!made || !made[0] || strncmp(path, made, strlen(made)) != 0)
+    const size_t top = made ? strlen(made) : 0;
+    if (top == 0 || strncmp(path, made, top) != 0 || (path[top] && path[top] != '/'))
         return;
     char buf[ESR_PATH_MAX];
     snprintf(buf, sizeof buf, "%s", path);
-    /* from the innermost folder outwards; rmdir leaves any that is not empty */
+    /* from the innermost folder outwards, up to and including `made`: one that does not exist
+     * (a failure before it was made) is passed over; one that is not empty stops the walk (its
+     * parents are not empty either) */
     for (;;) {
         size_t len = strlen(buf);
-        while (len > 1 && buf[len - 1] == '/')
+        while (len > top && buf[len - 1] == '/')
             buf[--len] = '\0';
-        if (rmdir(buf) != 0 || len <= strlen(made))
+        if (rmdir(buf) != 0 && errno != ENOENT)
+            return;
+        if (len <= top)
             return;
         char *slash = strrchr(buf, '/');
-        if (!slash || slash == buf)
+        if (!slash || (size_t)(slash - buf) < top)
             return;
         *slash = '\0';
     }

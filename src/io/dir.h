@@ -8,7 +8,8 @@
  * fine. Fails naming the path when a component exists but is not a directory or cannot be made. */
 int esr_dir_create(const char *path);
 /* esr_dir_create that also says which folders it made: `made` gets the outermost folder this call
- * created ("" when all existed), for esr_dir_remove_made. */
+ * created ("" when all existed, and when path has a ".." component or does not fit in
+ * made_size: then nothing can be taken back), for esr_dir_remove_made. */
 int esr_dir_create_made(const char *path, char *made, size_t made_size);
 /* Undoes esr_dir_create_made after a failed command: removes path and its parents up to and
  * including `made` while they are empty (nothing when made is ""), so a command that fails

@@ -3,6 +3,7 @@
 
 #include <cjson/cJSON.h>
 #include <errno.h>
+#include <float.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -270,7 +271,7 @@ static int opt_check(const struct opt *o, double v, const char *where)
      * the bound 0.01 as a double refused ("0.01 is out of range [0.01, ...]") */
     const double lo = o->type == OPT_FLOAT ? (double)(float)o->lo : o->lo;
     const double hi = o->type == OPT_FLOAT ? (double)(float)o->hi : o->hi;
-    const double as_stored = o->type == OPT_FLOAT ? (double)(float)v : v;
+    const double as_stored = o->type != OPT_FLOAT ? v : fabs(v) > FLT_MAX ? v : (double)(float)v;
     if (as_stored < lo || as_stored > hi)
         return ESR_FAIL("%s: option '%s' = %g is out of range [%g, %g]", where, o->name, v, o->lo,
                         o->hi);

@@ -109,8 +109,8 @@ int esr_view_render_frames(const struct esr_model *m, const struct esr_dataset *
  * this model (esr_model_fingerprint) rendered it from the view the dataset has now (camera,
  * size, lighting) with today's outputs, else 0 (render again): another run's model, lights found
  * again, or another dataset's cameras (`esr eval --data`) make renders stale. */
-int esr_view_current(const char *dir, const struct esr_model *m, const struct esr_dataset *ds,
-                     enum esr_phase_id phase, const int *idx, int n, uint8_t *current);
+void esr_view_current(const char *dir, const struct esr_model *m, const struct esr_dataset *ds,
+                      enum esr_phase_id phase, const int *idx, int n, uint8_t *current);
 /* A stamp's text (size bytes, no NUL needed) read for the model of fingerprint `model` (16 hex
  * digits): its "frames" object, frame name -> view fingerprint (the caller deletes it), when
  * the stamp names that model and ESR_VIEW_OUTPUTS_VERSION, else NULL (unparsable, another

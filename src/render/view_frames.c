@@ -100,8 +100,8 @@ static int stamped(const cJSON *frames, const struct esr_dataset *ds, const stru
     return cJSON_IsString(v) && !strcmp(v->valuestring, view);
 }
 
-int esr_view_current(const char *dir, const struct esr_model *m, const struct esr_dataset *ds,
-                     enum esr_phase_id phase, const int *idx, int n, uint8_t *current)
+void esr_view_current(const char *dir, const struct esr_model *m, const struct esr_dataset *ds,
+                      enum esr_phase_id phase, const int *idx, int n, uint8_t *current)
 {
     char fp[24];
     hex16(esr_model_fingerprint(m), fp);
@@ -112,7 +112,6 @@ int esr_view_current(const char *dir, const struct esr_model *m, const struct es
         current[i] = (uint8_t)(frames && stamped(frames, ds, f) && esr_view_outputs_exist(dir, f->name));
     }
     cJSON_Delete(frames);
-    return ESR_OK;
 }
 
 /* Records `frames` (taken over) as rendered by the model of fingerprint fp. */

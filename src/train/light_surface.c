@@ -28,7 +28,7 @@ int esr_light_surface_points(const struct esr_model *m, uint32_t **idx_out, floa
     for (int z = 0; z < g->nz; z++)
         for (int y = 0; y < g->ny; y++)
             for (int x = 0; x < g->nx; x++) {
-                const size_t i = esr_lattice_index(g, x, y, z);
+                const size_t i = esr_grid_index(g, x, y, z);
                 const int in = f[i] <= 0.0f;
                 const int nb[6][3] = {{x - 1, y, z}, {x + 1, y, z}, {x, y - 1, z},
                                       {x, y + 1, z}, {x, y, z - 1}, {x, y, z + 1}};
@@ -38,7 +38,7 @@ int esr_light_surface_points(const struct esr_model *m, uint32_t **idx_out, floa
                     if (q[0] < 0 || q[1] < 0 || q[2] < 0 || q[0] >= g->nx || q[1] >= g->ny ||
                         q[2] >= g->nz)
                         continue;
-                    edge = (f[esr_lattice_index(g, q[0], q[1], q[2])] <= 0.0f) != in;
+                    edge = (f[esr_grid_index(g, q[0], q[1], q[2])] <= 0.0f) != in;
                 }
                 if (!edge)
                     continue;

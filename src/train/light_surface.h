@@ -4,7 +4,6 @@
 #ifndef ESR_TRAIN_LIGHT_SURFACE_H
 #define ESR_TRAIN_LIGHT_SURFACE_H
 
-#include <math.h>
 #include <stddef.h>
 #include <stdint.h>
 
@@ -14,15 +13,6 @@
 #ifdef __cplusplus
 extern "C" {
 #endif
-
-/* Index of lattice point (x, y, z) of g. */
-static inline size_t esr_lattice_index(const struct esr_grid *g, int x, int y, int z)
-{
-    return ((size_t)z * (size_t)g->ny + (size_t)y) * (size_t)g->nx + (size_t)x;
-}
-
-/* The largest of an RGB triple's channels. */
-static inline float esr_max3(const float *v) { return fmaxf(v[0], fmaxf(v[1], v[2])); }
 
 /* Lattice points of m's SDF with a sign change to an axis neighbour: their indices, surface
  * positions (projected along the SDF gradient by at most a voxel) and unit normals, allocated

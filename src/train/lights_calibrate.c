@@ -85,7 +85,7 @@ static int calib_points(const struct esr_model *m, const float *orig3, const flo
         if (rc == ESR_OK && nc > 0)
             rc = esr_material_fields_fwd(&mf, m, sdf, o, (size_t)nc);
         for (int c = 0; rc == ESR_OK && c < nc && *got < want; c++) {
-            if (esr_max3(mf.emit3 + c * 3) >= CALIB_E_SHARE * k)
+            if (esr_max_channel(mf.emit3 + c * 3) >= CALIB_E_SHARE * k)
                 continue;
             memcpy(pos3 + *got * 3, cand + c * 6, 3 * sizeof(float));
             memcpy(dir_out3 + *got * 3, cand + c * 6 + 3, 3 * sizeof(float));

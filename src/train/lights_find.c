@@ -34,7 +34,7 @@ static int neighbours26(const struct esr_grid *g, size_t i, size_t nb[26])
                 const int u = x + dx, v = y + dy, w = z + dz;
                 if ((dx | dy | dz) && u >= 0 && v >= 0 && w >= 0 && u < g->nx && v < g->ny &&
                     w < g->nz)
-                    nb[n++] = esr_lattice_index(g, u, v, w);
+                    nb[n++] = esr_grid_index(g, u, v, w);
             }
     return n;
 }
@@ -168,7 +168,7 @@ int esr_lights_find(struct esr_model *m, const float *orig3, const float *dir3, 
         for (int a = 0; a < 3; a++)
             out[a] = pos[i * 3 + a] + OUTER_OFFSET * h * nrm[i * 3 + a];
         outer[i] = (uint8_t)esr_free_space_at(g, free_mask, out);
-        if (esr_max3(emit + i * 3) > k && outer[i]) {
+        if (esr_max_channel(emit + i * 3) > k && outer[i]) {
             flag[idx[i]] = 1;
             emitting++;
         }

@@ -528,9 +528,8 @@ static int write_run_record(struct run *r, const char *run_dir, const char *data
     } else if (r->o->resume && esr_file_exists(path)) {
         cJSON *old = cJSON_ParseWithLength((const char *)text, size);
         const cJSON *d = cJSON_GetObjectItemCaseSensitive(old, "data");
-        char was[PATH_MAX];
-        if (cJSON_IsString(d) && strcmp(d->valuestring, abs) != 0 &&
-            !(realpath(d->valuestring, was) && !strcmp(was, abs)))
+        char was[PATH_MAX]; /* an old path that is gone: the data moved, nothing to say */
+        if (cJSON_IsString(d) && realpath(d->valuestring, was) && strcmp(was, abs) != 0)
             say(r, ESR_STAGE_COUNT, "resume: the run's earlier stages were trained on %s; the "
                                     "stages still to train use %s", d->valuestring, abs);
         cJSON_Delete(old);
@@ -563,7 +562,10 @@ static int remove_earlier_run(struct run *r)
         if (esr_file_exists(path) && remove(path) != 0)
             return ESR_FAIL("cannot remove the earlier run's %s: %s", path, strerror(errno));
     }
-    if (gone[0])
+    if (gone[0] && r->o->resume) /* checkpoints without the config.json they were trained with */
+        say(r, ESR_STAGE_COUNT, "starting over: removed the checkpoints in %s that have no "
+                                "config.json to resume with (%s)", r->o->run_dir, gone);
+    else if (gone[0])
         say(r, ESR_STAGE_COUNT, "starting over: removed the earlier run's checkpoints in %s (%s; "
                                 "`esr train --resume` continues a run instead)", r->o->run_dir, gone);
     return ESR_OK;
@@ -602,6 +604,13 @@ static int setup(struct run *r)
     esr_dataset_free(&ds);
     if (rc != ESR_OK)
         return rc;
+    /* refused before the geometry stages spend minutes (the emitter stages would stop there),
+     * and before anything in RUN changes */
+    for (int s = 0; s <= (int)r->o->until; s++)
+        if (esr_stage_info((enum esr_stage)s)->lts_loss && r->rays.n_off == 0)
+            return ESR_FAIL("stage %s needs lights-off training images to tell emission from "
+                            "reflection, and this dataset has none (train with --until fine; "
+                            "nothing was trained)", esr_stage_name((enum esr_stage)s));
     ESR_TRY(esr_dir_prepare_output(r->o->run_dir));
     if (r->o->resume && !stored) /* esr demo resumes whatever is there, even nothing */
         say(r, ESR_STAGE_COUNT, "resume: %s holds no run yet (no config.json): training from the "
@@ -633,12 +642,6 @@ int esr_train_run(const struct esr_train_opts *o)
     r.o = o;
     r.cfg = o->cfg;
     int rc = setup(&r);
-    /* refused before the geometry stages spend minutes: the emitter stages would stop there */
-    for (int s = 0; rc == ESR_OK && s <= (int)o->until; s++)
-        if (esr_stage_info((enum esr_stage)s)->lts_loss && r.rays.n_off == 0)
-            rc = ESR_FAIL("stage %s needs lights-off training images to tell emission from "
-                          "reflection, and this dataset has none (train with --until fine; "
-                          "nothing was trained)", esr_stage_name((enum esr_stage)s));
     struct esr_model prev, cur;
     int have_prev = 0;
     for (int s = 0; rc == ESR_OK && s <= (int)o->until; s++) {
