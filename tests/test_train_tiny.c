@@ -603,6 +603,11 @@ static void test_emitter_stages_need_both_lightings(void **state)
         snprintf(data, sizeof data, "%s/data_%s", test_tmpdir, keep[k]);
         snprintf(run, sizeof run, "%s/run_%s", test_tmpdir, keep[k]);
         one_lighting_dataset(data, keep[k]);
+        if (k == 0) { /* an earlier run in RUN: a refused run must leave it as it was */
+            snprintf(cmd, sizeof cmd, "mkdir -p '%s' && cp '%s'/runs/full/ckpt_fine.bin '%s'/", run,
+                     test_tmpdir, run);
+            assert_int_equal(system(cmd), 0);
+        }
         if (k == 1) { /* the geometry from the full run; no lights-off images: a fresh run */
             snprintf(cmd, sizeof cmd,
                      "mkdir -p '%s' && cp '%s'/runs/full/ckpt_alphamask.bin "
@@ -615,11 +620,16 @@ static void test_emitter_stages_need_both_lightings(void **state)
         o.resume = k == 1;
         esr_error_clear();
         int rc = esr_train_run(&o);
+        if (k == 1) /* checkpoints without a config.json: resumed with these options, said */
+            assert_non_null(strstr(lc.text, "has no config.json: its checkpoints (ckpt_alphamask.bin, "
+                                            "ckpt_coarse.bin, ckpt_fine.bin) are resumed"));
         if (k == 0) { /* refused before any stage trains */
             assert_int_equal(rc, ESR_ERR);
             assert_non_null(strstr(esr_error_message(), "needs lights-off training images"));
             snprintf(cmd, sizeof cmd, "%s/ckpt_alphamask.bin", run);
             assert_false(esr_file_exists(cmd));
+            snprintf(cmd, sizeof cmd, "%s/ckpt_fine.bin", run);
+            assert_true(esr_file_exists(cmd));
         } else {
             if (rc != ESR_OK)
                 fail_msg("%s", esr_error_message());
@@ -733,8 +743,9 @@ static void test_pdra_finds_lights(void **state)
         fail_msg("%s", esr_error_message());
     print_message("%s", strstr(lc.text, "lights found") ? strstr(lc.text, "lights found") : lc.text);
     assert_non_null(strstr(lc.text, "lights found: "));
-    /* checkpoints but no config.json: --resume says it starts the run's options afresh */
-    assert_non_null(strstr(lc.text, "holds no run yet (no config.json)"));
+    /* checkpoints but no config.json: --resume says it resumes them with the options given */
+    assert_non_null(strstr(lc.text, "has no config.json: its checkpoints (ckpt_alphamask.bin"));
+    assert_non_null(strstr(lc.text, "are resumed with the options given now"));
     struct esr_model m;
     snprintf(cmd, sizeof cmd, "%s/ckpt_pdra.bin", run);
     assert_int_equal(esr_model_load(&m, cmd), ESR_OK);

@@ -562,10 +562,7 @@ static int remove_earlier_run(struct run *r)
         if (esr_file_exists(path) && remove(path) != 0)
             return ESR_FAIL("cannot remove the earlier run's %s: %s", path, strerror(errno));
     }
-    if (gone[0] && r->o->resume) /* checkpoints without the config.json they were trained with */
-        say(r, ESR_STAGE_COUNT, "starting over: removed the checkpoints in %s that have no "
-                                "config.json to resume with (%s)", r->o->run_dir, gone);
-    else if (gone[0])
+    if (gone[0])
         say(r, ESR_STAGE_COUNT, "starting over: removed the earlier run's checkpoints in %s (%s; "
                                 "`esr train --resume` continues a run instead)", r->o->run_dir, gone);
     return ESR_OK;
@@ -612,10 +609,23 @@ static int setup(struct run *r)
                             "reflection, and this dataset has none (train with --until fine; "
                             "nothing was trained)", esr_stage_name((enum esr_stage)s));
     ESR_TRY(esr_dir_prepare_output(r->o->run_dir));
-    if (r->o->resume && !stored) /* esr demo resumes whatever is there, even nothing */
-        say(r, ESR_STAGE_COUNT, "resume: %s holds no run yet (no config.json): training from the "
-                                "start", r->o->run_dir);
-    if (!stored)
+    if (r->o->resume && !stored) { /* esr demo resumes whatever is there, even nothing */
+        char found[512] = "", ckpt[4200];
+        for (int s = 0; s < ESR_STAGE_COUNT; s++) {
+            ckpt_path(r, (enum esr_stage)s, ckpt, sizeof ckpt);
+            if (esr_file_exists(ckpt))
+                snprintf(found + strlen(found), sizeof found - strlen(found), "%s%s",
+                         found[0] ? ", " : "", strrchr(ckpt, '/') + 1);
+        }
+        if (found[0]) /* checkpoints copied without their options (an A/B from a copy) */
+            say(r, ESR_STAGE_COUNT, "resume: %s has no config.json: its checkpoints (%s) are "
+                                    "resumed with the options given now, written to config.json",
+                r->o->run_dir, found);
+        else
+            say(r, ESR_STAGE_COUNT, "resume: %s holds no run yet (no config.json): training from "
+                                    "the start", r->o->run_dir);
+    }
+    if (!r->o->resume)
         ESR_TRY(remove_earlier_run(r));
     if (!stored || r->o->n_resume_set > 0)
         ESR_TRY(esr_config_write_json(&r->cfg, path));
