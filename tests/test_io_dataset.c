@@ -203,6 +203,7 @@ static void test_bad_json(void **state)
         const char *name, *json, *what;
     } cases[] = {
         {"malformed", "{\"camera_angle_x\": 0.6911, \"frames\": [", "malformed JSON"},
+        {"trailing", "{\"camera_angle_x\": 0.6911, \"frames\": []} x", "malformed JSON (near byte 41)"},
         {"no_matrix", "{\"camera_angle_x\": 0.6911, \"frames\": [{\"file_path\":\"train/r_000\",\"lights\":[]}]}",
          "transform_matrix"},
         {"no_angle", "{\"frames\": []}", "camera_angle_x"},
@@ -210,6 +211,18 @@ static void test_bad_json(void **state)
          "{\"camera_angle_x\": 0.6911, \"frames\": [{\"file_path\":\"train/r_000\",\"transform_matrix\":" MATRIX
          ",\"lights\":[" LIGHT("dim", "0.5", "") "]}]}",
          "unknown light mode 'dim'"},
+        {"negative_intensity",
+         "{\"camera_angle_x\": 0.6911, \"frames\": [{\"file_path\":\"train/r_000\",\"transform_matrix\":" MATRIX
+         ",\"lights\":[" LIGHT("i_change", "-1", "") "]}]}",
+         "intensity -1 is negative"},
+        {"on_at_zero",
+         "{\"camera_angle_x\": 0.6911, \"frames\": [{\"file_path\":\"train/r_000\",\"transform_matrix\":" MATRIX
+         ",\"lights\":[" LIGHT("on", "0", "") "]}]}",
+         "mode 'on' has intensity 0"},
+        {"off_but_lit",
+         "{\"camera_angle_x\": 0.6911, \"frames\": [{\"file_path\":\"train/r_000\",\"transform_matrix\":" MATRIX
+         ",\"lights\":[" LIGHT("off", "1", "") "]}]}",
+         "mode 'off' has intensity 1"},
         {"inf_matrix",
          "{\"camera_angle_x\": 0.6911, \"frames\": [{\"file_path\":\"train/r_000\",\"transform_matrix\":"
          "[[1,0,0,1e999],[0,1,0,0],[0,0,1,4],[0,0,0,1]],\"lights\":[]}]}",

@@ -121,6 +121,10 @@ static void test_json_files(void **state)
     expect_fail(esr_config_load_json(&c, path), "must be a number");
     assert_int_equal(test_write_file(path, "[1, 2]"), 0);
     expect_fail(esr_config_load_json(&c, path), "not a JSON object");
+    assert_int_equal(test_write_file(path, "{\"fine\": {\"iters\": 3}} {\"fine\": {\"iters\": 4}}"), 0);
+    expect_fail(esr_config_load_json(&c, path), "cfg.json: malformed JSON (near byte 23)");
+    assert_int_equal(test_write_file(path, "{\"fine\": {\"iters\": 3"), 0);
+    expect_fail(esr_config_load_json(&c, path), "malformed JSON");
     assert_int_equal(test_write_file(path, "{\"preset\": \"huge\"}"), 0);
     expect_fail(esr_config_load_json(&c, path), "unknown preset 'huge'");
 }

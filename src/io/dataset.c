@@ -12,6 +12,7 @@
 
 #include "core/error.h"
 #include "io/file.h"
+#include "io/json_file.h"
 
 static const char *const phase_names[ESR_PHASE_COUNT] = {"train", "test_nv", "test_nvi", "test_nvc", "test_nvic",
                                                          "val"};
@@ -176,6 +177,15 @@ static int parse_light(const struct json_where *w, const cJSON *obj, struct esr_
         return JSON_FAIL(w, "unknown light mode '%s'", mode);
     light->mode = (enum esr_light_mode)m;
     ESR_TRY(json_number(w, obj, "intensity", &light->intensity));
+    if (light->intensity < 0.0f)
+        return JSON_FAIL(w, "light intensity %g is negative (a multiplier of its 'on' strength)",
+                         (double)light->intensity);
+    if (light->mode == ESR_LIGHT_OFF && light->intensity != 0.0f)
+        return JSON_FAIL(w, "a light in mode 'off' has intensity %g (an off light has 0)",
+                         (double)light->intensity);
+    if (light->mode == ESR_LIGHT_ON && light->intensity == 0.0f)
+        return JSON_FAIL(w, "a light in mode 'on' has intensity 0 (an on light's is above 0; an "
+                            "unlit one is mode 'off')");
     const cJSON *color = cJSON_GetObjectItemCaseSensitive(obj, "color");
     if (!color)
         return JSON_FAIL(w, "missing key 'color'");
@@ -247,12 +257,10 @@ static int parse_frame(const struct json_where *w, const cJSON *obj, struct esr_
 
 static cJSON *parse_json_text(const char *text, size_t size, const char *name)
 {
-    cJSON *root = cJSON_ParseWithLength(text, size);
-    if (!root) {
-        const char *at = cJSON_GetErrorPtr();
-        long offset = at && at >= text && at <= text + size ? (long)(at - text) : -1;
+    long offset = -1;
+    cJSON *root = esr_json_parse_whole(text, size, &offset);
+    if (!root)
         ESR_FAIL("'%s': malformed JSON (near byte %ld)", name, offset);
-    }
     return root;
 }
 

@@ -1,5 +1,6 @@
-/* JSON documents written to disk: the one way esr writes its JSON outputs (metrics, configs,
- * summaries, records), so every one is atomic, newline-terminated and reports a full disk. */
+/* JSON documents on disk: the one way esr writes its JSON outputs (metrics, configs, summaries,
+ * records), so every one is atomic, newline-terminated and reports a full disk; and the reading
+ * of a whole document that a user wrote (a dataset's transforms, a config). */
 #ifndef ESR_IO_JSON_FILE_H
 #define ESR_IO_JSON_FILE_H
 
@@ -9,6 +10,11 @@
  * ownership: root is deleted in every case. A NULL root (a failed cJSON allocation upstream)
  * is reported as out of memory. */
 int esr_json_write_atomic(const char *path, cJSON *root);
+
+/* The document of text[0..size) (no NUL needed), which must be one JSON value with nothing but
+ * white space after it; NULL when it is malformed or something follows, *error_at then being
+ * the byte offset where (or -1 when not known). */
+cJSON *esr_json_parse_whole(const char *text, size_t size, long *error_at);
 
 /* A JSON array of the n floats v (NULL on out of memory). */
 cJSON *esr_json_float_array(const float *v, int n);
