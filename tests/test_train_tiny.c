@@ -363,6 +363,14 @@ static void test_resume_applies_set(void **state)
     snprintf(cmd, sizeof cmd, "train '%s' --out '%s' --resume --preset paper --until coarse", data_dir, run);
     assert_int_equal(test_run_esr(cmd, out, sizeof out), 1);
     assert_non_null(strstr(out, "another --preset or a --config would not apply"));
+    /* an option of a finished stage: said to change nothing */
+    const char *late[] = {"coarse.iters=9"};
+    opts_for(&o, run, ESR_STAGE_COARSE, &lc);
+    o.resume = 1;
+    o.resume_set = late;
+    o.n_resume_set = 1;
+    assert_int_equal(esr_train_run(&o), ESR_OK);
+    assert_non_null(strstr(lc.text, "coarse.iters=9 changes nothing: stage coarse is finished"));
     /* the run's own preset again, as esr demo names it: accepted (the stage is done: no work) */
     snprintf(cmd, sizeof cmd, "train '%s' --out '%s' --resume --preset fast --until coarse", data_dir, run);
     assert_int_equal(test_run_esr(cmd, out, sizeof out), 0);

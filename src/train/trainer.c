@@ -479,6 +479,14 @@ static int stage_model(struct run *r, enum esr_stage s, const struct esr_model *
         ESR_TRY(esr_model_load(m, path));
         say(r, s, "resuming stage %s from %s (iteration %ld%s)", esr_stage_name(s), path, m->step,
             m->stage_done ? ", finished" : "");
+        /* a --set for this stage's own options changes nothing once it is trained */
+        const size_t len = strlen(esr_stage_name(s));
+        for (int i = 0; m->stage_done && i < r->o->n_resume_set; i++)
+            if (!strncmp(r->o->resume_set[i], esr_stage_name(s), len) &&
+                r->o->resume_set[i][len] == '.')
+                say(r, s, "resume: %s changes nothing: stage %s is finished (its checkpoint is "
+                          "kept; train it again from a copy without its checkpoint)",
+                    r->o->resume_set[i], esr_stage_name(s));
         return ESR_OK;
     }
     size_t need, n_params;
