@@ -9,6 +9,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 
 #include "core/colour.h"
 #include "core/error.h"
@@ -395,6 +396,35 @@ static void test_cli_metrics(void **state)
     assert_non_null(strstr(out, "missing.png"));
     assert_int_not_equal(test_run_esr("metrics onlyone.png", out, sizeof out), 0);
     assert_non_null(strstr(out, "two images"));
+    /* an EXR (linear) against a PNG (sRGB-encoded): refused, not scored */
+    char pe[512], pfifo[512], ptiny[512], ptiny2[512];
+    snprintf(pe, sizeof pe, "%s/a.exr", dir);
+    assert_int_equal(esr_exr_write(pe, &a, 0), ESR_OK);
+    snprintf(args, sizeof args, "metrics '%s' '%s'", pe, pa);
+    assert_int_not_equal(test_run_esr(args, out, sizeof out), 0);
+    assert_non_null(strstr(out, "holds linear values"));
+    /* a FIFO named like an image: refused at once (opening it waited for a writer forever) */
+    snprintf(pfifo, sizeof pfifo, "%s/fifo.png", dir);
+    assert_int_equal(mkfifo(pfifo, 0644), 0);
+    snprintf(args, sizeof args, "metrics '%s' '%s'", pa, pfifo);
+    assert_int_not_equal(test_run_esr(args, out, sizeof out), 0);
+    assert_non_null(strstr(out, "not a regular file"));
+    /* images under the SSIM window: PSNR and MSE, SSIM null */
+    struct esr_image t1 = make_image(8, 8, 3), t2 = make_image(8, 8, 3);
+    fill_random_pair(&t1, &t2, 0.1f, 56);
+    snprintf(ptiny, sizeof ptiny, "%s/t1.png", dir);
+    snprintf(ptiny2, sizeof ptiny2, "%s/t2.png", dir);
+    assert_int_equal(esr_png_write(ptiny, &t1, 8), ESR_OK);
+    assert_int_equal(esr_png_write(ptiny2, &t2, 8), ESR_OK);
+    snprintf(args, sizeof args, "metrics '%s' '%s'", ptiny, ptiny2);
+    assert_int_equal(test_run_esr(args, out, sizeof out), 0);
+    obj = cJSON_Parse(out);
+    assert_non_null(obj);
+    assert_true(cJSON_IsNull(cJSON_GetObjectItemCaseSensitive(obj, "ssim")));
+    assert_true(json_number(obj, "mse") > 0.0 && json_number(obj, "psnr") > 0.0);
+    cJSON_Delete(obj);
+    esr_image_free(&t1);
+    esr_image_free(&t2);
 
     esr_image_free(&a);
     esr_image_free(&b);

@@ -1,5 +1,6 @@
 /* esr metrics A B [--json FILE]: PSNR / SSIM / MSE between two images. */
 #include <cJSON.h>
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -26,7 +27,9 @@ const struct esr_command cmd_metrics = {
     "so dataset RGBA PNGs compare as the method sees them. PSNR uses peak 1.0 (values in [0,1];\n"
     "EXR values are compared as stored, linear); it is null for identical images (infinite).\n"
     "SSIM is the NeRF-literature variant (11x11 Gaussian, sigma 1.5, valid borders, per-channel\n"
-    "mean) and needs images of at least 11x11 pixels.\n"
+    "mean); it is null for images under 11x11 pixels. An EXR (linear) is not compared with a\n"
+    "PNG or JPEG (sRGB-encoded): compare like with like (esr render writes N.exr beside\n"
+    "N_linear.png, the linear render through the sRGB curve).\n"
     "\n"
     "options:\n"
     "  --json FILE   also write the JSON object to FILE (atomically)\n"
@@ -34,6 +37,13 @@ const struct esr_command cmd_metrics = {
     run_metrics,
     0, /* view_loop */
 };
+
+/* 1 when path names an EXR file (linear values; PNG and JPEG hold sRGB-encoded ones). */
+static int is_exr(const char *path)
+{
+    const char *dot = strrchr(path, '.');
+    return dot && !strcasecmp(dot, ".exr");
+}
 
 /* Reads path and returns it as RGB (or grey) without alpha, composited on white. */
 static int load_opaque(const char *path, struct esr_image *out)
@@ -49,8 +59,7 @@ static int load_opaque(const char *path, struct esr_image *out)
         esr_image_free(&raw);
         return ESR_FAIL("'%s': grey+alpha images are not supported; convert to RGBA", path);
     }
-    const char *dot = strrchr(path, '.');
-    int premultiplied = dot && !strcasecmp(dot, ".exr"); /* OpenEXR stores premultiplied colour */
+    int premultiplied = is_exr(path); /* OpenEXR stores premultiplied colour */
     int status = premultiplied ? esr_image_composite_premultiplied(&raw, white, out)
                                : esr_image_composite(&raw, white, out);
     esr_image_free(&raw);
@@ -59,8 +68,13 @@ static int load_opaque(const char *path, struct esr_image *out)
 
 static int compute(const char *path_a, const char *path_b, cJSON *obj)
 {
+    if (is_exr(path_a) != is_exr(path_b))
+        return ESR_FAIL("'%s' holds %s values and '%s' %s ones: the numbers would compare two "
+                        "encodings, not two images (compare an EXR with an EXR, a PNG with a PNG)",
+                        path_a, is_exr(path_a) ? "linear" : "sRGB-encoded", path_b,
+                        is_exr(path_b) ? "linear" : "sRGB-encoded");
     struct esr_image a = {0}, b = {0};
-    double mse = 0.0, ssim = 0.0;
+    double mse = 0.0, ssim = NAN;
     int status = load_opaque(path_a, &a);
     if (status == ESR_OK)
         status = load_opaque(path_b, &b);
@@ -69,12 +83,12 @@ static int compute(const char *path_a, const char *path_b, cJSON *obj)
                           a.height, a.channels, path_b, b.width, b.height, b.channels);
     if (status == ESR_OK)
         status = esr_metric_mse(&a, &b, &mse);
-    if (status == ESR_OK)
+    if (status == ESR_OK && a.width >= 11 && a.height >= 11) /* the SSIM window's size */
         status = esr_metric_ssim(&a, &b, &ssim);
     if (status == ESR_OK) {
-        /* identical images: PSNR +inf, written as null */
+        /* identical images: PSNR +inf, written as null; SSIM of a small image: null */
         esr_json_add_number_or_null(obj, "psnr", esr_psnr_from_mse(mse));
-        cJSON_AddNumberToObject(obj, "ssim", ssim);
+        esr_json_add_number_or_null(obj, "ssim", ssim);
         cJSON_AddNumberToObject(obj, "mse", mse);
         cJSON_AddNumberToObject(obj, "width", a.width);
         cJSON_AddNumberToObject(obj, "height", a.height);

@@ -14,10 +14,13 @@ int esr_file_read_all(const char *path, unsigned char **data, size_t *size)
 {
     *data = NULL;
     *size = 0;
+    struct stat st;
+    /* before opening: opening a FIFO for reading waits for a writer, forever */
+    if (stat(path, &st) == 0 && !S_ISREG(st.st_mode))
+        return ESR_FAIL("'%s' is not a regular file", path);
     FILE *f = fopen(path, "rb");
     if (!f)
         return ESR_FAIL("cannot open '%s': %s", path, strerror(errno));
-    struct stat st;
     if (fstat(fileno(f), &st) != 0 || !S_ISREG(st.st_mode)) {
         fclose(f);
         return ESR_FAIL("'%s' is not a regular file", path);
