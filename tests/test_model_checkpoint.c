@@ -12,6 +12,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <zlib.h>
 
 #include "core/error.h"
 #include "io/file.h"
@@ -110,12 +111,16 @@ static void test_round_trip_is_exact(void **state)
 }
 
 /* Rewrites the file's JSON header with edit(header) and the given version; the arrays after it
- * are kept byte for byte. */
+ * are kept byte for byte, and version 3 gets the CRC-32 of the new bytes (version 2 has none). */
 static void rewrite(const char *path, void (*edit)(cJSON *), uint32_t version)
 {
     unsigned char *d;
     size_t n;
     assert_int_equal(esr_file_read_all(path, &d, &n), 0);
+    uint32_t was;
+    memcpy(&was, d + 8, 4);
+    if (was == 3)
+        n -= 4; /* its CRC */
     uint64_t hn;
     memcpy(&hn, d + 12, 8);
     cJSON *h = cJSON_ParseWithLength((const char *)d + 20, (size_t)hn);
@@ -124,13 +129,17 @@ static void rewrite(const char *path, void (*edit)(cJSON *), uint32_t version)
         edit(h);
     char *text = cJSON_PrintUnformatted(h);
     uint64_t nh = strlen(text);
-    size_t tail = n - 20 - (size_t)hn, total = 20 + nh + tail;
+    size_t tail = n - 20 - (size_t)hn, total = 20 + nh + tail + (version == 3 ? 4 : 0);
     unsigned char *o = malloc(total);
     memcpy(o, d, 8);
     memcpy(o + 8, &version, 4);
     memcpy(o + 12, &nh, 8);
     memcpy(o + 20, text, nh);
     memcpy(o + 20 + nh, d + 20 + hn, tail);
+    if (version == 3) {
+        const uint32_t crc = (uint32_t)crc32(crc32(0L, Z_NULL, 0), o, (uInt)(total - 4));
+        memcpy(o + total - 4, &crc, 4);
+    }
     assert_int_equal(esr_file_write_atomic(path, o, total), 0);
     free(o);
     free(text);
@@ -281,6 +290,15 @@ static void test_mismatches_refused(void **state)
     assert_int_equal(esr_model_save(&f->m, f->path), 0);
     assert_refused(f->path, "non-finite weights or optimiser moments");
     f->m.adam.v[7] = 0.0f;
+    /* one flipped bit in the weights (finite still, the structure intact): the checksum */
+    orig[n / 2] ^= 0x10;
+    assert_int_equal(esr_file_write_atomic(f->path, orig, n), 0);
+    assert_refused(f->path, "checksum mismatch");
+    orig[n / 2] ^= 0x10;
+    /* a header edited as version 3 with its checksum made anew: read as the file says */
+    assert_int_equal(esr_file_write_atomic(f->path, orig, n), 0);
+    rewrite(f->path, set_bad_lr_scale, 3);
+    assert_refused(f->path, "lr_scale must be a number in (0, 1]");
     orig[0] = 'X';
     assert_int_equal(esr_file_write_atomic(f->path, orig, n), 0);
     assert_refused(f->path, "bad magic");

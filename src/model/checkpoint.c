@@ -1,8 +1,8 @@
 /* Checkpoint files (model.h): a versioned snapshot written atomically, matched by name on load.
  *   "ESRCKPT\0" | u32 version | u64 header bytes | header (JSON text) |
  *   f32 w[n] | f32 adam_m[n] | f32 adam_v[n] | u8 mask occupancy [nx*ny*nz] (when it has one) |
- *   u8 light labels [lattice points] (when it has lights)
- * with the header
+ *   u8 light labels [lattice points] (when it has lights) | u32 CRC-32 of every byte before it
+ * (version 3; version 2 files, without it, still load) with the header
  *   {"stage": "fine", "step": 2000, "done": 1, "scene_min": [..], "scene_max": [..],
  *    "lr_scale": 0.5 (only after a non-finite step: the learning rates' factor),
  *    "config": {every option, flat}, "params": n,
@@ -14,13 +14,16 @@
  * so adding an option never breaks old files) and then copies every stored component into the
  * component of the same name (a component the file lacks keeps its initial values: a new
  * component added to a stage starts fresh). A size mismatch, an unknown component or a header
- * that does not parse is refused, naming the file and the mismatch; nothing is written. */
+ * that does not parse is refused, naming the file and the mismatch; nothing is written. The
+ * CRC catches what no structural check can: flipped bits in the arrays (a bad disk or copy)
+ * that still parse and are finite, and would render as silent garbage. */
 #include <cjson/cJSON.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
+#include <zlib.h>
 
 #include "core/error.h"
 #include "io/dir.h"
@@ -30,8 +33,21 @@
 #include "nn/guard.h"
 
 #define CKPT_MAGIC "ESRCKPT"
-#define CKPT_VERSION 2u
+#define CKPT_VERSION 3u
+#define CKPT_VERSION_NO_CRC 2u /* still read */
 #define CKPT_MAX_HEADER (16u << 20)
+
+/* zlib's CRC-32 of n bytes, in chunks (its length argument is 32-bit). */
+static uint32_t file_crc(const unsigned char *p, size_t n)
+{
+    uLong crc = crc32(0L, Z_NULL, 0);
+    for (size_t at = 0; at < n;) {
+        const size_t k = n - at < (1u << 30) ? n - at : (1u << 30);
+        crc = crc32(crc, p + at, (uInt)k);
+        at += k;
+    }
+    return (uint32_t)crc;
+}
 
 static cJSON *header_json(const struct esr_model *m)
 {
@@ -97,7 +113,7 @@ int esr_model_save(const struct esr_model *m, const char *path)
     const uint64_t hn = strlen(text), n = m->params.count;
     const size_t mask_n = m->has_mask ? (size_t)m->mask.nx * m->mask.ny * m->mask.nz : 0;
     const size_t label_n = m->lights.n > 0 ? esr_grid_voxels(&m->lights.grid) : 0;
-    const size_t total = 8 + 4 + 8 + hn + 3 * n * sizeof(float) + mask_n + label_n;
+    const size_t total = 8 + 4 + 8 + hn + 3 * n * sizeof(float) + mask_n + label_n + 4;
     unsigned char *buf = malloc(total), *p = buf;
     if (!buf) {
         free(text);
@@ -114,7 +130,9 @@ int esr_model_save(const struct esr_model *m, const char *path)
     if (mask_n)
         memcpy(p, m->mask.occ, mask_n), p += mask_n;
     if (label_n)
-        memcpy(p, m->lights.label, label_n);
+        memcpy(p, m->lights.label, label_n), p += label_n;
+    const uint32_t crc = file_crc(buf, total - 4);
+    memcpy(p, &crc, 4);
     free(text);
     int rc = esr_file_write_atomic(path, buf, total);
     free(buf);
@@ -325,10 +343,16 @@ static int deserialise(struct esr_model *m, struct rbuf *b)
     if (memcmp(magic, CKPT_MAGIC, 8))
         return ESR_FAIL("checkpoint %s: not an esr checkpoint (bad magic)", b->path);
     ESR_TRY(get(b, &ver, 4));
-    if (ver != CKPT_VERSION)
-        return ESR_FAIL("checkpoint %s: format version %u, this build reads version %u%s", b->path,
-                        ver, CKPT_VERSION,
+    if (ver != CKPT_VERSION && ver != CKPT_VERSION_NO_CRC)
+        return ESR_FAIL("checkpoint %s: format version %u, this build reads versions %u and %u%s",
+                        b->path, ver, CKPT_VERSION_NO_CRC, CKPT_VERSION,
                         ver < CKPT_VERSION ? " (written by an older esr: train again)" : "");
+    uint32_t crc = 0;
+    if (ver == CKPT_VERSION) { /* the CRC-32 trails the file; the rest is what it covers */
+        ESR_TRY(has_bytes(b, 4, "checksum"));
+        memcpy(&crc, b->p + b->n - 4, 4);
+        b->n -= 4;
+    }
     ESR_TRY(get(b, &hn, 8));
     if (hn == 0 || hn > CKPT_MAX_HEADER || hn > b->n - b->at)
         return ESR_FAIL("checkpoint %s: truncated or corrupt header (%llu bytes)", b->path,
@@ -362,6 +386,9 @@ static int deserialise(struct esr_model *m, struct rbuf *b)
         if (rc == ESR_OK && b->at != b->n)
             rc = ESR_FAIL("checkpoint %s: %zu bytes after its end (a corrupt file)", b->path,
                           b->n - b->at);
+        if (rc == ESR_OK && ver == CKPT_VERSION && file_crc(b->p, b->n) != crc)
+            rc = ESR_FAIL("checkpoint %s: checksum mismatch: the file was damaged after it was "
+                          "written (a bad disk or copy); its values cannot be trusted", b->path);
         if (rc != ESR_OK)
             esr_model_free(m);
     }
