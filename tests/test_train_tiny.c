@@ -395,6 +395,38 @@ static void test_resume_applies_set(void **state)
     free(jl);
 }
 
+/* An interrupt (the CLI's Ctrl-C handler sets the flag): the stage saves its checkpoint at the
+ * step it reached, the run ends saying so, and --resume finishes it. */
+static void test_interrupt_saves_and_resumes(void **state)
+{
+    (void)state;
+    char run[4300], path[4400];
+    snprintf(run, sizeof run, "%s/interrupted", test_tmpdir);
+    static volatile sig_atomic_t flag = 1; /* raised before the first step */
+    struct esr_train_opts o;
+    opts_for(&o, run, ESR_STAGE_COARSE, NULL);
+    o.interrupt = &flag;
+    assert_int_equal(esr_train_run(&o), ESR_ERR);
+    assert_non_null(strstr(esr_error_message(), "interrupted at alphamask iteration 1"));
+    esr_error_clear();
+    struct esr_model m;
+    snprintf(path, sizeof path, "%s/ckpt_alphamask.bin", run);
+    assert_int_equal(esr_model_load(&m, path), ESR_OK);
+    assert_int_equal(m.step, 1);
+    assert_int_equal(m.stage_done, 0);
+    esr_model_free(&m);
+    flag = 0;
+    opts_for(&o, run, ESR_STAGE_COARSE, NULL);
+    o.resume = 1;
+    o.interrupt = &flag;
+    if (esr_train_run(&o) != ESR_OK)
+        fail_msg("%s", esr_error_message());
+    snprintf(path, sizeof path, "%s/ckpt_coarse.bin", run);
+    assert_int_equal(esr_model_load(&m, path), ESR_OK);
+    assert_int_equal(m.stage_done, 1);
+    esr_model_free(&m);
+}
+
 static void test_nan_is_recovered_then_stops(void **state)
 {
     (void)state;
@@ -1360,6 +1392,7 @@ int main(void)
         cmocka_unit_test(test_resume_at_stage_boundary_is_exact),
         cmocka_unit_test(test_resume_inside_lts_and_pdra_is_exact),
         cmocka_unit_test(test_resume_applies_set),
+        cmocka_unit_test(test_interrupt_saves_and_resumes),
         cmocka_unit_test(test_nan_is_recovered_then_stops),
         cmocka_unit_test(test_nan_in_emitter_stages_is_recovered),
         cmocka_unit_test(test_bad_dataset_writes_nothing),

@@ -1,4 +1,5 @@
 /* esr train DATA --out RUN: the geometry and radiance stages (alphamask -> coarse -> fine). */
+#include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -25,6 +26,8 @@ const struct esr_command cmd_train = {
     "RUN receives config.json (the resolved options), log (the progress lines),\n"
     "train_log.jsonl (metrics every log_every iterations) and ckpt_<stage>.bin checkpoints,\n"
     "written atomically at the start and end of each stage and every save_every iterations.\n"
+    "Ctrl-C (or SIGTERM) saves the checkpoint at the step reached, then stops: --resume loses\n"
+    "nothing; a second Ctrl-C stops at once.\n"
     "Without --resume, a RUN that holds an earlier run loses that run's checkpoints,\n"
     "lights.json and train_log.jsonl first (its log keeps its lines).\n"
     "A loss or gradient that turns NaN/Inf reloads the last checkpoint with half the learning\n"
@@ -134,6 +137,30 @@ static int print_eval(const char *data, const char *run)
     return ESR_OK;
 }
 
+/* Ctrl-C or SIGTERM while training: the first asks the trainer to save its checkpoint at the
+ * step it reached and stop (train --resume then loses nothing); a second one kills at once. */
+static volatile sig_atomic_t interrupted;
+
+static void on_interrupt(int sig)
+{
+    static const char msg[] = "\nesr train: stopping: saving the checkpoint at this step (again "
+                              "to stop at once)\n";
+    (void)sig;
+    interrupted = 1;
+    (void)!write(2, msg, sizeof msg - 1);
+}
+
+static void catch_interrupt(void)
+{
+    struct sigaction sa;
+    memset(&sa, 0, sizeof sa);
+    sa.sa_handler = on_interrupt;
+    sa.sa_flags = SA_RESETHAND; /* the second signal finds the default action */
+    sigemptyset(&sa.sa_mask);
+    sigaction(SIGINT, &sa, NULL);
+    sigaction(SIGTERM, &sa, NULL);
+}
+
 static int run_train(int argc, char **argv)
 {
     for (int i = 1; i < argc; i++)
@@ -230,6 +257,8 @@ static int run_train(int argc, char **argv)
     snprintf(log_path, sizeof log_path, "%s/log", o.run_dir);
     struct progress_sink sink = {log_path, NULL, 0, isatty(2), 0};
     o.report = on_progress;
+    catch_interrupt();
+    o.interrupt = &interrupted;
     o.user = &sink;
     int rc = esr_train_run(&o);
     if (sink.tty && sink.last_was_progress)

@@ -408,6 +408,13 @@ static int run_stage(struct run *r, struct esr_model *m, enum esr_stage s)
             report_window(r, m, s, &w, m->step, sc->iters, B);
         if (m->step % r->cfg.save_every == 0 && m->step < sc->iters)
             rc = save_in_stage(r, m, s, &b);
+        if (rc == ESR_OK && r->o->interrupt && *r->o->interrupt) { /* keep what was trained */
+            rc = save_in_stage(r, m, s, &b);
+            if (rc == ESR_OK)
+                rc = ESR_FAIL("interrupted at %s iteration %ld: checkpoint %s/ckpt_%s.bin saved; "
+                              "`esr train --resume` continues from it",
+                              esr_stage_name(s), m->step, r->o->run_dir, esr_stage_name(s));
+        }
         if (r->o->stop_test_iter > 0 && s == r->o->stop_test_stage &&
             m->step == r->o->stop_test_iter) {
             r->stopped = 1;
@@ -677,6 +684,9 @@ int esr_train_run(const struct esr_train_opts *o)
             rc = run_stage(&r, &cur, (enum esr_stage)s);
         prev = cur;
         have_prev = 1;
+        if (rc == ESR_OK && o->interrupt && *o->interrupt && s < (int)o->until)
+            rc = ESR_FAIL("interrupted after stage %s: its checkpoint is saved; `esr train "
+                          "--resume` continues with the next", esr_stage_name((enum esr_stage)s));
         if (rc != ESR_OK || r.stopped)
             break;
     }

@@ -7,6 +7,8 @@
 #ifndef ESR_TRAIN_TRAINER_H
 #define ESR_TRAIN_TRAINER_H
 
+#include <signal.h>
+
 #include "model/config.h"
 #include "model/model.h"
 
@@ -58,6 +60,9 @@ struct esr_train_opts {
                                       stage from nan_test_stage on (-1 = never) ... */
     int nan_test_times;            /* ... at most this many times in the run */
     enum esr_stage nan_test_stage; /* (0, alphamask: every stage) */
+    const volatile sig_atomic_t *interrupt; /* or NULL: when it turns nonzero (a signal handler,
+                                      the CLI's Ctrl-C) the stage saves its checkpoint at the
+                                      step it reached and the run ends with ESR_ERR, saying so */
     long stop_test_iter;           /* test hook: return ESR_OK right after this iteration of
                                       stage stop_test_stage, without saving, as a kill -9 would
                                       leave the run (0 = never) */
