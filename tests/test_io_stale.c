@@ -265,6 +265,27 @@ static void test_dir_remove_made(void **state)
     assert_false(has(base, "p"));
 }
 
+/* esr_dir_lock: one holder at a time (flock: a second open file description is refused, as a
+ * second process would be), free again once released; the lock file is hidden and stays. */
+static void test_dir_lock(void **state)
+{
+    (void)state;
+    char dir[4200];
+    snprintf(dir, sizeof dir, "%s/locked", test_tmpdir);
+    assert_int_equal(esr_dir_create(dir), ESR_OK);
+    int a = -1, b = -1;
+    assert_int_equal(esr_dir_lock(dir, "train", &a), ESR_OK);
+    assert_int_equal(esr_dir_lock(dir, "train", &b), ESR_ERR);
+    assert_non_null(strstr(esr_error_message(), "is in use by another esr train"));
+    assert_non_null(strstr(esr_error_message(), dir));
+    esr_error_clear();
+    assert_int_equal(b, -1);
+    esr_dir_unlock(a);
+    assert_int_equal(esr_dir_lock(dir, "train", &b), ESR_OK);
+    esr_dir_unlock(b);
+    assert_true(has(dir, ".esr.lock"));
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -274,6 +295,7 @@ int main(void)
         cmocka_unit_test(test_output_outside),
         cmocka_unit_test(test_check_writable),
         cmocka_unit_test(test_dir_remove_made),
+        cmocka_unit_test(test_dir_lock),
     };
     return cmocka_run_group_tests(tests, test_setup_tmpdir, test_teardown_tmpdir);
 }

@@ -2,8 +2,10 @@
 #include "io/dir.h"
 
 #include <errno.h>
+#include <fcntl.h>
 #include <stdio.h>
 #include <string.h>
+#include <sys/file.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -118,4 +120,31 @@ int esr_dir_check_run(const char *run)
     if (!S_ISDIR(st.st_mode))
         return ESR_FAIL("'%s' is not a run directory (it is a file)", run);
     return ESR_OK;
+}
+
+int esr_dir_lock(const char *dir, const char *what, int *fd_out)
+{
+    char path[ESR_PATH_MAX];
+    *fd_out = -1;
+    if (snprintf(path, sizeof path, "%s/.esr.lock", dir) >= (int)sizeof path)
+        return ESR_FAIL("path too long: '%s'", dir);
+    const int fd = open(path, O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+    if (fd < 0)
+        return ESR_FAIL("cannot create the lock file %s: %s", path, strerror(errno));
+    if (flock(fd, LOCK_EX | LOCK_NB) != 0) {
+        const int e = errno;
+        close(fd);
+        return e == EWOULDBLOCK ? ESR_FAIL("%s is in use by another esr %s (two would overwrite "
+                                           "each other's checkpoints); wait for it or use "
+                                           "another folder", dir, what)
+                                : ESR_FAIL("cannot lock %s: %s", path, strerror(e));
+    }
+    *fd_out = fd;
+    return ESR_OK;
+}
+
+void esr_dir_unlock(int fd)
+{
+    if (fd >= 0)
+        close(fd); /* releases the lock */
 }

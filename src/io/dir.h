@@ -20,6 +20,11 @@ void esr_dir_remove_made(const char *path, const char *made);
 int esr_dir_prepare_output(const char *path);
 /* esr_dir_prepare_output saying, as esr_dir_create_made, which folders it made. */
 int esr_dir_prepare_output_made(const char *path, char *made, size_t made_size);
+/* Holds dir for one writer: an exclusive lock on dir/.esr.lock (flock, released when the
+ * process ends, however it ends); *fd_out keeps it until esr_dir_unlock. Fails, naming dir and
+ * `what` ("train"), while another process holds it. */
+int esr_dir_lock(const char *dir, const char *what, int *fd_out);
+void esr_dir_unlock(int fd);
 /* A run directory to read: fails naming it when it does not exist or is a file. */
 int esr_dir_check_run(const char *run);
 

@@ -40,6 +40,7 @@ struct run {
     int nan_failures;
     int nan_injected;
     int stopped; /* the stop_test_iter hook fired */
+    int lock_fd; /* RUN held for this run (io/dir.h esr_dir_lock), -1 before */
     char log_path[4096];
 };
 
@@ -624,6 +625,7 @@ static int setup(struct run *r)
                             "reflection, and this dataset has none (train with --until fine; "
                             "nothing was trained)", esr_stage_name((enum esr_stage)s));
     ESR_TRY(esr_dir_prepare_output(r->o->run_dir));
+    ESR_TRY(esr_dir_lock(r->o->run_dir, "train", &r->lock_fd));
     if (r->o->resume && !stored) { /* esr demo resumes whatever is there, even nothing */
         char found[512] = "", ckpt[4200];
         for (int s = 0; s < ESR_STAGE_COUNT; s++) {
@@ -666,6 +668,7 @@ int esr_train_run(const struct esr_train_opts *o)
     memset(&r, 0, sizeof r);
     r.o = o;
     r.cfg = o->cfg;
+    r.lock_fd = -1;
     int rc = setup(&r);
     struct esr_model prev, cur;
     int have_prev = 0;
@@ -693,5 +696,6 @@ int esr_train_run(const struct esr_train_opts *o)
     if (have_prev)
         esr_model_free(&prev);
     esr_ray_set_free(&r.rays);
+    esr_dir_unlock(r.lock_fd);
     return rc;
 }
