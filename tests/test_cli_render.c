@@ -377,6 +377,12 @@ static void test_errors(void **state)
     assert_int_equal(test_run_esr(args, out, sizeof out), 1);
     assert_non_null(strstr(out, "c000_on.png"));
     assert_non_null(strstr(out, "truncated"));
+    /* so does bench, before it measures anything (it used to find it after the kernels) */
+    snprintf(args, sizeof args, "bench --quick --no-train --data '%s' --out '%s/b.json'", broken,
+             test_tmpdir);
+    assert_int_equal(test_run_esr(args, out, sizeof out), 1);
+    assert_non_null(strstr(out, "c000_on.png"));
+    assert_null(strstr(out, "MLP"));
     snprintf(cmd, sizeof cmd, "%s/render", run_dir);
     assert_false(esr_file_exists(cmd));
     /* both exports or neither: a glTF that cannot be written takes the PLY back */

@@ -466,26 +466,49 @@ static int bench_all(const struct bench_opts *o, cJSON *root)
     return status;
 }
 
+/* The first problem esr_dataset_check reports. */
+static void first_problem(void *user, const char *message)
+{
+    char *first = user;
+    if (!first[0])
+        snprintf(first, 1024, "%s", message);
+}
+
+/* A dataset whose JSON loads and whose every file decodes at its size (what `esr info` checks,
+ * under a second for lamp). */
+static int check_dataset(const char *dir)
+{
+    struct esr_dataset ds;
+    ESR_TRY(esr_dataset_load(dir, &ds));
+    char first[1024] = "";
+    const int problems = esr_dataset_check(&ds, first_problem, first);
+    esr_dataset_free(&ds);
+    if (problems < 0)
+        return ESR_ERR;
+    if (problems > 0)
+        return ESR_FAIL("dataset %s: %s (%d problem%s; `esr info %s` lists them)", dir, first,
+                        problems, problems == 1 ? "" : "s", dir);
+    return ESR_OK;
+}
+
 /* What would otherwise fail only after minutes of measuring: the output file, --data's
- * dataset, and --run's checkpoint and dataset. */
+ * dataset, and --run's checkpoint (loaded) and dataset. */
 static int check_inputs(const struct bench_opts *o)
 {
     ESR_TRY(esr_file_check_writable(o->out));
-    struct esr_dataset ds;
-    if (o->data) {
-        ESR_TRY(esr_dataset_load(o->data, &ds));
-        esr_dataset_free(&ds);
-    }
+    if (o->data)
+        ESR_TRY(check_dataset(o->data));
     if (!o->run)
         return ESR_OK;
     char ckpt[4200], data[4096];
     if (!emitter_checkpoint(o->run, ckpt))
         return ESR_FAIL("--run: '%s' has no pdra or lts checkpoint (ckpt_pdra.bin, ckpt_lts.bin)",
                         o->run);
+    struct esr_model m;
+    ESR_TRY(esr_model_load(&m, ckpt));
+    esr_model_free(&m);
     ESR_TRY(esr_run_data_dir(o->run, o->data, data, sizeof data));
-    ESR_TRY(esr_dataset_load(data, &ds));
-    esr_dataset_free(&ds);
-    return ESR_OK;
+    return o->data ? ESR_OK : check_dataset(data);
 }
 
 static int run_bench(int argc, char **argv)
