@@ -295,10 +295,13 @@ static void test_mismatches_refused(void **state)
     assert_int_equal(esr_file_write_atomic(f->path, orig, n), 0);
     assert_refused(f->path, "checksum mismatch");
     orig[n / 2] ^= 0x10;
-    /* a header edited as version 3 with its checksum made anew: read as the file says */
+    /* the checksum covers exactly what the helper's does (every byte before it): a file
+     * rewritten with a fresh one loads */
     assert_int_equal(esr_file_write_atomic(f->path, orig, n), 0);
-    rewrite(f->path, set_bad_lr_scale, 3);
-    assert_refused(f->path, "lr_scale must be a number in (0, 1]");
+    rewrite(f->path, NULL, 3);
+    struct esr_model again;
+    assert_int_equal(esr_model_load(&again, f->path), ESR_OK);
+    esr_model_free(&again);
     orig[0] = 'X';
     assert_int_equal(esr_file_write_atomic(f->path, orig, n), 0);
     assert_refused(f->path, "bad magic");

@@ -395,17 +395,28 @@ static void test_resume_applies_set(void **state)
     free(jl);
 }
 
-/* An interrupt (the CLI's Ctrl-C handler sets the flag): the stage saves its checkpoint at the
- * step it reached, the run ends saying so, and --resume finishes it. */
+/* An interrupt (the CLI's Ctrl-C handler sets the flag): raised while training, the stage saves
+ * its checkpoint at the step it reached, the run ends saying so, and --resume finishes it;
+ * raised before training began, the run is refused with RUN as it was. */
+static volatile sig_atomic_t interrupt_flag;
+
+static void interrupt_at_first_step(void *user, const struct esr_train_progress *p)
+{
+    (void)user;
+    if (p->event == ESR_TRAIN_MESSAGE && strstr(p->message, "stage alphamask: iterations"))
+        interrupt_flag = 1; /* as a Ctrl-C during the first step would */
+}
+
 static void test_interrupt_saves_and_resumes(void **state)
 {
     (void)state;
     char run[4300], path[4400];
     snprintf(run, sizeof run, "%s/interrupted", test_tmpdir);
-    static volatile sig_atomic_t flag = 1; /* raised before the first step */
     struct esr_train_opts o;
     opts_for(&o, run, ESR_STAGE_COARSE, NULL);
-    o.interrupt = &flag;
+    o.report = interrupt_at_first_step;
+    o.interrupt = &interrupt_flag;
+    interrupt_flag = 0;
     assert_int_equal(esr_train_run(&o), ESR_ERR);
     assert_non_null(strstr(esr_error_message(), "interrupted at alphamask iteration 1"));
     esr_error_clear();
@@ -415,10 +426,17 @@ static void test_interrupt_saves_and_resumes(void **state)
     assert_int_equal(m.step, 1);
     assert_int_equal(m.stage_done, 0);
     esr_model_free(&m);
-    flag = 0;
+    /* raised before training began (a fresh start would remove this checkpoint): refused */
+    opts_for(&o, run, ESR_STAGE_COARSE, NULL);
+    o.interrupt = &interrupt_flag;
+    assert_int_equal(esr_train_run(&o), ESR_ERR);
+    assert_non_null(strstr(esr_error_message(), "interrupted before training began"));
+    esr_error_clear();
+    assert_true(esr_file_exists(path));
+    interrupt_flag = 0;
     opts_for(&o, run, ESR_STAGE_COARSE, NULL);
     o.resume = 1;
-    o.interrupt = &flag;
+    o.interrupt = &interrupt_flag;
     if (esr_train_run(&o) != ESR_OK)
         fail_msg("%s", esr_error_message());
     snprintf(path, sizeof path, "%s/ckpt_coarse.bin", run);

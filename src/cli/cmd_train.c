@@ -1,4 +1,5 @@
 /* esr train DATA --out RUN: the geometry and radiance stages (alphamask -> coarse -> fine). */
+#include <errno.h>
 #include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -26,8 +27,9 @@ const struct esr_command cmd_train = {
     "RUN receives config.json (the resolved options), log (the progress lines),\n"
     "train_log.jsonl (metrics every log_every iterations) and ckpt_<stage>.bin checkpoints,\n"
     "written atomically at the start and end of each stage and every save_every iterations.\n"
-    "Ctrl-C (or SIGTERM) saves the checkpoint at the step reached, then stops: --resume loses\n"
-    "nothing; a second Ctrl-C stops at once.\n"
+    "Ctrl-C (or SIGTERM) during training saves the checkpoint at the step reached and stops\n"
+    "(before the first step, nothing in RUN has changed): --resume loses nothing; a second\n"
+    "one stops at once.\n"
     "Without --resume, a RUN that holds an earlier run loses that run's checkpoints,\n"
     "lights.json and train_log.jsonl first (its log keeps its lines).\n"
     "A loss or gradient that turns NaN/Inf reloads the last checkpoint with half the learning\n"
@@ -138,16 +140,24 @@ static int print_eval(const char *data, const char *run)
 }
 
 /* Ctrl-C or SIGTERM while training: the first asks the trainer to save its checkpoint at the
- * step it reached and stop (train --resume then loses nothing); a second one kills at once. */
+ * step it reached and stop (train --resume then loses nothing); a second one, of either kind,
+ * kills at once. Only while esr_train_run runs (esr demo and --eval go on to other work). */
 static volatile sig_atomic_t interrupted;
+static struct sigaction before_int, before_term;
 
 static void on_interrupt(int sig)
 {
     static const char msg[] = "\nesr train: stopping: saving the checkpoint at this step (again "
                               "to stop at once)\n";
     (void)sig;
+    const int saved_errno = errno;
     interrupted = 1;
+    signal(SIGINT, SIG_DFL);
+    signal(SIGTERM, SIG_DFL);
+    /* `esr train | tee` on Ctrl-C: tee is gone, and a write to it must not kill the save */
+    signal(SIGPIPE, SIG_IGN);
     (void)!write(2, msg, sizeof msg - 1);
+    errno = saved_errno;
 }
 
 static void catch_interrupt(void)
@@ -155,10 +165,16 @@ static void catch_interrupt(void)
     struct sigaction sa;
     memset(&sa, 0, sizeof sa);
     sa.sa_handler = on_interrupt;
-    sa.sa_flags = SA_RESETHAND; /* the second signal finds the default action */
     sigemptyset(&sa.sa_mask);
-    sigaction(SIGINT, &sa, NULL);
-    sigaction(SIGTERM, &sa, NULL);
+    interrupted = 0;
+    sigaction(SIGINT, &sa, &before_int);
+    sigaction(SIGTERM, &sa, &before_term);
+}
+
+static void release_interrupt(void)
+{
+    sigaction(SIGINT, &before_int, NULL);
+    sigaction(SIGTERM, &before_term, NULL);
 }
 
 static int run_train(int argc, char **argv)
@@ -261,6 +277,7 @@ static int run_train(int argc, char **argv)
     o.interrupt = &interrupted;
     o.user = &sink;
     int rc = esr_train_run(&o);
+    release_interrupt();
     if (sink.tty && sink.last_was_progress)
         fprintf(stderr, "\n");
     if (rc != ESR_OK && sink.log) /* the log a run leaves says why it stopped (a full disk...) */

@@ -128,16 +128,17 @@ int esr_dir_lock(const char *dir, const char *what, int *fd_out)
     *fd_out = -1;
     if (snprintf(path, sizeof path, "%s/.esr.lock", dir) >= (int)sizeof path)
         return ESR_FAIL("path too long: '%s'", dir);
-    const int fd = open(path, O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+    /* read-only is all flock needs (a lock file left read-only by another user still locks) */
+    const int fd = open(path, O_RDONLY | O_CREAT | O_CLOEXEC, 0644);
     if (fd < 0)
-        return ESR_FAIL("cannot create the lock file %s: %s", path, strerror(errno));
+        return ESR_OK; /* a folder that cannot hold it: unlocked; its writes will say why */
     if (flock(fd, LOCK_EX | LOCK_NB) != 0) {
         const int e = errno;
         close(fd);
-        return e == EWOULDBLOCK ? ESR_FAIL("%s is in use by another esr %s (two would overwrite "
-                                           "each other's checkpoints); wait for it or use "
-                                           "another folder", dir, what)
-                                : ESR_FAIL("cannot lock %s: %s", path, strerror(e));
+        if (e == EWOULDBLOCK)
+            return ESR_FAIL("%s is in use by another esr %s (two would overwrite each other's "
+                            "checkpoints); wait for it or use another folder", dir, what);
+        return ESR_OK; /* a file system without flock (some network mounts): unlocked */
     }
     *fd_out = fd;
     return ESR_OK;

@@ -22,7 +22,8 @@ int esr_dir_prepare_output(const char *path);
 int esr_dir_prepare_output_made(const char *path, char *made, size_t made_size);
 /* Holds dir for one writer: an exclusive lock on dir/.esr.lock (flock, released when the
  * process ends, however it ends); *fd_out keeps it until esr_dir_unlock. Fails, naming dir and
- * `what` ("train"), while another process holds it. */
+ * `what` ("train"), while another process holds it. Where no lock can be taken (the file cannot
+ * be created, the file system has no flock) it goes on unlocked, *fd_out -1. */
 int esr_dir_lock(const char *dir, const char *what, int *fd_out);
 void esr_dir_unlock(int fd);
 /* A run directory to read: fails naming it when it does not exist or is a file. */

@@ -12,7 +12,7 @@
 int esr_json_write_atomic(const char *path, cJSON *root);
 
 /* The document of text[0..size) (no NUL needed), which must be one JSON value with nothing but
- * white space after it; NULL when it is malformed or something follows, *error_at then being
+ * white space (or NUL bytes) after it; NULL when it is malformed or something follows, *error_at then being
  * the byte offset where (or -1 when not known). */
 cJSON *esr_json_parse_whole(const char *text, size_t size, long *error_at);
 

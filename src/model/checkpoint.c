@@ -143,14 +143,15 @@ int esr_model_save(const struct esr_model *m, const char *path)
 
 struct rbuf {
     const unsigned char *p;
-    size_t n, at;
+    size_t n, at;      /* n: the bytes the structure may use (a format 3 file's CRC excluded) */
     const char *path;
+    size_t file_size;  /* for messages */
 };
 
 static int get(struct rbuf *b, void *dst, size_t n)
 {
     if (n > b->n - b->at)
-        return ESR_FAIL("checkpoint %s: truncated (%zu bytes; needs more)", b->path, b->n);
+        return ESR_FAIL("checkpoint %s: truncated (%zu bytes; needs more)", b->path, b->file_size);
     memcpy(dst, b->p + b->at, n);
     b->at += n;
     return ESR_OK;
@@ -162,7 +163,7 @@ static int has_bytes(const struct rbuf *b, size_t n, const char *what)
 {
     if (n > b->n - b->at)
         return ESR_FAIL("checkpoint %s: truncated (%zu bytes; %zu needed for the %s, %zu left)",
-                        b->path, b->n, n, what, b->n - b->at);
+                        b->path, b->file_size, n, what, b->n - b->at);
     return ESR_OK;
 }
 
@@ -365,7 +366,7 @@ static int deserialise(struct esr_model *m, struct rbuf *b)
     int rc = json_count(h, "params", 1e12, &n, b->path);
     if (rc == ESR_OK && 3.0 * n * sizeof(float) > (double)(b->n - b->at))
         rc = ESR_FAIL("checkpoint %s: truncated (%zu bytes; %.0f parameters need more)", b->path,
-                      b->n, n);
+                      b->file_size, n);
     if (rc == ESR_OK)
         rc = model_from_header(m, h, b->path);
     if (rc == ESR_OK) {
@@ -410,7 +411,7 @@ static int pick_in_dir(const char *dir, char *out, size_t n)
 int esr_model_load_buffer(struct esr_model *m, const void *data, size_t size, const char *name)
 {
     memset(m, 0, sizeof(*m));
-    struct rbuf b = {data, size, 0, name};
+    struct rbuf b = {data, size, 0, name, size};
     return deserialise(m, &b);
 }
 

@@ -487,11 +487,14 @@ static int stage_model(struct run *r, enum esr_stage s, const struct esr_model *
         ESR_TRY(esr_model_load(m, path));
         say(r, s, "resuming stage %s from %s (iteration %ld%s)", esr_stage_name(s), path, m->step,
             m->stage_done ? ", finished" : "");
-        /* a --set for this stage's own options changes nothing once it is trained */
+        /* a --set of how this stage trains (its iterations, learning rates) changes nothing
+         * once it is trained; its sizes may still shape the stages after it */
         const size_t len = strlen(esr_stage_name(s));
         for (int i = 0; m->stage_done && i < r->o->n_resume_set; i++)
             if (!strncmp(r->o->resume_set[i], esr_stage_name(s), len) &&
-                r->o->resume_set[i][len] == '.')
+                r->o->resume_set[i][len] == '.' &&
+                (!strncmp(r->o->resume_set[i] + len + 1, "iters=", 6) ||
+                 !strncmp(r->o->resume_set[i] + len + 1, "lr_", 3)))
                 say(r, s, "resume: %s changes nothing: stage %s is finished (its checkpoint is "
                           "kept; train it again from a copy without its checkpoint)",
                     r->o->resume_set[i], esr_stage_name(s));
@@ -626,6 +629,9 @@ static int setup(struct run *r)
                             "nothing was trained)", esr_stage_name((enum esr_stage)s));
     ESR_TRY(esr_dir_prepare_output(r->o->run_dir));
     ESR_TRY(esr_dir_lock(r->o->run_dir, "train", &r->lock_fd));
+    if (r->o->interrupt && *r->o->interrupt) /* before the earlier run's files go */
+        return ESR_FAIL("interrupted before training began: nothing in %s changed",
+                        r->o->run_dir);
     if (r->o->resume && !stored) { /* esr demo resumes whatever is there, even nothing */
         char found[512] = "", ckpt[4200];
         for (int s = 0; s < ESR_STAGE_COUNT; s++) {

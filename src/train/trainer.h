@@ -62,7 +62,9 @@ struct esr_train_opts {
     enum esr_stage nan_test_stage; /* (0, alphamask: every stage) */
     const volatile sig_atomic_t *interrupt; /* or NULL: when it turns nonzero (a signal handler,
                                       the CLI's Ctrl-C) the stage saves its checkpoint at the
-                                      step it reached and the run ends with ESR_ERR, saying so */
+                                      step it reached and the run ends with ESR_ERR, saying so
+                                      (before setup is done: refused with RUN unchanged; after
+                                      the last stage's iterations: the run finishes) */
     long stop_test_iter;           /* test hook: return ESR_OK right after this iteration of
                                       stage stop_test_stage, without saving, as a kill -9 would
                                       leave the run (0 = never) */
