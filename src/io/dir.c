@@ -1,4 +1,5 @@
-/* mkdir -p, and output folders cleared of a killed run's leftovers. */
+/* mkdir -p (saying what it made, so a failed command can take it back), output folders cleared
+ * of a killed run's leftovers, and the lock a training holds on its run folder. */
 #include "io/dir.h"
 
 #include <errno.h>

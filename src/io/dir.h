@@ -1,4 +1,5 @@
-/* Directory creation for command outputs (run, render and eval folders). */
+/* Folders for command outputs (run, render, eval and edit folders): creation, the take-back of
+ * what a failed command made, and the lock one training holds on its run folder. */
 #ifndef ESR_IO_DIR_H
 #define ESR_IO_DIR_H
 
