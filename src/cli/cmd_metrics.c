@@ -4,7 +4,6 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <strings.h>
 
 #include "cli/commands.h"
 #include "core/colour.h"
@@ -38,13 +37,6 @@ const struct esr_command cmd_metrics = {
     0, /* view_loop */
 };
 
-/* 1 when path names an EXR file (linear values; PNG and JPEG hold sRGB-encoded ones). */
-static int is_exr(const char *path)
-{
-    const char *dot = strrchr(path, '.');
-    return dot && !strcasecmp(dot, ".exr");
-}
-
 /* Reads path and returns it as RGB (or grey) without alpha, composited on white. */
 static int load_opaque(const char *path, struct esr_image *out)
 {
@@ -59,7 +51,7 @@ static int load_opaque(const char *path, struct esr_image *out)
         esr_image_free(&raw);
         return ESR_FAIL("'%s': grey+alpha images are not supported; convert to RGBA", path);
     }
-    int premultiplied = is_exr(path); /* OpenEXR stores premultiplied colour */
+    int premultiplied = esr_image_is_exr(path); /* OpenEXR stores premultiplied colour */
     int status = premultiplied ? esr_image_composite_premultiplied(&raw, white, out)
                                : esr_image_composite(&raw, white, out);
     esr_image_free(&raw);
@@ -68,11 +60,11 @@ static int load_opaque(const char *path, struct esr_image *out)
 
 static int compute(const char *path_a, const char *path_b, cJSON *obj)
 {
-    if (is_exr(path_a) != is_exr(path_b))
+    if (esr_image_is_exr(path_a) != esr_image_is_exr(path_b))
         return ESR_FAIL("'%s' holds %s values and '%s' %s ones: the numbers would compare two "
                         "encodings, not two images (compare an EXR with an EXR, a PNG with a PNG)",
-                        path_a, is_exr(path_a) ? "linear" : "sRGB-encoded", path_b,
-                        is_exr(path_b) ? "linear" : "sRGB-encoded");
+                        path_a, esr_image_is_exr(path_a) ? "linear" : "sRGB-encoded", path_b,
+                        esr_image_is_exr(path_b) ? "linear" : "sRGB-encoded");
     struct esr_image a = {0}, b = {0};
     double mse = 0.0, ssim = NAN;
     int status = load_opaque(path_a, &a);

@@ -10,15 +10,10 @@
 #include "core/error.h"
 #include "eval/metrics.h"
 #include "io/file.h"
+#include "io/image.h"
 #include "render/view.h"
 
 static const float white[3] = {1.0f, 1.0f, 1.0f};
-
-static int is_exr(const char *path)
-{
-    const char *dot = strrchr(path, '.');
-    return dot && !strcmp(dot, ".exr");
-}
 
 /* Reads a rendered image as 3-channel RGB on white (PNG: straight alpha; EXR: premultiplied)
  * and checks it has the dataset's size. */
@@ -36,7 +31,7 @@ static int load_rendered(const struct esr_dataset *ds, const char *path, struct 
         *rgb = raw;
     else if (raw.channels != 4)
         status = ESR_FAIL("rendered image '%s' has %d channels; expected RGB or RGBA", path, raw.channels);
-    else if (is_exr(path))
+    else if (esr_image_is_exr(path))
         status = esr_image_composite_premultiplied(&raw, white, rgb);
     else
         status = esr_image_composite(&raw, white, rgb);

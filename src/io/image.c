@@ -43,6 +43,11 @@ static int has_extension(const char *path, const char *ext)
     return 1;
 }
 
+int esr_image_is_exr(const char *path)
+{
+    return has_extension(path, ".exr");
+}
+
 int esr_image_read(const char *path, struct esr_image *out)
 {
     if (has_extension(path, ".png"))

@@ -62,6 +62,9 @@ int esr_jpeg_decode(const void *bytes, size_t size, const char *name, int uprigh
 
 /* Dispatch on the extension (.png / .exr / .jpg / .jpeg, case-insensitive). */
 int esr_image_read(const char *path, struct esr_image *out);
+/* 1 when path ends in .exr (any case): linear values, premultiplied alpha; PNG and JPEG hold
+ * sRGB-encoded values with straight alpha. */
+int esr_image_is_exr(const char *path);
 
 /* Straight-alpha RGBA (as in the dataset PNGs) -> RGB on background bg: c = rgb*a + bg*(1-a).
  * Accepts 3-channel input unchanged, and grey (+ alpha) with the grey in all three channels.
