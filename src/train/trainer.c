@@ -533,8 +533,9 @@ static int stage_model(struct run *r, enum esr_stage s, const struct esr_model *
  * data without --data (eval/run_dir.h reads it). Rewritten on resume: the data may have moved;
  * a resumed run on another dataset than the one recorded is said (its earlier stages learned
  * that one). */
-static int write_run_record(struct run *r, const char *run_dir, const char *data_dir)
+static int write_run_record(struct run *r)
 {
+    const char *run_dir = r->o->run_dir, *data_dir = r->o->data_dir;
     char abs[PATH_MAX];
     if (!realpath(data_dir, abs))
         return ESR_FAIL("dataset %s: %s", data_dir, strerror(errno));
@@ -559,21 +560,33 @@ static int write_run_record(struct run *r, const char *run_dir, const char *data
     return esr_json_write_atomic(path, root);
 }
 
+/* The checkpoint files in RUN, by name, as "ckpt_alphamask.bin, ckpt_coarse.bin" into out;
+ * 0 when there are none. */
+static int run_checkpoints(const struct run *r, char *out, size_t n)
+{
+    char path[4200];
+    out[0] = '\0';
+    for (int s = 0; s < ESR_STAGE_COUNT; s++) {
+        ckpt_path(r, (enum esr_stage)s, path, sizeof path);
+        if (esr_file_exists(path))
+            snprintf(out + strlen(out), n - strlen(out), "%s%s", out[0] ? ", " : "",
+                     strrchr(path, '/') + 1);
+    }
+    return out[0] != '\0';
+}
+
 /* A run started over in a folder that holds an earlier one: that run's checkpoints go, or a
  * stage this run does not reach would be resumed, rendered or evaluated as this run's; so do the
  * lights listed from its pdra checkpoint and its metrics (the report's training curves would
  * run on from the earlier run's). RUN/log keeps its lines: the new ones follow. */
 static int remove_earlier_run(struct run *r)
 {
-    char path[4200], gone[512] = "";
+    char path[4200], gone[512];
+    run_checkpoints(r, gone, sizeof gone);
     for (int s = 0; s < ESR_STAGE_COUNT; s++) {
         ckpt_path(r, (enum esr_stage)s, path, sizeof path);
-        if (!esr_file_exists(path))
-            continue;
-        if (remove(path) != 0)
+        if (esr_file_exists(path) && remove(path) != 0)
             return ESR_FAIL("cannot remove the earlier run's checkpoint %s: %s", path, strerror(errno));
-        snprintf(gone + strlen(gone), sizeof gone - strlen(gone), "%s%s", gone[0] ? ", " : "",
-                 strrchr(path, '/') + 1);
     }
     static const char *const derived[] = {"lights.json", "train_log.jsonl"};
     for (int i = 0; i < 2; i++) {
@@ -633,14 +646,8 @@ static int setup(struct run *r)
         return ESR_FAIL("interrupted before training began: nothing in %s changed",
                         r->o->run_dir);
     if (r->o->resume && !stored) { /* esr demo resumes whatever is there, even nothing */
-        char found[512] = "", ckpt[4200];
-        for (int s = 0; s < ESR_STAGE_COUNT; s++) {
-            ckpt_path(r, (enum esr_stage)s, ckpt, sizeof ckpt);
-            if (esr_file_exists(ckpt))
-                snprintf(found + strlen(found), sizeof found - strlen(found), "%s%s",
-                         found[0] ? ", " : "", strrchr(ckpt, '/') + 1);
-        }
-        if (found[0]) /* checkpoints copied without their options (an A/B from a copy) */
+        char found[512];
+        if (run_checkpoints(r, found, sizeof found)) /* copied without their options (an A/B) */
             say(r, ESR_STAGE_COUNT, "resume: %s has no config.json: its checkpoints (%s) are "
                                     "resumed with the options given now, written to config.json",
                 r->o->run_dir, found);
@@ -654,7 +661,7 @@ static int setup(struct run *r)
         ESR_TRY(esr_config_write_json(&r->cfg, path));
     for (int i = 0; stored && i < r->o->n_resume_set; i++)
         say(r, ESR_STAGE_COUNT, "resume: %s (written to %s)", r->o->resume_set[i], path);
-    ESR_TRY(write_run_record(r, r->o->run_dir, r->o->data_dir));
+    ESR_TRY(write_run_record(r));
     snprintf(r->log_path, sizeof r->log_path, "%s/train_log.jsonl", r->o->run_dir);
     say(r, ESR_STAGE_COUNT, "dataset %s: %zu training rays (%zu lights-off)", root, r->rays.n,
         r->rays.n_off);
