@@ -257,11 +257,9 @@ static int parse_frame(const struct json_where *w, const cJSON *obj, struct esr_
 
 static cJSON *parse_json_text(const char *text, size_t size, const char *name)
 {
-    long offset = -1;
-    cJSON *root = esr_json_parse_whole(text, size, &offset);
-    if (!root)
-        ESR_FAIL("'%s': malformed JSON (near byte %ld)", name, offset);
-    return root;
+    char quoted[4200];
+    snprintf(quoted, sizeof quoted, "'%s'", name);
+    return esr_json_parse_whole(text, size, quoted);
 }
 
 /* Two frames of a phase naming one image are a mistake in the file (a copy-paste), never two

@@ -42,21 +42,22 @@ void esr_json_add_number_or_null(cJSON *obj, const char *name, double value)
         cJSON_AddNullToObject(obj, name);
 }
 
-cJSON *esr_json_parse_whole(const char *text, size_t size, long *error_at)
+cJSON *esr_json_parse_whole(const char *text, size_t size, const char *name)
 {
     const char *end = NULL;
     cJSON *root = cJSON_ParseWithLengthOpts(text, size, &end, 0);
+    const char *bad = NULL;
     if (!root) {
         const char *at = cJSON_GetErrorPtr();
-        *error_at = at && at >= text && at <= text + size ? (long)(at - text) : -1;
-        return NULL;
+        bad = at && at >= text && at <= text + size ? at : NULL;
     }
     /* what follows the value: white space only (a second object or stray text is no part of it) */
-    for (const char *c = end; c && c < text + size; c++)
-        if (*c != ' ' && *c != '\t' && *c != '\n' && *c != '\r' && *c != '\0') {
-            *error_at = (long)(c - text);
-            cJSON_Delete(root);
-            return NULL;
-        }
-    return root;
+    for (const char *c = end; root && !bad && c && c < text + size; c++)
+        if (*c != ' ' && *c != '\t' && *c != '\n' && *c != '\r' && *c != '\0')
+            bad = c;
+    if (root && !bad)
+        return root;
+    cJSON_Delete(root);
+    ESR_FAIL("%s: malformed JSON (near byte %ld)", name, bad ? (long)(bad - text) : -1L);
+    return NULL;
 }

@@ -12,9 +12,9 @@
 int esr_json_write_atomic(const char *path, cJSON *root);
 
 /* The document of text[0..size) (no NUL needed), which must be one JSON value with nothing but
- * white space (or NUL bytes) after it; NULL when it is malformed or something follows, *error_at then being
- * the byte offset where (or -1 when not known). */
-cJSON *esr_json_parse_whole(const char *text, size_t size, long *error_at);
+ * white space (or NUL bytes) after it; NULL when it is malformed or something follows, with the
+ * error "NAME: malformed JSON (near byte B)" (B the offset where, -1 when not known). */
+cJSON *esr_json_parse_whole(const char *text, size_t size, const char *name);
 
 /* A JSON array of the n floats v (NULL on out of memory). */
 cJSON *esr_json_float_array(const float *v, int n);

@@ -398,12 +398,11 @@ int esr_config_from_json(struct esr_train_config *c, const cJSON *obj, const cha
 
 int esr_config_parse_json(struct esr_train_config *c, const char *text, size_t size, const char *name)
 {
-    long at = -1;
-    cJSON *root = esr_json_parse_whole(text, size, &at);
     char source[1200];
     snprintf(source, sizeof source, "config file %s", name);
+    cJSON *root = esr_json_parse_whole(text, size, source);
     if (!root)
-        return ESR_FAIL("%s: malformed JSON (near byte %ld)", source, at);
+        return ESR_ERR;
     int rc = json_apply_object(c, root, source, 0, NULL);
     cJSON_Delete(root);
     return rc;
