@@ -49,7 +49,9 @@ static struct esr_vec3 lobe_sample(struct esr_vec3 n, struct esr_vec3 t, struct 
     return esr_v3_sub(esr_v3_scale(h, 2.0f * esr_v3_dot(wo, h)), wo);
 }
 
-/* lobe_sample's density in solid angle at wi (above the surface). */
+/* lobe_sample's density in solid angle at wi (above the surface). The half vector is drawn over
+ * the whole sphere and h and -h reflect wo to the same wi, so both carry density there (the
+ * second matters for rough lobes only: it is e^(-2 lambda h.n) of the first). */
 static float lobe_pdf(struct esr_vec3 n, struct esr_vec3 wo, struct esr_vec3 wi, float roughness)
 {
     const struct esr_vec3 h = esr_v3_add(wo, wi);
@@ -58,7 +60,10 @@ static float lobe_pdf(struct esr_vec3 n, struct esr_vec3 wo, struct esr_vec3 wi,
         return 0.0f;
     const struct esr_vec3 hn = esr_v3_scale(h, 1.0f / len);
     const float wo_h = esr_v3_dot(wo, hn);
-    return wo_h > 0.0f ? esr_pdf_sg_lobe(lobe_lambda(roughness), esr_v3_dot(hn, n)) / (4.0f * wo_h) : 0.0f;
+    if (wo_h <= 0.0f)
+        return 0.0f;
+    const float lambda = lobe_lambda(roughness), h_n = esr_v3_dot(hn, n);
+    return (esr_pdf_sg_lobe(lambda, h_n) + esr_pdf_sg_lobe(lambda, -h_n)) / (4.0f * wo_h);
 }
 
 void esr_brdf_dirs_sample(const struct esr_brdf_dirs *d, struct esr_rng *rng, struct esr_vec3 *wi,
