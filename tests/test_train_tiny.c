@@ -1362,9 +1362,12 @@ static void test_finetune_view(void **state)
     struct esr_editor ed;
     if (esr_editor_init(&ed, m, &v.ds, ESR_EDIT_FINETUNE, 8, &o) != ESR_OK)
         fail_msg("%s", esr_error_message());
+    /* light 0 (the view's) off, the others x1000: the tiny scene's lights are small and far
+     * apart, so at x2 the light one casts on another was 1e-5 on some runs, below what the
+     * check below can tell from rounding beside the lit light's own emission */
     struct esr_light_edit e[ESR_MAX_LIGHTS];
     for (int k = 0; k < ESR_MAX_LIGHTS; k++)
-        e[k] = (struct esr_light_edit){2.0f, 0, 0.0f, 0.0f};
+        e[k] = (struct esr_light_edit){k == 0 ? 0.0f : 1000.0f, 0, 0.0f, 0.0f};
     assert_int_equal(esr_editor_set(&ed, e, 5), ESR_OK);
     struct esr_image img;
     assert_int_equal(esr_editor_view(&ed, v.cam, 3, &img), ESR_OK);
@@ -1378,6 +1381,7 @@ static void test_finetune_view(void **state)
     struct esr_render_out rf = {.linear = off, .emitted_lights = lit};
     assert_int_equal(esr_model_render_rays(m, o3, d3, px, 0, &rf), ESR_OK);
     size_t seen = 0, on_light = 0, lit_up = 0;
+    double most = 0.0; /* the most light a light's pixel gained, relative */
     for (size_t p = 0; p < px; p++) {
         if (v.ids[p] < 0) {
             assert_memory_equal(img.data + p * 3, on + p * 3, 3 * sizeof(float));
@@ -1389,17 +1393,75 @@ static void test_finetune_view(void **state)
         for (int c = 0; c < 3; c++) {
             const float base = off[p * 3 + c] + lit[p * 3 + c];
             assert_true(img.data[p * 3 + c] >= base - 1e-5f * (1.0f + fabsf(base)));
-            up |= img.data[p * 3 + c] > base + 1e-4f;
+            up |= img.data[p * 3 + c] > base + 1e-4f * (1.0f + fabsf(base));
+            most = fmax(most, (img.data[p * 3 + c] - base) / (1.0f + fabsf(base)));
         }
         lit_up += up;
     }
     print_message("finetune view: %zu pixels see no light (the fine-tuned render), %zu see one, "
-                  "%zu of them lit by the lights\n", seen, on_light, lit_up);
+                  "%zu of them lit by the lights (by up to %.3g x (1 + base))\n", seen, on_light, lit_up,
+                  most);
     assert_true(seen > 0 && on_light > 0 && lit_up > 0);
     free(o3), free(d3), free(on), free(off), free(lit);
     esr_image_free(&img);
     esr_editor_free(&ed);
     pdra_view_close(&v);
+}
+
+/* esr eval on an edit phase (test_nvi, direct): the scores, and what each esr light was edited
+ * as (the dataset light its pixels overlap most, -1 none); without the dataset's light masks no
+ * esr light can follow an edited light, and eval says so instead of scoring unedited frames
+ * silently. */
+static void test_edit_eval_follows_lights(void **state)
+{
+    (void)state;
+    char run[4300], data[4300], cmd[24000], out[16384];
+    snprintf(run, sizeof run, "%s/run_edit_eval", test_tmpdir);
+    snprintf(data, sizeof data, "%s/data_no_masks", test_tmpdir);
+    snprintf(cmd, sizeof cmd, "mkdir -p '%s' && cp '%s'/run_pdra/config.json '%s'/run_pdra/run.json "
+             "'%s'/run_pdra/ckpt_*.bin '%s'/ && cp -r '%s' '%s' && rm -r '%s'/masks", run, test_tmpdir,
+             test_tmpdir, test_tmpdir, run, data_dir, data, data);
+    assert_int_equal(system(cmd), 0);
+    struct esr_model m;
+    snprintf(cmd, sizeof cmd, "%s/ckpt_pdra.bin", run);
+    assert_int_equal(esr_model_load(&m, cmd), ESR_OK);
+    const int n_lights = m.lights.n;
+    esr_model_free(&m);
+    if (n_lights == 0)
+        skip(); /* edits need lights; test_pdra_finds_lights prints how many the tiny run found */
+    snprintf(cmd, sizeof cmd, "eval '%s' --data '%s' --phase test_nvi --method direct", run, data_dir);
+    int rc = test_run_esr(cmd, out, sizeof out);
+    if (rc != 0)
+        fail_msg("esr %s: exit %d:\n%s", cmd, rc, out);
+    assert_null(strstr(out, "no esr light overlaps its masks"));
+    snprintf(cmd, sizeof cmd, "%s/eval/test_nvi_direct.json", run);
+    cJSON *root = test_read_json(cmd);
+    assert_non_null(root);
+    const cJSON *sp = cJSON_GetObjectItemCaseSensitive(root, "light_split");
+    const cJSON *follow = cJSON_GetObjectItemCaseSensitive(sp, "esr_lights_follow");
+    assert_int_equal(cJSON_GetArraySize(follow), n_lights);
+    int following = 0;
+    for (int j = 0; j < n_lights; j++) {
+        const int k = (int)cJSON_GetArrayItem(follow, j)->valuedouble;
+        assert_true(k >= -1 && k < 2);
+        following += k >= 0;
+    }
+    assert_true(following > 0);
+    assert_int_equal(cJSON_GetArraySize(cJSON_GetObjectItemCaseSensitive(sp, "edited_lights_unmatched")), 0);
+    cJSON_Delete(root);
+    /* the same without masks: every edited light unmatched, said */
+    snprintf(cmd, sizeof cmd, "eval '%s' --data '%s' --phase test_nvi --method direct", run, data);
+    rc = test_run_esr(cmd, out, sizeof out);
+    if (rc != 0)
+        fail_msg("esr %s: exit %d:\n%s", cmd, rc, out);
+    if (!strstr(out, "warning: dataset light 0 is edited by 9 frame(s), but no esr light overlaps its masks"))
+        fail_msg("esr %s said:\n%s", cmd, out);
+    snprintf(cmd, sizeof cmd, "%s/eval/test_nvi_direct.json", run);
+    root = test_read_json(cmd);
+    assert_non_null(root);
+    sp = cJSON_GetObjectItemCaseSensitive(root, "light_split");
+    assert_int_equal(cJSON_GetArraySize(cJSON_GetObjectItemCaseSensitive(sp, "edited_lights_unmatched")), 2);
+    cJSON_Delete(root);
 }
 
 int main(void)
@@ -1426,6 +1488,7 @@ int main(void)
         cmocka_unit_test(test_render_other_lighting),
         cmocka_unit_test(test_render_lights_emitted_only),
         cmocka_unit_test(test_ratio_edits),
+        cmocka_unit_test(test_edit_eval_follows_lights),
     };
     return cmocka_run_group_tests(tests, group_setup, test_teardown_tmpdir);
 }

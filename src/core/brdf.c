@@ -77,8 +77,8 @@ static inline int brdf_prep(const struct esr_material *mat, struct esr_vec3 n, s
 
 /* The wi-dependent factors of R for one unit direction (x, y, z). Branch-free and finite for
  * every direction: below the surface n.wi is taken as 0, which zeroes spec and spec_dr through
- * their n.wi factor (so R = 0 there), and arg = 2 (h.n - 1) / r^4 is capped at its true
- * maximum 0 (rounding can push h.n just over 1), so e^arg <= 1. */
+ * their n.wi factor (so R = 0 there), and arg = 2 (h.n - 1) / r^4 is never positive (a sum of
+ * squares over a positive denominator), so e^arg <= 1. */
 struct brdf_lane { /* passed by value: an address-taken local in an omp simd body stops GCC vectorising it */
     float n_wi;    /* max(n.wi, 0) */
     float spec;    /* D G / (4 n.wo) */
@@ -91,14 +91,20 @@ ESR_INLINE struct brdf_lane brdf_lane(const struct brdf_wo *p, float x, float y,
     float n_wi = p->n.x * x + p->n.y * y + p->n.z * z;
     n_wi = n_wi > 0.0f ? n_wi : 0.0f;
     /* |wo + wi| from the summed components, not from 2 + 2 wo.wi, which cancels catastrophically
-     * near grazing mirror pairs (where 2 / r^4 amplifies the error in h.n); the 1e-30 only
-     * matters for wi = -wo (below the surface), where it keeps 1/len finite */
+     * near grazing mirror pairs; the 1e-30 only matters for wi = -wo (below the surface), where
+     * it keeps the quotients finite */
     float hx = p->wo.x + x, hy = p->wo.y + y, hz = p->wo.z + z;
-    float len = sqrtf(hx * hx + hy * hy + hz * hz + 1e-30f), inv_len = 1.0f / len;
+    float len2 = hx * hx + hy * hy + hz * hz + 1e-30f, len = sqrtf(len2);
     float o_h = 0.5f * len; /* wo.h = (1 + wo.wi) / |wo + wi| = |wo + wi| / 2 */
     float t = 1.0f - (o_h < 1.0f ? o_h : 1.0f), t2 = t * t;
-    float arg = p->sharp * ((p->n_wo + n_wi) * inv_len - 1.0f); /* h.n = (n.wo + n.wi) / |wo + wi| */
-    arg = arg < 0.0f ? arg : 0.0f;
+    /* 1 - h.n = |H x n|^2 / (|H| (|H| + H.n)) for H = wo + wi: no cancellation near the mirror
+     * direction, where 2 / r^4 multiplies its error (1 - H.n / |H| in float put D off by up to
+     * e^13 at the roughness floor) */
+    float cx = hy * p->n.z - hz * p->n.y, cy = hz * p->n.x - hx * p->n.z, cz = hx * p->n.y - hy * p->n.x;
+    float h_n = hx * p->n.x + hy * p->n.y + hz * p->n.z;
+    float den = len * (len + h_n);
+    float arg = -p->sharp * (cx * cx + cy * cy + cz * cz) / (den > 1e-30f ? den : 1e-30f);
+    arg = arg > -1e4f ? arg : -1e4f; /* e^arg is 0 long before; keeps arg d ln D/dr finite */
     float inv_b = 1.0f / (n_wi * p->one_k + p->k);
     struct brdf_lane l;
     l.n_wi = n_wi;
