@@ -3,8 +3,10 @@
 
 #include <stdlib.h>
 
+#include "core/colour.h"
 #include "core/error.h"
 #include "core/rng.h"
+#include "fields/background.h"
 
 #define RAYS 8192
 /* a ray sees a surface when its opacity exceeds this */
@@ -30,14 +32,28 @@ int esr_env_init_level(const struct esr_model *prev, const float *orig3, const f
         struct esr_render_out out = {.linear = lin, .opacity = opac};
         rc = esr_model_render_rays(prev, o, d, RAYS, 0, &out);
     }
+    /* what the render composited behind the surface: white, or the learned background */
+    float *bg = NULL;
+    if (rc == ESR_OK && esr_model_has(prev, ESR_COMP_BACKGROUND)) {
+        bg = malloc(RAYS * 3 * sizeof(float));
+        uint8_t *off = calloc(RAYS, 1);
+        if (bg && off) {
+            esr_background_fwd(esr_model_values(prev, ESR_COMP_BACKGROUND), d, off, RAYS, bg);
+            for (int i = 0; i < RAYS * 3; i++)
+                bg[i] = esr_linear_from_srgb(bg[i]);
+        } else {
+            rc = ESR_FAIL("environment level: out of memory");
+        }
+        free(off);
+    }
     double sum[3] = {0.0, 0.0, 0.0};
     long count = 0;
     for (int i = 0; rc == ESR_OK && i < RAYS; i++) {
         const float a = opac[i];
         if (a <= SURFACE_OPACITY)
             continue;
-        for (int c = 0; c < 3; c++) /* the surface's own radiance: lin = a L + (1 - a) white */
-            sum[c] += (lin[i * 3 + c] - (1.0f - a)) / a;
+        for (int c = 0; c < 3; c++) /* the surface's own radiance: lin = a L + (1 - a) bg */
+            sum[c] += (lin[i * 3 + c] - (1.0f - a) * (bg ? bg[i * 3 + c] : 1.0f)) / a;
         count++;
     }
     if (rc == ESR_OK && count == 0)
@@ -48,6 +64,6 @@ int esr_env_init_level(const struct esr_model *prev, const float *orig3, const f
             level[c] = (surface_mean[c] > 1e-4f ? surface_mean[c] : 1e-4f) / ESR_ENV_INIT_AV;
         }
     }
-    free(o), free(d), free(lin), free(opac);
+    free(o), free(d), free(lin), free(opac), free(bg);
     return rc;
 }
