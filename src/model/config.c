@@ -130,7 +130,8 @@ static const struct opt opts[] = {
      "(the authors' w_l, here on E only)"},
     {"pdra.w_r", OPT_FLOAT, OFF(pdra_w_r), 0, 1e6, DEF(1, 1),
      "pdra: weight of the LTS emo term that trains L_emo towards sg(estimate) (w_r)"},
-    {"pdra.w_es", OPT_FLOAT, OFF(pdra_w_es), 0, 1e6, DEF(0.01, 0.01),
+    /* paper: the authors' default (METHOD.md) */
+    {"pdra.w_es", OPT_FLOAT, OFF(pdra_w_es), 0, 1e6, DEF(0.01, 0.1),
      "pdra: emission smoothness, w mean |E(x) - E(x + 0.08-voxel jitter)| on the batch's samples"},
     {"pdra.w_ns", OPT_FLOAT, OFF(pdra_w_ns), 0, 1e6, DEF(0.001, 0.001),
      "pdra: normal smoothness, w mean |grad f(x) - grad f(x + 0.8-voxel jitter)| (the authors' "
