@@ -106,7 +106,13 @@ static void test_esr_fixture_loads(void **state)
     assert_int_equal(ds.width, 4);
     assert_int_equal(ds.n_lights, 1);
     assert_int_equal(ds.bbox_from_scene, 1);
-    assert_float_equal(ds.bbox_min[2], -3.0f, 0.0);
+    /* [-1,-2,-3]..[1,2,3] is widened to the cube of its longest side (the model's voxels are
+     * cubes: light areas and shadow-ray offsets are measured in them) */
+    assert_int_equal(ds.bbox_made_cubic, 1);
+    for (int k = 0; k < 3; k++) {
+        assert_float_equal(ds.bbox_min[k], -3.0f, 0.0);
+        assert_float_equal(ds.bbox_max[k], 3.0f, 0.0);
+    }
     assert_int_equal(ds.n_true_lights, 1); /* scene.json's ground truth for evaluation */
     assert_string_equal(ds.true_lights[0].name, "shade");
     assert_float_equal(ds.true_lights[0].radiance[1], 6.4f, 0.0);

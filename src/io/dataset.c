@@ -374,6 +374,25 @@ static int load_scene_truth(struct esr_dataset *ds)
     return status;
 }
 
+/* The model's grids have res^3 points over the box and everything that measures in voxels
+ * (light areas, shadow-ray offsets, smoothing) takes them as cubes, so a box whose sides differ is
+ * widened to a cube of its longest side about its centre (more empty space, never less scene). */
+static void make_box_cubic(struct esr_dataset *ds)
+{
+    float side = 0.0f;
+    for (int k = 0; k < 3; k++)
+        side = fmaxf(side, ds->bbox_max[k] - ds->bbox_min[k]);
+    for (int k = 0; k < 3; k++) {
+        const float len = ds->bbox_max[k] - ds->bbox_min[k];
+        if (len >= side * (1.0f - 1e-6f))
+            continue;
+        const float centre = 0.5f * (ds->bbox_min[k] + ds->bbox_max[k]);
+        ds->bbox_min[k] = centre - 0.5f * side;
+        ds->bbox_max[k] = centre + 0.5f * side;
+        ds->bbox_made_cubic = 1;
+    }
+}
+
 int esr_dataset_parse_scene(struct esr_dataset *ds, const char *text, size_t size, const char *name)
 {
     cJSON *root = parse_json_text(text, size, name);
@@ -390,6 +409,8 @@ int esr_dataset_parse_scene(struct esr_dataset *ds, const char *text, size_t siz
             if (!(ds->bbox_min[k] < ds->bbox_max[k]))
                 status = JSON_FAIL(&w, "'bounding_box' min must be below max");
         ds->bbox_from_scene = status == ESR_OK;
+        if (status == ESR_OK)
+            make_box_cubic(ds);
     }
     if (status == ESR_OK)
         status = load_true_lights(&w, cJSON_GetObjectItemCaseSensitive(root, "lights"), ds);

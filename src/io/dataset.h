@@ -72,6 +72,8 @@ struct esr_dataset {
     int n_lights;
     float bbox_min[3], bbox_max[3]; /* scene box: scene.json when present, else [-1.5,1.5]^3 */
     int bbox_from_scene;      /* 1 when bbox_min/max come from scene.json */
+    int bbox_made_cubic;      /* 1 when scene.json's box was not a cube and was widened to one
+                                 about its centre (the model's voxels are cubes) */
     int n_true_lights;        /* scene.json's "lights" with "emitted_radiance_on" (0: none) */
     struct esr_true_light true_lights[ESR_MAX_TRUE_LIGHTS];
     struct esr_phase phases[ESR_PHASE_COUNT];

@@ -627,6 +627,11 @@ static int setup(struct run *r)
         r->scene_min[a] = ds.bbox_min[a];
         r->scene_max[a] = ds.bbox_max[a];
     }
+    if (ds.bbox_made_cubic)
+        say(r, ESR_STAGE_COUNT, "scene.json's bounding box is not a cube; the model's is its longest side "
+                                "about its centre: [%.3g, %.3g, %.3g] .. [%.3g, %.3g, %.3g]",
+            (double)ds.bbox_min[0], (double)ds.bbox_min[1], (double)ds.bbox_min[2], (double)ds.bbox_max[0],
+            (double)ds.bbox_max[1], (double)ds.bbox_max[2]);
     int rc = esr_ray_set_build(&r->rays, &ds, ESR_PHASE_TRAIN);
     char root[sizeof ds.root];
     snprintf(root, sizeof root, "%s", ds.root);
