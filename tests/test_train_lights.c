@@ -357,6 +357,17 @@ static void test_light_grows_over_its_unseen_part(void **state)
     }
     assert_true(mean_emitters > 0);
     esr_light_samples_free(&smp);
+    /* what a camera sees there is what the samples cast: the mean field at the light's scale
+     * (it showed the dark field's E: a dimmer light than the one lighting the scene) */
+    m.lights.light[0].scale[0] = 2.0f, m.lights.light[0].scale[1] = 3.0f, m.lights.light[0].scale[2] = 4.0f;
+    float e_band[3] = {0.01f, 0.02f, 0.03f}, e_seen[3] = {0.5f, 0.6f, 0.7f};
+    const float seen[3] = {0.0f, 0.0f, 0.5f};
+    esr_lights_scale_emission(&m.lights, band, 1, e_band);
+    esr_lights_scale_emission(&m.lights, seen, 1, e_seen);
+    for (int c = 0; c < 3; c++) {
+        assert_float_equal(e_band[c], l->field_rgb[c] * (float)(c + 2), 1e-6f);
+        assert_float_equal(e_seen[c], (0.5f + 0.1f * (float)c) * (float)(c + 2), 1e-6f);
+    }
     /* a seen dark band between the light and the unseen band: nothing joins */
     emission_above(&m, 0.2f);
     assert_int_equal(esr_lights_find(&m, orig, dir, GRID * GRID), ESR_OK);

@@ -45,18 +45,19 @@ void esr_lights_unseen_points(const struct esr_lights *L, long unseen[ESR_MAX_LI
     }
 }
 
-int esr_lights_id_at(const struct esr_lights *L, const float pos[3])
+/* The label of a surface point: that of the nearest labelled corner of its lattice cell, or 0. */
+static uint8_t label_at(const struct esr_lights *L, const float pos[3])
 {
     if (L->n == 0 || !L->label)
-        return -1;
+        return 0;
     const struct esr_grid *g = &L->grid;
     for (int a = 0; a < 3; a++) /* outside the lattice (or NaN): no light */
         if (!(pos[a] >= g->bmin[a] && pos[a] <= g->bmax[a]))
-            return -1;
+            return 0;
     struct esr_trilerp t;
     esr_trilerp_locate(g, pos, &t);
     /* the labelled corner nearest by squared distance in lattice units */
-    int best = -1;
+    uint8_t best = 0;
     float best_d = INFINITY;
     for (int c = 0; c < 8; c++) {
         float w;
@@ -70,10 +71,16 @@ int esr_lights_id_at(const struct esr_lights *L, const float pos[3])
         }
         if (d < best_d) {
             best_d = d;
-            best = ESR_LIGHT_LABEL_ID(L->label[i]) - 1;
+            best = L->label[i];
         }
     }
     return best;
+}
+
+int esr_lights_id_at(const struct esr_lights *L, const float pos[3])
+{
+    const uint8_t label = label_at(L, pos);
+    return label ? ESR_LIGHT_LABEL_ID(label) - 1 : -1;
 }
 
 void esr_lights_scale_emission(const struct esr_lights *L, const float *pos3, size_t n, float *emit3)
@@ -82,11 +89,13 @@ void esr_lights_scale_emission(const struct esr_lights *L, const float *pos3, si
         return;
 #pragma omp parallel for schedule(static)
     for (size_t i = 0; i < n; i++) {
-        const int id = esr_lights_id_at(L, pos3 + i * 3);
-        if (id < 0)
+        const uint8_t label = label_at(L, pos3 + i * 3);
+        if (!label)
             continue;
-        for (int c = 0; c < 3; c++)
-            emit3[i * 3 + c] *= L->light[id].scale[c];
+        const int id = ESR_LIGHT_LABEL_ID(label) - 1;
+        const struct esr_light *lt = &L->light[id];
+        for (int c = 0; c < 3; c++) /* the unseen part emits the mean field, as its samples do */
+            emit3[i * 3 + c] = (label & ESR_LIGHT_UNSEEN ? lt->field_rgb[c] : emit3[i * 3 + c]) * lt->scale[c];
         if (L->edited) {
             const float e[3] = {emit3[i * 3], emit3[i * 3 + 1], emit3[i * 3 + 2]};
             esr_light_edit_apply(&L->edit[id], e, emit3 + i * 3);

@@ -81,7 +81,9 @@ void esr_lights_unseen_points(const struct esr_lights *L, long unseen[ESR_MAX_LI
 int esr_lights_id_at(const struct esr_lights *L, const float pos[3]);
 
 /* The calibrated emission of n points: emit3 [n*3] multiplied in place by the scale of each
- * point's light, then edited by its edit when one is in place (points on no light keep E). */
+ * point's light (on the light's unseen part its mean field, field_rgb, replaces E there, as in
+ * its light samples), then edited by its edit when one is in place (points on no light keep
+ * E). */
 void esr_lights_scale_emission(const struct esr_lights *L, const float *pos3, size_t n, float *emit3);
 
 /* Sets emit3 [n*3] to 0 at the points on no light. */
