@@ -336,6 +336,11 @@ static int evaluate_edits(const struct eval_args *a, const struct esr_run_select
         for (int k = 0; k < res.split.n; k++)
             printf("light %d (%s) is esr light %d: IoU %.3f\n", res.split.rows[k].light,
                    res.split.rows[k].name, res.split.rows[k].esr_light, res.split.rows[k].iou);
+        for (int u = 0; u < res.n_unmatched; u++)
+            fprintf(stderr, "esr eval: warning: dataset light %d is edited by %d frame(s), but no "
+                            "esr light overlaps its masks (the dataset has none for it, or esr "
+                            "did not find that light): those frames are scored without its edit\n",
+                    res.unmatched[u], res.unmatched_frames[u]);
         fprintf(stderr, "wrote %s and %s\n", json, html);
     }
     esr_edit_eval_free(&res);

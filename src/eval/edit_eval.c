@@ -56,27 +56,40 @@ static int write_light_ids(const struct esr_model *m, const struct esr_camera *c
     return rc;
 }
 
-/* The esr-light edits of frame f under the dataset -> esr mapping. */
+/* The esr-light edits of frame f: each esr light takes the edit of the dataset light it
+ * overlaps most (light_split.h); one that overlaps none stays as found. */
 static void frame_edits(const struct esr_dataset *ds, const struct esr_frame *f,
                         const struct esr_light_split *sp, int n_lights,
                         struct esr_light_edit *edits)
 {
-    double best[ESR_MAX_LIGHTS];
     for (int j = 0; j < n_lights; j++) {
         edits[j] = (struct esr_light_edit){1.0f, 0, 0.0f, 0.0f};
-        best[j] = -1.0;
-    }
-    for (int r = 0; r < sp->n; r++) {
-        const struct esr_light_split_row *row = &sp->rows[r];
-        const int j = row->esr_light;
-        if (j < 0 || j >= n_lights || row->light >= ds->n_lights || row->iou <= best[j])
+        const int k = sp->dataset_light[j];
+        if (k < 0 || k >= ds->n_lights)
             continue;
-        best[j] = row->iou;
-        const struct esr_light_state *st = &f->lights[row->light];
+        const struct esr_light_state *st = &f->lights[k];
         edits[j].intensity = st->mode == ESR_LIGHT_OFF ? 0.0f : st->intensity;
         edits[j].recolour = st->mode == ESR_LIGHT_C_CHANGE || st->mode == ESR_LIGHT_IC_CHANGE;
         edits[j].hue = st->hsv[0];
         edits[j].sat = st->hsv[1];
+    }
+}
+
+/* The dataset lights that frames edit and no esr light follows (res->unmatched). */
+static void find_unmatched(const struct esr_dataset *ds, const struct esr_phase *ph, const int *idx,
+                           int n, struct esr_edit_eval *res)
+{
+    const int lights = ds->n_lights < ESR_MAX_TRUE_LIGHTS ? ds->n_lights : ESR_MAX_TRUE_LIGHTS;
+    for (int k = 0; k < lights; k++) {
+        int followed = 0, frames = 0;
+        for (int j = 0; j < res->n_lights; j++)
+            followed |= res->split.dataset_light[j] == k;
+        for (int i = 0; i < n && !followed; i++)
+            frames += ph->frames[idx[i]].lights[k].mode != ESR_LIGHT_ON;
+        if (frames > 0) {
+            res->unmatched[res->n_unmatched] = k;
+            res->unmatched_frames[res->n_unmatched++] = frames;
+        }
     }
 }
 
@@ -182,6 +195,8 @@ int esr_edit_eval_phase(struct esr_model *m, const struct esr_dataset *ds,
         ESR_TRY(write_light_ids(m, &f->camera, out_dir, f->name));
     }
     ESR_TRY(esr_light_split_eval(ds, phase, map_idx, n_map, out_dir, &res->split));
+    res->n_lights = m->lights.n;
+    find_unmatched(ds, ph, idx, n, res);
     struct esr_light_edit (*edits)[ESR_MAX_LIGHTS] = calloc((size_t)(n > 0 ? n : 1), sizeof *edits);
     int *order = malloc((size_t)(n > 0 ? n : 1) * sizeof(int));
     if (!edits || !order) {
@@ -268,6 +283,14 @@ int esr_edit_eval_write_json(const char *path, const struct esr_edit_eval *res)
         cJSON_AddNumberToObject(o, "iou", res->split.rows[k].iou);
         cJSON_AddItemToArray(arr, o);
     }
+    /* what each esr light was edited as: the dataset light it overlaps most, -1 none (kept as
+     * found) */
+    cJSON *follows = cJSON_AddArrayToObject(sp, "esr_lights_follow");
+    for (int j = 0; j < res->n_lights; j++)
+        cJSON_AddItemToArray(follows, cJSON_CreateNumber(res->split.dataset_light[j]));
+    cJSON *unmatched = cJSON_AddArrayToObject(sp, "edited_lights_unmatched");
+    for (int u = 0; u < res->n_unmatched; u++)
+        cJSON_AddItemToArray(unmatched, cJSON_CreateNumber(res->unmatched[u]));
     return esr_json_write_atomic(path, root);
 }
 
@@ -300,11 +323,19 @@ int esr_edit_eval_write_html(const char *path, const char *title, const struct e
         fprintf(out, "</td><td>%d</td><td>%.3f</td></tr>\n", res->split.rows[k].esr_light,
                 res->split.rows[k].iou);
     }
-    fprintf(out, "</table>\n<p>Each dataset light is edited through the esr light whose pixels "
-                 "best overlap its mask (IoU over %d of the phase's views, spread evenly; the masks "
-                 "are used by evaluation only). The renders are linear radiance through the sRGB "
-                 "curve, as the edits are written.</p>\n",
+    fprintf(out, "</table>\n<p>Each dataset light is scored against the esr light whose pixels "
+                 "best overlap its mask, and each esr light is edited as the dataset light whose "
+                 "masks hold most of its pixels (over %d of the phase's views, spread evenly; the "
+                 "masks are used by evaluation only).",
             res->split.views);
+    for (int j = 0; j < res->n_lights; j++)
+        if (res->split.dataset_light[j] < 0)
+            fprintf(out, " esr light %d overlaps no dataset light and stays as found.", j);
+    for (int u = 0; u < res->n_unmatched; u++)
+        fprintf(out, " <b>Dataset light %d is edited by %d frame(s), but no esr light overlaps its "
+                     "masks: those frames are scored without its edit.</b>",
+                res->unmatched[u], res->unmatched_frames[u]);
+    fputs(" The renders are linear radiance through the sRGB curve, as the edits are written.</p>\n", out);
     fputs("<table><tr><th>view</th><th>edit asked</th><th>esr, unedited (lights on)</th>"
           "<th>esr, edited</th><th>ground truth</th><th>PSNR</th><th>SSIM</th></tr>\n", out);
     for (int i = 0; i < res->n; i++) {

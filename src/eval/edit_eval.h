@@ -32,6 +32,12 @@ struct esr_edit_eval {
     int n_edits;             /* finetune: distinct edits fine-tuned */
     double finetune_seconds; /* finetune: mean seconds per fine-tune */
     struct esr_light_split split;
+    int n_lights;            /* esr's lights (split.dataset_light[0..n_lights) says what each follows) */
+    /* dataset lights some frame edits that no esr light follows (no masks, or a light esr did
+     * not find): those frames are scored without that edit */
+    int n_unmatched;
+    int unmatched[ESR_MAX_TRUE_LIGHTS];
+    int unmatched_frames[ESR_MAX_TRUE_LIGHTS]; /* frames that edit it */
 };
 
 /* Progress of esr_edit_eval_phase, reported after each scored frame. */

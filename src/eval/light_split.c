@@ -57,6 +57,8 @@ int esr_light_split_eval(const struct esr_dataset *ds, enum esr_phase_id phase, 
                          int n, const char *render_dir, struct esr_light_split *out)
 {
     memset(out, 0, sizeof(*out));
+    for (int j = 0; j < ESR_MAX_LIGHTS; j++)
+        out->dataset_light[j] = -1;
     const int lights = ds->n_lights < MAX_TRUE ? ds->n_lights : MAX_TRUE;
     static struct counts zero;
     struct counts c = zero;
@@ -98,5 +100,13 @@ int esr_light_split_eval(const struct esr_dataset *ds, enum esr_phase_id phase, 
         sum += r->iou;
     }
     out->mean_iou = out->n ? sum / out->n : 0.0;
+    for (int j = 0; j < ESR_MAX_LIGHTS; j++) {
+        long most = 0;
+        for (int k = 0; k < lights; k++)
+            if (c.inter[k][j] > most) {
+                most = c.inter[k][j];
+                out->dataset_light[j] = k;
+            }
+    }
     return ESR_OK;
 }

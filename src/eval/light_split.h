@@ -1,7 +1,8 @@
 /* esr's split of the emitters into lights, scored against the dataset's per-light masks (the
  * masks are used here only, never by training): per view the rendered N_lights.png (code value
  * id + 1 on the emitter mask) and each light K's mask (the frame's lights[K].mask_path), pixels
- * pooled over the views; dataset light K is mapped to the esr light of best IoU with it. */
+ * pooled over the views; dataset light K is scored against the esr light of best IoU with it,
+ * and each esr light takes the edits of the dataset light it overlaps most. */
 #ifndef ESR_EVAL_LIGHT_SPLIT_H
 #define ESR_EVAL_LIGHT_SPLIT_H
 
@@ -21,6 +22,10 @@ struct esr_light_split {
     int n;                 /* dataset lights scored */
     struct esr_light_split_row rows[ESR_MAX_TRUE_LIGHTS];
     double mean_iou;
+    /* per esr light j: the dataset light whose masks hold most of its pixels, -1 when none does
+     * (a light the dataset does not have, such as a reflection kept as emission). Edits follow
+     * it, so a dataset light that esr found in two pieces is edited in both. */
+    int dataset_light[ESR_MAX_LIGHTS];
 };
 
 /* Scores the frames idx[0..n) of `phase` rendered in render_dir; views = 0 when none has both. */
