@@ -650,8 +650,10 @@ static void test_emitter_radiance(void **state)
 }
 
 /* The light split by hand: light 0's mask is the left half (8 of 16 columns); the rendered ids
- * are esr light 1 on columns 0-5 and esr light 0 on columns 6-9: light 0 maps to esr light 1,
- * IoU 6 / (8 + 6 - 6) = 0.75 (esr light 0: 2 / (8 + 4 - 2) = 0.2). */
+ * are esr light 1 on columns 0-5, esr light 0 on columns 6-9 and esr light 2 on columns 12-13:
+ * light 0 is scored against esr light 1, IoU 6 / (8 + 6 - 6) = 0.75 (esr light 0: 2 / (8 + 4 -
+ * 2) = 0.2); esr lights 0 and 1 both follow light 0's edits (both overlap it), esr light 2
+ * overlaps no light and follows none. */
 static void test_light_split(void **state)
 {
     (void)state;
@@ -665,7 +667,7 @@ static void test_light_split(void **state)
     assert_int_equal(esr_image_alloc(&ids, RES, RES, 1), ESR_OK);
     for (int y = 0; y < RES; y++)
         for (int x = 0; x < RES; x++)
-            ids.data[y * RES + x] = (x < 6 ? 2.0f : x < 10 ? 1.0f : 0.0f) / 255.0f;
+            ids.data[y * RES + x] = (x < 6 ? 2.0f : x < 10 ? 1.0f : x == 12 || x == 13 ? 3.0f : 0.0f) / 255.0f;
     for (int i = 0; i < n; i++) {
         struct esr_frame *f = &ds.phases[ESR_PHASE_TEST_NV].frames[idx[i]];
         snprintf(f->lights[0].mask_path, sizeof f->lights[0].mask_path, "test_nv/m0");
@@ -679,6 +681,10 @@ static void test_light_split(void **state)
     assert_int_equal(sp.rows[0].esr_light, 1);
     assert_float_equal(sp.rows[0].iou, 0.75, 1e-9);
     assert_float_equal(sp.mean_iou, 0.75, 1e-9);
+    assert_int_equal(sp.dataset_light[0], 0);
+    assert_int_equal(sp.dataset_light[1], 0);
+    assert_int_equal(sp.dataset_light[2], -1);
+    assert_int_equal(sp.dataset_light[3], -1);
     for (int i = 0; i < n; i++) {
         snprintf(path, sizeof path, "%s/%s_lights.png", render_dir,
                  ds.phases[ESR_PHASE_TEST_NV].frames[idx[i]].name);
