@@ -74,9 +74,9 @@ static int find_lights(struct esr_model *m)
     return esr_lights_find(m, ray_orig, ray_dir, N_RAYS);
 }
 
-/* A pdra-stage model on [-1, 1]^3 whose SDF is the union of spheres (cx, 0, 0) of radius r and
- * whose emission is the constant softplus(bias). */
-static void setup(struct esr_model *m, const float *cx, int n_spheres, float r, float bias)
+/* A pdra-stage model on [-1, 1]^3 whose SDF is the union of spheres centred at c3[s] of radius
+ * r and whose emission is the constant softplus(bias). */
+static void setup_at(struct esr_model *m, const float (*c3)[3], int n_spheres, float r, float bias)
 {
     struct esr_train_config cfg;
     test_small_config(&cfg, 0.5f);
@@ -90,14 +90,52 @@ static void setup(struct esr_model *m, const float *cx, int n_spheres, float r, 
             for (int x = 0; x < g->nx; x++) {
                 float p[3], d = INFINITY;
                 esr_grid_voxel_pos(g, x, y, z, p);
-                for (int s = 0; s < n_spheres; s++)
-                    d = fminf(d, sqrtf((p[0] - cx[s]) * (p[0] - cx[s]) + p[1] * p[1] + p[2] * p[2]) - r);
+                for (int s = 0; s < n_spheres; s++) {
+                    const float dx = p[0] - c3[s][0], dy = p[1] - c3[s][1], dz = p[2] - c3[s][2];
+                    d = fminf(d, sqrtf(dx * dx + dy * dy + dz * dz) - r);
+                }
                 f[((size_t)z * g->ny + y) * g->nx + x] = d;
             }
     const struct esr_mlp *e = esr_model_mlp(m, ESR_COMP_EMIT_MLP);
     memset(m->params.w + e->offset, 0, e->count * sizeof(float));
     for (int c = 0; c < 3; c++)
         m->params.w[e->b_off[e->n_layers - 1] + (size_t)c] = bias;
+}
+
+/* setup_at with the spheres on the x axis at cx[s]. */
+static void setup(struct esr_model *m, const float *cx, int n_spheres, float r, float bias)
+{
+    float c3[4][3];
+    assert_true(n_spheres <= 4);
+    for (int s = 0; s < n_spheres; s++)
+        c3[s][0] = cx[s], c3[s][1] = 0.0f, c3[s][2] = 0.0f;
+    setup_at(m, (const float(*)[3])c3, n_spheres, r, bias);
+}
+
+/* More emitting regions than esr keeps as lights (ESR_MAX_LIGHTS = 16): 18 spheres on a 3 x 3 x 2
+ * lattice; the 16 largest are the lights, and the two left out are counted (the trainer and
+ * `esr lights` say so) instead of vanishing. */
+static void test_lights_beyond_the_limit_are_counted(void **state)
+{
+    (void)state;
+    float c3[18][3];
+    for (int s = 0; s < 18; s++) {
+        c3[s][0] = -0.55f + 0.55f * (float)(s % 3);
+        c3[s][1] = -0.55f + 0.55f * (float)(s / 3 % 3);
+        c3[s][2] = s < 9 ? -0.3f : 0.3f;
+    }
+    struct esr_model m;
+    setup_at(&m, (const float(*)[3])c3, 18, 0.13f, 3.0f);
+    assert_int_equal(find_lights(&m), ESR_OK);
+    assert_int_equal(m.lights.n, ESR_MAX_LIGHTS);
+    assert_int_equal(m.lights.n_left_out, 18 - ESR_MAX_LIGHTS);
+    esr_model_free(&m);
+    /* within the limit nothing is left out */
+    setup_at(&m, (const float(*)[3])c3, 9, 0.13f, 3.0f);
+    assert_int_equal(find_lights(&m), ESR_OK);
+    assert_int_equal(m.lights.n, 9);
+    assert_int_equal(m.lights.n_left_out, 0);
+    esr_model_free(&m);
 }
 
 static void test_one_emitting_sphere_is_one_light(void **state)
@@ -462,6 +500,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_one_emitting_sphere_is_one_light),
         cmocka_unit_test(test_two_spheres_are_two_lights),
+        cmocka_unit_test(test_lights_beyond_the_limit_are_counted),
         cmocka_unit_test(test_dark_field_has_no_lights),
         cmocka_unit_test(test_lights_survive_a_checkpoint),
         cmocka_unit_test(test_unseen_cavity_is_no_light),

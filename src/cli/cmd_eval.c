@@ -311,6 +311,10 @@ static int evaluate_edits(const struct eval_args *a, const struct esr_run_select
     memset(&res, 0, sizeof res);
     if (status == ESR_OK) {
         fprintf(stderr, "relighting %d frame(s) of %s (%s) into %s\n", sel->n, phase, method, dir);
+        if (sel->ds.n_lights > ESR_MAX_TRUE_LIGHTS)
+            fprintf(stderr, "esr eval: warning: the dataset has %d lights; evaluation maps the first "
+                            "%d to esr's lights and scores their edits, the others' edits are not "
+                            "applied\n", sel->ds.n_lights, ESR_MAX_TRUE_LIGHTS);
         struct esr_finetune_opts ft;
         esr_finetune_default_opts(&ft);
         if (a->iters)

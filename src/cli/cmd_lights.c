@@ -52,6 +52,9 @@ static int recompute(struct esr_model *m, const char *data)
         rc = ESR_FAIL("dataset %s: no lights-off training images to calibrate with", data);
     if (rc == ESR_OK)
         rc = esr_lights_find(m, rs.orig3, rs.dir3, rs.n);
+    if (rc == ESR_OK && m->lights.n_left_out > 0)
+        fprintf(stderr, "esr lights: %d more emitting region(s) left out: esr keeps the %d largest as lights\n",
+                m->lights.n_left_out, ESR_MAX_LIGHTS);
     if (rc == ESR_OK)
         rc = esr_lights_calibrate(m, rs.orig3, rs.dir3, rs.n_off, ESR_LIGHTS_CALIB_POINTS,
                                   (uint64_t)m->cfg.seed);

@@ -50,6 +50,9 @@ struct esr_lights {
     struct esr_grid grid; /* the lattice the labels live on (the SDF grid's) */
     uint8_t *label;       /* [nx*ny*nz] 0 or id + 1, ESR_LIGHT_UNSEEN added on the light's part no
                              camera sees (train/lights.h); NULL when n == 0 */
+    /* emitting regions large enough to be lights that esr_lights_find left out, past the
+     * ESR_MAX_LIGHTS largest (not saved: said where they are found) */
+    int n_left_out;
     /* an edit in place (edit/finetune.h; not saved): emitted radiance is each light's calibrated
      * emission edited by edit[K]; edited 0: as found */
     int edited;

@@ -192,6 +192,9 @@ int esr_lights_find(struct esr_model *m, const float *orig3, const float *dir3, 
             break;
         id_of[best] = kept++;
     }
+    int left_out = 0;
+    for (int c = 0; rc == ESR_OK && c < nc; c++)
+        left_out += id_of[c] < 0 && sizes[c] >= min_points;
     struct esr_lights *L = &m->lights;
     if (rc == ESR_OK && kept > 0) {
         L->grid = *g;
@@ -255,5 +258,7 @@ int esr_lights_find(struct esr_model *m, const float *orig3, const float *dir3, 
     free(sizes), free(id_of);
     if (rc != ESR_OK)
         esr_lights_free(L);
+    else
+        L->n_left_out = left_out;
     return rc;
 }
