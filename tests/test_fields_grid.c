@@ -88,6 +88,17 @@ static void test_linear_field_and_point_gradient(void **state)
     assert_true(fabsf(v[0] - vc[0]) < 1e-5f && fabsf(v[1] - vc[1]) < 1e-5f);
     assert_true(d[0] == 0.0f);
     assert_true(test_close(d[1], -1.2, 1e-4, 1e-4));
+    /* on the faces themselves (inside the closed box) the slope is the cell's, one-sided */
+    for (int a = 0; a < 3; a++)
+        for (int side = 0; side < 2; side++) {
+            float f[3] = {0.3f * BMIN[0] + 0.7f * BMAX[0], 0.6f * BMIN[1] + 0.4f * BMAX[1],
+                          0.5f * BMIN[2] + 0.5f * BMAX[2]};
+            f[a] = side ? BMAX[a] : BMIN[a];
+            esr_grid_sample_dpoint(&g, data, 1, f, 1, d);
+            assert_true(test_close(d[0], -0.3, 1e-4, 1e-4));
+            assert_true(test_close(d[1], -1.2, 1e-4, 1e-4));
+            assert_true(test_close(d[2], 3.0, 1e-4, 1e-4));
+        }
     free(data);
 }
 

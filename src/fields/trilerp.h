@@ -15,7 +15,8 @@ struct esr_trilerp {
     size_t stride[3]; /* lattice-index step to the +1 corner along x, y, z */
     int iz0;        /* z-plane of the first corner (for z-plane ownership in backward passes) */
     float f[3];     /* position inside the cell, each in [0, 1] */
-    float du[3];    /* d(lattice coordinate)/d(world) per axis; 0 where the point was clamped */
+    float du[3];    /* d(lattice coordinate)/d(world) per axis; 0 where the point was clamped
+                       (outside the box; on a face it is the cell's one-sided derivative) */
 };
 
 /* Locates p on g's lattice, clamping to the box (NaN coordinates clamp to the minimum). */
@@ -31,10 +32,12 @@ ESR_INLINE void esr_trilerp_locate(const struct esr_grid *g, const float p[3], s
         float u = (p[a] - g->bmin[a]) * scale;
         float hi = (float)(n[a] - 1);
         t->du[a] = scale;
-        if (!(u > 0.0f)) {
+        /* clamped only when strictly outside (or NaN): a point on a face has its cell's
+         * one-sided derivative (the mesh's vertices on the box faces took 0 there) */
+        if (!(u >= 0.0f)) {
             u = 0.0f;
             t->du[a] = 0.0f;
-        } else if (u >= hi) {
+        } else if (u > hi) {
             u = hi;
             t->du[a] = 0.0f;
         }
