@@ -333,7 +333,7 @@ static void test_errors(void **state)
         {"render '%s' --limit 0x2", "--limit must be an integer in 1.."},
         {"render '%s' --phase bogus", "unknown phase 'bogus'"},
         {"eval '%s' --phase bogus", "unknown phase 'bogus'"},
-        {"render '%s' --phase test_nvi", "not supported yet"},
+        {"render '%s' --phase test_nvi", "relight edit frames with `esr eval RUN --phase P --method"},
         {"render '%s' --frames c999_on", "no frame called 'c999_on'"},
         {"render '%s' --limit -3", "--limit must be"},
         {"render '%s' --limit 0", "--limit must be an integer in 1.."},

@@ -21,7 +21,8 @@ static int run_eval(int argc, char **argv);
 
 const struct esr_command cmd_eval = {
     "eval",
-    "score a run on a test phase (PSNR, SSIM, HDR MSE per view and lighting, normal error) + HTML report",
+    "score a run on a test phase (PSNR, SSIM, HDR MSE per view and lighting, normal error; emitter IoU, "
+    "light strengths and split; relighting on the edit phases) + HTML report",
     "usage: esr eval RUN [options]\n"
     "\n"
     "Renders the frames of a phase with the run's model into RUN/render/P (as `esr render`; frames\n"
@@ -39,6 +40,13 @@ const struct esr_command cmd_eval = {
     "When the dataset has a ground-truth surface (DATA/gt/mesh.ply, as `esr synth` writes), the\n"
     "model's surface is also scored by Chamfer distance (accuracy, completeness, in scene units)\n"
     "into RUN/eval/geometry.json.\n"
+    "With an lts/pdra model (its emitters and lights), test_nv.json also holds \"emitter_iou\" (the\n"
+    "rendered emitter masks N_emitter.png against the dataset's light masks, pixels pooled over the\n"
+    "views), \"emitter_iou_emo_threshold\" (the baseline that thresholds the model's L_on - L_off\n"
+    "at its best k on the same masks: an oracle threshold, what the emitter stages add is the\n"
+    "difference), \"emitter_radiance\" (per dataset light with known radiance, the mean rendered\n"
+    "emission over its mask against the truth: \"error_pct\" = |found - true| / |true| in RGB,\n"
+    "\"ratio\" = |found| / |true|) and \"light_split\" (per dataset light the esr light of best IoU).\n"
     "Edit phases (test_nvi, test_nvc, test_nvic) relight each frame as its lights[] say with\n"
     "--method (edit/relight.h; dataset lights mapped to esr's by the frames' per-light masks) into\n"
     "RUN/render/P_METHOD, and write RUN/eval/P_METHOD.json (PSNR, SSIM per view and mean, the light\n"

@@ -26,7 +26,7 @@ const struct esr_command cmd_lights = {
     "light it casts on the rest of the scene), prints them and writes RUN/lights.json:\n"
     "  {\"lights\": [{\"id\", \"centroid\", \"area\", \"points\", \"rgb\" (emitted radiance, linear),\n"
     "               \"hsv\", \"power\", \"field_rgb\", \"strength_scale\", \"calibration_points\",\n"
-    "               \"strength_fitted\" (false: too small to fit, the fitted lights' mean scale)}...],\n"
+    "               \"strength_fitted\" (false: too small to fit, the fitted lights' area-weighted mean scale)}...],\n"
     "   \"emitter_k\", \"checkpoint\"}\n"
     "\n"
     "options:\n"
@@ -119,21 +119,27 @@ static int lights(const char *run, const char *data_override, int again)
         for (int i = 0; i < m.lights.n; i++) {
             const struct esr_light *l = &m.lights.light[i];
             const int fitted = esr_light_strength_fitted(&m.lights, i);
+            /* + 0: no "-0.00" for a coordinate that rounds to zero from below */
             printf("  %2d  (%6.2f %6.2f %6.2f)  %6.3f  %8.3g %8.3g %8.3g  %8.3g  %.2f %.2f %.2f%s\n",
-                   i, (double)l->centroid[0], (double)l->centroid[1], (double)l->centroid[2],
+                   i, (double)l->centroid[0] + 0.0, (double)l->centroid[1] + 0.0, (double)l->centroid[2] + 0.0,
                    (double)l->area, (double)l->radiance[0], (double)l->radiance[1],
                    (double)l->radiance[2], (double)l->power, (double)l->scale[0],
                    (double)l->scale[1], (double)l->scale[2], fitted ? "" : " *");
             borrowed += !fitted;
         }
+        int any_unseen = 0;
         for (int i = 0; i < m.lights.n; i++)
-            if (unseen[i])
-                printf("  light %d: %ld of its %ld surface points are seen by no camera; they emit its\n"
-                       "    mean field (the part no camera looks at, such as a lampshade's bottom)\n",
-                       i, unseen[i], m.lights.light[i].points);
+            if (unseen[i]) {
+                printf("  light %d: %ld of its %ld surface points seen by no camera\n", i, unseen[i],
+                       m.lights.light[i].points);
+                any_unseen = 1;
+            }
+        if (any_unseen)
+            printf("  (a light's part no camera looks at, such as a lampshade's bottom, emits the\n"
+                   "  light's mean field)\n");
         if (borrowed)
             printf("  * under %.0f%% of the lights' area: too small to fit from the light it casts; it\n"
-                   "    takes the fitted lights' mean scale (a small lamp, or a mirror's reflection\n"
+                   "    takes the fitted lights' area-weighted mean scale (a small lamp, or a mirror's reflection\n"
                    "    of a light that the images cannot tell from one)\n",
                    100.0 * ESR_LIGHTS_SMALL_SHARE);
         snprintf(out, sizeof out, "%s/lights.json", run);

@@ -72,15 +72,17 @@ static void put_emitters(FILE *out, const struct esr_eval_result *res)
         fprintf(out, "<td>%d</td></tr>\n", res->n_emitter_views);
     }
     if (res->emo_baseline.n_cameras > 0) {
-        fprintf(out, "<tr><td>baseline: L_on - L_off above its best k (%.3g)</td>", res->emo_baseline.k);
+        fprintf(out, "<tr><td>baseline: L_on - L_off above its best k (%.3g, chosen on these masks: "
+                     "an oracle threshold)</td>",
+                res->emo_baseline.k);
         put_number(out, "%.3f", res->emo_baseline.iou);
         fprintf(out, "<td>%d cameras</td></tr>\n", res->emo_baseline.n_cameras);
     }
     fputs("</table>\n", out);
     if (res->radiance.n == 0)
         return;
-    fputs("<table><tr><th>light</th><th>emitted radiance found (linear RGB)</th><th>true</th>"
-          "<th>error</th><th>strength found</th></tr>\n", out);
+    fputs("<table><tr><th>light</th><th>mean rendered emission over its true mask (linear RGB)</th>"
+          "<th>true</th><th>error |found - true| / |true|</th><th>|found| / |true|</th></tr>\n", out);
     for (int k = 0; k < res->radiance.n; k++) {
         const struct esr_emitter_radiance *r = &res->radiance.lights[k];
         fprintf(out, "<tr><td>%d ", r->light);
@@ -92,7 +94,10 @@ static void put_emitters(FILE *out, const struct esr_eval_result *res)
         fputs("</tr>\n", out);
     }
     fputs("</table>\n<p>Mean composited emission over each light's true mask (eroded by one "
-          "pixel), against scene.json's emitted radiance.</p>\n", out);
+          "pixel), against scene.json's emitted radiance; norms over RGB. It differs a little from "
+          "the calibrated radiance of the light in \"Lights found\", which is that light's own "
+          "value: the mean here also holds pixels whose emission is composited with its edge or "
+          "comes from another light.</p>\n", out);
 }
 
 /* esr's light split against the dataset's per-light masks (when scored). */
@@ -173,8 +178,8 @@ static void put_lights(FILE *out, const struct esr_report_spec *spec)
         return;
     const struct esr_light_split *sp = &spec->res->split;
     fprintf(out, "<h2>Lights found (%d)</h2>\n<table><tr><th>id</th><th>centroid</th><th>area</th>"
-                 "<th>points seen by no camera</th><th>emitted radiance (linear RGB)</th>"
-                 "<th>power</th><th>strength scale</th><th>strength</th>%s</tr>\n",
+                 "<th>points seen by no camera</th><th>calibrated radiance (linear RGB)</th>"
+                 "<th>power</th><th>strength scale</th><th>strength fitted?</th>%s</tr>\n",
             L->n, sp->views ? "<th>dataset light (evaluation)</th>" : "");
     long unseen[ESR_MAX_LIGHTS];
     esr_lights_unseen_points(L, unseen);
@@ -186,7 +191,7 @@ static void put_lights(FILE *out, const struct esr_report_spec *spec)
                 (double)l->area, unseen[i], l->points, (double)l->radiance[0], (double)l->radiance[1],
                 (double)l->radiance[2], (double)l->power, (double)l->scale[0],
                 (double)l->scale[1], (double)l->scale[2],
-                esr_light_strength_fitted(L, i) ? "fitted" : "too small to fit: the fitted lights' mean");
+                esr_light_strength_fitted(L, i) ? "fitted" : "too small to fit: the fitted lights' area-weighted mean");
         if (sp->views) { /* the dataset lights matched to it, or none: not a light of the scene */
             int matched = 0;
             fputs("<td>", out);
@@ -288,7 +293,7 @@ static void put_views(FILE *out, const struct esr_report_spec *spec)
     const int emitters = spec->res->n_emitter_views > 0;
     fprintf(out, "<h2>Views</h2>\n<table><tr><th>view</th><th>mode</th><th>ground truth</th><th>tone-mapped</th>"
                  "<th>linear</th><th>normal</th>%s%s<th>normal error (deg)</th></tr>\n",
-            emitters ? "<th>emission</th><th>emitter mask</th><th>true emitters</th>"
+            emitters ? "<th>emission (over the brightest light's radiance)</th><th>emitter mask</th><th>true emitters</th>"
                        "<th>emission's effect (on - off)</th><th>true effect</th>"
                      : "",
             metric_header);

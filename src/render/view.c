@@ -1,6 +1,7 @@
 /* Rendering a camera view. */
 #include "render/view.h"
 
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -36,6 +37,13 @@ int esr_view_render(const struct esr_model *m, const struct esr_camera *cam, int
             return ESR_FAIL("out of memory for a %dx%d material image", cam->width, cam->height);
     }
     out->emitter_k = m->cfg.emitter_k;
+    out->emission_png_scale = 1.0f;
+    for (int k = 0; k < m->lights.n; k++) {
+        const float *rad = m->lights.light[k].radiance;
+        const float peak = fmaxf(rad[0], fmaxf(rad[1], rad[2]));
+        if (peak > 0.0f && 1.0f / peak < out->emission_png_scale)
+            out->emission_png_scale = 1.0f / peak;
+    }
     size_t n = (size_t)cam->width * (size_t)cam->height;
     float *origins = malloc(n * 3 * sizeof *origins), *dirs = malloc(n * 3 * sizeof *dirs);
     int status = origins && dirs ? ESR_OK : ESR_FAIL("out of memory for %zu camera rays", n);

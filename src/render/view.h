@@ -31,6 +31,10 @@ struct esr_view_images {
     int32_t *light_id;        /* [w*h]: the light (model/lights.h) each pixel's surface lies on,
                                  -1 for none (a model with lights; else NULL) */
     float emitter_k;          /* emitter mask: emission above this in any channel */
+    float emission_png_scale; /* N_emission.png shows emitted x this before the sRGB curve: 1 /
+                                 the brightest light's largest channel (a model with lights; the
+                                 same in every view, so the lights keep their colour and relative
+                                 strength instead of clipping white), else 1 */
 };
 
 /* Renders every pixel of cam with the lights on (1) or off (0) in one model call (the model

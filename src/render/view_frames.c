@@ -26,8 +26,9 @@ static int check_lighting(const struct esr_dataset *ds, const struct esr_frame *
 {
     enum esr_light_mode mode = esr_frame_mode(ds, f);
     if (mode != ESR_LIGHT_OFF && mode != ESR_LIGHT_ON)
-        return ESR_FAIL("frame %s has lighting mode '%s': rendering light edits is not supported yet (only "
-                        "\"off\" and \"on\" frames, e.g. phase test_nv)",
+        return ESR_FAIL("frame %s has lighting mode '%s': esr render renders \"off\" and \"on\" frames "
+                        "(phase test_nv); relight edit frames with `esr eval RUN --phase P --method "
+                        "direct|ratio|finetune`, or any edit with `esr edit`",
                         f->name, esr_light_mode_name(mode));
     return ESR_OK;
 }

@@ -14,12 +14,12 @@ static float clamp01(float v)
 }
 
 /* Display images derived from the raw outputs, filled into pre-allocated same-size images. */
-static void gamma_image(const struct esr_image *linear, struct esr_image *out)
+static void gamma_image(const struct esr_image *linear, float scale, struct esr_image *out)
 {
     long long n = (long long)esr_image_count(linear);
 #pragma omp parallel for schedule(static)
     for (long long i = 0; i < n; i++)
-        out->data[i] = esr_srgb_from_linear(clamp01(linear->data[i]));
+        out->data[i] = esr_srgb_from_linear(clamp01(scale * linear->data[i]));
 }
 
 /* c = 0.5 (n_w + 1) on the surface, white where empty: with n_c = sum w n (the composited
@@ -87,11 +87,11 @@ static int write_emission(const char *dir, const char *name, const struct esr_vi
                           struct esr_image *rgb3, struct esr_image *grey)
 {
     ESR_TRY(write_exr(dir, name, "_emission.exr", &v->emitted));
-    gamma_image(&v->emitted, rgb3);
+    gamma_image(&v->emitted, v->emission_png_scale, rgb3);
     ESR_TRY(write_png(dir, name, "_emission.png", rgb3));
     if (v->emo.data) {
         ESR_TRY(write_exr(dir, name, "_emo.exr", &v->emo));
-        gamma_image(&v->emo, rgb3);
+        gamma_image(&v->emo, 1.0f, rgb3);
         ESR_TRY(write_png(dir, name, "_emo.png", rgb3));
     }
     const long long n = (long long)grey->width * grey->height;
@@ -159,7 +159,7 @@ int esr_view_write_env(const char *dir, const struct esr_model *m)
     if (status == ESR_OK)
         status = write_exr(dir, "env", ".exr", &lin);
     if (status == ESR_OK) {
-        gamma_image(&lin, &srgb);
+        gamma_image(&lin, 1.0f, &srgb);
         status = write_png(dir, "env", ".png", &srgb);
     }
     esr_image_free(&lin);
@@ -179,7 +179,7 @@ int esr_view_write(const char *dir, const char *name, const struct esr_view_imag
     if (status == ESR_OK)
         status = write_png(dir, name, ".png", &v->rgb);
     if (status == ESR_OK) {
-        gamma_image(&v->linear, &rgb3);
+        gamma_image(&v->linear, 1.0f, &rgb3);
         status = write_png(dir, name, "_linear.png", &rgb3);
     }
     if (status == ESR_OK)

@@ -281,8 +281,11 @@ static int iterate(struct run *r, struct esr_model *m, struct esr_train_step *b,
         w->k = b->pdra.k;
         if (b->pdra_chosen_k_end > 0.0f)
             say(r, s, "k_end %.4g derived from the data: %.2f x the emitters' level (99.5th "
-                      "percentile of composited E in the first batch); k rises from %.3g",
-                (double)b->pdra_chosen_k_end, (double)m->cfg.pdra_k_frac, (double)m->cfg.pdra_k0);
+                      "percentile of composited E in the first batch); k rises from %.3g, capped "
+                      "each step at %.2f x the batch's current level (emitters whose E drifts down "
+                      "stay above it)",
+                (double)b->pdra_chosen_k_end, (double)m->cfg.pdra_k_frac, (double)m->cfg.pdra_k0,
+                (double)m->cfg.pdra_k_frac);
     }
     w->iters++;
     return ESR_OK;
@@ -331,13 +334,18 @@ static int find_lights(struct run *r, struct esr_model *m, enum esr_stage s)
                   "keeps its field's (clipped, too weak) strength");
     for (int i = 0; i < m->lights.n; i++) {
         const struct esr_light *l = &m->lights.light[i];
+        char from[96];
+        if (esr_light_strength_fitted(&m->lights, i))
+            snprintf(from, sizeof from, "fitted on %.0f points", (double)l->calib_points);
+        else
+            snprintf(from, sizeof from, "too small to fit: the fitted lights' area-weighted mean");
         say(r, s, "  light %d: at (%.2f, %.2f, %.2f), area %.3g, emitted radiance %.3g %.3g %.3g "
-                  "(field %.3g %.3g %.3g x strength %.3g %.3g %.3g from %.0f points)",
+                  "(field %.3g %.3g %.3g x strength %.3g %.3g %.3g, %s)",
             i, (double)l->centroid[0], (double)l->centroid[1], (double)l->centroid[2],
             (double)l->area, (double)l->radiance[0], (double)l->radiance[1],
             (double)l->radiance[2], (double)l->field_rgb[0], (double)l->field_rgb[1],
             (double)l->field_rgb[2], (double)l->scale[0], (double)l->scale[1],
-            (double)l->scale[2], (double)l->calib_points);
+            (double)l->scale[2], from);
     }
     return ESR_OK;
 }
