@@ -17,7 +17,7 @@ static int run_export(int argc, char **argv);
 const struct esr_command cmd_export = {
     "export",
     "extract the model's surface (marching cubes on the SDF) as a PLY mesh or a relightable glTF",
-    "usage: esr export RUN (--mesh OUT.ply | --gltf OUT.glb) [options]\n"
+    "usage: esr export RUN [--mesh OUT.ply] [--gltf OUT.glb] [options]  (at least one of the two)\n"
     "\n"
     "Loads the most advanced checkpoint in run directory RUN (or RUN may be a checkpoint file),\n"
     "extracts the zero level set of its SDF grid by marching cubes and writes a binary PLY with\n"
@@ -30,9 +30,10 @@ const struct esr_command cmd_export = {
     "\n"
     "options:\n"
     "  --mesh FILE   output PLY\n"
-    "  --gltf FILE   output GLB (either or both)\n"
+    "  --gltf FILE   output GLB (one of --mesh, --gltf is needed; both write two files, not one\n"
+    "                file for both, and when the glTF fails the PLY is removed again)\n"
     "  --res N       resample the SDF to N^3 lattice points first (8..1024; default: the model's grid)\n"
-    "  --no-colour   leave out vertex colours (faster)\n"
+    "  --no-colour   PLY: leave out vertex colours (faster)\n"
     "  -h, --help    this text\n",
     run_export,
     0, /* view_loop */

@@ -459,15 +459,29 @@ int esr_config_write_json(const struct esr_train_config *c, const char *path)
     return esr_json_write_atomic(path, esr_config_to_json(c));
 }
 
+/* An option's bound or default for the help table: an integer option's as an integer
+ * ([0, 2147483647], not [0, 2.14748e+09]). */
+static void help_number(const struct opt *o, double v, char *text, size_t n)
+{
+    if (o->type == OPT_INT)
+        snprintf(text, n, "%.0f", v);
+    else
+        snprintf(text, n, "%g", v);
+}
+
 void esr_config_print_help(FILE *out)
 {
     fprintf(out, "  %-24s %-5s %-18s %-9s %-9s %s\n", "option", "type", "range", "fast", "paper",
             "meaning");
     for (size_t i = 0; i < N_OPTS; i++) {
         const struct opt *o = &opts[i];
-        char range[64];
-        snprintf(range, sizeof range, "[%g, %g]", o->lo, o->hi);
-        fprintf(out, "  %-24s %-5s %-18s %-9g %-9g %s\n", o->name,
-                o->type == OPT_INT ? "int" : "float", range, o->def[0], o->def[1], o->help);
+        char range[80], lo[32], hi[32], fast[32], paper[32];
+        help_number(o, o->lo, lo, sizeof lo);
+        help_number(o, o->hi, hi, sizeof hi);
+        help_number(o, o->def[0], fast, sizeof fast);
+        help_number(o, o->def[1], paper, sizeof paper);
+        snprintf(range, sizeof range, "[%s, %s]", lo, hi);
+        fprintf(out, "  %-24s %-5s %-18s %-9s %-9s %s\n", o->name,
+                o->type == OPT_INT ? "int" : "float", range, fast, paper, o->help);
     }
 }
