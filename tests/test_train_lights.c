@@ -189,6 +189,21 @@ static void test_two_spheres_are_two_lights(void **state)
     const float p_left[3] = {-0.5f, 0.3f, 0.0f}, p_right[3] = {0.45f, 0.0f, -0.3f};
     assert_int_equal(esr_lights_id_at(&m.lights, p_left), left);
     assert_int_equal(esr_lights_id_at(&m.lights, p_right), 1 - left);
+    /* dropping light 0 (a reflection, say): its surface is no light, light 1 becomes light 0
+     * with its table entry */
+    const struct esr_light second = m.lights.light[1];
+    assert_int_equal(esr_lights_drop(&m.lights, 2), ESR_ERR);
+    assert_non_null(strstr(esr_error_message(), "the run has 2 lights"));
+    esr_error_clear();
+    assert_int_equal(esr_lights_drop(&m.lights, 0), ESR_OK);
+    assert_int_equal(m.lights.n, 1);
+    assert_memory_equal(&m.lights.light[0], &second, sizeof second);
+    assert_int_equal(esr_lights_id_at(&m.lights, left == 0 ? p_left : p_right), -1);
+    assert_int_equal(esr_lights_id_at(&m.lights, left == 0 ? p_right : p_left), 0);
+    assert_int_equal(esr_lights_drop(&m.lights, 0), ESR_OK); /* the last: none left */
+    assert_int_equal(m.lights.n, 0);
+    assert_null(m.lights.label);
+    assert_int_equal(esr_lights_id_at(&m.lights, p_left), -1);
     esr_model_free(&m);
 }
 

@@ -1380,7 +1380,17 @@ static void test_finetune_view(void **state)
     assert_int_equal(esr_model_render_rays(m, o3, d3, px, 1, &ro), ESR_OK);
     struct esr_render_out rf = {.linear = off, .emitted_lights = lit};
     assert_int_equal(esr_model_render_rays(m, o3, d3, px, 0, &rf), ESR_OK);
-    size_t seen = 0, on_light = 0, lit_up = 0;
+    /* the direct method on the same view and edit: the light it casts on the lights' pixels is
+     * what the fine-tuned view shows there (whether any falls there is the tiny run's draw: a
+     * run whose second light lies under the floor lights none) */
+    struct esr_editor direct;
+    struct esr_image img_direct;
+    if (esr_editor_init(&direct, m, &v.ds, ESR_EDIT_DIRECT, 8, NULL) != ESR_OK)
+        fail_msg("%s", esr_error_message());
+    assert_int_equal(esr_editor_set(&direct, e, 5), ESR_OK);
+    assert_int_equal(esr_editor_view(&direct, v.cam, 3, &img_direct), ESR_OK);
+    esr_editor_free(&direct);
+    size_t seen = 0, on_light = 0, lit_up = 0, direct_lit = 0;
     double most = 0.0; /* the most light a light's pixel gained, relative */
     for (size_t p = 0; p < px; p++) {
         if (v.ids[p] < 0) {
@@ -1389,23 +1399,73 @@ static void test_finetune_view(void **state)
             continue;
         }
         on_light++;
-        int up = 0;
+        int up = 0, up_direct = 0;
         for (int c = 0; c < 3; c++) {
             const float base = off[p * 3 + c] + lit[p * 3 + c];
+            up_direct |= img_direct.data[p * 3 + c] > base + 1e-4f * (1.0f + fabsf(base));
             assert_true(img.data[p * 3 + c] >= base - 1e-5f * (1.0f + fabsf(base)));
             up |= img.data[p * 3 + c] > base + 1e-4f * (1.0f + fabsf(base));
             most = fmax(most, (img.data[p * 3 + c] - base) / (1.0f + fabsf(base)));
         }
         lit_up += up;
+        direct_lit += up_direct;
     }
     print_message("finetune view: %zu pixels see no light (the fine-tuned render), %zu see one, "
-                  "%zu of them lit by the lights (by up to %.3g x (1 + base))\n", seen, on_light, lit_up,
-                  most);
-    assert_true(seen > 0 && on_light > 0 && lit_up > 0);
+                  "%zu of them lit by the lights (by up to %.3g x (1 + base)); direct: %zu\n", seen,
+                  on_light, lit_up, most, direct_lit);
+    assert_true(seen > 0 && on_light > 0);
+    assert_true(direct_lit == 0 || lit_up > 0);
+    esr_image_free(&img_direct);
     free(o3), free(d3), free(on), free(off), free(lit);
     esr_image_free(&img);
     esr_editor_free(&ed);
     pdra_view_close(&v);
+}
+
+/* esr lights --drop: the named lights leave the checkpoint (a reflection the user judges no
+ * light), the others are calibrated again; bad ids and --drop with --recompute are refused with
+ * nothing changed. */
+static void test_lights_drop(void **state)
+{
+    (void)state;
+    char run[4300], cmd[24000], out[16384];
+    snprintf(run, sizeof run, "%s/run_drop", test_tmpdir);
+    snprintf(cmd, sizeof cmd, "mkdir -p '%s' && cp '%s'/run_pdra/config.json '%s'/run_pdra/run.json "
+             "'%s'/run_pdra/ckpt_pdra.bin '%s'/", run, test_tmpdir, test_tmpdir, test_tmpdir, run);
+    assert_int_equal(system(cmd), 0);
+    struct esr_model m;
+    snprintf(cmd, sizeof cmd, "%s/ckpt_pdra.bin", run);
+    assert_int_equal(esr_model_load(&m, cmd), ESR_OK);
+    const int n = m.lights.n;
+    struct esr_light last = m.lights.light[n > 0 ? n - 1 : 0];
+    esr_model_free(&m);
+    if (n == 0)
+        skip(); /* test_pdra_finds_lights prints how many the tiny run found */
+    snprintf(cmd, sizeof cmd, "lights '%s' --drop %d", run, n);
+    assert_int_equal(test_run_esr(cmd, out, sizeof out), 1);
+    assert_non_null(strstr(out, "expected light ids from 0 to"));
+    snprintf(cmd, sizeof cmd, "lights '%s' --drop 0 --recompute", run);
+    assert_int_equal(test_run_esr(cmd, out, sizeof out), 1);
+    assert_non_null(strstr(out, "drop them after a --recompute"));
+    snprintf(cmd, sizeof cmd, "%s/ckpt_pdra.bin", run);
+    assert_int_equal(esr_model_load(&m, cmd), ESR_OK);
+    assert_int_equal(m.lights.n, n); /* refused: nothing changed */
+    esr_model_free(&m);
+    snprintf(cmd, sizeof cmd, "lights '%s' --drop 0 --data '%s'", run, data_dir);
+    if (test_run_esr(cmd, out, sizeof out) != 0)
+        fail_msg("esr %s:\n%s", cmd, out);
+    assert_non_null(strstr(out, "dropped light 0"));
+    snprintf(cmd, sizeof cmd, "%s/ckpt_pdra.bin", run);
+    assert_int_equal(esr_model_load(&m, cmd), ESR_OK);
+    assert_int_equal(m.lights.n, n - 1);
+    if (n > 1) { /* the last light moved down one id, its place and size with it */
+        const struct esr_light *moved = &m.lights.light[n - 2];
+        assert_int_equal(moved->points, last.points);
+        assert_float_equal(moved->area, last.area, 0.0f);
+        for (int a = 0; a < 3; a++)
+            assert_float_equal(moved->centroid[a], last.centroid[a], 0.0f);
+    }
+    esr_model_free(&m);
 }
 
 /* esr eval on an edit phase (test_nvi, direct): the scores, and what each esr light was edited
@@ -1433,21 +1493,30 @@ static void test_edit_eval_follows_lights(void **state)
     int rc = test_run_esr(cmd, out, sizeof out);
     if (rc != 0)
         fail_msg("esr %s: exit %d:\n%s", cmd, rc, out);
-    assert_null(strstr(out, "no esr light overlaps its masks"));
     snprintf(cmd, sizeof cmd, "%s/eval/test_nvi_direct.json", run);
     cJSON *root = test_read_json(cmd);
     assert_non_null(root);
     const cJSON *sp = cJSON_GetObjectItemCaseSensitive(root, "light_split");
     const cJSON *follow = cJSON_GetObjectItemCaseSensitive(sp, "esr_lights_follow");
     assert_int_equal(cJSON_GetArraySize(follow), n_lights);
-    int following = 0;
+    int following = 0, followed[2] = {0, 0};
     for (int j = 0; j < n_lights; j++) {
         const int k = (int)cJSON_GetArrayItem(follow, j)->valuedouble;
         assert_true(k >= -1 && k < 2);
         following += k >= 0;
+        if (k >= 0)
+            followed[k] = 1;
     }
-    assert_true(following > 0);
-    assert_int_equal(cJSON_GetArraySize(cJSON_GetObjectItemCaseSensitive(sp, "edited_lights_unmatched")), 0);
+    assert_true(following > 0); /* the tiny run always finds the lampshade */
+    /* a dataset light no esr light follows (one the tiny run did not find) is in the JSON and
+     * warned about, and only such a light */
+    const cJSON *unmatched = cJSON_GetObjectItemCaseSensitive(sp, "edited_lights_unmatched");
+    assert_int_equal(cJSON_GetArraySize(unmatched), 2 - followed[0] - followed[1]);
+    for (int k = 0; k < 2; k++) {
+        char warning[96];
+        snprintf(warning, sizeof warning, "warning: dataset light %d is edited", k);
+        assert_true((strstr(out, warning) != NULL) == !followed[k]);
+    }
     cJSON_Delete(root);
     /* the same without masks: every edited light unmatched, said */
     snprintf(cmd, sizeof cmd, "eval '%s' --data '%s' --phase test_nvi --method direct", run, data);
@@ -1489,6 +1558,7 @@ int main(void)
         cmocka_unit_test(test_render_lights_emitted_only),
         cmocka_unit_test(test_ratio_edits),
         cmocka_unit_test(test_edit_eval_follows_lights),
+        cmocka_unit_test(test_lights_drop),
     };
     return cmocka_run_group_tests(tests, group_setup, test_teardown_tmpdir);
 }

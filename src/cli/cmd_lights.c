@@ -2,6 +2,7 @@
  * RUN/lights.json. */
 #include <cjson/cJSON.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "cli/commands.h"
@@ -19,7 +20,7 @@ static int run_lights(int argc, char **argv);
 const struct esr_command cmd_lights = {
     "lights",
     "list the lights a run found (id, centroid, area, colour, emitted radiance and power)",
-    "usage: esr lights RUN [--recompute] [--data DIR]\n"
+    "usage: esr lights RUN [--recompute | --drop ID[,ID...]] [--data DIR]\n"
     "\n"
     "Reads the lights stored in RUN's pdra checkpoint (found and calibrated when the pdra stage\n"
     "ended: the emitting surface split into connected lights, each light's strength fixed by the\n"
@@ -34,15 +35,20 @@ const struct esr_command cmd_lights = {
     "options:\n"
     "  --recompute   find and calibrate the lights again and store them in the checkpoint (a\n"
     "                run whose pdra stage found none keeps none unless asked)\n"
-    "  --data DIR    with --recompute: the dataset whose lights-off training images it reads\n"
-    "                (default: the one RUN was trained on)\n"
+    "  --drop IDS    remove these lights (ids as listed now; a reflection you judge no light,\n"
+    "                such as a mirror's view of a lamp: it then follows the lights it reflects\n"
+    "                in relights instead of glowing on), calibrate the others again without\n"
+    "                them and store the result in the checkpoint; --recompute brings them back\n"
+    "  --data DIR    with --recompute or --drop: the dataset whose lights-off training images\n"
+    "                they read (default: the one RUN was trained on)\n"
     "  -h, --help    this text\n",
     run_lights,
     0, /* view_loop */
 };
 
-/* Finds and calibrates the lights of m from DATA's lights-off training rays. */
-static int recompute(struct esr_model *m, const char *data)
+/* Finds (find) and calibrates the lights of m from DATA's training rays (the lights-off ones
+ * calibrate). */
+static int find_and_calibrate(struct esr_model *m, const char *data, int find)
 {
     struct esr_dataset ds;
     ESR_TRY(esr_dataset_load(data, &ds));
@@ -52,16 +58,37 @@ static int recompute(struct esr_model *m, const char *data)
     esr_dataset_free(&ds);
     if (rc == ESR_OK && rs.n_off == 0)
         rc = ESR_FAIL("dataset %s: no lights-off training images to calibrate with", data);
-    if (rc == ESR_OK)
+    if (rc == ESR_OK && find)
         rc = esr_lights_find(m, rs.orig3, rs.dir3, rs.n);
-    if (rc == ESR_OK && m->lights.n_left_out > 0)
+    if (rc == ESR_OK && find && m->lights.n_left_out > 0)
         fprintf(stderr, "esr lights: %d more emitting region(s) left out: esr keeps the %d largest as lights\n",
                 m->lights.n_left_out, ESR_MAX_LIGHTS);
-    if (rc == ESR_OK)
+    if (rc == ESR_OK && m->lights.n > 0)
         rc = esr_lights_calibrate(m, rs.orig3, rs.dir3, rs.n_off, ESR_LIGHTS_CALIB_POINTS,
                                   (uint64_t)m->cfg.seed);
     esr_ray_set_free(&rs);
     return rc;
+}
+
+/* Removes the lights whose ids (as listed before) the comma-separated list names. */
+static int drop_lights(struct esr_model *m, const char *list)
+{
+    int drop[ESR_MAX_LIGHTS] = {0};
+    for (const char *at = list; *at;) {
+        char *end;
+        const long id = strtol(at, &end, 10);
+        if (end == at || (*end && *end != ',') || id < 0 || id >= m->lights.n)
+            return ESR_FAIL("--drop %s: expected light ids from 0 to %d, separated by commas", list,
+                            m->lights.n - 1);
+        drop[id] = 1;
+        at = *end ? end + 1 : end;
+    }
+    for (int id = m->lights.n - 1; id >= 0; id--) /* highest first: the others keep their ids */
+        if (drop[id]) {
+            ESR_TRY(esr_lights_drop(&m->lights, id));
+            fprintf(stderr, "esr lights: dropped light %d\n", id);
+        }
+    return ESR_OK;
 }
 
 static cJSON *lights_json(const struct esr_model *m, const char *ckpt, const long *unseen)
@@ -92,17 +119,19 @@ static cJSON *lights_json(const struct esr_model *m, const char *ckpt, const lon
     return root;
 }
 
-static int lights(const char *run, const char *data_override, int again)
+static int lights(const char *run, const char *data_override, int again, const char *drop)
 {
     char ckpt[4200], data[4096], out[4200];
     snprintf(ckpt, sizeof ckpt, "%s/ckpt_pdra.bin", run);
     struct esr_model m;
     ESR_TRY(esr_model_load_finished_pdra(&m, run));
     int rc = ESR_OK;
-    if (again) {
+    if (again || drop) {
         rc = esr_run_data_dir(run, data_override, data, sizeof data);
+        if (rc == ESR_OK && drop)
+            rc = drop_lights(&m, drop);
         if (rc == ESR_OK)
-            rc = recompute(&m, data);
+            rc = find_and_calibrate(&m, data, again);
         if (rc == ESR_OK)
             rc = esr_model_save(&m, ckpt);
     }
@@ -142,7 +171,8 @@ static int lights(const char *run, const char *data_override, int again)
         if (borrowed)
             printf("  * under %.0f%% of the lights' area: too small to fit from the light it casts; it\n"
                    "    takes the fitted lights' area-weighted mean scale (a small lamp, or a mirror's reflection\n"
-                   "    of a light that the images cannot tell from one)\n",
+                   "    of a light that the images cannot tell from one: `esr lights RUN --drop ID`\n"
+                   "    removes one you judge a reflection)\n",
                    100.0 * ESR_LIGHTS_SMALL_SHARE);
         snprintf(out, sizeof out, "%s/lights.json", run);
         rc = esr_json_write_atomic(out, lights_json(&m, ckpt, unseen));
@@ -157,12 +187,14 @@ static int run_lights(int argc, char **argv)
 {
     if (cli_wants_help(&cmd_lights, argc, argv))
         return 0;
-    const char *run = NULL, *data = NULL;
+    const char *run = NULL, *data = NULL, *drop = NULL;
     int again = 0;
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
         if (!strcmp(a, "--recompute"))
             again = 1;
+        else if (!strcmp(a, "--drop") && i + 1 < argc)
+            drop = argv[++i];
         else if (!strcmp(a, "--data") && i + 1 < argc)
             data = argv[++i];
         else if (a[0] == '-' && a[1])
@@ -174,8 +206,11 @@ static int run_lights(int argc, char **argv)
     }
     if (!run)
         return cli_fail(&cmd_lights, "missing RUN directory");
-    if (data && !again)
-        return cli_fail(&cmd_lights, "--data is read only with --recompute (the lights are stored "
-                        "in RUN's pdra checkpoint)");
-    return lights(run, data, again) == ESR_OK ? 0 : cli_fail_lib(&cmd_lights);
+    if (data && !again && !drop)
+        return cli_fail(&cmd_lights, "--data is read only with --recompute or --drop (the lights are "
+                        "stored in RUN's pdra checkpoint)");
+    if (again && drop)
+        return cli_fail(&cmd_lights, "--drop names lights as listed now, which --recompute finds "
+                        "anew: drop them after a --recompute");
+    return lights(run, data, again, drop) == ESR_OK ? 0 : cli_fail_lib(&cmd_lights);
 }

@@ -2,6 +2,7 @@
 #include "model/lights.h"
 
 #include "core/colour.h"
+#include "core/error.h"
 #include "core/hash.h"
 #include "fields/trilerp.h"
 
@@ -30,6 +31,26 @@ uint64_t esr_lights_fingerprint(const struct esr_lights *L)
     if (L->n > 0 && L->label)
         h = esr_hash_bytes(h, L->label, esr_grid_voxels(&L->grid));
     return h;
+}
+
+int esr_lights_drop(struct esr_lights *L, int id)
+{
+    if (id < 0 || id >= L->n)
+        return ESR_FAIL("light %d: the run has %d light%s (ids 0 to %d)", id, L->n, L->n == 1 ? "" : "s",
+                        L->n - 1);
+    const size_t N = esr_grid_voxels(&L->grid);
+    for (size_t i = 0; i < N; i++) {
+        const int k = ESR_LIGHT_LABEL_ID(L->label[i]) - 1;
+        if (k == id)
+            L->label[i] = 0;
+        else if (k > id) /* its id + 1 becomes id: one less, the unseen flag kept */
+            L->label[i] = (uint8_t)((L->label[i] & ESR_LIGHT_UNSEEN) | (uint8_t)k);
+    }
+    memmove(&L->light[id], &L->light[id + 1], (size_t)(L->n - id - 1) * sizeof L->light[0]);
+    memmove(&L->edit[id], &L->edit[id + 1], (size_t)(L->n - id - 1) * sizeof L->edit[0]);
+    if (--L->n == 0)
+        esr_lights_free(L);
+    return ESR_OK;
 }
 
 void esr_lights_unseen_points(const struct esr_lights *L, long unseen[ESR_MAX_LIGHTS])

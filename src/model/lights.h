@@ -75,6 +75,12 @@ uint64_t esr_lights_fingerprint(const struct esr_lights *L);
  * saturation replaced with V kept when ed->recolour. */
 void esr_light_edit_apply(const struct esr_light_edit *ed, const float e[3], float out[3]);
 
+/* Removes light id (a reflection the user judges no light, say): its surface leaves the labels,
+ * the lights above it move down one id, their table entries with them. The others' strengths
+ * stay as they are (train/lights.h's calibration fits them again without it). ESR_ERR for an
+ * id outside [0, n). */
+int esr_lights_drop(struct esr_lights *L, int id);
+
 /* unseen[id] = the light's lattice points that carry ESR_LIGHT_UNSEEN (its part no camera sees),
  * for id < L->n. */
 void esr_lights_unseen_points(const struct esr_lights *L, long unseen[ESR_MAX_LIGHTS]);
