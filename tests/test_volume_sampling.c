@@ -127,8 +127,9 @@ static void assert_mask_keeps_subset(const struct esr_samples *a, const struct e
     assert_int_equal(kept, b->count);
 }
 
-/* Jittered samples stay in their strata, are reproducible, independent of the thread count, and
- * masked-out space is skipped. */
+/* Jittered samples stay in their strata, with one offset per ray (samples exactly a step apart,
+ * as each NeuS section t -+ step / 2 assumes), are reproducible, independent of the thread
+ * count, and masked-out space is skipped. */
 static void test_sampler_jitter_and_mask(void **state)
 {
     (void)state;
@@ -163,9 +164,11 @@ static void test_sampler_jitter_and_mask(void **state)
     for (int r = 0; r < R; r++) {
         float t0 = 0.0f, t1 = 0.0f;
         assert_int_equal(esr_ray_box_clip(o + r * 3, d + r * 3, BMIN, BMAX, 0.0f, 1e30f, &t0, &t1), 1);
+        const float u0 = (a.t[a.ray_start[r]] - t0) / p.step;
         for (size_t i = a.ray_start[r]; i < a.ray_start[r + 1]; i++) {
             float u = (a.t[i] - t0) / p.step - (float)(i - a.ray_start[r]);
             assert_true(u >= -1e-3f && u <= 1.0f + 1e-3f);
+            assert_true(fabsf(u - u0) < 2e-3f); /* the ray's one offset */
             assert_true(a.t[i] <= t1 + 1e-6f);
             mean_u += u;
             n_u++;

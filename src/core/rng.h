@@ -33,9 +33,6 @@ ESR_INLINE uint32_t esr_rng_u32(struct esr_rng *rng)
     return (uint32_t)(esr_mix64(rng->key + 0x9e3779b97f4a7c15ULL * ++rng->counter) >> 32);
 }
 
-/* Advances the stream past n draws (counter-based: the next draw is the one n draws on). */
-ESR_INLINE void esr_rng_skip(struct esr_rng *rng, uint64_t n) { rng->counter += n; }
-
 /* 64 random bits: the first draw is the high half. (Two draws in one expression would leave their
  * order to the compiler.) */
 ESR_INLINE uint64_t esr_rng_u64(struct esr_rng *rng)

@@ -20,7 +20,8 @@ struct esr_sample_params {
     float near, far;             /* ray parameter range before clipping by the box (default 0 and
                                     1e30: the box alone decides, whatever the camera distance) */
     float step;                  /* distance between samples along t (world units for unit d) */
-    int jitter;                  /* 0: t = t0 + (k + 0.5) step; 1: t = t0 + (k + u_k) step */
+    int jitter;                  /* 0: t = t0 + (k + 0.5) step; 1: t = t0 + (k + u) step, one
+                                    random u per ray */
     uint64_t seed;               /* jitter randomness: stream = stream_base + ray index */
     uint64_t stream_base;
     int max_per_ray;             /* cap on samples of one ray (0 = no cap) */
