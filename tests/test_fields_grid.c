@@ -99,6 +99,14 @@ static void test_linear_field_and_point_gradient(void **state)
             assert_true(test_close(d[1], -1.2, 1e-4, 1e-4));
             assert_true(test_close(d[2], 3.0, 1e-4, 1e-4));
         }
+    /* the last lattice point's own position (as marching cubes places vertices), which may
+     * round past the face */
+    float corner[3];
+    esr_grid_voxel_pos(&g, g.nx - 1, g.ny - 1, g.nz - 1, corner);
+    esr_grid_sample_dpoint(&g, data, 1, corner, 1, d);
+    assert_true(test_close(d[0], -0.3, 1e-4, 1e-4));
+    assert_true(test_close(d[1], -1.2, 1e-4, 1e-4));
+    assert_true(test_close(d[2], 3.0, 1e-4, 1e-4));
     free(data);
 }
 

@@ -298,6 +298,31 @@ static void test_resume_inside_lts_and_pdra_is_exact(void **state)
     }
 }
 
+/* A checkpoint trained over another scene box than the dataset's (a run begun before non-cubic
+ * boxes were widened to cubes) is refused on resume: its grids lie over its own box. */
+static void test_resume_refuses_another_box(void **state)
+{
+    (void)state;
+    char run[4300], data[4300], cmd[24000];
+    snprintf(run, sizeof run, "%s/run_box", test_tmpdir);
+    snprintf(data, sizeof data, "%s/data_box", test_tmpdir);
+    snprintf(cmd, sizeof cmd, "mkdir -p '%s' && cp '%s'/runs/full/ckpt_alphamask.bin '%s'/ && cp -r '%s' '%s'",
+             run, test_tmpdir, run, data_dir, data);
+    assert_int_equal(system(cmd), 0);
+    snprintf(cmd, sizeof cmd, "%s/scene.json", data);
+    assert_int_equal(test_write_file(cmd, "{\"bounding_box\": {\"min\": [-1, -1, -1], \"max\": [1, 1, 2]}}"), 0);
+    struct esr_train_opts o;
+    struct log_capture lc;
+    opts_for(&o, run, ESR_STAGE_COARSE, &lc);
+    o.data_dir = data;
+    o.resume = 1;
+    assert_int_not_equal(esr_train_run(&o), ESR_OK);
+    if (!strstr(esr_error_message(), "was trained over the scene box"))
+        fail_msg("%s", esr_error_message());
+    assert_non_null(strstr(lc.text, "bounding box is not a cube"));
+    esr_error_clear();
+}
+
 /* --set on resume (esr_train_opts.resume_set): applied over the run's config.json for the stages
  * still to train and written back; a set that fails the cross-option check is refused with the
  * file unchanged; on the command line another --preset with --resume is refused, not ignored. */
@@ -1345,7 +1370,8 @@ static void test_ratio_edits(void **state)
 /* A fine-tuned model's view through the editor (edit/relight.h, the model mode): where no light
  * is seen, the fine-tuned lights-on render bit for bit; where a light is seen, the lights-off
  * radiance plus the light's edited emission plus the lights' direct light, which is never
- * negative and, with every light at twice its strength, lights some of those pixels. */
+ * negative and, with light 0 off and the others x1000, lights those pixels wherever the direct
+ * method does (a tiny run with one light, or its second under the floor, lights none: said). */
 static void test_finetune_view(void **state)
 {
     (void)state;
@@ -1415,6 +1441,9 @@ static void test_finetune_view(void **state)
                   on_light, lit_up, most, direct_lit);
     assert_true(seen > 0 && on_light > 0);
     assert_true(direct_lit == 0 || lit_up > 0);
+    if (direct_lit == 0)
+        print_message("finetune view: no light reaches another's pixels in this tiny run (%d "
+                      "lights): the direct light there is not checked\n", m->lights.n);
     esr_image_free(&img_direct);
     free(o3), free(d3), free(on), free(off), free(lit);
     esr_image_free(&img);
@@ -1451,21 +1480,32 @@ static void test_lights_drop(void **state)
     assert_int_equal(esr_model_load(&m, cmd), ESR_OK);
     assert_int_equal(m.lights.n, n); /* refused: nothing changed */
     esr_model_free(&m);
+    snprintf(cmd, sizeof cmd, "lights '%s' --drop ''", run);
+    assert_int_equal(test_run_esr(cmd, out, sizeof out), 1);
+    assert_non_null(strstr(out, "expected light ids from 0 to"));
     snprintf(cmd, sizeof cmd, "lights '%s' --drop 0 --data '%s'", run, data_dir);
+    if (n == 1) { /* the only light: refused, renders would fall back to the raw field */
+        assert_int_equal(test_run_esr(cmd, out, sizeof out), 1);
+        assert_non_null(strstr(out, "would leave no lights"));
+        return;
+    }
     if (test_run_esr(cmd, out, sizeof out) != 0)
         fail_msg("esr %s:\n%s", cmd, out);
     assert_non_null(strstr(out, "dropped light 0"));
     snprintf(cmd, sizeof cmd, "%s/ckpt_pdra.bin", run);
     assert_int_equal(esr_model_load(&m, cmd), ESR_OK);
     assert_int_equal(m.lights.n, n - 1);
-    if (n > 1) { /* the last light moved down one id, its place and size with it */
-        const struct esr_light *moved = &m.lights.light[n - 2];
-        assert_int_equal(moved->points, last.points);
-        assert_float_equal(moved->area, last.area, 0.0f);
-        for (int a = 0; a < 3; a++)
-            assert_float_equal(moved->centroid[a], last.centroid[a], 0.0f);
-    }
+    const struct esr_light *moved = &m.lights.light[n - 2]; /* the last light, one id down */
+    assert_int_equal(moved->points, last.points);
+    assert_float_equal(moved->area, last.area, 0.0f);
+    for (int a = 0; a < 3; a++)
+        assert_float_equal(moved->centroid[a], last.centroid[a], 0.0f);
     esr_model_free(&m);
+    snprintf(cmd, sizeof cmd, "lights '%s' --drop 0 --data '%s'", run, data_dir);
+    if (n == 2) { /* dropping the one light left is refused too */
+        assert_int_equal(test_run_esr(cmd, out, sizeof out), 1);
+        assert_non_null(strstr(out, "would leave no lights"));
+    }
 }
 
 /* esr eval on an edit phase (test_nvi, direct): the scores, and what each esr light was edited
@@ -1523,7 +1563,7 @@ static void test_edit_eval_follows_lights(void **state)
     rc = test_run_esr(cmd, out, sizeof out);
     if (rc != 0)
         fail_msg("esr %s: exit %d:\n%s", cmd, rc, out);
-    if (!strstr(out, "warning: dataset light 0 is edited by 9 frame(s), but no esr light overlaps its masks"))
+    if (!strstr(out, "warning: dataset light 0 is edited by 9 frame(s), but no esr light follows it"))
         fail_msg("esr %s said:\n%s", cmd, out);
     snprintf(cmd, sizeof cmd, "%s/eval/test_nvi_direct.json", run);
     root = test_read_json(cmd);
@@ -1541,6 +1581,7 @@ int main(void)
         cmocka_unit_test(test_resume_at_stage_boundary_is_exact),
         cmocka_unit_test(test_resume_inside_lts_and_pdra_is_exact),
         cmocka_unit_test(test_resume_applies_set),
+        cmocka_unit_test(test_resume_refuses_another_box),
         cmocka_unit_test(test_interrupt_saves_and_resumes),
         cmocka_unit_test(test_nan_is_recovered_then_stops),
         cmocka_unit_test(test_nan_in_emitter_stages_is_recovered),

@@ -321,10 +321,6 @@ static int evaluate_edits(const struct eval_args *a, const struct esr_run_select
     memset(&res, 0, sizeof res);
     if (status == ESR_OK) {
         fprintf(stderr, "relighting %d frame(s) of %s (%s) into %s\n", sel->n, phase, method, dir);
-        if (sel->ds.n_lights > ESR_MAX_TRUE_LIGHTS)
-            fprintf(stderr, "esr eval: warning: the dataset has %d lights; evaluation maps the first "
-                            "%d to esr's lights and scores their edits, the others' edits are not "
-                            "applied\n", sel->ds.n_lights, ESR_MAX_TRUE_LIGHTS);
         struct esr_finetune_opts ft;
         esr_finetune_default_opts(&ft);
         if (a->iters)
@@ -352,8 +348,9 @@ static int evaluate_edits(const struct eval_args *a, const struct esr_run_select
                    res.split.rows[k].name, res.split.rows[k].esr_light, res.split.rows[k].iou);
         for (int u = 0; u < res.n_unmatched; u++)
             fprintf(stderr, "esr eval: warning: dataset light %d is edited by %d frame(s), but no "
-                            "esr light overlaps its masks (the dataset has none for it, or esr "
-                            "did not find that light): those frames are scored without its edit\n",
+                            "esr light follows it (none has half its pixels in its masks: the "
+                            "dataset has no masks for it, or esr did not find that light): those "
+                            "frames are scored without its edit\n",
                     res.unmatched[u], res.unmatched_frames[u]);
         fprintf(stderr, "wrote %s and %s\n", json, html);
     }
@@ -418,6 +415,10 @@ static int run_eval(int argc, char **argv)
     const int edit_phase = status == ESR_OK && (sel.phase == ESR_PHASE_TEST_NVI ||
                                                 sel.phase == ESR_PHASE_TEST_NVC ||
                                                 sel.phase == ESR_PHASE_TEST_NVIC);
+    if (status == ESR_OK && sel.ds.n_lights > ESR_MAX_TRUE_LIGHTS)
+        fprintf(stderr, "esr eval: warning: the dataset has %d lights; evaluation maps and scores the "
+                        "first %d (light split, emitted radiance, edits), the others' edits are not "
+                        "applied\n", sel.ds.n_lights, ESR_MAX_TRUE_LIGHTS);
     if (status == ESR_OK && !edit_phase && a.edit_option)
         status = ESR_FAIL("%s applies to the edit phases (test_nvi, test_nvc, test_nvic), not to "
                           "%s", a.edit_option, a.phase);

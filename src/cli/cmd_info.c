@@ -61,7 +61,7 @@ static void print_summary(const struct esr_dataset *ds, const struct esr_dataset
     printf("scene box [%.3g, %.3g, %.3g] .. [%.3g, %.3g, %.3g] (%s)\n", (double)ds->bbox_min[0],
            (double)ds->bbox_min[1], (double)ds->bbox_min[2], (double)ds->bbox_max[0], (double)ds->bbox_max[1],
            (double)ds->bbox_max[2],
-           ds->bbox_made_cubic ? "scene.json, widened to a cube" : ds->bbox_from_scene ? "scene.json" : "default");
+           esr_dataset_bbox_source(ds));
     printf("\n%-10s %6s  %-34s %-40s %s\n", "phase", "frames", "lighting", "camera centres min .. max",
            "distance");
     for (int p = 0; p < ESR_PHASE_COUNT; p++) {

@@ -1,6 +1,7 @@
 /* esr lights RUN: the lights the run found (ids, place, size, colour, strength) as a table and
  * RUN/lights.json. */
 #include <cjson/cJSON.h>
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -73,16 +74,24 @@ static int find_and_calibrate(struct esr_model *m, const char *data, int find)
 /* Removes the lights whose ids (as listed before) the comma-separated list names. */
 static int drop_lights(struct esr_model *m, const char *list)
 {
-    int drop[ESR_MAX_LIGHTS] = {0};
+    if (m->lights.n == 0)
+        return ESR_FAIL("--drop: the run has no lights");
+    int drop[ESR_MAX_LIGHTS] = {0}, dropping = 0;
+    if (!*list)
+        return ESR_FAIL("--drop: expected light ids from 0 to %d, separated by commas", m->lights.n - 1);
     for (const char *at = list; *at;) {
         char *end;
         const long id = strtol(at, &end, 10);
         if (end == at || (*end && *end != ',') || id < 0 || id >= m->lights.n)
             return ESR_FAIL("--drop %s: expected light ids from 0 to %d, separated by commas", list,
                             m->lights.n - 1);
+        dropping += !drop[id];
         drop[id] = 1;
         at = *end ? end + 1 : end;
     }
+    if (dropping == m->lights.n) /* with none, renders fall back to the raw field everywhere */
+        return ESR_FAIL("--drop %s would leave no lights (keep at least one; --recompute finds them "
+                        "again)", list);
     for (int id = m->lights.n - 1; id >= 0; id--) /* highest first: the others keep their ids */
         if (drop[id]) {
             ESR_TRY(esr_lights_drop(&m->lights, id));
@@ -150,9 +159,11 @@ static int lights(const char *run, const char *data_override, int again, const c
         for (int i = 0; i < m.lights.n; i++) {
             const struct esr_light *l = &m.lights.light[i];
             const int fitted = esr_light_strength_fitted(&m.lights, i);
-            /* + 0: no "-0.00" for a coordinate that rounds to zero from below */
+            double c[3]; /* no "-0.00" for a coordinate that rounds to zero from below */
+            for (int a = 0; a < 3; a++)
+                c[a] = fabs((double)l->centroid[a]) < 0.005 ? 0.0 : (double)l->centroid[a];
             printf("  %2d  (%6.2f %6.2f %6.2f)  %6.3f  %8.3g %8.3g %8.3g  %8.3g  %.2f %.2f %.2f%s\n",
-                   i, (double)l->centroid[0] + 0.0, (double)l->centroid[1] + 0.0, (double)l->centroid[2] + 0.0,
+                   i, c[0], c[1], c[2],
                    (double)l->area, (double)l->radiance[0], (double)l->radiance[1],
                    (double)l->radiance[2], (double)l->power, (double)l->scale[0],
                    (double)l->scale[1], (double)l->scale[2], fitted ? "" : " *");

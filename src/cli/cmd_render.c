@@ -29,7 +29,7 @@ const struct esr_command cmd_render = {
     "  N_normal.exr  the composited normal (RGB, not normalised) and opacity (A)\n"
     "and for a model of the lts or pdra stage (linear values as EXR, PNG through the sRGB curve):\n"
     "  N_emission.exr/.png  emitted radiance (pdra: the found lights' only, at their strength;\n"
-    "                       the PNG over the brightest light's largest channel)\n"
+    "                       the PNG over the brightest light's largest channel above 1)\n"
     "  N_emitter.png        emitter mask, 0 or 255 (the mask emitter IoU is scored on)\n"
     "  N_lights.png         with lights found: 0 off the lights, else 1 + the light's id (`esr\n"
     "                       lights RUN`); stretch its contrast to see it\n"

@@ -99,7 +99,7 @@ ESR_INLINE struct brdf_lane brdf_lane(const struct brdf_wo *p, float x, float y,
     float t = 1.0f - (o_h < 1.0f ? o_h : 1.0f), t2 = t * t;
     /* 1 - h.n = |H x n|^2 / (|H| (|H| + H.n)) for H = wo + wi: no cancellation near the mirror
      * direction, where 2 / r^4 multiplies its error (1 - H.n / |H| in float put D off by up to
-     * e^13 at the roughness floor) */
+     * e^13 in the exponent on a review's near-mirror pairs at the roughness floor) */
     float cx = hy * p->n.z - hz * p->n.y, cy = hz * p->n.x - hx * p->n.z, cz = hx * p->n.y - hy * p->n.x;
     float h_n = hx * p->n.x + hy * p->n.y + hz * p->n.z;
     float den = len * (len + h_n);

@@ -325,15 +325,16 @@ int esr_edit_eval_write_html(const char *path, const char *title, const struct e
     }
     fprintf(out, "</table>\n<p>Each dataset light is scored against the esr light whose pixels "
                  "best overlap its mask, and each esr light is edited as the dataset light whose "
-                 "masks hold most of its pixels (over %d of the phase's views, spread evenly; the "
-                 "masks are used by evaluation only).",
+                 "masks hold at least half of its pixels (over %d of the phase's views, spread "
+                 "evenly; the masks are used by evaluation only).",
             res->split.views);
     for (int j = 0; j < res->n_lights; j++)
         if (res->split.dataset_light[j] < 0)
-            fprintf(out, " esr light %d overlaps no dataset light and stays as found.", j);
+            fprintf(out, " esr light %d lies in no dataset light's masks and stays as found.", j);
     for (int u = 0; u < res->n_unmatched; u++)
-        fprintf(out, " <b>Dataset light %d is edited by %d frame(s), but no esr light overlaps its "
-                     "masks: those frames are scored without its edit.</b>",
+        fprintf(out, " <b>Dataset light %d is edited by %d frame(s), but no esr light follows it "
+                     "(none has half its pixels in its masks): those frames are scored without "
+                     "its edit.</b>",
                 res->unmatched[u], res->unmatched_frames[u]);
     fputs(" The renders are linear radiance through the sRGB curve, as the edits are written.</p>\n", out);
     fputs("<table><tr><th>view</th><th>edit asked</th><th>esr, unedited (lights on)</th>"

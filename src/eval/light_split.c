@@ -100,13 +100,10 @@ int esr_light_split_eval(const struct esr_dataset *ds, enum esr_phase_id phase, 
         sum += r->iou;
     }
     out->mean_iou = out->n ? sum / out->n : 0.0;
-    for (int j = 0; j < ESR_MAX_LIGHTS; j++) {
-        long most = 0;
+    for (int j = 0; j < ESR_MAX_LIGHTS; j++) { /* most of its pixels in K's masks: it follows K */
         for (int k = 0; k < lights; k++)
-            if (c.inter[k][j] > most) {
-                most = c.inter[k][j];
+            if (c.pred[j] > 0 && 2 * c.inter[k][j] >= c.pred[j])
                 out->dataset_light[j] = k;
-            }
     }
     return ESR_OK;
 }

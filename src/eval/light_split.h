@@ -22,9 +22,11 @@ struct esr_light_split {
     int n;                 /* dataset lights scored */
     struct esr_light_split_row rows[ESR_MAX_TRUE_LIGHTS];
     double mean_iou;
-    /* per esr light j: the dataset light whose masks hold most of its pixels, -1 when none does
-     * (a light the dataset does not have, such as a reflection kept as emission). Edits follow
-     * it, so a dataset light that esr found in two pieces is edited in both. */
+    /* per esr light j: the dataset light whose masks hold at least half of its pixels, -1 when
+     * none does (a light the dataset does not have, such as a reflection kept as emission, even
+     * if a few of its pixels touch a mask's edge). Edits follow it, so a dataset light that esr
+     * found in two pieces is edited in both. (Masks of different lights do not overlap, so at
+     * most one holds half.) */
     int dataset_light[ESR_MAX_LIGHTS];
 };
 

@@ -191,7 +191,7 @@ static void put_lights(FILE *out, const struct esr_report_spec *spec)
                 (double)l->area, unseen[i], l->points, (double)l->radiance[0], (double)l->radiance[1],
                 (double)l->radiance[2], (double)l->power, (double)l->scale[0],
                 (double)l->scale[1], (double)l->scale[2],
-                esr_light_strength_fitted(L, i) ? "fitted" : "too small to fit: the fitted lights' area-weighted mean");
+                esr_light_strength_fitted(L, i) ? "fitted" : ESR_LIGHT_BORROWED_TEXT);
         if (sp->views) { /* the dataset lights matched to it, or none: not a light of the scene */
             int matched = 0;
             fputs("<td>", out);
@@ -201,7 +201,11 @@ static void put_lights(FILE *out, const struct esr_report_spec *spec)
                     esr_html_put_escaped(out, sp->rows[k].name);
                     fprintf(out, " (IoU %.3f)", sp->rows[k].iou);
                 }
-            fputs(matched ? "</td>" : "none: not one of the dataset's lights</td>", out);
+            const int k = sp->dataset_light[i]; /* a second piece of a light: it follows it */
+            if (!matched && k >= 0)
+                fprintf(out, "part of %d (half its pixels or more in its masks)</td>", k);
+            else
+                fputs(matched ? "</td>" : "none: not one of the dataset's lights</td>", out);
         }
         fputs("</tr>\n", out);
     }
@@ -293,7 +297,7 @@ static void put_views(FILE *out, const struct esr_report_spec *spec)
     const int emitters = spec->res->n_emitter_views > 0;
     fprintf(out, "<h2>Views</h2>\n<table><tr><th>view</th><th>mode</th><th>ground truth</th><th>tone-mapped</th>"
                  "<th>linear</th><th>normal</th>%s%s<th>normal error (deg)</th></tr>\n",
-            emitters ? "<th>emission (over the brightest light's radiance)</th><th>emitter mask</th><th>true emitters</th>"
+            emitters ? "<th>emission (with lights: over the brightest light's radiance)</th><th>emitter mask</th><th>true emitters</th>"
                        "<th>emission's effect (on - off)</th><th>true effect</th>"
                      : "",
             metric_header);

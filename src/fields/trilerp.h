@@ -32,14 +32,17 @@ ESR_INLINE void esr_trilerp_locate(const struct esr_grid *g, const float p[3], s
         float u = (p[a] - g->bmin[a]) * scale;
         float hi = (float)(n[a] - 1);
         t->du[a] = scale;
-        /* clamped only when strictly outside (or NaN): a point on a face has its cell's
-         * one-sided derivative (the mesh's vertices on the box faces took 0 there) */
-        if (!(u >= 0.0f)) {
+        /* clamped only when outside by more than rounding (or NaN): a point on a face has its
+         * cell's one-sided derivative (the mesh's vertices on the box faces took 0 there; a
+         * lattice point's position can round an ulp past the face) */
+        if (!(u >= -1e-3f)) {
             u = 0.0f;
             t->du[a] = 0.0f;
-        } else if (u > hi) {
+        } else if (u > hi + 1e-3f) {
             u = hi;
             t->du[a] = 0.0f;
+        } else {
+            u = u < 0.0f ? 0.0f : u > hi ? hi : u;
         }
         i0[a] = (int)u;
         if (i0[a] > n[a] - 2)

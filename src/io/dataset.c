@@ -498,6 +498,11 @@ static int load_all(const char *dir, struct esr_dataset *ds)
     return load_size(ds);
 }
 
+const char *esr_dataset_bbox_source(const struct esr_dataset *ds)
+{
+    return ds->bbox_made_cubic ? "scene.json, widened to a cube" : ds->bbox_from_scene ? "scene.json" : "default";
+}
+
 int esr_dataset_load(const char *dir, struct esr_dataset *ds)
 {
     memset(ds, 0, sizeof *ds);

@@ -79,6 +79,10 @@ struct esr_dataset {
     struct esr_phase phases[ESR_PHASE_COUNT];
 };
 
+/* Where the scene box came from, for reports: "scene.json", "scene.json, widened to a cube" or
+ * "default". */
+const char *esr_dataset_bbox_source(const struct esr_dataset *ds);
+
 /* Reads the transforms JSON of every phase and the image size (the one most of the first 5
  * training images that decode have; esr_dataset_check reports the images that differ). The layout is
  * detected: DIR/transforms/transforms_train.json (ESR; test phases whose file is absent are

@@ -70,9 +70,7 @@ static cJSON *summary_json(const struct esr_dataset *ds, const struct esr_datase
     cJSON_AddNumberToObject(root, "n_lights", ds->n_lights);
     cJSON_AddItemToObject(root, "bbox_min", esr_json_float_array(ds->bbox_min, 3));
     cJSON_AddItemToObject(root, "bbox_max", esr_json_float_array(ds->bbox_max, 3));
-    cJSON_AddStringToObject(root, "bbox_source", ds->bbox_made_cubic   ? "scene.json, widened to a cube"
-                                                 : ds->bbox_from_scene ? "scene.json"
-                                                                       : "default");
+    cJSON_AddStringToObject(root, "bbox_source", esr_dataset_bbox_source(ds));
     cJSON *phases = cJSON_AddObjectToObject(root, "phases");
     for (int p = 0; p < ESR_PHASE_COUNT; p++)
         if (s->phases[p].present)

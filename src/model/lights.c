@@ -35,6 +35,8 @@ uint64_t esr_lights_fingerprint(const struct esr_lights *L)
 
 int esr_lights_drop(struct esr_lights *L, int id)
 {
+    if (L->n == 0)
+        return ESR_FAIL("light %d: the run has no lights", id);
     if (id < 0 || id >= L->n)
         return ESR_FAIL("light %d: the run has %d light%s (ids 0 to %d)", id, L->n, L->n == 1 ? "" : "s",
                         L->n - 1);

@@ -32,9 +32,10 @@ struct esr_view_images {
                                  -1 for none (a model with lights; else NULL) */
     float emitter_k;          /* emitter mask: emission above this in any channel */
     float emission_png_scale; /* N_emission.png shows emitted x this before the sRGB curve: 1 /
-                                 the brightest light's largest channel (a model with lights; the
-                                 same in every view, so the lights keep their colour and relative
-                                 strength instead of clipping white), else 1 */
+                                 the brightest light's largest channel when that is above 1 (a
+                                 model with lights; the same in every view, so the lights keep
+                                 their colour and relative strength instead of clipping white),
+                                 else 1 */
 };
 
 /* Renders every pixel of cam with the lights on (1) or off (0) in one model call (the model
@@ -56,7 +57,8 @@ void esr_view_images_free(struct esr_view_images *v);
  * and with an emission image (lts stage on):
  *   N_emission.exr composited emitted radiance (a model with lights: E at its light's
  *                  calibrated strength on the lights, nothing elsewhere; else E; linear RGB, float)
- *   N_emission.png its sRGB OETF clipped to [0,1], 8-bit
+ *   N_emission.png times emission_png_scale (over the brightest light's largest channel when
+ *                  above 1), its sRGB OETF clipped to [0,1], 8-bit
  *   N_emitter.png  emitter mask, grey 0 or 255: any channel of the field's E above emitter_k
  *                  and, for a model with lights, the pixel's surface on one of them
  *   N_emo.exr, N_emo.png  lights-on views: the emission's effect, linear on - off (float; PNG:
@@ -106,8 +108,10 @@ int esr_view_render_frames(const struct esr_model *m, const struct esr_dataset *
 
 /* What a view's files mean; render.json records it, so that renders written before a change
  * of meaning are stale (2: with lights found, N_emission.exr and N_emitter.png are the lights';
- * 3: the record names the model by its fingerprint and each frame by its view's). */
-#define ESR_VIEW_OUTPUTS_VERSION 3
+ * 3: the record names the model by its fingerprint and each frame by its view's; 4: a light's
+ * unseen part emits its mean field, N_emission.png is scaled by emission_png_scale, rays are
+ * never cut at 2048 samples). */
+#define ESR_VIEW_OUTPUTS_VERSION 4
 
 /* current[i] = 1 when frame idx[i] of `phase` has its outputs in dir and dir/render.json says
  * this model (esr_model_fingerprint) rendered it from the view the dataset has now (camera,

@@ -73,6 +73,8 @@ int esr_lights_calibrate(struct esr_model *m, const float *orig3, const float *d
  * mirror sphere's reflection of the lampshade, area 0.011 of 0.88, came out at 323x, fitted over
  * the whole floor). */
 #define ESR_LIGHTS_SMALL_SHARE 0.05
+/* How listings and logs say a light's scale was borrowed. */
+#define ESR_LIGHT_BORROWED_TEXT "too small to fit: the fitted lights' area-weighted mean"
 int esr_lights_fitted(const struct esr_lights *L, int *fit);
 /* 1 when light id is one esr_lights_fitted fits, 0 when its scale is borrowed (listings mark it:
  * a small lamp, or a mirror's reflection of a light that the images cannot tell from one). */

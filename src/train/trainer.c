@@ -338,7 +338,7 @@ static int find_lights(struct run *r, struct esr_model *m, enum esr_stage s)
         if (esr_light_strength_fitted(&m->lights, i))
             snprintf(from, sizeof from, "fitted on %.0f points", (double)l->calib_points);
         else
-            snprintf(from, sizeof from, "too small to fit: the fitted lights' area-weighted mean");
+            snprintf(from, sizeof from, "%s", ESR_LIGHT_BORROWED_TEXT);
         say(r, s, "  light %d: at (%.2f, %.2f, %.2f), area %.3g, emitted radiance %.3g %.3g %.3g "
                   "(field %.3g %.3g %.3g x strength %.3g %.3g %.3g, %s)",
             i, (double)l->centroid[0], (double)l->centroid[1], (double)l->centroid[2],
@@ -496,6 +496,20 @@ static int stage_model(struct run *r, enum esr_stage s, const struct esr_model *
     ckpt_path(r, s, path, sizeof path);
     if (r->o->resume && esr_file_exists(path)) {
         ESR_TRY(esr_model_load(m, path));
+        for (int a = 0; a < 3; a++) /* its grids lie over its box: the next stage's must too */
+            if (fabsf(m->scene_min[a] - r->scene_min[a]) > 1e-5f || fabsf(m->scene_max[a] - r->scene_max[a]) > 1e-5f) {
+                const int rc = ESR_FAIL("%s was trained over the scene box [%g, %g, %g] .. [%g, %g, %g], the "
+                                        "dataset's is [%g, %g, %g] .. [%g, %g, %g] (a non-cubic box is "
+                                        "widened to a cube since 2026-11-27): train into a new RUN",
+                                        path, (double)m->scene_min[0], (double)m->scene_min[1],
+                                        (double)m->scene_min[2], (double)m->scene_max[0],
+                                        (double)m->scene_max[1], (double)m->scene_max[2],
+                                        (double)r->scene_min[0], (double)r->scene_min[1],
+                                        (double)r->scene_min[2], (double)r->scene_max[0],
+                                        (double)r->scene_max[1], (double)r->scene_max[2]);
+                esr_model_free(m);
+                return rc;
+            }
         say(r, s, "resuming stage %s from %s (iteration %ld%s)", esr_stage_name(s), path, m->step,
             m->stage_done ? ", finished" : "");
         /* a --set of how this stage trains (its iterations, learning rates) changes nothing

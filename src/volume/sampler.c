@@ -56,7 +56,7 @@ struct mask_blocks {
     int nb[3];
 };
 
-/* q = o + t d (the sample of step k, t0 + (k + u_k) step) lies where the mask is empty. When its
+/* q = o + t d (the sample of step k, t0 + (k + u) step) lies where the mask is empty. When its
  * block of the mask is empty too, the ray stays in empty space up to the block's exit: returns the
  * last step whose whole stratum [t0 + k' step, t0 + (k' + 1) step) ends before it (0.01 lattice
  * units short, for rounding), so the march skips the steps after k up to it, whose samples the
