@@ -973,6 +973,17 @@ static void test_pdra_finds_lights(void **state)
     expect_edit_refused(none_run, edit_out, "no lights");
 
     if (m.lights.n > 0) {
+        /* a phase's off and on frames of one camera: one render, written under both names */
+        char views_out[4400], a_png[4500], b_png[4500];
+        snprintf(views_out, sizeof views_out, "%s/edit_views", test_tmpdir);
+        snprintf(cmd, sizeof cmd, "edit %s --light 0 --intensity 0 --views test_nv --out %s", run,
+                 views_out);
+        if (test_run_esr(cmd, out, sizeof out) != 0)
+            fail_msg("esr %s: %s", cmd, out);
+        assert_non_null(strstr(out, "(the previous frame's camera: its view)"));
+        snprintf(a_png, sizeof a_png, "%s/c000_off.exr", views_out);
+        snprintf(b_png, sizeof b_png, "%s/c000_on.exr", views_out);
+        assert_true(test_files_equal(a_png, b_png));
         /* groups add up; two that set one thing for one light are refused */
         snprintf(cmd, sizeof cmd, "edit %s --light all --intensity 0 --light 0 --intensity 2 --out "
                  "%s --orbit 1", run, edit_out);

@@ -53,7 +53,8 @@ const struct esr_command cmd_edit = {
     "\n"
     "options:\n"
     "  --views PHASE  the cameras of a dataset phase (default: test_nv), one view per frame,\n"
-    "                 named as the frame (c000_off and c000_on alike)\n"
+    "                 named as the frame (c000_off and c000_on alike; consecutive frames of\n"
+    "                 one camera are rendered once)\n"
     "  --orbit N      N cameras on a circle around the scene at the first test camera's distance\n"
     "                 and height, written orbit_000 .. orbit_<N-1>\n"
     "  --frames a,b   only these frames of the phase, by name (not with --orbit)\n"
@@ -383,6 +384,11 @@ static int edit(const struct edit_args *a)
     if (rc == ESR_OK && !names)
         rc = ESR_FAIL("out of memory for %d view names", views);
     int done = 0, last_files = 0; /* views whose files were (partly) written */
+    /* the previous view: a phase's off and on frames of one camera give the same edited view
+     * (the edit, not the frame, sets the lighting), so it is rendered once */
+    struct esr_image prev = {0};
+    struct esr_camera prev_cam;
+    memset(&prev_cam, 0, sizeof prev_cam);
     for (int v = 0; rc == ESR_OK && v < views; v++) {
         const struct esr_frame *f = &ph->frames[sel.idx[a->orbit ? 0 : v]];
         char *name = names[v];
@@ -394,17 +400,22 @@ static int edit(const struct edit_args *a)
             snprintf(name, ESR_NAME_MAX, "%s", f->name);
         }
         const double t0 = omp_get_wtime();
-        struct esr_image lin;
-        rc = esr_editor_view(&ed, &cam, (uint64_t)v, &lin);
+        const int same = prev.data && !memcmp(&cam, &prev_cam, sizeof cam);
+        if (!same) {
+            esr_image_free(&prev);
+            rc = esr_editor_view(&ed, &cam, (uint64_t)v, &prev);
+            prev_cam = cam;
+        }
         const double secs = omp_get_wtime() - t0;
         if (rc == ESR_OK) {
             done = v + 1;
-            rc = write_view(a->out, name, &lin, &last_files);
+            rc = write_view(a->out, name, &prev, &last_files);
         }
-        esr_image_free(&lin);
         if (rc == ESR_OK)
-            fprintf(stderr, "  %-16s %4d / %-4d  %.2f s\n", name, v + 1, views, secs);
+            fprintf(stderr, "  %-16s %4d / %-4d  %.2f s%s\n", name, v + 1, views, secs,
+                    same ? " (the previous frame's camera: its view)" : "");
     }
+    esr_image_free(&prev);
     if (rc != ESR_OK && done > 0)
         remove_views(a->out, names, done, last_files);
     if (rc != ESR_OK)
