@@ -19,6 +19,10 @@
 
 #define MATRIX "[[1,0,0,0.5],[0,1,0,-0.25],[0,0,1,4],[0,0,0,1]]"
 #define LIGHT(mode, inten, mask) "{\"mode\":\"" mode "\",\"intensity\":" inten ",\"color\":[0,0,1],\"mask_path\":\"" mask "\"}"
+/* A transforms file of one training frame with one light (mode, intensity). */
+#define ONE_LIGHT_FRAME(mode, inten)                                                                   \
+    "{\"camera_angle_x\": 0.6911, \"frames\": [{\"file_path\":\"train/r_000\",\"transform_matrix\":" MATRIX \
+    ",\"lights\":[" LIGHT(mode, inten, "") "]}]}"
 
 static void write_png(const char *dir, const char *rel, int w, int h, int channels)
 {
@@ -213,22 +217,10 @@ static void test_bad_json(void **state)
         {"no_matrix", "{\"camera_angle_x\": 0.6911, \"frames\": [{\"file_path\":\"train/r_000\",\"lights\":[]}]}",
          "transform_matrix"},
         {"no_angle", "{\"frames\": []}", "camera_angle_x"},
-        {"bad_mode",
-         "{\"camera_angle_x\": 0.6911, \"frames\": [{\"file_path\":\"train/r_000\",\"transform_matrix\":" MATRIX
-         ",\"lights\":[" LIGHT("dim", "0.5", "") "]}]}",
-         "unknown light mode 'dim'"},
-        {"negative_intensity",
-         "{\"camera_angle_x\": 0.6911, \"frames\": [{\"file_path\":\"train/r_000\",\"transform_matrix\":" MATRIX
-         ",\"lights\":[" LIGHT("i_change", "-1", "") "]}]}",
-         "intensity -1 is negative"},
-        {"on_at_zero",
-         "{\"camera_angle_x\": 0.6911, \"frames\": [{\"file_path\":\"train/r_000\",\"transform_matrix\":" MATRIX
-         ",\"lights\":[" LIGHT("on", "0", "") "]}]}",
-         "mode 'on' has intensity 0"},
-        {"off_but_lit",
-         "{\"camera_angle_x\": 0.6911, \"frames\": [{\"file_path\":\"train/r_000\",\"transform_matrix\":" MATRIX
-         ",\"lights\":[" LIGHT("off", "1", "") "]}]}",
-         "mode 'off' has intensity 1"},
+        {"bad_mode", ONE_LIGHT_FRAME("dim", "0.5"), "unknown light mode 'dim'"},
+        {"negative_intensity", ONE_LIGHT_FRAME("i_change", "-1"), "intensity -1 is negative"},
+        {"on_at_zero", ONE_LIGHT_FRAME("on", "0"), "mode 'on' has intensity 0"},
+        {"off_but_lit", ONE_LIGHT_FRAME("off", "1"), "mode 'off' has intensity 1"},
         {"inf_matrix",
          "{\"camera_angle_x\": 0.6911, \"frames\": [{\"file_path\":\"train/r_000\",\"transform_matrix\":"
          "[[1,0,0,1e999],[0,1,0,0],[0,0,1,4],[0,0,0,1]],\"lights\":[]}]}",

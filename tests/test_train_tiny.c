@@ -88,6 +88,22 @@ static void capture(void *user, const struct esr_train_progress *p)
                                     p->message);
 }
 
+/* RUN/ckpt_<stage>.bin loads and holds step `step` (-1: any) and the finished flag `done` (-1:
+ * either). */
+static void assert_checkpoint(const char *run, const char *stage, long step, int done)
+{
+    char path[4400];
+    snprintf(path, sizeof path, "%s/ckpt_%s.bin", run, stage);
+    struct esr_model m;
+    if (esr_model_load(&m, path) != ESR_OK)
+        fail_msg("%s", esr_error_message());
+    if (step >= 0)
+        assert_int_equal(m.step, step);
+    if (done >= 0)
+        assert_int_equal(m.stage_done, done);
+    esr_model_free(&m);
+}
+
 static void opts_for(struct esr_train_opts *o, const char *run, enum esr_stage until,
                      struct log_capture *lc)
 {
@@ -351,12 +367,7 @@ static void test_resume_applies_set(void **state)
     esr_config_defaults(&c, ESR_PRESET_FAST);
     assert_int_equal(esr_config_load_json(&c, cfg_path), ESR_OK);
     assert_int_equal(c.coarse.iters, 7);
-    struct esr_model m;
-    snprintf(cmd, sizeof cmd, "%s/ckpt_coarse.bin", run);
-    assert_int_equal(esr_model_load(&m, cmd), ESR_OK);
-    assert_int_equal(m.step, 7);
-    assert_int_equal(m.stage_done, 1);
-    esr_model_free(&m);
+    assert_checkpoint(run, "coarse", 7, 1);
     /* resumed on another dataset than the run's record names (a folder that exists): said; a
      * recorded folder that is gone is data that moved: nothing to say */
     char record[4400], other[4600];
@@ -445,12 +456,8 @@ static void test_interrupt_saves_and_resumes(void **state)
     assert_int_equal(esr_train_run(&o), ESR_ERR);
     assert_non_null(strstr(esr_error_message(), "interrupted at alphamask iteration 1"));
     esr_error_clear();
-    struct esr_model m;
+    assert_checkpoint(run, "alphamask", 1, 0);
     snprintf(path, sizeof path, "%s/ckpt_alphamask.bin", run);
-    assert_int_equal(esr_model_load(&m, path), ESR_OK);
-    assert_int_equal(m.step, 1);
-    assert_int_equal(m.stage_done, 0);
-    esr_model_free(&m);
     /* raised before training began (a fresh start would remove this checkpoint): refused */
     opts_for(&o, run, ESR_STAGE_COARSE, NULL);
     o.interrupt = &interrupt_flag;
@@ -464,16 +471,13 @@ static void test_interrupt_saves_and_resumes(void **state)
     o.interrupt = &interrupt_flag;
     if (esr_train_run(&o) != ESR_OK)
         fail_msg("%s", esr_error_message());
-    snprintf(path, sizeof path, "%s/ckpt_coarse.bin", run);
-    assert_int_equal(esr_model_load(&m, path), ESR_OK);
-    assert_int_equal(m.stage_done, 1);
-    esr_model_free(&m);
+    assert_checkpoint(run, "coarse", -1, 1);
 }
 
 static void test_nan_is_recovered_then_stops(void **state)
 {
     (void)state;
-    char run[4200], path[4300];
+    char run[4200];
     struct log_capture lc;
     struct esr_train_opts o;
     snprintf(run, sizeof run, "%s/nan1", test_tmpdir);
@@ -494,11 +498,7 @@ static void test_nan_is_recovered_then_stops(void **state)
     assert_non_null(strstr(esr_error_message(), "stage alphamask at iteration 30"));
     assert_non_null(strstr(esr_error_message(), "is intact"));
     esr_error_clear();
-    snprintf(path, sizeof path, "%s/ckpt_alphamask.bin", run);
-    struct esr_model m;
-    assert_int_equal(esr_model_load(&m, path), 0);
-    assert_int_equal(m.step, 20);
-    esr_model_free(&m);
+    assert_checkpoint(run, "alphamask", 20, -1);
 }
 
 /* A non-finite gradient inside lts (before the stage's first checkpoint after its start) and

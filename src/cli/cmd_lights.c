@@ -62,8 +62,7 @@ static int find_and_calibrate(struct esr_model *m, const char *data, int find)
     if (rc == ESR_OK && find)
         rc = esr_lights_find(m, rs.orig3, rs.dir3, rs.n);
     if (rc == ESR_OK && find && m->lights.n_left_out > 0)
-        fprintf(stderr, "esr lights: %d more emitting region(s) left out: esr keeps the %d largest as lights\n",
-                m->lights.n_left_out, ESR_MAX_LIGHTS);
+        fprintf(stderr, "esr lights: " ESR_LIGHTS_LEFT_OUT_FMT "\n", m->lights.n_left_out, ESR_MAX_LIGHTS);
     if (rc == ESR_OK && m->lights.n > 0)
         rc = esr_lights_calibrate(m, rs.orig3, rs.dir3, rs.n_off, ESR_LIGHTS_CALIB_POINTS,
                                   (uint64_t)m->cfg.seed);

@@ -3,6 +3,8 @@
 
 #include <math.h>
 
+#include "core/colour.h"
+
 /* The four texels around direction d and their bilinear weights. */
 struct texels {
     size_t at[4];
@@ -55,6 +57,14 @@ void esr_background_fwd(const float *logits, const float *dirs3, const uint8_t *
         for (int c = 0; c < 3; c++)
             out3[(size_t)r * 3 + c] = colour(logits, &t, c);
     }
+}
+
+void esr_background_fwd_linear(const float *logits, const float *dirs3, const uint8_t *lights_on, int n,
+                               float *srgb3, float *lin3)
+{
+    esr_background_fwd(logits, dirs3, lights_on, n, srgb3);
+    for (int i = 0; i < n * 3; i++)
+        lin3[i] = esr_linear_from_srgb(srgb3[i]);
 }
 
 void esr_background_bwd(const float *logits, const float *dirs3, const uint8_t *lights_on, int n,

@@ -22,6 +22,10 @@
 /* out3[r] = bg(dirs3[r], lights_on[r]) for n rays (directions need not be unit length). */
 void esr_background_fwd(const float *logits, const float *dirs3, const uint8_t *lights_on, int n,
                         float *out3);
+/* esr_background_fwd into srgb3, and lin3 = its sRGB decoded to linear radiance (what the
+ * linear composites put behind a ray); lin3 may be srgb3 (decoded in place). */
+void esr_background_fwd_linear(const float *logits, const float *dirs3, const uint8_t *lights_on, int n,
+                               float *srgb3, float *lin3);
 /* Adds d loss / d logits into g_logits given d loss / d out3. Serial over the rays in order (a
  * few thousand rays x 4 texels: cheaper than any reduction, and deterministic). */
 void esr_background_bwd(const float *logits, const float *dirs3, const uint8_t *lights_on, int n,

@@ -141,9 +141,8 @@ int esr_trace_shade(struct esr_trace *t, const struct esr_model *m, const float 
     ESR_TRY(esr_point_fields_fwd(&t->fields, m, sdf, &q));
     t->has_bg = esr_model_has(m, ESR_COMP_BACKGROUND);
     if (t->has_bg) {
-        esr_background_fwd(esr_model_values(m, ESR_COMP_BACKGROUND), dirs, lights_on, n, t->bg3);
-        for (int i = 0; i < n * 3; i++)
-            t->bg_lin3[i] = esr_linear_from_srgb(t->bg3[i]);
+        esr_background_fwd_linear(esr_model_values(m, ESR_COMP_BACKGROUND), dirs, lights_on, n, t->bg3,
+                                  t->bg_lin3);
     }
     const float *bg;
     int bg_per_ray;

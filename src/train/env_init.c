@@ -3,7 +3,6 @@
 
 #include <stdlib.h>
 
-#include "core/colour.h"
 #include "core/error.h"
 #include "core/rng.h"
 #include "fields/background.h"
@@ -38,9 +37,7 @@ int esr_env_init_level(const struct esr_model *prev, const float *orig3, const f
         bg = malloc(RAYS * 3 * sizeof(float));
         uint8_t *off = calloc(RAYS, 1);
         if (bg && off) {
-            esr_background_fwd(esr_model_values(prev, ESR_COMP_BACKGROUND), d, off, RAYS, bg);
-            for (int i = 0; i < RAYS * 3; i++)
-                bg[i] = esr_linear_from_srgb(bg[i]);
+            esr_background_fwd_linear(esr_model_values(prev, ESR_COMP_BACKGROUND), d, off, RAYS, bg, bg);
         } else {
             rc = ESR_FAIL("environment level: out of memory");
         }

@@ -73,6 +73,9 @@ int esr_lights_calibrate(struct esr_model *m, const float *orig3, const float *d
  * mirror sphere's reflection of the lampshade, area 0.011 of 0.88, came out at 323x, fitted over
  * the whole floor). */
 #define ESR_LIGHTS_SMALL_SHARE 0.05
+/* How the trainer and `esr lights` say that lights were left out (esr_lights.n_left_out, then
+ * ESR_MAX_LIGHTS). */
+#define ESR_LIGHTS_LEFT_OUT_FMT "%d more emitting region(s) left out: esr keeps the %d largest as lights"
 /* How listings and logs say a light's scale was borrowed. */
 #define ESR_LIGHT_BORROWED_TEXT "too small to fit: the fitted lights' area-weighted mean"
 int esr_lights_fitted(const struct esr_lights *L, int *fit);

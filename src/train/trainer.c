@@ -315,8 +315,7 @@ static int find_lights(struct run *r, struct esr_model *m, enum esr_stage s)
 {
     ESR_TRY(esr_lights_find(m, r->rays.orig3, r->rays.dir3, r->rays.n));
     if (m->lights.n_left_out > 0)
-        say(r, s, "%d more emitting region(s) left out: esr keeps the %d largest as lights",
-            m->lights.n_left_out, ESR_MAX_LIGHTS);
+        say(r, s, ESR_LIGHTS_LEFT_OUT_FMT, m->lights.n_left_out, ESR_MAX_LIGHTS);
     if (m->lights.n == 0) { /* decided over the whole surface, not one batch's rays */
         say(r, s, "no emitters found: no surface point the cameras see has emission above k = "
                   "%.3g (the scene's lights are off or too dim to tell from reflection)",
