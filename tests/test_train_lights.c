@@ -12,10 +12,13 @@
 #include <cmocka.h>
 #include <math.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
+#include "core/colour.h"
 #include "core/error.h"
 #include "fields/grid.h"
+#include "model/material_fields.h"
 #include "model/model.h"
 #include "test_model.h"
 #include "test_support.h"
@@ -138,14 +141,20 @@ static void test_lights_beyond_the_limit_are_counted(void **state)
     esr_model_free(&m);
 }
 
+/* One emitting sphere of radius 0.5 at x = 0.1, its light found. */
+static void setup_one_light(struct esr_model *m)
+{
+    const float cx[1] = {0.1f};
+    setup(m, cx, 1, 0.5f, 3.0f);
+    assert_int_equal(find_lights(m), ESR_OK);
+    assert_int_equal(m->lights.n, 1);
+}
+
 static void test_one_emitting_sphere_is_one_light(void **state)
 {
     (void)state;
     struct esr_model m;
-    const float cx[1] = {0.1f};
-    setup(&m, cx, 1, 0.5f, 3.0f);
-    assert_int_equal(find_lights(&m), ESR_OK);
-    assert_int_equal(m.lights.n, 1);
+    setup_one_light(&m);
     const struct esr_light *l = &m.lights.light[0];
     const double area = 4.0 * M_PI * 0.25;
     print_message("sphere r 0.5: area %.4f (true %.4f), centroid %.3f %.3f %.3f, E %.3f\n",
@@ -244,6 +253,15 @@ static void test_lights_survive_a_checkpoint(void **state)
     m.lights.light[1].scale[2] = 7.5f;
     m.lights.label[esr_grid_voxels(&m.lights.grid) / 2] ^= 1;
     assert_true(esr_lights_fingerprint(&m.lights) != fp);
+    /* a colour balance survives the round trip and changes the fingerprint; none is not stored */
+    assert_false(esr_lights_balanced(&back.lights));
+    esr_model_free(&back);
+    m.lights.balance[0] = 1.25f, m.lights.balance[1] = 0.9f, m.lights.balance[2] = 0.8f;
+    assert_true(esr_lights_fingerprint(&m.lights) != fp);
+    assert_int_equal(esr_model_save(&m, path), ESR_OK);
+    assert_int_equal(esr_model_load(&back, path), ESR_OK);
+    assert_memory_equal(back.lights.balance, m.lights.balance, sizeof m.lights.balance);
+    memset(m.lights.balance, 0, sizeof m.lights.balance);
     /* a scaled light's emission is reported scaled */
     float pos[3] = {0.45f, 0.0f, -0.3f}, e[3] = {1.0f, 1.0f, 1.0f};
     const int id = esr_lights_id_at(&back.lights, pos);
@@ -460,6 +478,126 @@ static void test_small_light_shares_the_fitted_scale(void **state)
     assert_true(esr_light_strength_fitted(&L, 2));
 }
 
+/* The balance from silhouette and calibrated scales (esr_lights_balance_solve): each voting
+ * light's calibrated colour over its silhouette's, less its mean over channels, averaged in logs
+ * weighted by pixels. Two lights whose calibrated scales share one colour error b (geometric
+ * mean 1) and whose silhouettes have the true colours at any magnitude give b back; a light with
+ * too few pixels or a non-positive channel does not vote; none voting gives 1 1 1. */
+static void test_balance_solve(void **state)
+{
+    (void)state;
+    const float b_true[3] = {1.2f, 1.0f, 1.0f / 1.2f};
+    const float colour[3][3] = {{8.0f, 6.4f, 4.4f}, {2.4f, 6.0f, 12.0f}, {1.0f, 1.0f, 1.0f}};
+    const float magnitude[3] = {1.7f, 0.3f, 1.0f}, sil_size[3] = {0.12f, 0.2f, 1.0f};
+    float scale[3][3], sil[3][3];
+    for (int k = 0; k < 3; k++)
+        for (int c = 0; c < 3; c++) {
+            scale[k][c] = magnitude[k] * colour[k][c] * b_true[c];
+            sil[k][c] = sil_size[k] * colour[k][c];
+        }
+    sil[2][1] = 3.0f; /* a light whose silhouette disagrees, with too few pixels to vote */
+    long rows[3] = {640, 251, 20};
+    float b[3];
+    assert_int_equal(esr_lights_balance_solve(3, (const float(*)[3])sil, (const float(*)[3])scale,
+                                              rows, b), 2);
+    for (int c = 0; c < 3; c++)
+        assert_float_equal(b[c], b_true[c], 1e-5f);
+    rows[2] = 640; /* now it votes: b moves */
+    assert_int_equal(esr_lights_balance_solve(3, (const float(*)[3])sil, (const float(*)[3])scale,
+                                              rows, b), 3);
+    assert_true(fabsf(b[1] - b_true[1]) > 0.1f);
+    sil[2][1] = 0.0f; /* a dark channel: no colour to compare */
+    assert_int_equal(esr_lights_balance_solve(3, (const float(*)[3])sil, (const float(*)[3])scale,
+                                              rows, b), 2);
+    const long none[3] = {0, 10, 49};
+    assert_int_equal(esr_lights_balance_solve(3, (const float(*)[3])sil, (const float(*)[3])scale,
+                                              none, b), 0);
+    assert_true(b[0] == 1.0f && b[1] == 1.0f && b[2] == 1.0f);
+}
+
+/* esr_lights_balance end to end on one emitting sphere seen by the 26 bundles: the "photos" are
+ * the model's own lights-on renders with the light at a true scale s*, and the calibrated scale
+ * is s* times a colour error b. The silhouette pixels (unclipped: s* is dim enough) give s*'s
+ * colour back, so the balance found is b over its geometric mean and the scales end up s* times
+ * one number. The base colour comes out times the balance, the environment over it, and the
+ * light's direct effect, base colour x scale, stays as calibrated. */
+static void test_balance_finds_the_silhouette_colour(void **state)
+{
+    (void)state;
+    struct esr_model m;
+    setup_one_light(&m);
+    struct esr_light *l = &m.lights.light[0];
+    /* dim radiance fields (softplus(-3) = 0.049 everywhere), so the photos are unclipped */
+    const enum esr_component radiance[2] = {ESR_COMP_OFF_MLP, ESR_COMP_EMO_MLP};
+    for (int k = 0; k < 2; k++) {
+        const struct esr_mlp *r = esr_model_mlp(&m, radiance[k]);
+        memset(m.params.w + r->offset, 0, r->count * sizeof(float));
+        for (int c = 0; c < 3; c++)
+            m.params.w[r->b_off[r->n_layers - 1] + (size_t)c] = -3.0f;
+    }
+    const float s_true[3] = {0.2f, 0.12f, 0.05f}, b[3] = {1.3f, 0.9f, 0.8f};
+    for (int c = 0; c < 3; c++)
+        l->scale[c] = s_true[c];
+    static float lin[N_RAYS * 3], photo[N_RAYS * 3];
+    const struct esr_render_out out = {.linear = lin, .lights_emitted_only = 1};
+    assert_int_equal(esr_model_render_rays(&m, ray_orig, ray_dir, N_RAYS, 1, &out), ESR_OK);
+    for (size_t i = 0; i < (size_t)N_RAYS * 3; i++)
+        photo[i] = esr_srgb_from_linear(fminf(lin[i], 1.0f));
+    for (int c = 0; c < 3; c++)
+        l->scale[c] = s_true[c] * b[c];
+    /* the base colour at a few points before */
+    const float pts[3 * 3] = {0.6f, 0.0f, 0.0f, 0.1f, 0.5f, 0.0f, -0.2f, 0.3f, 0.2f};
+    struct esr_material_fields mf;
+    assert_int_equal(esr_material_fields_init(&mf, &m, 3, 0), ESR_OK);
+    assert_int_equal(esr_material_fields_fwd(&mf, &m, esr_model_values(&m, ESR_COMP_SDF), pts, 3), ESR_OK);
+    float before[3 * ESR_BRDF_CHANNELS];
+    memcpy(before, mf.brdf5, sizeof before);
+    const float scale_before[3] = {l->scale[0], l->scale[1], l->scale[2]};
+    struct esr_lights_balance_info info;
+    assert_int_equal(esr_lights_balance(&m, ray_orig, ray_dir, photo, N_RAYS, &info), ESR_OK);
+    print_message("balance %.4f %.4f %.4f from %ld silhouette pixels; silhouette scale %.4f %.4f "
+                  "%.4f\n", (double)info.applied[0], (double)info.applied[1],
+                  (double)info.applied[2], info.rows[0], (double)info.silhouette[0][0],
+                  (double)info.silhouette[0][1], (double)info.silhouette[0][2]);
+    assert_int_equal(info.used, 1);
+    assert_true(info.rows[0] >= 50);
+    const float gm = cbrtf(b[0] * b[1] * b[2]);
+    for (int c = 0; c < 3; c++) {
+        assert_float_equal(info.applied[c], b[c] / gm, 2e-3f * b[c]);
+        assert_float_equal(m.lights.balance[c], info.applied[c], 0.0f);
+        assert_float_equal(l->scale[c] / s_true[c], gm, 2e-3f * gm);
+        assert_float_equal(l->radiance[c], l->scale[c] * l->field_rgb[c], 1e-6f * l->radiance[c]);
+    }
+    assert_int_equal(esr_material_fields_fwd(&mf, &m, esr_model_values(&m, ESR_COMP_SDF), pts, 3), ESR_OK);
+    for (int p = 0; p < 3; p++) {
+        for (int c = 0; c < 3; c++) { /* base colour x scale: the light it casts, unchanged */
+            const float *row = mf.brdf5 + p * ESR_BRDF_CHANNELS, *row0 = before + p * ESR_BRDF_CHANNELS;
+            assert_float_equal(row[c], row0[c] * m.lights.balance[c], 1e-6f);
+            assert_float_equal(row[c] * l->scale[c], row0[c] * scale_before[c], 1e-5f * row0[c] * scale_before[c]);
+        }
+        assert_float_equal(mf.brdf5[p * ESR_BRDF_CHANNELS + 3], before[p * ESR_BRDF_CHANNELS + 3], 0.0f);
+    }
+    float env[3] = {0.6f, 0.6f, 0.6f};
+    esr_lights_balance_env(&m.lights, env, 1);
+    for (int c = 0; c < 3; c++)
+        assert_float_equal(env[c] * m.lights.balance[c], 0.6f, 1e-6f);
+    /* a balanced model trains no BRDF: its colour was fixed after training */
+    esr_material_fields_free(&mf);
+    assert_int_equal(esr_material_fields_init(&mf, &m, 3, ESR_MATERIAL_TRAIN), ESR_OK);
+    assert_int_equal(esr_material_fields_fwd(&mf, &m, esr_model_values(&m, ESR_COMP_SDF), pts, 3), ESR_OK);
+    float d_brdf[3 * ESR_BRDF_CHANNELS] = {1.0f};
+    float *grads = calloc(m.params.count, sizeof(float)), *g_sdf = calloc(esr_grid_count(esr_model_grid(&m, ESR_COMP_SDF)), sizeof(float));
+    assert_int_not_equal(esr_material_fields_bwd(&mf, &m, g_sdf, grads, NULL, d_brdf), ESR_OK);
+    assert_non_null(strstr(esr_error_message(), "colour balance"));
+    free(grads), free(g_sdf);
+    esr_material_fields_free(&mf);
+    /* the photos of a model already balanced: a second pass changes nothing */
+    assert_int_equal(esr_lights_balance(&m, ray_orig, ray_dir, photo, N_RAYS, &info), ESR_OK);
+    for (int c = 0; c < 3; c++)
+        assert_float_equal(info.applied[c], 1.0f, 2e-3f);
+    esr_model_free(&m);
+}
+
 /* The direct-light kernel (train/light_direct.h) against the formula it estimates, with nothing in
  * the way: one light sample y of area A and emission e, facing x, gives e R(wo, wi) |n_y . wi| A /
  * d^2 with wi and d taken from the lit point x itself, not from where its shadow ray starts (one
@@ -522,6 +660,8 @@ int main(void)
         cmocka_unit_test(test_light_grows_over_its_unseen_part),
         cmocka_unit_test(test_small_light_shares_the_fitted_scale),
         cmocka_unit_test(test_direct_light_is_measured_from_the_point),
+        cmocka_unit_test(test_balance_solve),
+        cmocka_unit_test(test_balance_finds_the_silhouette_colour),
     };
     return cmocka_run_group_tests(tests, test_setup_tmpdir, test_teardown_tmpdir);
 }

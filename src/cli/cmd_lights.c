@@ -31,7 +31,9 @@ const struct esr_command cmd_lights = {
     "               rgb: H, S in [0,1], V unbounded, linear), \"power\", \"field_rgb\",\n"
     "               \"strength_scale\", \"calibration_points\",\n"
     "               \"strength_fitted\" (false: too small to fit, the fitted lights' area-weighted mean scale)}...],\n"
-    "   \"emitter_k\", \"checkpoint\"}\n"
+    "   \"emitter_k\", \"checkpoint\", \"colour_balance\" (the base colour's factor per channel, the\n"
+    "   environment map's divisor, set from the lights' silhouettes in the lights-on photos;\n"
+    "   1 1 1: none)}\n"
     "\n"
     "options:\n"
     "  --recompute   find and calibrate the lights again and store them in the checkpoint (a\n"
@@ -48,7 +50,7 @@ const struct esr_command cmd_lights = {
 };
 
 /* Finds (find) and calibrates the lights of m from DATA's training rays (the lights-off ones
- * calibrate). */
+ * calibrate, the lights-on ones balance their colour). */
 static int find_and_calibrate(struct esr_model *m, const char *data, int find)
 {
     struct esr_dataset ds;
@@ -66,6 +68,15 @@ static int find_and_calibrate(struct esr_model *m, const char *data, int find)
     if (rc == ESR_OK && m->lights.n > 0)
         rc = esr_lights_calibrate(m, rs.orig3, rs.dir3, rs.n_off, ESR_LIGHTS_CALIB_POINTS,
                                   (uint64_t)m->cfg.seed);
+    struct esr_lights_balance_info bal;
+    const size_t on = rs.n_off * 3;
+    if (rc == ESR_OK && m->lights.n > 0)
+        rc = esr_lights_balance(m, rs.orig3 + on, rs.dir3 + on, rs.rgb3 + on, rs.n - rs.n_off, &bal);
+    if (rc == ESR_OK && m->lights.n > 0) {
+        char line[256];
+        esr_lights_balance_text(m, &bal, line, sizeof line);
+        fprintf(stderr, "esr lights: %s\n", line);
+    }
     esr_ray_set_free(&rs);
     return rc;
 }
@@ -104,6 +115,9 @@ static cJSON *lights_json(const struct esr_model *m, const char *ckpt, const lon
     cJSON *root = cJSON_CreateObject();
     cJSON_AddStringToObject(root, "checkpoint", ckpt);
     cJSON_AddNumberToObject(root, "emitter_k", m->cfg.emitter_k);
+    float balance[3];
+    esr_lights_balance_of(&m->lights, balance);
+    cJSON_AddItemToObject(root, "colour_balance", esr_json_float_array(balance, 3));
     cJSON *arr = cJSON_AddArrayToObject(root, "lights");
     for (int i = 0; i < m->lights.n; i++) {
         const struct esr_light *l = &m->lights.light[i];
@@ -178,6 +192,12 @@ static int lights(const char *run, const char *data_override, int again, const c
         if (any_unseen)
             printf("  (a light's part no camera looks at, such as a lampshade's bottom, emits the\n"
                    "  light's mean field)\n");
+        if (esr_lights_balanced(&m.lights)) {
+            float b[3];
+            esr_lights_balance_of(&m.lights, b);
+            printf("  colour from the lights' silhouettes: base colour x %.3f %.3f %.3f, environment "
+                   "map / the same\n", (double)b[0], (double)b[1], (double)b[2]);
+        }
         if (borrowed)
             printf("  * under %.0f%% of the lights' area: too small to fit from the light it casts; it\n"
                    "    takes the fitted lights' area-weighted mean scale (a small lamp, or a mirror's reflection\n"

@@ -214,7 +214,15 @@ static void put_lights(FILE *out, const struct esr_report_spec *spec)
           "on the non-emitting surfaces (<code>esr lights RUN</code> writes RUN/lights.json). "
           "Centroid and area in scene units; radiance in the dataset's linear radiance units; "
           "power = pi x area x the radiance's luminance (Lambertian, one side); strength scale = "
-          "radiance / the emission field's mean, which clipped photos pin near 1.</p>\n", out);
+          "radiance / the emission field's mean, which clipped photos pin near 1.", out);
+    if (esr_lights_balanced(L)) {
+        float b[3];
+        esr_lights_balance_of(L, b);
+        fprintf(out, " Colour set by the lights' silhouette pixels in the lights-on photos: base "
+                     "colour x %.3f, %.3f, %.3f, the lights and the environment map over it.",
+                (double)b[0], (double)b[1], (double)b[2]);
+    }
+    fputs("</p>\n", out);
     for (int i = 0; i < L->n; i++)
         put_light_edits(out, spec, i);
 }

@@ -9,7 +9,9 @@
  *    "components": [{"name": "sdf", "offset": 0, "count": 2097152}, ...],
  *    "mask": {"dims": [nx, ny, nz], "bmin": [..], "bmax": [..]},
  *    "lights": {"dims": [..], "bmin": [..], "bmax": [..], "table": [{"centroid", "area", "points",
- *               "field_rgb", "scale", "radiance", "power", "calib_points"}...]}}  (model/lights.h)
+ *               "field_rgb", "scale", "radiance", "power", "calib_points"}...],
+ *               "balance": [r, g, b] (only when the lights carry a colour balance)}}
+ *   (model/lights.h)
  * Loading rebuilds the model from the stored options (missing options take their preset default,
  * so adding an option never breaks old files) and then copies every stored component into the
  * component of the same name (a component the file lacks keeps its initial values: a new
@@ -18,6 +20,7 @@
  * CRC catches what no structural check can: flipped bits in the arrays (a bad disk or copy)
  * that still parse and are finite, and would render as silent garbage. */
 #include <cjson/cJSON.h>
+#include <math.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -99,6 +102,8 @@ static cJSON *header_json(const struct esr_model *m)
             cJSON_AddNumberToObject(e, "calib_points", l->calib_points);
             cJSON_AddItemToArray(t, e);
         }
+        if (esr_lights_balanced(&m->lights))
+            cJSON_AddItemToObject(k, "balance", esr_json_float_array(m->lights.balance, 3));
     }
     return h;
 }
@@ -321,6 +326,13 @@ static int read_lights(struct esr_model *m, const cJSON *h, struct rbuf *b)
                 return ESR_FAIL("checkpoint %s: light %d has no '%s'", b->path, i, keys[j]);
             *vals[j] = (float)v->valuedouble;
         }
+    }
+    if (cJSON_GetObjectItemCaseSensitive(k, "balance")) { /* absent: none (older runs too) */
+        ESR_TRY(json_floats(k, "balance", L->balance, 3, b->path));
+        for (int c = 0; c < 3; c++)
+            if (!(L->balance[c] > 0.0f) || !isfinite(L->balance[c]))
+                return ESR_FAIL("checkpoint %s: light colour balance %g is not a positive number",
+                                b->path, (double)L->balance[c]);
     }
     const size_t nl = esr_grid_voxels(&L->grid);
     ESR_TRY(has_bytes(b, nl, "light labels"));

@@ -16,6 +16,37 @@ void esr_lights_free(struct esr_lights *L)
     memset(L, 0, sizeof(*L));
 }
 
+void esr_lights_balance_of(const struct esr_lights *L, float b[3])
+{
+    for (int c = 0; c < 3; c++)
+        b[c] = L->n > 0 && L->balance[c] > 0.0f ? L->balance[c] : 1.0f;
+}
+
+int esr_lights_balanced(const struct esr_lights *L)
+{
+    float b[3];
+    esr_lights_balance_of(L, b);
+    return b[0] != 1.0f || b[1] != 1.0f || b[2] != 1.0f;
+}
+
+void esr_lights_balance_env(const struct esr_lights *L, float *rgb3, size_t n)
+{
+    if (!esr_lights_balanced(L))
+        return;
+    float b[3];
+    esr_lights_balance_of(L, b);
+    for (size_t i = 0; i < n; i++)
+        for (int c = 0; c < 3; c++)
+            rgb3[i * 3 + (size_t)c] /= b[c];
+}
+
+void esr_light_update_radiance(struct esr_light *l)
+{
+    for (int c = 0; c < 3; c++)
+        l->radiance[c] = l->scale[c] * l->field_rgb[c];
+    l->power = esr_luminance(l->radiance) * (float)M_PI * l->area;
+}
+
 uint64_t esr_lights_fingerprint(const struct esr_lights *L)
 {
     uint64_t h = esr_hash_bytes(ESR_HASH_INIT, &L->n, sizeof L->n);
@@ -30,6 +61,8 @@ uint64_t esr_lights_fingerprint(const struct esr_lights *L)
     }
     if (L->n > 0 && L->label)
         h = esr_hash_bytes(h, L->label, esr_grid_voxels(&L->grid));
+    if (esr_lights_balanced(L)) /* unbalanced lights hash as before the balance existed */
+        h = esr_hash_bytes(h, L->balance, sizeof L->balance);
     return h;
 }
 

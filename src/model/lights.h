@@ -53,6 +53,10 @@ struct esr_lights {
     /* emitting regions large enough to be lights that esr_lights_find left out, past the
      * ESR_MAX_LIGHTS largest (not saved: said where they are found) */
     int n_left_out;
+    /* The colour balance found from the lights' own silhouettes (train/lights.h,
+     * esr_lights_balance): the base colour is this times the BRDF field's, the environment map
+     * the field's over this, per channel (the images fix only their product). 0 0 0: none (1). */
+    float balance[3];
     /* an edit in place (edit/finetune.h; not saved): emitted radiance is each light's calibrated
      * emission edited by edit[K]; edited 0: as found */
     int edited;
@@ -66,6 +70,15 @@ struct esr_lights {
 #define ESR_LIGHT_LABEL_ID(label) ((int)((label) & 0x7fu))
 
 void esr_lights_free(struct esr_lights *L);
+
+/* L's colour balance (1 1 1 when it has none, or no lights). */
+void esr_lights_balance_of(const struct esr_lights *L, float b[3]);
+/* 1 when L carries a colour balance other than 1 1 1. */
+int esr_lights_balanced(const struct esr_lights *L);
+/* Divides n environment radiances (rgb3 [n*3], in place) by L's colour balance. */
+void esr_lights_balance_env(const struct esr_lights *L, float *rgb3, size_t n);
+/* A light's radiance (scale x field_rgb) and power from its scale and area. */
+void esr_light_update_radiance(struct esr_light *l);
 
 /* A 64-bit hash (FNV-1a) of the lights (table and labels; not an edit in place): renders record
  * it, so that lights found again (`esr lights --recompute`) make earlier renders stale. */

@@ -112,7 +112,15 @@ int esr_material_fields_fwd(struct esr_material_fields *mf, const struct esr_mod
                         esr_model_values(m, ESR_COMP_BRDF_FEAT), pos3, n, mf->fb);
     esr_rows_copy_cols(mf->fb, (size_t)C, mf->x_b, ni, n, C);
     esr_rows_copy_cols(mf->x_e + C, ni, mf->x_b + C, ni, n, (int)ni - C);
-    return mlp_run(mf, esr_model_mlp(m, ESR_COMP_BRDF_MLP), w, &mf->ctx_b, mf->x_b, mf->brdf5, n);
+    ESR_TRY(mlp_run(mf, esr_model_mlp(m, ESR_COMP_BRDF_MLP), w, &mf->ctx_b, mf->x_b, mf->brdf5, n));
+    if (esr_lights_balanced(&m->lights)) { /* the lights' colour balance (model/lights.h) */
+        float b[3];
+        esr_lights_balance_of(&m->lights, b);
+        for (size_t k = 0; k < n; k++)
+            for (int c = 0; c < 3; c++)
+                mf->brdf5[k * ESR_BRDF_CHANNELS + (size_t)c] *= b[c];
+    }
+    return ESR_OK;
 }
 
 /* One MLP's backward and its feature grid's: input-row gradients land in dx. */
@@ -142,6 +150,9 @@ int esr_material_fields_bwd(struct esr_material_fields *mf, const struct esr_mod
         return ESR_FAIL("material fields: backward of an inference forward");
     if (d_brdf5 && mf->emission_only)
         return ESR_FAIL("material fields: BRDF gradient for an emission-only workspace");
+    if (d_brdf5 && esr_lights_balanced(&m->lights)) /* its lights fixed the colour after training */
+        return ESR_FAIL("material fields: BRDF gradient on a model whose lights carry a colour "
+                        "balance");
     if (d_emit3)
         ESR_TRY(branch_bwd(mf, m, ESR_COMP_EMIT_MLP, ESR_COMP_EMO_FEAT, &mf->ctx_e, d_emit3, mf->dx_e,
                            mf->d_fe, grads));

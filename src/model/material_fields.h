@@ -6,7 +6,8 @@
  *   BRDF(x): [BRDF feature grid | PE(x) | geometry feature] -> sigmoid -> base colour (3, linear),
  *            roughness, metallic (core/brdf.h)
  * The LTS loss calls it on its surface points; rendering calls it on kept samples (emission
- * maps, material maps). */
+ * maps, material maps). A model whose lights carry a colour balance (model/lights.h) reports the
+ * base colour times it; such a model trains no BRDF (backward refuses). */
 #ifndef ESR_MODEL_MATERIAL_FIELDS_H
 #define ESR_MODEL_MATERIAL_FIELDS_H
 

@@ -157,6 +157,8 @@ int esr_view_write_env(const char *dir, const struct esr_model *m)
         status = esr_env_sg_equirect(esr_model_values(m, ESR_COMP_ENV), m->cfg.env_lobes, 256, 128,
                                      lin.data);
     if (status == ESR_OK)
+        esr_lights_balance_env(&m->lights, lin.data, (size_t)lin.width * (size_t)lin.height);
+    if (status == ESR_OK)
         status = write_exr(dir, "env", ".exr", &lin);
     if (status == ESR_OK) {
         gamma_image(&lin, 1.0f, &srgb);

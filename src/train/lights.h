@@ -39,7 +39,8 @@
  * the BRDF cannot explain, a mirror's reflection, pull with a bounded force). A light under
  * ESR_LIGHTS_SMALL_SHARE of the lights' area is not fitted but takes the fitted lights' mean scale
  * (esr_lights_fitted, esr_lights_share_scale). Caveat: images fix the product of albedo
- * and light, so s_K is only as right as the reconstructed base colour (see docs). */
+ * and light, so s_K is only as right as the reconstructed base colour (see docs); its colour is
+ * set right afterwards by the lights' silhouettes (esr_lights_balance, below). */
 #ifndef ESR_TRAIN_LIGHTS_H
 #define ESR_TRAIN_LIGHTS_H
 
@@ -66,6 +67,41 @@ int esr_lights_find(struct esr_model *m, const float *orig3, const float *dir3, 
 int esr_lights_calibrate(struct esr_model *m, const float *orig3, const float *dir3, size_t n,
                          int calib_points, uint64_t seed);
 
+/* What esr_lights_balance measured. */
+struct esr_lights_balance_info {
+    float applied[3];                     /* the balance this call applied (1 1 1: none) */
+    int used;                             /* lights whose silhouettes voted */
+    long rows[ESR_MAX_LIGHTS];            /* each light's silhouette pixels (0: not measured) */
+    float silhouette[ESR_MAX_LIGHTS][3];  /* the scale its silhouette implies, per channel */
+};
+/* The lights' colour from their own silhouettes. The images fix only the product of base colour
+ * and light per channel, so the calibrated lights take the colour of the environment map's start
+ * (the grey-world guess, train/env_init.h): under a blue sky every light comes out too red. The
+ * lights-on photos hold one more clue: where a light covers part of a pixel against a dark
+ * surface (its silhouette), the pixel is not clipped and shows the light's own colour, mixed
+ * with what lies behind it. Over the lights-on rays (orig3/dir3/rgb3 [n*3], the photo's sRGB)
+ * whose composited light field (scale 1) g_K reaches BALANCE_MIN_FIELD and whose photo is
+ * unclipped, photo - rest = c_K g_K per channel by least squares, rest being the render with
+ * light K dark and the others at their scales. The magnitude of c_K is not trusted (the
+ * reconstructed silhouette is a voxel wide, a pixel's coverage is not), its colour is: for every
+ * fitted light with BALANCE_MIN_ROWS such pixels, log(s_K / c_K) less its mean over channels is
+ * the calibration's colour error; their mean weighted by pixels, b, is one error shared by all
+ * lights (the base colour's and the map's). The lights' scales are divided by b and the
+ * balance (model/lights.h) multiplied by it: base colour x b, map / b, so the lights-off
+ * radiance the model explains and the light the lights cast on the scene (base colour x
+ * strength) stay as calibrated. The default scene: lampshade and orb silhouettes (1.18, 0.93,
+ * 0.63) and (0.27, 0.65, 1.39) against true colours 8 : 6.4 : 4.4 and 2.4 : 6 : 12. A light
+ * too small to fit has no colour of its own and does not vote. Renders every ray once, then
+ * the candidates twice per fitted light. info may not be NULL. */
+int esr_lights_balance(struct esr_model *m, const float *orig3, const float *dir3,
+                       const float *rgb3, size_t n, struct esr_lights_balance_info *info);
+/* One line on what esr_lights_balance did (logs, `esr lights`). */
+void esr_lights_balance_text(const struct esr_model *m, const struct esr_lights_balance_info *info,
+                             char *out, size_t size);
+/* The balance b [3] from n lights' silhouette scales sil, calibrated scales and silhouette pixel
+ * counts (see esr_lights_balance); returns the lights that voted (0: b = 1 1 1). */
+int esr_lights_balance_solve(int n, const float sil[][3], const float scale[][3], const long rows[],
+                             float b[3]);
 /* The lights the calibration fits (ids into fit[], their count returned): those of at least
  * ESR_LIGHTS_SMALL_SHARE of all the lights' area. A smaller one casts little light from a few
  * close area samples, so a shortfall spread over the scene (light after several bounces, a

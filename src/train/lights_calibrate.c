@@ -269,9 +269,7 @@ int esr_lights_calibrate(struct esr_model *m, const float *orig3, const float *d
     }
     for (int a = 0; rc == ESR_OK && a < K; a++) {
         struct esr_light *lt = &m->lights.light[a];
-        for (int c = 0; c < 3; c++)
-            lt->radiance[c] = lt->scale[c] * lt->field_rgb[c];
-        lt->power = esr_luminance(lt->radiance) * (float)M_PI * lt->area;
+        esr_light_update_radiance(lt);
         /* a light too small to fit took the others' scale: no point of its own fixed it */
         lt->calib_points = esr_light_strength_fitted(&m->lights, a) ? (float)seen[a] : 0.0f;
     }

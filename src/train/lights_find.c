@@ -250,7 +250,7 @@ int esr_lights_find(struct esr_model *m, const float *orig3, const float *dir3, 
             for (int a = 0; a < 3; a++)
                 l->centroid[a] = (float)(acc[j][a] / np);
             l->area = (float)acc[j][6];
-            l->power = esr_luminance(l->radiance) * (float)M_PI * l->area;
+            esr_light_update_radiance(l);
         }
     }
     free(idx), free(pos), free(nrm), free(emit), free(flag), free(free_mask), free(comp), free(queue);

@@ -418,6 +418,7 @@ int esr_lts_run(struct esr_lts *l, const struct esr_model *m, const float *sdf, 
     const int lobes = m->cfg.env_lobes;
     const float *env = esr_model_values(m, ESR_COMP_ENV);
     esr_env_sg_fwd(env, lobes, l->wi3, PM, l->env3);
+    esr_lights_balance_env(&m->lights, l->env3, PM);
     esr_lts_incident_gather(l, P);
     memset(l->d_lin3, 0, rows * 3 * sizeof(float));
     memset(l->d_li_off3, 0, PM * 3 * sizeof(float));
