@@ -9,8 +9,8 @@
 #include "core/colour.h"
 #include "core/error.h"
 
-/* rays per render call */
-#define BALANCE_CHUNK 65536
+/* a light's box is its labelled lattice points' grown by this many voxels */
+#define BALANCE_BOX_VOX 2.0f
 /* a silhouette pixel: the light's composited field (scale 1) reaches this in some channel ... */
 #define BALANCE_MIN_FIELD 0.01f
 /* ... and the photo is below this in every channel (linear; sRGB 0.9, the calibration's clip) */
@@ -49,31 +49,109 @@ int esr_lights_balance_solve(int n, const float sil[][3], const float scale[][3]
     return used;
 }
 
-/* Renders the n rays (o3/d3) lights on in chunks: the linear radiance (lin3, lights showing their
+/* Renders the n rays (o3/d3) lights on: the linear radiance (lin3, lights showing their
  * lights-off radiance plus their emitted radiance at the lights' current scales) and the
  * composited emitted radiance of the samples on lights (emitted3); either may be NULL. */
 static int render_on(const struct esr_model *m, const float *o3, const float *d3, size_t n,
                      float *lin3, float *emitted3)
 {
-    for (size_t i0 = 0; i0 < n; i0 += BALANCE_CHUNK) {
-        const size_t c = n - i0 < BALANCE_CHUNK ? n - i0 : BALANCE_CHUNK;
-        const struct esr_render_out out = {
-            .linear = lin3 ? lin3 + i0 * 3 : NULL,
-            .emitted_lights = emitted3 ? emitted3 + i0 * 3 : NULL,
-            .lights_emitted_only = 1,
-        };
-        ESR_TRY(esr_model_render_rays(m, o3 + i0 * 3, d3 + i0 * 3, c, 1, &out));
+    const struct esr_render_out out = {
+        .linear = lin3,
+        .emitted_lights = emitted3,
+        .lights_emitted_only = 1,
+    };
+    return n ? esr_model_render_rays(m, o3, d3, n, 1, &out) : ESR_OK;
+}
+
+/* Each light's box (min xyz, max xyz): its labelled lattice points', grown by BALANCE_BOX_VOX
+ * voxels (a sample takes the label of its cell's nearest labelled corner). */
+static void light_boxes(const struct esr_lights *L, float box[ESR_MAX_LIGHTS][6])
+{
+    const struct esr_grid *g = &L->grid;
+    for (int k = 0; k < ESR_MAX_LIGHTS; k++)
+        for (int a = 0; a < 3; a++)
+            box[k][a] = INFINITY, box[k][3 + a] = -INFINITY;
+    for (int z = 0; z < g->nz; z++)
+        for (int y = 0; y < g->ny; y++)
+            for (int x = 0; x < g->nx; x++) {
+                const int id = ESR_LIGHT_LABEL_ID(L->label[esr_grid_index(g, x, y, z)]) - 1;
+                if (id < 0 || id >= ESR_MAX_LIGHTS)
+                    continue;
+                float p[3];
+                esr_grid_voxel_pos(g, x, y, z, p);
+                for (int a = 0; a < 3; a++) {
+                    box[id][a] = fminf(box[id][a], p[a]);
+                    box[id][3 + a] = fmaxf(box[id][3 + a], p[a]);
+                }
+            }
+    for (int k = 0; k < ESR_MAX_LIGHTS; k++)
+        for (int a = 0; a < 3; a++) {
+            const float h = BALANCE_BOX_VOX * esr_grid_voxel_size(g, a);
+            box[k][a] -= h, box[k][3 + a] += h;
+        }
+}
+
+/* 1 when the ray o + t d, t >= 0, passes through box (slab test). */
+static int ray_meets_box(const float o[3], const float d[3], const float box[6])
+{
+    float t0 = 0.0f, t1 = INFINITY;
+    for (int a = 0; a < 3; a++) {
+        if (fabsf(d[a]) < 1e-12f) {
+            if (o[a] < box[a] || o[a] > box[3 + a])
+                return 0;
+            continue;
+        }
+        const float inv = 1.0f / d[a];
+        float ta = (box[a] - o[a]) * inv, tb = (box[3 + a] - o[a]) * inv;
+        if (ta > tb) {
+            const float t = ta;
+            ta = tb, tb = t;
+        }
+        t0 = fmaxf(t0, ta), t1 = fminf(t1, tb);
+    }
+    return t0 <= t1;
+}
+
+/* Rays with their photo's sRGB colour. */
+struct rays {
+    size_t n;
+    float *o3, *d3, *rgb3;
+};
+
+/* The rays (orig3/dir3/rgb3 [n*3]) that pass through box, copied into *out (free its arrays). */
+static int rays_through_box(const float *orig3, const float *dir3, const float *rgb3, size_t n,
+                            const float box[6], struct rays *out)
+{
+    size_t cap = 0;
+    for (size_t r = 0; r < n; r++) {
+        if (!ray_meets_box(orig3 + r * 3, dir3 + r * 3, box))
+            continue;
+        if (out->n == cap) {
+            cap = cap ? 2 * cap : 4096;
+            float **arr[3] = {&out->o3, &out->d3, &out->rgb3};
+            for (int a = 0; a < 3; a++) {
+                float *t = realloc(*arr[a], cap * 3 * sizeof(float));
+                if (!t)
+                    return ESR_FAIL("lights: out of memory for the colour balance");
+                *arr[a] = t;
+            }
+        }
+        memcpy(out->o3 + out->n * 3, orig3 + r * 3, 3 * sizeof(float));
+        memcpy(out->d3 + out->n * 3, dir3 + r * 3, 3 * sizeof(float));
+        memcpy(out->rgb3 + out->n * 3, rgb3 + r * 3, 3 * sizeof(float));
+        out->n++;
     }
     return ESR_OK;
 }
 
-/* Light k's silhouette pixels among the candidate rays (o3/d3/rgb3 [n*3], the photo sRGB): its
- * field composited at scale 1 (g) and the rest of the render with it dark, the other lights at
- * their scales (rest); least squares per channel of photo - rest = s g. */
-static int silhouette_scale(struct esr_model *m, int k, const float scales[][3], const float *o3,
-                            const float *d3, const float *rgb3, size_t n, float *g, float *rest,
-                            float sil[3], long *rows)
+/* Light k's silhouette pixels among the rays through its box (cand): its field composited at scale
+ * 1 (g [c->n*3]) and the rest of the render with it dark, the other lights at their scales
+ * (rest); least squares per channel of photo - rest = s g. */
+static int silhouette_scale(struct esr_model *m, int k, const float scales[][3],
+                            const struct rays *cand, float *g, float *rest, float sil[3], long *rows)
 {
+    const size_t n = cand->n;
+    const float *o3 = cand->o3, *d3 = cand->d3, *rgb3 = cand->rgb3;
     struct esr_lights *L = &m->lights;
     for (int a = 0; a < L->n; a++)
         for (int c = 0; c < 3; c++)
@@ -120,49 +198,24 @@ int esr_lights_balance(struct esr_model *m, const float *orig3, const float *dir
     float scales[ESR_MAX_LIGHTS][3];
     for (int a = 0; a < L->n; a++)
         memcpy(scales[a], L->light[a].scale, sizeof scales[a]);
-    /* the candidates: rays that any light's field reaches */
-    float *g = malloc(BALANCE_CHUNK * 3 * sizeof(float));
-    size_t *pick = NULL, np = 0, cap = 0;
-    int rc = g ? ESR_OK : ESR_FAIL("lights: out of memory for the colour balance");
-    for (int a = 0; a < L->n; a++)
-        for (int c = 0; c < 3; c++)
-            L->light[a].scale[c] = 1.0f;
-    for (size_t i0 = 0; rc == ESR_OK && i0 < n; i0 += BALANCE_CHUNK) {
-        const size_t c = n - i0 < BALANCE_CHUNK ? n - i0 : BALANCE_CHUNK;
-        rc = render_on(m, orig3 + i0 * 3, dir3 + i0 * 3, c, NULL, g);
-        for (size_t r = 0; rc == ESR_OK && r < c; r++) {
-            if (fmaxf(g[r * 3], fmaxf(g[r * 3 + 1], g[r * 3 + 2])) < BALANCE_MIN_FIELD)
-                continue;
-            if (np == cap) {
-                size_t *t = realloc(pick, (cap ? 2 * cap : 4096) * sizeof(size_t));
-                if (!t) {
-                    rc = ESR_FAIL("lights: out of memory for the colour balance");
-                    break;
-                }
-                pick = t;
-                cap = cap ? 2 * cap : 4096;
-            }
-            pick[np++] = i0 + r;
-        }
-    }
-    free(g);
-    float *o = malloc((np ? np : 1) * 3 * sizeof(float)), *d = malloc((np ? np : 1) * 3 * sizeof(float));
-    float *y = malloc((np ? np : 1) * 3 * sizeof(float)), *gk = malloc((np ? np : 1) * 3 * sizeof(float));
-    float *rest = malloc((np ? np : 1) * 3 * sizeof(float));
-    if (rc == ESR_OK && !(o && d && y && gk && rest))
-        rc = ESR_FAIL("lights: out of memory for the colour balance");
-    for (size_t i = 0; rc == ESR_OK && i < np; i++) {
-        memcpy(o + i * 3, orig3 + pick[i] * 3, 3 * sizeof(float));
-        memcpy(d + i * 3, dir3 + pick[i] * 3, 3 * sizeof(float));
-        memcpy(y + i * 3, rgb3 + pick[i] * 3, 3 * sizeof(float));
-    }
-    free(pick);
+    float box[ESR_MAX_LIGHTS][6];
+    light_boxes(L, box);
+    int rc = ESR_OK;
     /* lights too small to fit borrowed their scale: no colour of their own to compare */
-    for (int k = 0; rc == ESR_OK && k < L->n; k++)
-        if (esr_light_strength_fitted(L, k))
-            rc = silhouette_scale(m, k, (const float(*)[3])scales, o, d, y, np, gk, rest,
+    for (int k = 0; rc == ESR_OK && k < L->n; k++) {
+        if (!esr_light_strength_fitted(L, k))
+            continue;
+        struct rays cand = {0};
+        rc = rays_through_box(orig3, dir3, rgb3, n, box[k], &cand);
+        float *g = malloc((cand.n ? cand.n : 1) * 3 * sizeof(float));
+        float *rest = malloc((cand.n ? cand.n : 1) * 3 * sizeof(float));
+        if (rc == ESR_OK && !(g && rest))
+            rc = ESR_FAIL("lights: out of memory for the colour balance");
+        if (rc == ESR_OK)
+            rc = silhouette_scale(m, k, (const float(*)[3])scales, &cand, g, rest,
                                   info->silhouette[k], &info->rows[k]);
-    free(o), free(d), free(y), free(gk), free(rest);
+        free(g), free(rest), free(cand.o3), free(cand.d3), free(cand.rgb3);
+    }
     for (int a = 0; a < L->n; a++)
         memcpy(L->light[a].scale, scales[a], sizeof scales[a]);
     if (rc != ESR_OK)

@@ -440,6 +440,7 @@ static int run_stage(struct run *r, struct esr_model *m, enum esr_stage s)
             return ESR_OK;
         }
     }
+    esr_train_step_free(&b); /* the mask and the lights trace rays of their own: not beside it */
     if (rc == ESR_OK && esr_stage_info(s)->builds_mask)
         rc = build_mask(r, m);
     if (rc == ESR_OK && esr_stage_info(s)->finds_lights)
@@ -458,7 +459,6 @@ static int run_stage(struct run *r, struct esr_model *m, enum esr_stage s)
             r->o->run_dir, esr_stage_name(s));
         report_stage_done(r, s, sc->iters - first_step, sc->iters, secs);
     }
-    esr_train_step_free(&b);
     return rc;
 }
 
