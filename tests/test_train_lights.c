@@ -509,6 +509,15 @@ static void test_balance_solve(void **state)
     sil[2][1] = 0.0f; /* a dark channel: no colour to compare */
     assert_int_equal(esr_lights_balance_solve(3, (const float(*)[3])sil, (const float(*)[3])scale,
                                               rows, b), 2);
+    /* two lights that disagree: the pixel-weighted mean of their errors in logs */
+    const float b2[3] = {0.8f, 1.0f, 1.25f};
+    for (int c = 0; c < 3; c++)
+        scale[1][c] = magnitude[1] * colour[1][c] * b2[c];
+    const long uneven[3] = {300, 100, 0};
+    assert_int_equal(esr_lights_balance_solve(3, (const float(*)[3])sil, (const float(*)[3])scale,
+                                              uneven, b), 2);
+    for (int c = 0; c < 3; c++)
+        assert_float_equal(b[c], expf(0.75f * logf(b_true[c]) + 0.25f * logf(b2[c])), 1e-5f);
     const long none[3] = {0, 10, 49};
     assert_int_equal(esr_lights_balance_solve(3, (const float(*)[3])sil, (const float(*)[3])scale,
                                               none, b), 0);
@@ -581,20 +590,44 @@ static void test_balance_finds_the_silhouette_colour(void **state)
     esr_lights_balance_env(&m.lights, env, 1);
     for (int c = 0; c < 3; c++)
         assert_float_equal(env[c] * m.lights.balance[c], 0.6f, 1e-6f);
-    /* a balanced model trains no BRDF: its colour was fixed after training */
+    /* the backward passes through the balance: the gradient of a balanced base colour is b times
+     * the field's, as the unbalanced model's gradient at b times the same output gradient */
     esr_material_fields_free(&mf);
     assert_int_equal(esr_material_fields_init(&mf, &m, 3, ESR_MATERIAL_TRAIN), ESR_OK);
-    assert_int_equal(esr_material_fields_fwd(&mf, &m, esr_model_values(&m, ESR_COMP_SDF), pts, 3), ESR_OK);
-    float d_brdf[3 * ESR_BRDF_CHANNELS] = {1.0f};
-    float *grads = calloc(m.params.count, sizeof(float)), *g_sdf = calloc(esr_grid_count(esr_model_grid(&m, ESR_COMP_SDF)), sizeof(float));
-    assert_int_not_equal(esr_material_fields_bwd(&mf, &m, g_sdf, grads, NULL, d_brdf), ESR_OK);
-    assert_non_null(strstr(esr_error_message(), "colour balance"));
-    free(grads), free(g_sdf);
+    float d_brdf[3 * ESR_BRDF_CHANNELS], d_scaled[3 * ESR_BRDF_CHANNELS];
+    for (int i = 0; i < 3 * ESR_BRDF_CHANNELS; i++) {
+        d_brdf[i] = 0.1f * (float)(i % 7) - 0.3f;
+        d_scaled[i] = d_brdf[i] * (i % ESR_BRDF_CHANNELS < 3 ? m.lights.balance[i % ESR_BRDF_CHANNELS] : 1.0f);
+    }
+    const size_t ns = esr_grid_count(esr_model_grid(&m, ESR_COMP_SDF));
+    float *grads[2], *g_sdf[2];
+    const float keep[3] = {m.lights.balance[0], m.lights.balance[1], m.lights.balance[2]};
+    for (int pass = 0; pass < 2; pass++) { /* 0: balanced, d_brdf; 1: none, d_scaled */
+        grads[pass] = calloc(m.params.count, sizeof(float));
+        g_sdf[pass] = calloc(ns, sizeof(float));
+        if (pass == 1)
+            memset(m.lights.balance, 0, sizeof m.lights.balance);
+        assert_int_equal(esr_material_fields_fwd(&mf, &m, esr_model_values(&m, ESR_COMP_SDF), pts, 3), ESR_OK);
+        assert_int_equal(esr_material_fields_bwd(&mf, &m, g_sdf[pass], grads[pass], NULL,
+                                                 pass ? d_scaled : d_brdf), ESR_OK);
+    }
+    memcpy(m.lights.balance, keep, sizeof keep);
+    double norm = 0.0;
+    for (size_t i = 0; i < m.params.count; i++) {
+        assert_float_equal(grads[0][i], grads[1][i], 1e-6f * (1.0f + fabsf(grads[1][i])));
+        norm += fabs(grads[0][i]);
+    }
+    assert_true(norm > 0.0);
+    for (int pass = 0; pass < 2; pass++)
+        free(grads[pass]), free(g_sdf[pass]);
     esr_material_fields_free(&mf);
-    /* the photos of a model already balanced: a second pass changes nothing */
+    /* the photos of a model already balanced: a second pass changes nothing, and the balance
+     * it keeps is the first's (a pass multiplies the balance in place, it does not replace it) */
     assert_int_equal(esr_lights_balance(&m, ray_orig, ray_dir, photo, N_RAYS, &info), ESR_OK);
-    for (int c = 0; c < 3; c++)
+    for (int c = 0; c < 3; c++) {
         assert_float_equal(info.applied[c], 1.0f, 2e-3f);
+        assert_float_equal(m.lights.balance[c], b[c] / gm, 4e-3f * b[c]);
+    }
     esr_model_free(&m);
 }
 

@@ -42,8 +42,9 @@ const struct esr_command cmd_lights = {
     "                such as a mirror's view of a lamp: it then follows the lights it reflects\n"
     "                in relights instead of glowing on), calibrate the others again without\n"
     "                them and store the result in the checkpoint; --recompute brings them back\n"
-    "  --data DIR    with --recompute or --drop: the dataset whose lights-off training images\n"
-    "                they read (default: the one RUN was trained on)\n"
+    "  --data DIR    with --recompute or --drop: the dataset whose training images they read\n"
+    "                (lights-off to calibrate, lights-on for the colour; default: the one RUN\n"
+    "                was trained on)\n"
     "  -h, --help    this text\n",
     run_lights,
     0, /* view_loop */

@@ -80,8 +80,9 @@ void esr_lights_balance_env(const struct esr_lights *L, float *rgb3, size_t n);
 /* A light's radiance (scale x field_rgb) and power from its scale and area. */
 void esr_light_update_radiance(struct esr_light *l);
 
-/* A 64-bit hash (FNV-1a) of the lights (table and labels; not an edit in place): renders record
- * it, so that lights found again (`esr lights --recompute`) make earlier renders stale. */
+/* A 64-bit hash (FNV-1a) of the lights (table, labels and colour balance; not an edit in
+ * place): renders record it, so that lights found again (`esr lights --recompute`) make earlier
+ * renders stale. */
 uint64_t esr_lights_fingerprint(const struct esr_lights *L);
 
 /* The edited emission of radiance e (linear RGB) under edit ed: times the intensity, then hue and

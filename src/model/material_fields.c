@@ -12,7 +12,8 @@
 void esr_material_fields_free(struct esr_material_fields *mf)
 {
     float *bufs[] = {mf->emit3, mf->brdf5, mf->x_e, mf->x_b, mf->dx_e, mf->dx_b, mf->fe,
-                     mf->fb,    mf->d_fe,  mf->d_fb, mf->geo, mf->d_geo};
+                     mf->fb,    mf->d_fe,  mf->d_fb, mf->geo, mf->d_geo, mf->brdf5_field,
+                     mf->d_brdf5_field};
     for (size_t i = 0; i < sizeof bufs / sizeof bufs[0]; i++)
         free(bufs[i]);
     esr_mlp_ctx_free(&mf->ctx_e);
@@ -40,7 +41,9 @@ static int grow(struct esr_material_fields *mf, const struct esr_model *m, size_
                {&mf->dx_e, train * n_in}, {&mf->dx_b, nb * train * n_in},
                {&mf->fe, ch},            {&mf->fb, nb * ch},
                {&mf->d_fe, train * ch},  {&mf->d_fb, nb * train * ch},
-               {&mf->geo, gd},           {&mf->d_geo, train * gd}};
+               {&mf->geo, gd},           {&mf->d_geo, train * gd},
+               {&mf->brdf5_field, nb * ESR_BRDF_CHANNELS},
+               {&mf->d_brdf5_field, nb * train * ESR_BRDF_CHANNELS}};
     int ok = 1;
     for (size_t i = 0; i < sizeof all / sizeof all[0]; i++)
         if (all[i].per_row)
@@ -112,14 +115,17 @@ int esr_material_fields_fwd(struct esr_material_fields *mf, const struct esr_mod
                         esr_model_values(m, ESR_COMP_BRDF_FEAT), pos3, n, mf->fb);
     esr_rows_copy_cols(mf->fb, (size_t)C, mf->x_b, ni, n, C);
     esr_rows_copy_cols(mf->x_e + C, ni, mf->x_b + C, ni, n, (int)ni - C);
-    ESR_TRY(mlp_run(mf, esr_model_mlp(m, ESR_COMP_BRDF_MLP), w, &mf->ctx_b, mf->x_b, mf->brdf5, n));
-    if (esr_lights_balanced(&m->lights)) { /* the lights' colour balance (model/lights.h) */
-        float b[3];
-        esr_lights_balance_of(&m->lights, b);
-        for (size_t k = 0; k < n; k++)
-            for (int c = 0; c < 3; c++)
-                mf->brdf5[k * ESR_BRDF_CHANNELS + (size_t)c] *= b[c];
-    }
+    if (!esr_lights_balanced(&m->lights))
+        return mlp_run(mf, esr_model_mlp(m, ESR_COMP_BRDF_MLP), w, &mf->ctx_b, mf->x_b, mf->brdf5, n);
+    /* the lights' colour balance (model/lights.h) on the field's output, which the MLP's backward
+     * reads as it wrote it */
+    ESR_TRY(mlp_run(mf, esr_model_mlp(m, ESR_COMP_BRDF_MLP), w, &mf->ctx_b, mf->x_b, mf->brdf5_field, n));
+    float b[3];
+    esr_lights_balance_of(&m->lights, b);
+    for (size_t k = 0; k < n; k++)
+        for (int c = 0; c < ESR_BRDF_CHANNELS; c++)
+            mf->brdf5[k * ESR_BRDF_CHANNELS + (size_t)c] =
+                mf->brdf5_field[k * ESR_BRDF_CHANNELS + (size_t)c] * (c < 3 ? b[c] : 1.0f);
     return ESR_OK;
 }
 
@@ -150,9 +156,15 @@ int esr_material_fields_bwd(struct esr_material_fields *mf, const struct esr_mod
         return ESR_FAIL("material fields: backward of an inference forward");
     if (d_brdf5 && mf->emission_only)
         return ESR_FAIL("material fields: BRDF gradient for an emission-only workspace");
-    if (d_brdf5 && esr_lights_balanced(&m->lights)) /* its lights fixed the colour after training */
-        return ESR_FAIL("material fields: BRDF gradient on a model whose lights carry a colour "
-                        "balance");
+    if (d_brdf5 && esr_lights_balanced(&m->lights)) { /* through base colour = b x the field's */
+        float b[3];
+        esr_lights_balance_of(&m->lights, b);
+        for (size_t k = 0; k < n; k++)
+            for (int c = 0; c < ESR_BRDF_CHANNELS; c++)
+                mf->d_brdf5_field[k * ESR_BRDF_CHANNELS + (size_t)c] =
+                    d_brdf5[k * ESR_BRDF_CHANNELS + (size_t)c] * (c < 3 ? b[c] : 1.0f);
+        d_brdf5 = mf->d_brdf5_field;
+    }
     if (d_emit3)
         ESR_TRY(branch_bwd(mf, m, ESR_COMP_EMIT_MLP, ESR_COMP_EMO_FEAT, &mf->ctx_e, d_emit3, mf->dx_e,
                            mf->d_fe, grads));

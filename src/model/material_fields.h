@@ -7,7 +7,7 @@
  *            roughness, metallic (core/brdf.h)
  * The LTS loss calls it on its surface points; rendering calls it on kept samples (emission
  * maps, material maps). A model whose lights carry a colour balance (model/lights.h) reports the
- * base colour times it; such a model trains no BRDF (backward refuses). */
+ * base colour times it (and its backward passes the gradient through that factor). */
 #ifndef ESR_MODEL_MATERIAL_FIELDS_H
 #define ESR_MODEL_MATERIAL_FIELDS_H
 
@@ -45,6 +45,8 @@ struct esr_material_fields {
     float *brdf5;         /* [cap * 5] base colour, roughness, metallic in (0, 1) */
     /* internal */
     float *x_e, *x_b, *dx_e, *dx_b, *fe, *fb, *d_fe, *d_fb, *geo, *d_geo;
+    float *brdf5_field, *d_brdf5_field; /* [cap * 5] the field's output before the colour
+                                           balance, and its gradient (balanced models only) */
     int ch, n_in, geo_dim;
     struct esr_mlp_ctx ctx_e, ctx_b;
 };

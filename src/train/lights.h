@@ -91,8 +91,9 @@ struct esr_lights_balance_info {
  * radiance the model explains and the light the lights cast on the scene (base colour x
  * strength) stay as calibrated. The default scene: lampshade and orb silhouettes (1.18, 0.93,
  * 0.63) and (0.27, 0.65, 1.39) against true colours 8 : 6.4 : 4.4 and 2.4 : 6 : 12. A light
- * too small to fit has no colour of its own and does not vote. Renders every ray once, then
- * the candidates twice per fitted light. info may not be NULL. */
+ * too small to fit has no colour of its own and does not vote. Renders the rays through each
+ * fitted light's box twice (its labelled points' box grown by 2 voxels), in batches; the lights'
+ * scales are restored when it fails. info may not be NULL. */
 int esr_lights_balance(struct esr_model *m, const float *orig3, const float *dir3,
                        const float *rgb3, size_t n, struct esr_lights_balance_info *info);
 /* One line on what esr_lights_balance did (logs, `esr lights`). */

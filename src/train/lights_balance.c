@@ -9,6 +9,8 @@
 #include "core/colour.h"
 #include "core/error.h"
 
+/* rays rendered per call (the candidates are gathered this many at a time) */
+#define BALANCE_CHUNK 65536
 /* a light's box is its labelled lattice points' grown by this many voxels */
 #define BALANCE_BOX_VOX 2.0f
 /* a silhouette pixel: the light's composited field (scale 1) reaches this in some channel ... */
@@ -112,60 +114,32 @@ static int ray_meets_box(const float o[3], const float d[3], const float box[6])
     return t0 <= t1;
 }
 
-/* Rays with their photo's sRGB colour. */
-struct rays {
-    size_t n;
-    float *o3, *d3, *rgb3;
+/* Sums of light k's silhouette rows: g.(photo - rest) and g.g per channel, and their count. */
+struct silhouette_sums {
+    double gy[3], gg[3];
+    long rows;
 };
 
-/* The rays (orig3/dir3/rgb3 [n*3]) that pass through box, copied into *out (free its arrays). */
-static int rays_through_box(const float *orig3, const float *dir3, const float *rgb3, size_t n,
-                            const float box[6], struct rays *out)
+/* A batch of light k's candidate rays (o3/d3 [n*3], photo sRGB rgb3): its field composited at
+ * scale 1 (g) and the render with it dark, the other lights at their scales (rest); the
+ * unclipped rows the field reaches add g.(photo - rest) and g.g to the sums. g3, rest3 [n*3]
+ * scratch. */
+static int silhouette_batch(struct esr_model *m, int k, const float scales[][3], const float *o3,
+                            const float *d3, const float *rgb3, size_t n, float *g3, float *rest3,
+                            struct silhouette_sums *sum)
 {
-    size_t cap = 0;
-    for (size_t r = 0; r < n; r++) {
-        if (!ray_meets_box(orig3 + r * 3, dir3 + r * 3, box))
-            continue;
-        if (out->n == cap) {
-            cap = cap ? 2 * cap : 4096;
-            float **arr[3] = {&out->o3, &out->d3, &out->rgb3};
-            for (int a = 0; a < 3; a++) {
-                float *t = realloc(*arr[a], cap * 3 * sizeof(float));
-                if (!t)
-                    return ESR_FAIL("lights: out of memory for the colour balance");
-                *arr[a] = t;
-            }
-        }
-        memcpy(out->o3 + out->n * 3, orig3 + r * 3, 3 * sizeof(float));
-        memcpy(out->d3 + out->n * 3, dir3 + r * 3, 3 * sizeof(float));
-        memcpy(out->rgb3 + out->n * 3, rgb3 + r * 3, 3 * sizeof(float));
-        out->n++;
-    }
-    return ESR_OK;
-}
-
-/* Light k's silhouette pixels among the rays through its box (cand): its field composited at scale
- * 1 (g [c->n*3]) and the rest of the render with it dark, the other lights at their scales
- * (rest); least squares per channel of photo - rest = s g. */
-static int silhouette_scale(struct esr_model *m, int k, const float scales[][3],
-                            const struct rays *cand, float *g, float *rest, float sil[3], long *rows)
-{
-    const size_t n = cand->n;
-    const float *o3 = cand->o3, *d3 = cand->d3, *rgb3 = cand->rgb3;
     struct esr_lights *L = &m->lights;
     for (int a = 0; a < L->n; a++)
         for (int c = 0; c < 3; c++)
             L->light[a].scale[c] = a == k ? 1.0f : 0.0f;
-    ESR_TRY(render_on(m, o3, d3, n, NULL, g));
+    ESR_TRY(render_on(m, o3, d3, n, NULL, g3));
     for (int a = 0; a < L->n; a++)
         for (int c = 0; c < 3; c++)
             L->light[a].scale[c] = a == k ? 0.0f : scales[a][c];
-    ESR_TRY(render_on(m, o3, d3, n, rest, NULL));
-    double gy[3] = {0.0, 0.0, 0.0}, gg[3] = {0.0, 0.0, 0.0};
-    *rows = 0;
+    ESR_TRY(render_on(m, o3, d3, n, rest3, NULL));
     for (size_t r = 0; r < n; r++) {
-        const float *gr = g + r * 3;
-        if (fmaxf(gr[0], fmaxf(gr[1], gr[2])) < BALANCE_MIN_FIELD)
+        const float *g = g3 + r * 3;
+        if (fmaxf(g[0], fmaxf(g[1], g[2])) < BALANCE_MIN_FIELD)
             continue;
         float y[3];
         int clipped = 0;
@@ -176,14 +150,46 @@ static int silhouette_scale(struct esr_model *m, int k, const float scales[][3],
         if (clipped) /* says only "at least this bright" */
             continue;
         for (int c = 0; c < 3; c++) {
-            gy[c] += (double)gr[c] * (double)(y[c] - rest[r * 3 + (size_t)c]);
-            gg[c] += (double)gr[c] * (double)gr[c];
+            sum->gy[c] += (double)g[c] * (double)(y[c] - rest3[r * 3 + (size_t)c]);
+            sum->gg[c] += (double)g[c] * (double)g[c];
         }
-        (*rows)++;
+        sum->rows++;
     }
-    for (int c = 0; c < 3; c++)
-        sil[c] = gg[c] > 0.0 ? (float)(gy[c] / gg[c]) : 0.0f;
     return ESR_OK;
+}
+
+/* Light k's silhouette scale (sil) and pixel count over the rays (orig3/dir3/rgb3 [n*3]) through
+ * its box, taken BALANCE_CHUNK at a time: least squares per channel of photo - rest = s g. */
+static int silhouette_scale(struct esr_model *m, int k, const float scales[][3],
+                            const float *orig3, const float *dir3, const float *rgb3, size_t n,
+                            const float box[6], float sil[3], long *rows)
+{
+    float *buf = malloc((size_t)BALANCE_CHUNK * 15 * sizeof(float));
+    if (!buf)
+        return ESR_FAIL("lights: out of memory for the colour balance");
+    float *o3 = buf, *d3 = buf + BALANCE_CHUNK * 3, *y3 = buf + BALANCE_CHUNK * 6;
+    float *g3 = buf + BALANCE_CHUNK * 9, *rest3 = buf + BALANCE_CHUNK * 12;
+    struct silhouette_sums sum;
+    memset(&sum, 0, sizeof sum);
+    size_t got = 0;
+    int rc = ESR_OK;
+    for (size_t r = 0; r <= n && rc == ESR_OK; r++) {
+        if (r < n && ray_meets_box(orig3 + r * 3, dir3 + r * 3, box)) {
+            memcpy(o3 + got * 3, orig3 + r * 3, 3 * sizeof(float));
+            memcpy(d3 + got * 3, dir3 + r * 3, 3 * sizeof(float));
+            memcpy(y3 + got * 3, rgb3 + r * 3, 3 * sizeof(float));
+            got++;
+        }
+        if (got == BALANCE_CHUNK || (r == n && got > 0)) {
+            rc = silhouette_batch(m, k, scales, o3, d3, y3, got, g3, rest3, &sum);
+            got = 0;
+        }
+    }
+    free(buf);
+    for (int c = 0; c < 3; c++)
+        sil[c] = sum.gg[c] > 0.0 ? (float)(sum.gy[c] / sum.gg[c]) : 0.0f;
+    *rows = sum.rows;
+    return rc;
 }
 
 int esr_lights_balance(struct esr_model *m, const float *orig3, const float *dir3,
@@ -202,20 +208,10 @@ int esr_lights_balance(struct esr_model *m, const float *orig3, const float *dir
     light_boxes(L, box);
     int rc = ESR_OK;
     /* lights too small to fit borrowed their scale: no colour of their own to compare */
-    for (int k = 0; rc == ESR_OK && k < L->n; k++) {
-        if (!esr_light_strength_fitted(L, k))
-            continue;
-        struct rays cand = {0};
-        rc = rays_through_box(orig3, dir3, rgb3, n, box[k], &cand);
-        float *g = malloc((cand.n ? cand.n : 1) * 3 * sizeof(float));
-        float *rest = malloc((cand.n ? cand.n : 1) * 3 * sizeof(float));
-        if (rc == ESR_OK && !(g && rest))
-            rc = ESR_FAIL("lights: out of memory for the colour balance");
-        if (rc == ESR_OK)
-            rc = silhouette_scale(m, k, (const float(*)[3])scales, &cand, g, rest,
+    for (int k = 0; rc == ESR_OK && k < L->n; k++)
+        if (esr_light_strength_fitted(L, k))
+            rc = silhouette_scale(m, k, (const float(*)[3])scales, orig3, dir3, rgb3, n, box[k],
                                   info->silhouette[k], &info->rows[k]);
-        free(g), free(rest), free(cand.o3), free(cand.d3), free(cand.rgb3);
-    }
     for (int a = 0; a < L->n; a++)
         memcpy(L->light[a].scale, scales[a], sizeof scales[a]);
     if (rc != ESR_OK)

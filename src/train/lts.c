@@ -457,6 +457,7 @@ int esr_lts_run(struct esr_lts *l, const struct esr_model *m, const float *sdf, 
         ESR_TRY(esr_point_fields_bwd(&l->pf, m, g_sdf, grads, l->d_tone3, l->d_lin3));
         if (!l->edit) {
             ESR_TRY(esr_material_fields_bwd(&l->mf, m, g_sdf, grads, l->d_emit3, l->d_brdf5));
+            esr_lights_balance_env(&m->lights, l->d_env3, PM); /* through map / balance */
             esr_env_sg_bwd(env, lobes, l->wi3, PM, l->d_env3, grads + m->part[ESR_COMP_ENV].off);
         }
     }
