@@ -27,8 +27,9 @@ static int vertex_materials(const struct esr_model *m, struct esr_mesh *mesh, fl
         rc = esr_material_fields_fwd(&mf, m, sdf, mesh->pos + i0 * 3, n);
         for (size_t i = 0; rc == ESR_OK && i < n; i++) {
             const float *b = mf.brdf5 + i * ESR_BRDF_CHANNELS;
-            for (int c = 0; c < 3; c++)
-                mesh->colour[(i0 + i) * 3 + c] = b[c];
+            for (int c = 0; c < 3; c++) /* glTF colours lie in [0, 1]; a colour balance
+                                           (model/lights.h) can lift a base colour past 1 */
+                mesh->colour[(i0 + i) * 3 + c] = fminf(b[c], 1.0f);
             r += b[3];
             mt += b[4];
         }
