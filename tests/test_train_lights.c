@@ -524,9 +524,9 @@ static void test_balance_solve(void **state)
     assert_true(b[0] == 1.0f && b[1] == 1.0f && b[2] == 1.0f);
 }
 
-/* esr_lights_balance end to end on one emitting sphere seen by the 26 bundles: the "photos" are
- * the model's own lights-on renders with the light at a true scale s*, and the calibrated scale
- * is s* times a colour error b. The silhouette pixels (unclipped: s* is dim enough) give s*'s
+/* esr_lights_balance end to end on one emitting sphere seen by the 26 bundles (all lights-on
+ * rays): the "photos" are the model's own lights-on renders with the light at a true scale s*,
+ * and the calibrated scale is s* times a colour error b. The silhouette pixels (unclipped: s* is dim enough) give s*'s
  * colour back, so the balance found is b over its geometric mean and the scales end up s* times
  * one number. The base colour comes out times the balance, the environment over it, and the
  * light's direct effect, base colour x scale, stays as calibrated. */
@@ -563,7 +563,8 @@ static void test_balance_finds_the_silhouette_colour(void **state)
     memcpy(before, mf.brdf5, sizeof before);
     const float scale_before[3] = {l->scale[0], l->scale[1], l->scale[2]};
     struct esr_lights_balance_info info;
-    assert_int_equal(esr_lights_balance(&m, ray_orig, ray_dir, photo, N_RAYS, &info), ESR_OK);
+    const struct esr_ray_set rs = {.n = N_RAYS, .orig3 = ray_orig, .dir3 = ray_dir, .rgb3 = photo};
+    assert_int_equal(esr_lights_balance(&m, &rs, &info), ESR_OK);
     print_message("balance %.4f %.4f %.4f from %ld silhouette pixels; silhouette scale %.4f %.4f "
                   "%.4f\n", (double)info.applied[0], (double)info.applied[1],
                   (double)info.applied[2], info.rows[0], (double)info.silhouette[0][0],
@@ -623,7 +624,7 @@ static void test_balance_finds_the_silhouette_colour(void **state)
     esr_material_fields_free(&mf);
     /* the photos of a model already balanced: a second pass changes nothing, and the balance
      * it keeps is the first's (a pass multiplies the balance in place, it does not replace it) */
-    assert_int_equal(esr_lights_balance(&m, ray_orig, ray_dir, photo, N_RAYS, &info), ESR_OK);
+    assert_int_equal(esr_lights_balance(&m, &rs, &info), ESR_OK);
     for (int c = 0; c < 3; c++) {
         assert_float_equal(info.applied[c], 1.0f, 2e-3f);
         assert_float_equal(m.lights.balance[c], b[c] / gm, 4e-3f * b[c]);

@@ -70,9 +70,8 @@ static int find_and_calibrate(struct esr_model *m, const char *data, int find)
         rc = esr_lights_calibrate(m, rs.orig3, rs.dir3, rs.n_off, ESR_LIGHTS_CALIB_POINTS,
                                   (uint64_t)m->cfg.seed);
     struct esr_lights_balance_info bal;
-    const size_t on = rs.n_off * 3;
     if (rc == ESR_OK && m->lights.n > 0)
-        rc = esr_lights_balance(m, rs.orig3 + on, rs.dir3 + on, rs.rgb3 + on, rs.n - rs.n_off, &bal);
+        rc = esr_lights_balance(m, &rs, &bal);
     if (rc == ESR_OK && m->lights.n > 0) {
         char line[256];
         esr_lights_balance_text(m, &bal, line, sizeof line);

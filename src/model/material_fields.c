@@ -77,6 +77,16 @@ int esr_material_fields_init(struct esr_material_fields *mf, const struct esr_mo
     return grow(mf, m, cap > 0 ? cap : 1);
 }
 
+/* out = in (n BRDF rows) with the base colour channels times b: the lights' colour balance on
+ * the field's output, and its gradient back to it. */
+static void scale_base_colour(const float *in, float *out, size_t n, const float b[3])
+{
+    for (size_t k = 0; k < n; k++)
+        for (int c = 0; c < ESR_BRDF_CHANNELS; c++)
+            out[k * ESR_BRDF_CHANNELS + (size_t)c] =
+                in[k * ESR_BRDF_CHANNELS + (size_t)c] * (c < 3 ? b[c] : 1.0f);
+}
+
 static int mlp_run(const struct esr_material_fields *mf, const struct esr_mlp *mlp, const float *w,
                    struct esr_mlp_ctx *ctx, const float *in, float *out, size_t n)
 {
@@ -122,10 +132,7 @@ int esr_material_fields_fwd(struct esr_material_fields *mf, const struct esr_mod
     ESR_TRY(mlp_run(mf, esr_model_mlp(m, ESR_COMP_BRDF_MLP), w, &mf->ctx_b, mf->x_b, mf->brdf5_field, n));
     float b[3];
     esr_lights_balance_of(&m->lights, b);
-    for (size_t k = 0; k < n; k++)
-        for (int c = 0; c < ESR_BRDF_CHANNELS; c++)
-            mf->brdf5[k * ESR_BRDF_CHANNELS + (size_t)c] =
-                mf->brdf5_field[k * ESR_BRDF_CHANNELS + (size_t)c] * (c < 3 ? b[c] : 1.0f);
+    scale_base_colour(mf->brdf5_field, mf->brdf5, n, b);
     return ESR_OK;
 }
 
@@ -159,10 +166,7 @@ int esr_material_fields_bwd(struct esr_material_fields *mf, const struct esr_mod
     if (d_brdf5 && esr_lights_balanced(&m->lights)) { /* through base colour = b x the field's */
         float b[3];
         esr_lights_balance_of(&m->lights, b);
-        for (size_t k = 0; k < n; k++)
-            for (int c = 0; c < ESR_BRDF_CHANNELS; c++)
-                mf->d_brdf5_field[k * ESR_BRDF_CHANNELS + (size_t)c] =
-                    d_brdf5[k * ESR_BRDF_CHANNELS + (size_t)c] * (c < 3 ? b[c] : 1.0f);
+        scale_base_colour(d_brdf5, mf->d_brdf5_field, n, b);
         d_brdf5 = mf->d_brdf5_field;
     }
     if (d_emit3)

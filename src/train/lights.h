@@ -47,6 +47,7 @@
 #include <stddef.h>
 
 #include "model/model.h"
+#include "train/rays.h"
 
 #ifdef __cplusplus
 extern "C" {
@@ -79,7 +80,7 @@ struct esr_lights_balance_info {
  * (the grey-world guess, train/env_init.h): under a blue sky every light comes out too red. The
  * lights-on photos hold one more clue: where a light covers part of a pixel against a dark
  * surface (its silhouette), the pixel is not clipped and shows the light's own colour, mixed
- * with what lies behind it. Over the lights-on rays (orig3/dir3/rgb3 [n*3], the photo's sRGB)
+ * with what lies behind it. Over the lights-on rays of the training set rs (its photos' sRGB)
  * whose composited light field (scale 1) g_K reaches BALANCE_MIN_FIELD and whose photo is
  * unclipped, photo - rest = c_K g_K per channel by least squares, rest being the render with
  * light K dark and the others at their scales. The magnitude of c_K is not trusted (the
@@ -94,8 +95,8 @@ struct esr_lights_balance_info {
  * too small to fit has no colour of its own and does not vote. Renders the rays through each
  * fitted light's box twice (its labelled points' box grown by 2 voxels), in batches; the lights'
  * scales are restored when it fails. info may not be NULL. */
-int esr_lights_balance(struct esr_model *m, const float *orig3, const float *dir3,
-                       const float *rgb3, size_t n, struct esr_lights_balance_info *info);
+int esr_lights_balance(struct esr_model *m, const struct esr_ray_set *rs,
+                       struct esr_lights_balance_info *info);
 /* One line on what esr_lights_balance did (logs, `esr lights`). */
 void esr_lights_balance_text(const struct esr_model *m, const struct esr_lights_balance_info *info,
                              char *out, size_t size);

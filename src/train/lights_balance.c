@@ -8,6 +8,8 @@
 
 #include "core/colour.h"
 #include "core/error.h"
+#include "train/rays.h"
+#include "volume/ray.h"
 
 /* rays rendered per call (the candidates are gathered this many at a time) */
 #define BALANCE_CHUNK 65536
@@ -93,27 +95,6 @@ static void light_boxes(const struct esr_lights *L, float box[ESR_MAX_LIGHTS][6]
         }
 }
 
-/* 1 when the ray o + t d, t >= 0, passes through box (slab test). */
-static int ray_meets_box(const float o[3], const float d[3], const float box[6])
-{
-    float t0 = 0.0f, t1 = INFINITY;
-    for (int a = 0; a < 3; a++) {
-        if (fabsf(d[a]) < 1e-12f) {
-            if (o[a] < box[a] || o[a] > box[3 + a])
-                return 0;
-            continue;
-        }
-        const float inv = 1.0f / d[a];
-        float ta = (box[a] - o[a]) * inv, tb = (box[3 + a] - o[a]) * inv;
-        if (ta > tb) {
-            const float t = ta;
-            ta = tb, tb = t;
-        }
-        t0 = fmaxf(t0, ta), t1 = fminf(t1, tb);
-    }
-    return t0 <= t1;
-}
-
 /* Sums of light k's silhouette rows: g.(photo - rest) and g.g per channel, and their count. */
 struct silhouette_sums {
     double gy[3], gg[3];
@@ -174,7 +155,9 @@ static int silhouette_scale(struct esr_model *m, int k, const float scales[][3],
     size_t got = 0;
     int rc = ESR_OK;
     for (size_t r = 0; r <= n && rc == ESR_OK; r++) {
-        if (r < n && ray_meets_box(orig3 + r * 3, dir3 + r * 3, box)) {
+        float t0, t1;
+        if (r < n && esr_ray_box_clip(orig3 + r * 3, dir3 + r * 3, box, box + 3, 0.0f, INFINITY,
+                                      &t0, &t1)) {
             memcpy(o3 + got * 3, orig3 + r * 3, 3 * sizeof(float));
             memcpy(d3 + got * 3, dir3 + r * 3, 3 * sizeof(float));
             memcpy(y3 + got * 3, rgb3 + r * 3, 3 * sizeof(float));
@@ -192,10 +175,13 @@ static int silhouette_scale(struct esr_model *m, int k, const float scales[][3],
     return rc;
 }
 
-int esr_lights_balance(struct esr_model *m, const float *orig3, const float *dir3,
-                       const float *rgb3, size_t n, struct esr_lights_balance_info *info)
+int esr_lights_balance(struct esr_model *m, const struct esr_ray_set *rs,
+                       struct esr_lights_balance_info *info)
 {
     struct esr_lights *L = &m->lights;
+    const size_t n = rs->n - rs->n_off; /* the lights-on rays follow the lights-off ones */
+    const float *orig3 = rs->orig3 + rs->n_off * 3, *dir3 = rs->dir3 + rs->n_off * 3;
+    const float *rgb3 = rs->rgb3 + rs->n_off * 3;
     memset(info, 0, sizeof(*info));
     for (int c = 0; c < 3; c++)
         info->applied[c] = 1.0f;

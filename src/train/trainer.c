@@ -324,10 +324,8 @@ static int find_lights(struct run *r, struct esr_model *m, enum esr_stage s)
     }
     ESR_TRY(esr_lights_calibrate(m, r->rays.orig3, r->rays.dir3, r->rays.n_off,
                                  ESR_LIGHTS_CALIB_POINTS, (uint64_t)r->cfg.seed));
-    const size_t on = r->rays.n_off * 3;
     struct esr_lights_balance_info bal;
-    ESR_TRY(esr_lights_balance(m, r->rays.orig3 + on, r->rays.dir3 + on, r->rays.rgb3 + on,
-                               r->rays.n - r->rays.n_off, &bal));
+    ESR_TRY(esr_lights_balance(m, &r->rays, &bal));
     char line[256];
     esr_lights_balance_text(m, &bal, line, sizeof line);
     say(r, s, "%s", line);
