@@ -6,6 +6,7 @@
 #include <stdint.h>
 #include <cmocka.h>
 #include <math.h>
+#include <string.h>
 
 #include "core/error.h"
 #include "io/camera.h"
@@ -99,6 +100,58 @@ static void test_synthetic_camera(void **state)
         assert_float_equal(d[k], -cam.c2w[k][2], 1e-6);
 }
 
+/* The orbit: camera k of n stands on the first one's level circle around the centre's vertical
+ * axis, k / n of a turn on (counter-clockwise seen from above), looks at the centre (it projects
+ * to the image centre), keeps +Z up (the image's up vector has no sideways tilt) and is a
+ * rotation; a first camera straight above the centre is refused. */
+static void test_orbit(void **state)
+{
+    (void)state;
+    const float eye[3] = {2.5f, -3.0f, 1.5f}, centre[3] = {0.2f, 0.1f, 0.3f};
+    struct esr_camera first;
+    look_at_origin(eye, &first);
+    first.width = 64;
+    first.height = 48;
+    first.focal = 50.0f;
+    const float r0 = hypotf(eye[0] - centre[0], eye[1] - centre[1]);
+    const float phi0 = atan2f(eye[1] - centre[1], eye[0] - centre[0]);
+    const int n = 8;
+    for (int k = 0; k < n; k++) {
+        struct esr_camera c;
+        assert_int_equal(esr_camera_orbit(&first, centre, k, n, &c), ESR_OK);
+        assert_int_equal(c.width, 64);
+        assert_float_equal(c.focal, 50.0f, 0.0f);
+        const float phi = phi0 + 2.0f * (float)M_PI * (float)k / (float)n;
+        assert_float_equal(c.c2w[0][3], centre[0] + r0 * cosf(phi), 1e-5);
+        assert_float_equal(c.c2w[1][3], centre[1] + r0 * sinf(phi), 1e-5);
+        assert_float_equal(c.c2w[2][3], eye[2], 0.0f);
+        float px, py;
+        assert_int_equal(esr_camera_project(&c, centre, &px, &py), 1);
+        assert_float_equal(px, 32.0f, 1e-3);
+        assert_float_equal(py, 24.0f, 1e-3);
+        assert_float_equal(c.c2w[2][0], 0.0f, 1e-6); /* image right is level */
+        assert_true(c.c2w[2][1] > 0.0f);            /* image up points up */
+        for (int a = 0; a < 3; a++)
+            for (int b = 0; b < 3; b++) {
+                double dot = 0.0;
+                for (int r = 0; r < 3; r++)
+                    dot += (double)c.c2w[r][a] * c.c2w[r][b];
+                assert_float_equal(dot, a == b ? 1.0 : 0.0, 1e-5);
+            }
+    }
+    struct esr_camera first_k0;
+    assert_int_equal(esr_camera_orbit(&first, centre, 0, n, &first_k0), ESR_OK);
+    for (int r = 0; r < 3; r++) /* camera 0 is the first camera itself, re-aimed at the centre */
+        assert_float_equal(first_k0.c2w[r][3], eye[r], 1e-5);
+    const float above[3] = {centre[0], centre[1], 4.0f};
+    struct esr_camera down, out;
+    look_at_origin(above, &down);
+    esr_error_clear();
+    assert_int_equal(esr_camera_orbit(&down, centre, 1, n, &out), ESR_ERR);
+    assert_non_null(strstr(esr_error_message(), "straight above or below the scene's centre"));
+    esr_error_clear();
+}
+
 static void test_lamp_cameras(void **state)
 {
     (void)state;
@@ -118,6 +171,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_focal),
         cmocka_unit_test(test_synthetic_camera),
+        cmocka_unit_test(test_orbit),
         cmocka_unit_test(test_lamp_cameras),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

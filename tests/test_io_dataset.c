@@ -221,6 +221,11 @@ static void test_bad_json(void **state)
         {"negative_intensity", ONE_LIGHT_FRAME("i_change", "-1"), "intensity -1 is negative"},
         {"on_at_zero", ONE_LIGHT_FRAME("on", "0"), "mode 'on' has intensity 0"},
         {"off_but_lit", ONE_LIGHT_FRAME("off", "1"), "mode 'off' has intensity 1"},
+        /* a saturation above 1 would be negative light in a colour edit */
+        {"saturation_past_1",
+         "{\"camera_angle_x\": 0.6911, \"frames\": [{\"file_path\":\"train/r_000\",\"transform_matrix\":" MATRIX
+         ",\"lights\":[{\"mode\":\"c_change\",\"intensity\":1,\"color\":[0.5,1.5,1]}]}]}",
+         "light color [0.5, 1.5, 1] is not an HSV triple in [0, 1]"},
         {"inf_matrix",
          "{\"camera_angle_x\": 0.6911, \"frames\": [{\"file_path\":\"train/r_000\",\"transform_matrix\":"
          "[[1,0,0,1e999],[0,1,0,0],[0,0,1,4],[0,0,0,1]],\"lights\":[]}]}",

@@ -11,6 +11,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 #include <cjson/cJSON.h>
 
@@ -1365,6 +1366,41 @@ static void test_ratio_edits(void **state)
             dark = fmax(dark, fabs((double)img[0].data[i] - off[i]));
             effect = fmax(effect, fabs((double)on[i] - off[i]));
         }
+    /* an edit no light can take is refused, naming the light and the value; without a recolour
+     * the hue and saturation are not read */
+    static const struct {
+        struct esr_light_edit e;
+        const char *why; /* NULL: accepted */
+    } asks[] = {
+        {{2e6f, 0, 0.0f, 0.0f}, "edit of light 0: intensity 2e+06 is not a number in [0, 1e+06]"},
+        {{NAN, 0, 0.0f, 0.0f}, "edit of light 0: intensity nan is not a number"},
+        {{-0.5f, 0, 0.0f, 0.0f}, "edit of light 0: intensity -0.5 is not a number"},
+        {{1.0f, 1, 0.5f, 1.5f}, "edit of light 0: saturation 1.5 is not a number in [0, 1]"},
+        {{1.0f, 1, -0.25f, 1.0f}, "edit of light 0: hue -0.25 is not a number in [0, 1]"},
+        {{1.0f, 1, 0.25f, NAN}, "edit of light 0: saturation nan is not a number"},
+        {{1e6f, 0, 7.0f, -3.0f}, NULL},
+        {{0.0f, 1, 1.0f, 0.0f}, NULL},
+    };
+    for (size_t i = 0; i < sizeof asks / sizeof asks[0]; i++) {
+        struct esr_light_edit e[ESR_MAX_LIGHTS];
+        for (int k = 0; k < ESR_MAX_LIGHTS; k++)
+            e[k] = (struct esr_light_edit){1.0f, 0, 0.0f, 0.0f};
+        e[0] = asks[i].e;
+        esr_error_clear();
+        const int rc = esr_editor_set(&ed, e, 3);
+        if (!asks[i].why) {
+            assert_int_equal(rc, ESR_OK);
+            continue;
+        }
+        assert_int_equal(rc, ESR_ERR);
+        if (!strstr(esr_error_message(), asks[i].why))
+            fail_msg("ask %zu: '%s' does not say '%s'", i, esr_error_message(), asks[i].why);
+        struct esr_image none = {0};
+        esr_error_clear();
+        assert_int_equal(esr_relight_view(&ed.relight, &v.m, e, v.cam, 3, &none, NULL), ESR_ERR);
+        assert_null(none.data);
+    }
+    esr_error_clear();
     print_message("ratio: %zu pixels see no light; lights' effect up to %.4f; unedited differs "
                   "from the lights-on render by %.2g, all off from the lights-off one by %.2g; "
                   "x2 - 2 x1 %.2g\n", seen, effect, same, dark, lin);
@@ -1582,6 +1618,34 @@ static void test_edit_eval_follows_lights(void **state)
     sp = cJSON_GetObjectItemCaseSensitive(root, "light_split");
     assert_int_equal(cJSON_GetArraySize(cJSON_GetObjectItemCaseSensitive(sp, "edited_lights_unmatched")), 2);
     cJSON_Delete(root);
+    /* a frame asking an edit no light can take (x2e6: past esr's cap, where the radiance leaves
+     * float) is refused, naming it, before anything is written */
+    snprintf(data, sizeof data, "%s/data_edit_too_strong", test_tmpdir);
+    snprintf(cmd, sizeof cmd, "cp -r '%s' '%s' && rm -r '%s'/render/test_nvi_direct '%s'/eval", data_dir,
+             data, run, run);
+    assert_int_equal(system(cmd), 0);
+    snprintf(cmd, sizeof cmd, "%s/transforms/transforms_test_nvi.json", data);
+    root = test_read_json(cmd);
+    assert_non_null(root);
+    const cJSON *frame = cJSON_GetArrayItem(cJSON_GetObjectItemCaseSensitive(root, "frames"), 0);
+    cJSON *light = cJSON_GetArrayItem(cJSON_GetObjectItemCaseSensitive(frame, "lights"), 0);
+    cJSON_SetNumberValue(cJSON_GetObjectItemCaseSensitive(light, "intensity"), 2e6);
+    char *text = cJSON_Print(root), name[128];
+    snprintf(name, sizeof name, "%s", cJSON_GetObjectItemCaseSensitive(frame, "file_path")->valuestring);
+    cJSON_Delete(root);
+    assert_int_equal(test_write_file(cmd, text), 0);
+    free(text);
+    snprintf(cmd, sizeof cmd, "eval '%s' --data '%s' --phase test_nvi --method direct", run, data);
+    assert_int_not_equal(test_run_esr(cmd, out, sizeof out), 0);
+    char want[256];
+    snprintf(want, sizeof want, "frame %s asks dataset light 0 for an edit esr cannot make: intensity "
+             "2e+06 is not a number in [0, 1e+06]", strrchr(name, '/') + 1);
+    if (!strstr(out, want))
+        fail_msg("esr %s said:\n%s\n(expected: %s)", cmd, out, want);
+    snprintf(cmd, sizeof cmd, "%s/render/test_nvi_direct", run);
+    assert_int_not_equal(access(cmd, F_OK), 0);
+    snprintf(cmd, sizeof cmd, "%s/eval", run);
+    assert_int_not_equal(access(cmd, F_OK), 0);
 }
 
 int main(void)

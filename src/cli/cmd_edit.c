@@ -66,8 +66,6 @@ const struct esr_command cmd_edit = {
     1, /* view_loop */
 };
 
-/* The largest intensity multiplier (a million times the light as found). */
-#define MAX_INTENSITY 1e6
 
 struct edit_args {
     const char *run, *out, *views, *data, *frames;
@@ -150,10 +148,9 @@ static int parse(int argc, char **argv, struct edit_args *a)
                 if (a->g[a->n_groups - 1].has_intensity)
                     return cli_fail(&cmd_edit, "--intensity given twice after one --light");
                 a->g[a->n_groups - 1].has_intensity = 1;
-                /* the cap keeps the edited radiance (and its image) finite in float */
-                if (cli_parse_double(v, 0.0, MAX_INTENSITY, &x))
+                if (cli_parse_double(v, 0.0, ESR_LIGHT_EDIT_MAX_INTENSITY, &x))
                     return cli_fail(&cmd_edit, "--intensity: expected a number >= 0 and at most "
-                                    "%g, got '%s'", MAX_INTENSITY, v);
+                                    "%g, got '%s'", ESR_LIGHT_EDIT_MAX_INTENSITY, v);
                 e->intensity = (float)x;
             } else {
                 if (a->g[a->n_groups - 1].has_colour)
@@ -273,25 +270,6 @@ static int edits_of(const struct edit_args *a, int n, struct esr_light_edit *edi
     return ESR_OK;
 }
 
-/* Camera k of n on the circle through `first`'s position around the box centre, looking at it. */
-static struct esr_camera orbit_camera(const struct esr_camera *first, const float centre[3], int k,
-                                      int n)
-{
-    struct esr_camera c = *first;
-    const float dx = first->c2w[0][3] - centre[0], dy = first->c2w[1][3] - centre[1];
-    const float radius = sqrtf(dx * dx + dy * dy), phi = atan2f(dy, dx) + 6.2831853f * k / n;
-    const struct esr_vec3 pos = esr_v3(centre[0] + radius * cosf(phi),
-                                       centre[1] + radius * sinf(phi), first->c2w[2][3]);
-    const struct esr_vec3 f = esr_v3_normalize(esr_v3_sub(esr_v3(centre[0], centre[1], centre[2]), pos));
-    const struct esr_vec3 r = esr_v3_normalize(esr_v3_cross(f, esr_v3(0.0f, 0.0f, 1.0f)));
-    const struct esr_vec3 u = esr_v3_cross(r, f);
-    const float cols[4][3] = {{r.x, r.y, r.z}, {u.x, u.y, u.z}, {-f.x, -f.y, -f.z}, {pos.x, pos.y, pos.z}};
-    for (int i = 0; i < 3; i++)
-        for (int j = 0; j < 4; j++)
-            c.c2w[i][j] = cols[j][i];
-    return c;
-}
-
 /* Writes the view's N.exr and N.png; *written counts the files in place (0, 1 or 2). */
 static int write_view(const char *dir, const char *name, const struct esr_image *lin, int *written)
 {
@@ -362,6 +340,13 @@ static int edit(const struct edit_args *a)
         ft.iters = a->iters;
     if (rc == ESR_OK)
         rc = check_out(a, sel.ds.root);
+    const float centre[3] = {0.5f * (m.scene_min[0] + m.scene_max[0]),
+                             0.5f * (m.scene_min[1] + m.scene_max[1]),
+                             0.5f * (m.scene_min[2] + m.scene_max[2])};
+    struct esr_camera orbit0; /* an orbit that cannot be made is refused before any work */
+    if (rc == ESR_OK && a->orbit)
+        rc = esr_camera_orbit(&sel.ds.phases[sel.phase].frames[sel.idx[0]].camera, centre, 0,
+                              a->orbit, &orbit0);
     char made[4200] = ""; /* the outermost folder of --out this edit created */
     if (rc == ESR_OK)
         rc = esr_dir_prepare_output_made(a->out, made, sizeof made);
@@ -377,9 +362,6 @@ static int edit(const struct edit_args *a)
                 ed.last.mse_first, ed.last.mse_last);
     const struct esr_phase *ph = &sel.ds.phases[sel.phase];
     const int views = a->orbit ? a->orbit : sel.n;
-    const float centre[3] = {0.5f * (m.scene_min[0] + m.scene_max[0]),
-                             0.5f * (m.scene_min[1] + m.scene_max[1]),
-                             0.5f * (m.scene_min[2] + m.scene_max[2])};
     char(*names)[ESR_NAME_MAX] = rc == ESR_OK ? calloc((size_t)views, sizeof *names) : NULL;
     if (rc == ESR_OK && !names)
         rc = ESR_FAIL("out of memory for %d view names", views);
@@ -394,14 +376,14 @@ static int edit(const struct edit_args *a)
         char *name = names[v];
         struct esr_camera cam = f->camera;
         if (a->orbit) {
-            cam = orbit_camera(&f->camera, centre, v, a->orbit);
+            rc = esr_camera_orbit(&f->camera, centre, v, a->orbit, &cam);
             snprintf(name, ESR_NAME_MAX, "orbit_%03d", v);
         } else {
             snprintf(name, ESR_NAME_MAX, "%s", f->name);
         }
         const double t0 = omp_get_wtime();
         const int same = prev.data && !memcmp(&cam, &prev_cam, sizeof cam);
-        if (!same) {
+        if (rc == ESR_OK && !same) {
             esr_image_free(&prev);
             rc = esr_editor_view(&ed, &cam, (uint64_t)v, &prev);
             prev_cam = cam;

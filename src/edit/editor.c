@@ -57,6 +57,7 @@ void esr_editor_free(struct esr_editor *e)
 int esr_editor_set(struct esr_editor *e, const struct esr_light_edit *edits, uint64_t seed)
 {
     const size_t bytes = (size_t)e->m->lights.n * sizeof *edits;
+    ESR_TRY(esr_light_edits_check(edits, e->m->lights.n));
     if (e->method == ESR_EDIT_FINETUNE && !(e->has_edit && !memcmp(e->edits, edits, bytes))) {
         e->has_edit = 0;
         ESR_TRY(esr_finetune_apply(&e->ft, e->m, edits, seed, &e->last));

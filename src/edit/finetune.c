@@ -167,6 +167,7 @@ int esr_finetune_apply(struct esr_finetune *f, struct esr_model *m,
                        struct esr_finetune_stats *st)
 {
     memset(st, 0, sizeof(*st));
+    ESR_TRY(esr_light_edits_check(edits, m->lights.n));
     esr_finetune_restore(f, m);
     const double t0 = omp_get_wtime();
     const float *sdf = esr_model_values(m, ESR_COMP_SDF);

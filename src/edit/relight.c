@@ -279,6 +279,7 @@ int esr_relight_view(const struct esr_relight *r, const struct esr_model *m,
     memset(out, 0, sizeof(*out));
     if (stats)
         memset(stats, 0, sizeof(*stats));
+    ESR_TRY(esr_light_edits_check(edits, m->lights.n));
     const size_t n = (size_t)cam->width * (size_t)cam->height;
     struct view_buf b;
     memset(&b, 0, sizeof b);

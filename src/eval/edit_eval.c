@@ -56,6 +56,32 @@ static int write_light_ids(const struct esr_model *m, const struct esr_camera *c
     return rc;
 }
 
+/* Dataset light k's edit in frame f. */
+static struct esr_light_edit light_state_edit(const struct esr_frame *f, int k)
+{
+    const struct esr_light_state *st = &f->lights[k];
+    return (struct esr_light_edit){st->mode == ESR_LIGHT_OFF ? 0.0f : st->intensity,
+                                   st->mode == ESR_LIGHT_C_CHANGE || st->mode == ESR_LIGHT_IC_CHANGE,
+                                   st->hsv[0], st->hsv[1]};
+}
+
+/* Fails, naming the frame and the light, when a frame asks an edit no light can take (an
+ * intensity past ESR_LIGHT_EDIT_MAX_INTENSITY, say): checked before anything is written. */
+static int check_frame_edits(const struct esr_dataset *ds, const struct esr_phase *ph,
+                             const int *idx, int n)
+{
+    for (int i = 0; i < n; i++)
+        for (int k = 0; k < ds->n_lights; k++) {
+            const struct esr_frame *f = &ph->frames[idx[i]];
+            const struct esr_light_edit e = light_state_edit(f, k);
+            char why[96];
+            if (esr_light_edit_problem(&e, why, sizeof why))
+                return ESR_FAIL("frame %s asks dataset light %d for an edit esr cannot make: %s",
+                                f->name, k, why);
+        }
+    return ESR_OK;
+}
+
 /* The esr-light edits of frame f: each esr light takes the edit of the dataset light it
  * overlaps most (light_split.h); one that overlaps none stays as found. */
 static void frame_edits(const struct esr_dataset *ds, const struct esr_frame *f,
@@ -63,15 +89,9 @@ static void frame_edits(const struct esr_dataset *ds, const struct esr_frame *f,
                         struct esr_light_edit *edits)
 {
     for (int j = 0; j < n_lights; j++) {
-        edits[j] = (struct esr_light_edit){1.0f, 0, 0.0f, 0.0f};
         const int k = sp->dataset_light[j];
-        if (k < 0 || k >= ds->n_lights)
-            continue;
-        const struct esr_light_state *st = &f->lights[k];
-        edits[j].intensity = st->mode == ESR_LIGHT_OFF ? 0.0f : st->intensity;
-        edits[j].recolour = st->mode == ESR_LIGHT_C_CHANGE || st->mode == ESR_LIGHT_IC_CHANGE;
-        edits[j].hue = st->hsv[0];
-        edits[j].sat = st->hsv[1];
+        edits[j] = k < 0 || k >= ds->n_lights ? (struct esr_light_edit){1.0f, 0, 0.0f, 0.0f}
+                                              : light_state_edit(f, k);
     }
 }
 
@@ -183,6 +203,7 @@ int esr_edit_eval_phase(struct esr_model *m, const struct esr_dataset *ds,
     res->method = method;
     res->spp = spp;
     const struct esr_phase *ph = &ds->phases[phase];
+    ESR_TRY(check_frame_edits(ds, ph, idx, n));
     if (!(res->views = calloc((size_t)(n > 0 ? n : 1), sizeof *res->views)))
         return ESR_FAIL("out of memory for %d views", n);
     ESR_TRY(esr_dir_prepare_output(out_dir));

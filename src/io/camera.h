@@ -26,4 +26,11 @@ void esr_camera_pixel_rays(const struct esr_camera *cam, float *origins, float *
  * rotation part of c2w is orthonormal); returns 0 when it is not in front of the camera. */
 int esr_camera_project(const struct esr_camera *cam, const float world[3], float *px, float *py);
 
+/* Camera k of n (out) on the level circle through first's centre around the vertical axis
+ * through centre (first's height, size and focal kept), looking at centre with +Z up. ESR_ERR,
+ * saying so, when first lies straight above or below centre (within 1e-4 of its distance): the
+ * circle is a point and a view down the axis has no up. */
+int esr_camera_orbit(const struct esr_camera *first, const float centre[3], int k, int n,
+                     struct esr_camera *out);
+
 #endif

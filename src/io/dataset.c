@@ -190,6 +190,10 @@ static int parse_light(const struct json_where *w, const cJSON *obj, struct esr_
     if (!color)
         return JSON_FAIL(w, "missing key 'color'");
     ESR_TRY(json_vector(w, color, "color", light->hsv, 3));
+    for (int c = 0; c < 3; c++)
+        if (!(light->hsv[c] >= 0.0f && light->hsv[c] <= 1.0f))
+            return JSON_FAIL(w, "light color [%g, %g, %g] is not an HSV triple in [0, 1]",
+                             (double)light->hsv[0], (double)light->hsv[1], (double)light->hsv[2]);
     light->mask_path[0] = '\0';
     if (cJSON_GetObjectItemCaseSensitive(obj, "mask_path"))
         ESR_TRY(json_string(w, obj, "mask_path", light->mask_path, sizeof light->mask_path));

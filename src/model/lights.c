@@ -7,6 +7,7 @@
 #include "fields/trilerp.h"
 
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -165,6 +166,35 @@ void esr_lights_keep_lit(const struct esr_lights *L, const float *pos3, size_t n
     for (size_t i = 0; i < n; i++)
         if (esr_lights_id_at(L, pos3 + i * 3) < 0)
             emit3[i * 3] = emit3[i * 3 + 1] = emit3[i * 3 + 2] = 0.0f;
+}
+
+const char *esr_light_edit_problem(const struct esr_light_edit *ed, char *why, size_t size)
+{
+    if (!(ed->intensity >= 0.0f && ed->intensity <= ESR_LIGHT_EDIT_MAX_INTENSITY))
+        snprintf(why, size, "intensity %g is not a number in [0, %g]", (double)ed->intensity,
+                 ESR_LIGHT_EDIT_MAX_INTENSITY);
+    else if (ed->recolour && !(ed->hue >= 0.0f && ed->hue <= 1.0f))
+        snprintf(why, size, "hue %g is not a number in [0, 1]", (double)ed->hue);
+    else if (ed->recolour && !(ed->sat >= 0.0f && ed->sat <= 1.0f))
+        snprintf(why, size, "saturation %g is not a number in [0, 1]", (double)ed->sat);
+    else
+        return NULL;
+    return why;
+}
+
+int esr_light_edit_check(const struct esr_light_edit *ed, int id)
+{
+    char why[96];
+    if (esr_light_edit_problem(ed, why, sizeof why))
+        return ESR_FAIL("edit of light %d: %s", id, why);
+    return ESR_OK;
+}
+
+int esr_light_edits_check(const struct esr_light_edit *edits, int n)
+{
+    for (int id = 0; id < n; id++)
+        ESR_TRY(esr_light_edit_check(&edits[id], id));
+    return ESR_OK;
 }
 
 void esr_light_edit_apply(const struct esr_light_edit *ed, const float e[3], float out[3])

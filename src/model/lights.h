@@ -28,6 +28,18 @@ struct esr_light_edit {
     int recolour;       /* 1: hue and saturation replaced (V kept) */
     float hue, sat;     /* in [0, 1] */
 };
+/* The largest intensity an edit may ask: a million times the light as found keeps the edited
+ * radiance, and its images, finite in float. */
+#define ESR_LIGHT_EDIT_MAX_INTENSITY 1e6
+/* What is wrong with edit ed, written into why [size] and returned; NULL when it can be applied:
+ * intensity finite in [0, ESR_LIGHT_EDIT_MAX_INTENSITY], and with a recolour hue and saturation
+ * finite in [0, 1] (a saturation above 1 gives negative light). */
+const char *esr_light_edit_problem(const struct esr_light_edit *ed, char *why, size_t size);
+/* ESR_OK when edit ed of light id can be applied, else ESR_ERR naming the light and the problem.
+ * Every entry point that takes edits (edit/editor.h, edit/relight.h, edit/finetune.h) checks. */
+int esr_light_edit_check(const struct esr_light_edit *ed, int id);
+/* esr_light_edit_check over the n edits of lights 0..n-1. */
+int esr_light_edits_check(const struct esr_light_edit *edits, int n);
 
 struct esr_light {
     float centroid[3];    /* world position, mean of the light's surface points */
