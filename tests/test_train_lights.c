@@ -291,6 +291,24 @@ static void test_lights_survive_a_checkpoint(void **state)
     assert_int_equal(esr_model_save(&m, path), ESR_OK);
     assert_int_not_equal(esr_model_load(&back, path), ESR_OK);
     assert_non_null(strstr(esr_error_message(), "light label"));
+    esr_error_clear();
+    m.lights.label[empty] = 0;
+    /* labels on a lattice other than the SDF's (fewer points, or another box) are refused: they
+     * are read at the SDF's indices */
+    const struct esr_grid keep = m.lights.grid;
+    for (int change = 0; change < 2; change++) {
+        m.lights.grid = keep;
+        if (change == 0)
+            m.lights.grid.nz -= 1;
+        else
+            m.lights.grid.bmax[1] += 0.25f;
+        assert_int_equal(esr_model_save(&m, path), ESR_OK);
+        assert_int_not_equal(esr_model_load(&back, path), ESR_OK);
+        if (!strstr(esr_error_message(), "the light labels' lattice"))
+            fail_msg("change %d: %s", change, esr_error_message());
+        esr_error_clear();
+    }
+    m.lights.grid = keep;
     esr_model_free(&m);
 }
 
@@ -476,6 +494,25 @@ static void test_small_light_shares_the_fitted_scale(void **state)
     L.light[2].area = 0.05f * 0.92f; /* 5% of the total exactly: fitted */
     assert_int_equal(esr_lights_fitted(&L, fit), 3);
     assert_true(esr_light_strength_fitted(&L, 2));
+    /* a row's columns: the left-out light's light joins each fitted light's column by area
+     * share, so that a x s over the fitted lights is what the row sees once light 2 borrows */
+    L.light[2].area = 0.011f;
+    assert_int_equal(esr_lights_fitted(&L, fit), 2);
+    const double a[3] = {0.5, 0.25, 0.125};
+    double cols[2];
+    esr_lights_fit_columns(&L, fit, 2, a, cols);
+    assert_float_equal(cols[0], 0.5 + 0.729 / 0.870 * 0.125, 1e-6);
+    assert_float_equal(cols[1], 0.25 + 0.141 / 0.870 * 0.125, 1e-6);
+    L.light[0].scale[1] = 8.0f, L.light[1].scale[1] = 2.0f;
+    esr_lights_share_scale(&L, 1);
+    assert_float_equal(cols[0] * 8.0 + cols[1] * 2.0,
+                       a[0] * 8.0 + a[1] * 2.0 + a[2] * L.light[2].scale[1], 1e-5);
+    /* a calibration that fitted no light on any point is said to be one */
+    assert_true(esr_lights_uncalibrated(&L));
+    L.light[1].calib_points = 12.0f;
+    assert_false(esr_lights_uncalibrated(&L));
+    L.n = 0;
+    assert_false(esr_lights_uncalibrated(&L)); /* no lights: nothing to calibrate */
 }
 
 /* The balance from silhouette and calibrated scales (esr_lights_balance_solve): each voting

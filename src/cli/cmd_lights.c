@@ -69,6 +69,8 @@ static int find_and_calibrate(struct esr_model *m, const char *data, int find)
     if (rc == ESR_OK && m->lights.n > 0)
         rc = esr_lights_calibrate(m, rs.orig3, rs.dir3, rs.n_off, ESR_LIGHTS_CALIB_POINTS,
                                   (uint64_t)m->cfg.seed);
+    if (rc == ESR_OK && esr_lights_uncalibrated(&m->lights))
+        fprintf(stderr, "esr lights: warning: " ESR_LIGHTS_UNCALIBRATED_TEXT "\n");
     struct esr_lights_balance_info bal;
     if (rc == ESR_OK && m->lights.n > 0)
         rc = esr_lights_balance(m, &rs, &bal);

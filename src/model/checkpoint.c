@@ -303,6 +303,15 @@ static int read_lights(struct esr_model *m, const cJSON *h, struct rbuf *b)
         return ESR_OK;
     struct esr_lights *L = &m->lights;
     ESR_TRY(read_lattice(k, "light labels", &L->grid, b->path));
+    /* labels are looked up at SDF lattice indices (train/light_surface.h): another lattice
+     * would read past them */
+    const struct esr_grid *g = esr_model_has(m, ESR_COMP_SDF) ? esr_model_grid(m, ESR_COMP_SDF) : NULL;
+    int same = g && g->nx == L->grid.nx && g->ny == L->grid.ny && g->nz == L->grid.nz;
+    for (int a = 0; same && a < 3; a++)
+        same = g->bmin[a] == L->grid.bmin[a] && g->bmax[a] == L->grid.bmax[a];
+    if (!same)
+        return ESR_FAIL("checkpoint %s: the light labels' lattice (%dx%dx%d) is not the SDF's "
+                        "(a corrupt file)", b->path, L->grid.nx, L->grid.ny, L->grid.nz);
     const cJSON *t = cJSON_GetObjectItemCaseSensitive(k, "table");
     const int n = cJSON_IsArray(t) ? cJSON_GetArraySize(t) : -1;
     if (n < 1 || n > ESR_MAX_LIGHTS)

@@ -64,9 +64,16 @@ int esr_lights_find(struct esr_model *m, const float *orig3, const float *dir3, 
 
 /* Calibrates the strength of m's lights from calib_points surface points of the lights-off rays
  * (orig3/dir3 [n*3]; rays drawn at random, seeded). Sets scale, radiance, power, calib_points;
- * on failure (n 0, out of memory) the lights are left as they were. */
+ * on failure (n 0, out of memory) the lights are left as they were. When no point away from the
+ * lights is lit by them (esr_lights_uncalibrated), each keeps its field's strength. */
 int esr_lights_calibrate(struct esr_model *m, const float *orig3, const float *dir3, size_t n,
                          int calib_points, uint64_t seed);
+/* 1 when the last calibration fitted no light on any point (see esr_lights_calibrate), which the
+ * trainer and `esr lights` say in these words. */
+int esr_lights_uncalibrated(const struct esr_lights *L);
+#define ESR_LIGHTS_UNCALIBRATED_TEXT                                                              \
+    "no lit surface point away from the lights could calibrate their strength: each keeps its "  \
+    "field's (clipped, too weak) strength"
 
 /* What esr_lights_balance measured. */
 struct esr_lights_balance_info {
@@ -125,6 +132,14 @@ int esr_light_strength_fitted(const struct esr_lights *L, int id);
  * channel c (1 when none is fitted): the images clip every light alike, so that mean is the best
  * guess of its exposure. */
 void esr_lights_share_scale(struct esr_lights *L, int c);
+/* One calibration row's columns, one per fitted light (fit [nf] from esr_lights_fitted): light
+ * fit[f]'s a[fit[f]] plus its area share among the fitted lights times the lights left out's
+ * sum of a (a [L->n], each light's contribution at scale 1). A light left out takes that
+ * area-weighted mean scale (esr_lights_share_scale), so its light counts in the fit at the
+ * scale it will have; left out of the fit, it was counted twice: once in the fitted lights'
+ * scales, which absorbed it, and again at the borrowed scale. */
+void esr_lights_fit_columns(const struct esr_lights *L, const int *fit, int nf, const double *a,
+                            double *cols);
 
 #ifdef __cplusplus
 }

@@ -256,8 +256,10 @@ int esr_lights_calibrate(struct esr_model *m, const float *orig3, const float *d
             const size_t row = p * 3 + (size_t)c;
             const double r = rows.r[row] / median;
             cy[p] = rows.emo[row] - r * rows.b[row];
+            double *col = ca + p * (size_t)nf;
+            esr_lights_fit_columns(&m->lights, fit, nf, rows.a + row * (size_t)K, col);
             for (int f = 0; f < nf; f++)
-                ca[p * (size_t)nf + (size_t)f] = r * rows.a[row * (size_t)K + (size_t)fit[f]];
+                col[f] *= r;
         }
         double s[ESR_MAX_LIGHTS];
         if (esr_ridge_fit_robust(nf, rows.n, ca, cy, CALIB_RIDGE, CALIB_ROBUST_ROUNDS, s) != 0)
@@ -305,9 +307,31 @@ int esr_lights_fitted(const struct esr_lights *L, int *fit)
     return nf;
 }
 
+int esr_lights_uncalibrated(const struct esr_lights *L)
+{
+    float points = 0.0f;
+    for (int i = 0; i < L->n; i++)
+        points += L->light[i].calib_points;
+    return L->n > 0 && points == 0.0f;
+}
+
 int esr_light_strength_fitted(const struct esr_lights *L, int id)
 {
     return id >= 0 && id < L->n && is_fitted(L, id, lights_area(L));
+}
+
+void esr_lights_fit_columns(const struct esr_lights *L, const int *fit, int nf, const double *a,
+                            double *cols)
+{
+    double left_out = 0.0, fitted_area = 0.0;
+    for (int j = 0; j < L->n; j++)
+        left_out += a[j];
+    for (int f = 0; f < nf; f++) {
+        left_out -= a[fit[f]];
+        fitted_area += L->light[fit[f]].area;
+    }
+    for (int f = 0; f < nf; f++)
+        cols[f] = a[fit[f]] + (fitted_area > 0.0 ? L->light[fit[f]].area / fitted_area : 0.0) * left_out;
 }
 
 void esr_lights_share_scale(struct esr_lights *L, int c)

@@ -330,12 +330,8 @@ static int find_lights(struct run *r, struct esr_model *m, enum esr_stage s)
     esr_lights_balance_text(m, &bal, line, sizeof line);
     say(r, s, "%s", line);
     say(r, s, "lights found: %d", m->lights.n);
-    float calib = 0.0f;
-    for (int i = 0; i < m->lights.n; i++)
-        calib += m->lights.light[i].calib_points;
-    if (calib == 0.0f)
-        say(r, s, "no lit surface point away from the lights could calibrate their strength: each "
-                  "keeps its field's (clipped, too weak) strength");
+    if (esr_lights_uncalibrated(&m->lights))
+        say(r, s, ESR_LIGHTS_UNCALIBRATED_TEXT);
     for (int i = 0; i < m->lights.n; i++) {
         const struct esr_light *l = &m->lights.light[i];
         char from[96];
