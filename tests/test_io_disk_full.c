@@ -161,6 +161,13 @@ static void test_read_only_folders(void **state)
     if (!strstr(out, "mesh.ply") || !strstr(out, "Permission denied"))
         fail_msg("expected the mesh path and EACCES in the message, got:\n%s", out);
     assert_int_equal(test_count_names(ro, "mesh"), 0);
+
+    /* an output folder that exists but cannot be written is refused before the work */
+    snprintf(args, sizeof args, "render %s --out %s --limit 1", run, ro);
+    assert_int_equal(run_unprivileged(args, out, sizeof out), 1);
+    if (!strstr(out, "cannot write into the output folder") || !strstr(out, "Permission denied"))
+        fail_msg("expected the folder refused with EACCES, got:\n%s", out);
+    assert_int_equal(test_count_names(ro, ".png"), 0);
     snprintf(cmd, sizeof cmd, "chmod -R u+w '%s'", ro); /* so the teardown can remove it */
     assert_int_equal(system(cmd), 0);
 }

@@ -1178,6 +1178,11 @@ static void test_finetune_edits(void **state)
     o.points = 256;
     o.dirs = 8;
     o.light_spp = 4;
+    float *moments_m = malloc(m->params.count * sizeof(float));
+    float *moments_v = malloc(m->params.count * sizeof(float));
+    assert_true(moments_m && moments_v);
+    memcpy(moments_m, m->adam.m, m->params.count * sizeof(float));
+    memcpy(moments_v, m->adam.v, m->params.count * sizeof(float));
     struct esr_finetune f;
     if (esr_finetune_init(&f, m, &v.ds, &o) != ESR_OK)
         fail_msg("%s", esr_error_message());
@@ -1208,6 +1213,11 @@ static void test_finetune_edits(void **state)
     esr_finetune_restore(&f, m);
     render_linear(m, cam, 1, after, NULL);
     assert_memory_equal(after, before, n * sizeof(float));
+    /* and the Adam moments the edit started afresh are the trained ones again */
+    assert_memory_equal(m->adam.m, moments_m, m->params.count * sizeof(float));
+    assert_memory_equal(m->adam.v, moments_v, m->params.count * sizeof(float));
+    free(moments_m);
+    free(moments_v);
     esr_finetune_free(&f);
     free(after);
     pdra_view_close(&v);

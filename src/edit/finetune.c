@@ -83,6 +83,7 @@ void esr_finetune_free(struct esr_finetune *f)
 {
     esr_ray_set_free(&f->rays);
     free(f->trained_w);
+    free(f->trained_moments);
     esr_march_free(&f->march);
     esr_lts_free(&f->lts);
     for (int k = 0; k < ESR_MAX_LIGHTS; k++)
@@ -96,6 +97,19 @@ void esr_finetune_free(struct esr_finetune *f)
     free(f->rgb3);
     free(f->on);
     memset(f, 0, sizeof(*f));
+}
+
+/* The tuned components' Adam moments into saved (save 1) or back from it (save 0). */
+static void moments_copy(struct esr_model *m, float *saved, int save)
+{
+    size_t at = 0;
+    for (int i = 0; i < 2; i++) {
+        const struct esr_part *p = &m->part[TUNED[i]];
+        float *model[2] = {m->adam.m + p->off, m->adam.v + p->off};
+        for (int k = 0; k < 2; k++, at += p->count)
+            memcpy(save ? saved + at : model[k], save ? model[k] : saved + at,
+                   p->count * sizeof(float));
+    }
 }
 
 int esr_finetune_init(struct esr_finetune *f, struct esr_model *m, const struct esr_dataset *ds,
@@ -118,6 +132,13 @@ int esr_finetune_init(struct esr_finetune *f, struct esr_model *m, const struct 
         f->trained = *m; /* shares m's description, read only */
         f->trained.params.w = f->trained_w;
     }
+    size_t tuned = 0;
+    for (int i = 0; i < 2; i++)
+        tuned += m->part[TUNED[i]].count;
+    if (rc == ESR_OK && !(f->trained_moments = malloc(2 * tuned * sizeof(float))))
+        rc = ESR_FAIL("finetune: out of memory for a copy of %zu Adam moments", 2 * tuned);
+    if (rc == ESR_OK)
+        moments_copy(m, f->trained_moments, 1);
     for (int k = 0; rc == ESR_OK && k < m->lights.n; k++)
         rc = esr_light_samples_get(m, k, &f->samples[k]);
     if (rc == ESR_OK)
@@ -158,6 +179,7 @@ void esr_finetune_restore(struct esr_finetune *f, struct esr_model *m)
         const struct esr_part *p = &m->part[TUNED[i]];
         memcpy(m->params.w + p->off, f->trained_w + p->off, p->count * sizeof(float));
     }
+    moments_copy(m, f->trained_moments, 0);
     m->lights.edited = 0;
     f->applied = 0;
 }

@@ -63,6 +63,8 @@ struct esr_finetune {
     struct esr_finetune_opts o;
     struct esr_ray_set rays;       /* the training cameras' rays */
     float *trained_w;              /* every weight of the trained model (a copy) */
+    float *trained_moments;        /* the tuned components' Adam moments as trained (m then v
+                                      of each, in order): an edit starts them afresh */
     struct esr_model trained;      /* the trained model: m's description with trained_w */
     struct esr_march march;
     struct esr_lts lts;
@@ -102,7 +104,7 @@ int esr_finetune_apply(struct esr_finetune *f, struct esr_model *m,
  * NULL) receives the ratio. */
 void esr_finetune_start(struct esr_model *m, const struct esr_light_edit *edits, float rho[3]);
 
-/* The trained model back (no-op when no edit is applied). */
+/* The trained model back, weights and Adam moments (no-op when no edit is applied). */
 void esr_finetune_restore(struct esr_finetune *f, struct esr_model *m);
 
 #ifdef __cplusplus

@@ -1,7 +1,9 @@
 /* Relighting evaluated on a dataset's edit phases (test_nvi, test_nvc, test_nvic; the seed's
  * Tables 4-7): each frame's lights[] is the edit (intensity; for colour changes the new hue and
- * saturation, value kept), rendered with the direct method (edit/relight.h) or by radiance
- * fine-tuning (edit/finetune.h: frames grouped by edit, one fine-tune each). Dataset light K is
+ * saturation, value kept), rendered with the direct or the ratio method (edit/relight.h) or by
+ * radiance fine-tuning (edit/finetune.h: frames grouped by edit, one fine-tune each). A frame
+ * asking an edit esr cannot make (model/lights.h, esr_light_edit_problem) fails the phase before
+ * anything is written. Dataset light K is
  * mapped to esr's light of best IoU with K's masks in up to 10 evenly spread frames of the phase
  * (eval/light_split.h, from their light-id renders: the masks are used by evaluation only); when two dataset lights map
  * to one esr light, the better-overlapping one's edit wins. PSNR and SSIM of the edited render
@@ -28,7 +30,7 @@ struct esr_edit_eval {
     int n;
     struct esr_edit_eval_view *views;
     double psnr, ssim, seconds; /* means */
-    int spp;                 /* direct: light samples per pixel and light */
+    int spp;                 /* direct, ratio: light samples per pixel and light */
     int n_edits;             /* finetune: distinct edits fine-tuned */
     double finetune_seconds; /* finetune: mean seconds per fine-tune */
     struct esr_light_split split;
@@ -56,12 +58,12 @@ int esr_edit_eval_phase(struct esr_model *m, const struct esr_dataset *ds,
                         esr_edit_eval_progress_fn progress, void *user, struct esr_edit_eval *res);
 void esr_edit_eval_free(struct esr_edit_eval *res);
 
-/* {"phase", "method": "direct"|"finetune", "spp" (direct) | "finetunes", "finetune_seconds"
- *  (finetune), "n_views", "views": [{"name", "psnr", "ssim",
+/* {"phase", "method": "direct"|"ratio"|"finetune", "spp" (direct, ratio) | "finetunes",
+ *  "finetune_seconds" (finetune), "n_views", "views": [{"name", "psnr", "ssim",
  *  "seconds"}...], "mean": {"psnr", "ssim", "seconds"}, "light_split": {...}} */
 int esr_edit_eval_write_json(const char *path, const struct esr_edit_eval *res);
 
-/* An HTML page: per view the original (orig_href/<camera>_on.png, the test_nv render of the
+/* An HTML page: per view the original (orig_href/<camera>_on_linear.png, the test_nv render of the
  * same camera, named by the frame name up to its first '_'), the edit and the ground truth
  * (render_href/N.png, N_gt.png), PSNR and SSIM; the means and the light split. */
 int esr_edit_eval_write_html(const char *path, const char *title, const struct esr_edit_eval *res,

@@ -105,6 +105,8 @@ void esr_dir_remove_made(const char *path, const char *made)
 int esr_dir_prepare_output_made(const char *path, char *made, size_t made_size)
 {
     ESR_TRY(esr_dir_create_made(path, made, made_size));
+    if (access(path, W_OK | X_OK) != 0)
+        return ESR_FAIL("cannot write into the output folder %s: %s", path, strerror(errno));
     return esr_stale_sweep(path, NULL);
 }
 

@@ -16,8 +16,9 @@ int esr_dir_create_made(const char *path, char *made, size_t made_size);
  * including `made` while they are empty (nothing when made is ""), so a command that fails
  * leaves no folder it made. */
 void esr_dir_remove_made(const char *path, const char *made);
-/* An output folder about to be written: esr_dir_create, then a killed run's temporary files and
- * staging folders in it are removed (io/stale.h). */
+/* An output folder about to be written: esr_dir_create, refused when this process cannot write
+ * into it (permissions, a read-only mount: said before any work, not after it), then a killed
+ * run's temporary files and staging folders in it are removed (io/stale.h). */
 int esr_dir_prepare_output(const char *path);
 /* esr_dir_prepare_output saying, as esr_dir_create_made, which folders it made. */
 int esr_dir_prepare_output_made(const char *path, char *made, size_t made_size);
