@@ -37,8 +37,9 @@
  * that a light no point sees keeps its field strength, and no scale below 0 (a light solved
  * negative is set to 0 and the others solved again), made robust by Huber reweighting (points
  * the BRDF cannot explain, a mirror's reflection, pull with a bounded force). A light under
- * ESR_LIGHTS_SMALL_SHARE of the lights' area is not fitted but takes the fitted lights' mean scale
- * (esr_lights_fitted, esr_lights_share_scale). Caveat: images fix the product of albedo
+ * ESR_LIGHTS_SMALL_SHARE of the lights' area is not fitted but takes the fitted lights' mean scale,
+ * at which its light enters the fit (esr_lights_fitted, esr_lights_share_scale,
+ * esr_lights_fit_columns). Caveat: images fix the product of albedo
  * and light, so s_K is only as right as the reconstructed base colour (see docs); its colour is
  * set right afterwards by the lights' silhouettes (esr_lights_balance, below). */
 #ifndef ESR_TRAIN_LIGHTS_H
