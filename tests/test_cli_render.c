@@ -11,6 +11,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
+#include <unistd.h>
 
 #include "core/error.h"
 #include "fields/sdf.h"
@@ -385,13 +386,32 @@ static void test_errors(void **state)
     assert_null(strstr(out, "MLP"));
     snprintf(cmd, sizeof cmd, "%s/render", run_dir);
     assert_false(esr_file_exists(cmd));
-    /* both exports or neither: a glTF that cannot be written takes the PLY back */
+    /* both exports or neither: a glTF that cannot be written writes no PLY, and leaves an
+     * earlier one as it was (it used to be replaced, then removed) */
     snprintf(args, sizeof args, "export '%s' --mesh '%s/both.ply' --gltf /proc/esr_cannot.glb",
              run_dir, test_tmpdir);
     assert_int_equal(test_run_esr(args, out, sizeof out), 1);
     assert_non_null(strstr(out, "/proc/esr_cannot.glb"));
     snprintf(cmd, sizeof cmd, "%s/both.ply", test_tmpdir);
     assert_false(esr_file_exists(cmd));
+    assert_int_equal(test_write_file(cmd, "an earlier mesh\n"), 0);
+    assert_int_equal(test_run_esr(args, out, sizeof out), 1);
+    unsigned char *kept;
+    size_t kept_n;
+    assert_int_equal(esr_file_read_all(cmd, &kept, &kept_n), 0);
+    assert_true(kept_n == 16 && !memcmp(kept, "an earlier mesh\n", 16));
+    free(kept);
+    assert_int_equal(test_count_names(test_tmpdir, "both.ply.tmp-"), 0);
+    unlink(cmd);
+    /* nor an output that would overwrite what the run is read from */
+    snprintf(args, sizeof args, "export '%s' --gltf '%s/ckpt_coarse.bin'", run_dir, run_dir);
+    assert_int_equal(test_run_esr(args, out, sizeof out), 1);
+    assert_non_null(strstr(out, "would replace the run's own ckpt_coarse.bin"));
+    snprintf(args, sizeof args, "export '%s/ckpt_coarse.bin' --mesh '%s/ckpt_coarse.bin'", run_dir, run_dir);
+    assert_int_equal(test_run_esr(args, out, sizeof out), 1);
+    assert_non_null(strstr(out, "is the checkpoint it would be read from"));
+    snprintf(args, sizeof args, "export '%s' --mesh '%s/after.ply' --res 8", run_dir, test_tmpdir);
+    assert_int_equal(test_run_esr(args, out, sizeof out), 0); /* the run still reads */
     /* nor one file for both: the glTF would replace the PLY */
     snprintf(args, sizeof args, "export '%s' --mesh '%s/both.ply' --gltf '%s/./both.ply'", run_dir,
              test_tmpdir, test_tmpdir);

@@ -875,6 +875,19 @@ static void test_pdra_finds_lights(void **state)
     assert_int_equal(test_run_esr(cmd, out, sizeof out), 0);
     snprintf(cmd, sizeof cmd, "%d light node(s)", m.lights.n);
     assert_non_null(strstr(out, cmd));
+    /* at a coarse --res a light may get no triangle: then it is said, and not counted */
+    snprintf(cmd, sizeof cmd, "export %s --gltf %s --res 8", run, glb);
+    assert_int_equal(test_run_esr(cmd, out, sizeof out), 0);
+    int nodes = -1, unsaid = 0;
+    const char *said = strstr(out, "the surface and ");
+    assert_non_null(said);
+    assert_int_equal(sscanf(said, "the surface and %d light node(s)", &nodes), 1);
+    for (const char *w = out; (w = strstr(w, "has no triangle at this resolution")); w++)
+        unsaid++;
+    print_message("glTF at --res 8: %d light node(s), %d without\n", nodes, unsaid);
+    assert_int_equal(nodes + unsaid, m.lights.n);
+    snprintf(cmd, sizeof cmd, "export %s --gltf %s", run, glb); /* the full one, validated below */
+    assert_int_equal(test_run_esr(cmd, out, sizeof out), 0);
     if (esr_file_exists(ESR_GLTF_VALIDATOR "/package.json")) {
         snprintf(cmd, sizeof cmd, "node '%s/validate_gltf.js' '%s' '%s' 2>&1", ESR_TEST_SUPPORT_DIR,
                  ESR_GLTF_VALIDATOR, glb);

@@ -76,6 +76,50 @@ static void test_sphere_mesh(void **state)
     free(sdf);
 }
 
+/* A sheet thinner than a voxel (a hollow sphere's wall, 0.04 thick on 0.05 voxels): the field's
+ * trilinear gradient at a vertex of one face sees the other face too, and pointed against the
+ * vertex's own triangles at hundreds of vertices (dark patches in a smooth-shaded viewer). Every
+ * vertex normal is a unit vector on its triangles' side. */
+static void test_thin_sheet_normals(void **state)
+{
+    (void)state;
+    struct esr_grid g;
+    const float bmin[3] = {-1.6f, -1.6f, -1.6f}, bmax[3] = {1.6f, 1.6f, 1.6f};
+    assert_int_equal(esr_grid_init(&g, 1, 64, 64, 64, bmin, bmax), ESR_OK);
+    float *f = malloc(esr_grid_count(&g) * sizeof(float));
+    for (int z = 0; z < 64; z++)
+        for (int y = 0; y < 64; y++)
+            for (int x = 0; x < 64; x++) {
+                float p[3];
+                esr_grid_voxel_pos(&g, x, y, z, p);
+                const float r = sqrtf(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]);
+                f[((size_t)z * 64 + y) * 64 + x] = fabsf(r - 1.0f) - 0.02f;
+            }
+    struct esr_mesh m;
+    assert_int_equal(esr_marching_cubes(&g, f, 0.0f, &m), ESR_OK);
+    assert_true(m.n_triangles > 1000);
+    double *acc = calloc(m.n_vertices * 3, sizeof(double));
+    for (size_t t = 0; t < m.n_triangles; t++) {
+        const float *a = m.pos + m.tri[t * 3] * 3, *b = m.pos + m.tri[t * 3 + 1] * 3, *c = m.pos + m.tri[t * 3 + 2] * 3;
+        const double u[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]}, v[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]};
+        const double cr[3] = {u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]};
+        for (int k = 0; k < 3; k++)
+            for (int a3 = 0; a3 < 3; a3++)
+                acc[(size_t)m.tri[t * 3 + k] * 3 + a3] += cr[a3];
+    }
+    size_t against = 0;
+    for (size_t i = 0; i < m.n_vertices; i++) {
+        const float *n = m.normal + i * 3;
+        assert_float_equal(n[0] * n[0] + n[1] * n[1] + n[2] * n[2], 1.0f, 1e-4f);
+        against += n[0] * acc[i * 3] + n[1] * acc[i * 3 + 1] + n[2] * acc[i * 3 + 2] <= 0.0;
+    }
+    print_message("thin sheet: %zu vertices, %zu with normals against their triangles\n", m.n_vertices, against);
+    assert_int_equal(against, 0);
+    free(acc);
+    esr_mesh_free(&m);
+    free(f);
+}
+
 /* Random fields exercise every case, ambiguous faces included: still closed and oriented
  * (surfaces touching the grid boundary are avoided by a positive rim). */
 static void test_random_field_closed(void **state)
@@ -162,6 +206,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_sphere_mesh),
+        cmocka_unit_test(test_thin_sheet_normals),
         cmocka_unit_test(test_random_field_closed),
         cmocka_unit_test(test_ply_write),
     };

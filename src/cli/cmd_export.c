@@ -1,12 +1,15 @@
 /* esr export RUN --mesh out.ply | --gltf out.glb: the model's surface as a coloured PLY mesh or a
  * relightable glTF asset. */
+#include <errno.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 #include <unistd.h>
 
 #include "cli/commands.h"
 #include "core/error.h"
 #include "io/ply.h"
+#include "io/stale.h"
 #include "io/staging.h"
 #include "render/model_gltf.h"
 #include "render/model_mesh.h"
@@ -31,7 +34,7 @@ const struct esr_command cmd_export = {
     "options:\n"
     "  --mesh FILE   output PLY\n"
     "  --gltf FILE   output GLB (one of --mesh, --gltf is needed; both write two files, not one\n"
-    "                file for both, and when the glTF fails the PLY is removed again)\n"
+    "                file for both, both or neither: when the glTF fails an earlier PLY stays)\n"
     "  --res N       resample the SDF to N^3 lattice points first (8..1024; default: the model's grid)\n"
     "  --no-colour   PLY: leave out vertex colours (faster)\n"
     "  -h, --help    this text\n",
@@ -39,6 +42,25 @@ const struct esr_command cmd_export = {
     0, /* view_loop */
 };
 
+/* The glTF of model to gltf_path, saying which lights got their node. */
+static int export_gltf(const struct esr_model *model, int res, const char *gltf_path)
+{
+    int nodes = 0;
+    ESR_TRY(esr_model_gltf_write(model, res, gltf_path, &nodes));
+    int written = 0;
+    for (int k = 0; k < model->lights.n; k++) {
+        written += (nodes >> k) & 1;
+        if (!((nodes >> k) & 1))
+            fprintf(stderr, "esr export: warning: light %d has no triangle at this resolution, so "
+                            "no node (a larger --res gives it one)\n", k);
+    }
+    fprintf(stderr, "wrote %s: the surface and %d light node(s) (%s model)\n", gltf_path, written,
+            esr_stage_name((enum esr_stage)model->stage));
+    return ESR_OK;
+}
+
+/* Both files or neither: the PLY goes to a temporary name beside mesh_path and takes its name
+ * only once the glTF is written, so a failed glTF leaves an earlier mesh_path as it was. */
 static int export_mesh(const char *run, const char *mesh_path, const char *gltf_path, int res,
                        int colours)
 {
@@ -47,26 +69,57 @@ static int export_mesh(const char *run, const char *mesh_path, const char *gltf_
     memset(&mesh, 0, sizeof mesh);
     ESR_TRY(esr_model_load(&model, run));
     int status = ESR_OK;
+    char tmp[4200] = "";
     if (mesh_path) {
+        char prefix[4150];
+        snprintf(prefix, sizeof prefix, "%s.tmp-", mesh_path);
         status = esr_model_mesh(&model, res, colours, &mesh);
+        if (status == ESR_OK && gltf_path) { /* the temporary name, reserved */
+            status = esr_stale_template(tmp, sizeof tmp, prefix);
+            const int fd = status == ESR_OK ? mkstemp(tmp) : -1;
+            if (fd >= 0)
+                close(fd);
+            else {
+                if (status == ESR_OK)
+                    status = ESR_FAIL("cannot write beside %s: %s", mesh_path, strerror(errno));
+                tmp[0] = '\0';
+            }
+        }
         if (status == ESR_OK)
-            status = esr_ply_write(mesh_path, &mesh);
-        if (status == ESR_OK)
-            fprintf(stderr, "wrote %s: %zu vertices, %zu triangles (%s model, step %ld)\n", mesh_path,
-                    mesh.n_vertices, mesh.n_triangles, esr_stage_name((enum esr_stage)model.stage),
-                    model.step);
+            status = esr_ply_write(gltf_path ? tmp : mesh_path, &mesh);
     }
-    if (status == ESR_OK && gltf_path) {
-        status = esr_model_gltf_write(&model, res, gltf_path);
-        if (status == ESR_OK)
-            fprintf(stderr, "wrote %s: the surface and %d light node(s) (%s model)\n", gltf_path,
-                    model.lights.n, esr_stage_name((enum esr_stage)model.stage));
-        else if (mesh_path && unlink(mesh_path) == 0) /* both or neither */
-            fprintf(stderr, "removed %s again: the glTF could not be written\n", mesh_path);
-    }
+    if (status == ESR_OK && gltf_path)
+        status = export_gltf(&model, res, gltf_path);
+    if (status == ESR_OK && mesh_path && gltf_path && rename(tmp, mesh_path) != 0)
+        status = ESR_FAIL("cannot rename %s to %s: %s", tmp, mesh_path, strerror(errno));
+    if (status != ESR_OK && tmp[0])
+        unlink(tmp);
+    if (status == ESR_OK && mesh_path)
+        fprintf(stderr, "wrote %s: %zu vertices, %zu triangles (%s model, step %ld)\n", mesh_path,
+                mesh.n_vertices, mesh.n_triangles, esr_stage_name((enum esr_stage)model.stage),
+                model.step);
     esr_mesh_free(&mesh);
     esr_model_free(&model);
     return status;
+}
+
+/* Refuses an output that would overwrite what the run is read from: the checkpoint RUN names, or
+ * a run folder's checkpoints and records. */
+static int check_not_input(const char *run, const char *out)
+{
+    char r[4096], o[4096];
+    ESR_TRY(esr_path_resolve(run, r, sizeof r));
+    ESR_TRY(esr_path_resolve(out, o, sizeof o));
+    if (!strcmp(r, o))
+        return ESR_FAIL("the output %s is the checkpoint it would be read from", out);
+    const size_t n = strlen(r);
+    const char *base = o + n + 1;
+    if (strncmp(o, r, n) || o[n] != '/' || strchr(base, '/'))
+        return ESR_OK; /* not directly inside the run folder */
+    if ((!strncmp(base, "ckpt_", 5) && strstr(base, ".bin")) || !strcmp(base, "config.json") ||
+        !strcmp(base, "run.json"))
+        return ESR_FAIL("the output %s would replace the run's own %s", out, base);
+    return ESR_OK;
 }
 
 static int run_export(int argc, char **argv)
@@ -99,6 +152,10 @@ static int run_export(int argc, char **argv)
         return cli_fail(&cmd_export, "missing RUN directory");
     if (!mesh && !gltf)
         return cli_fail(&cmd_export, "missing --mesh OUT.ply or --gltf OUT.glb");
+    const char *outs[2] = {mesh, gltf};
+    for (int i = 0; i < 2; i++)
+        if (outs[i] && check_not_input(run, outs[i]) != ESR_OK)
+            return cli_fail_lib(&cmd_export);
     if (mesh && gltf) { /* the glTF would replace the PLY just written */
         char a[4096], b[4096];
         if (esr_path_resolve(mesh, a, sizeof a) != ESR_OK || esr_path_resolve(gltf, b, sizeof b) != ESR_OK)

@@ -22,6 +22,9 @@ float esr_srgb_from_linear_grad(float linear);
 #define ESR_IMAGE_ERROR_FLOOR 0.01f
 float esr_image_error_scale(float linear);
 
+/* x clamped to [0, 1], NaN to 0: colours for formats whose values must lie there (PLY, glTF). */
+static inline float esr_clamp01(float x) { return x >= 0.0f ? (x <= 1.0f ? x : 1.0f) : 0.0f; }
+
 /* RGB (linear, V unbounded) -> HSV with H, S in [0,1], V = max(R,G,B) (seed eqs. 10-13). */
 void esr_rgb_to_hsv(const float rgb[3], float hsv[3]);
 /* HSV -> RGB (seed eqs. 14-15); H is taken modulo 1. */

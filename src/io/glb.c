@@ -160,6 +160,12 @@ int esr_glb_write(const char *path, const struct esr_mesh *mesh, const struct es
     /* chunks padded to 4 bytes: JSON with spaces, BIN with zeros */
     const size_t jlen = strlen(json), jpad = (jlen + 3) & ~(size_t)3, bpad = (off + 3) & ~(size_t)3;
     const size_t total = 12 + 8 + jpad + 8 + bpad;
+    if (total > UINT32_MAX) { /* the header's lengths are 32-bit */
+        free(json);
+        free(bin);
+        return ESR_FAIL("glb %s: %zu bytes, past the format's 4 GiB (export at a lower --res)",
+                        path, total);
+    }
     unsigned char *out = malloc(total);
     int rc = out ? ESR_OK : ESR_FAIL("glb %s: out of memory for %zu bytes", path, total);
     if (rc == ESR_OK) {

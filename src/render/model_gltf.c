@@ -6,6 +6,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "core/colour.h"
 #include "core/error.h"
 #include "io/glb.h"
 #include "model/material_fields.h"
@@ -29,7 +30,7 @@ static int vertex_materials(const struct esr_model *m, struct esr_mesh *mesh, fl
             const float *b = mf.brdf5 + i * ESR_BRDF_CHANNELS;
             for (int c = 0; c < 3; c++) /* glTF colours lie in [0, 1]; a colour balance
                                            (model/lights.h) can lift a base colour past 1 */
-                mesh->colour[(i0 + i) * 3 + c] = fminf(b[c], 1.0f);
+                mesh->colour[(i0 + i) * 3 + c] = esr_clamp01(b[c]);
             r += b[3];
             mt += b[4];
         }
@@ -40,8 +41,9 @@ static int vertex_materials(const struct esr_model *m, struct esr_mesh *mesh, fl
     return rc;
 }
 
-int esr_model_gltf_write(const struct esr_model *m, int res, const char *path)
+int esr_model_gltf_write(const struct esr_model *m, int res, const char *path, int *light_nodes)
 {
+    *light_nodes = 0;
     const int has_fields = esr_model_has(m, ESR_COMP_BRDF_MLP);
     struct esr_mesh mesh;
     ESR_TRY(esr_model_mesh(m, res, !has_fields, &mesh));
@@ -107,6 +109,8 @@ int esr_model_gltf_write(const struct esr_model *m, int res, const char *path)
     }
     if (rc == ESR_OK)
         rc = esr_glb_write(path, &mesh, parts, n_lights + 1);
+    for (int k = 1; rc == ESR_OK && k <= n_lights; k++) /* a part without triangles has no node */
+        *light_nodes |= (cnt[k] > 0) << (k - 1);
     for (int k = 0; k <= n_lights; k++)
         free(tri[k]);
     esr_mesh_free(&mesh);

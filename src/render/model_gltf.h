@@ -11,7 +11,9 @@
 
 #include "model/model.h"
 
-/* res as esr_model_mesh's (0 = the model's grid). */
-int esr_model_gltf_write(const struct esr_model *m, int res, const char *path);
+/* res as esr_model_mesh's (0 = the model's grid). *light_nodes: bit k set when light k got its
+ * node; a light no triangle's centroid falls on (a small one at a low res) gets none, since a
+ * glTF mesh needs triangles. */
+int esr_model_gltf_write(const struct esr_model *m, int res, const char *path, int *light_nodes);
 
 #endif

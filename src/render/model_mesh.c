@@ -4,6 +4,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "core/colour.h"
 #include "core/error.h"
 #include "fields/sdf.h"
 #include "volume/marching_cubes.h"
@@ -60,7 +61,7 @@ static int vertex_colours(const struct esr_model *m, struct esr_mesh *mesh)
     struct esr_render_out out = {.linear = mesh->colour};
     int status = esr_model_render_rays(m, origins, dirs, n, 0, &out);
     for (size_t i = 0; status == ESR_OK && i < n * 3; i++)
-        mesh->colour[i] = mesh->colour[i] < 0.0f ? 0.0f : (mesh->colour[i] > 1.0f ? 1.0f : mesh->colour[i]);
+        mesh->colour[i] = esr_clamp01(mesh->colour[i]);
     free(origins);
     free(dirs);
     return status;
@@ -77,5 +78,7 @@ int esr_model_mesh(const struct esr_model *m, int res, int colours, struct esr_m
     free(sdf);
     if (status == ESR_OK && colours)
         status = vertex_colours(m, out);
+    if (status != ESR_OK)
+        esr_mesh_free(out);
     return status;
 }

@@ -272,21 +272,43 @@ static int march_layers(struct mc_build *b, const struct mc_table *t)
     return ESR_OK;
 }
 
+/* The vertex normals: the field's normalised trilinear gradient, unless it is zero or points
+ * against the vertex's own triangles (a sheet thinner than a voxel, whose gradient at one face
+ * sees the other): then the area-weighted normal of those triangles. */
 static int vertex_normals(const struct esr_grid *g, const float *field, struct esr_mesh *m)
 {
     m->normal = (float *)malloc((m->n_vertices ? m->n_vertices : 1) * 3 * sizeof(float));
-    if (!m->normal)
+    float *faces = (float *)calloc((m->n_vertices ? m->n_vertices : 1) * 3, sizeof(float));
+    if (!m->normal || !faces) {
+        free(faces);
         return ESR_FAIL("marching cubes: out of memory for %zu normals", m->n_vertices);
+    }
+    for (size_t t = 0; t < m->n_triangles; t++) { /* twice each triangle's area x its normal */
+        const uint32_t *v = m->tri + t * 3;
+        const float *a = m->pos + (size_t)v[0] * 3, *b = m->pos + (size_t)v[1] * 3,
+                    *c = m->pos + (size_t)v[2] * 3;
+        const float u[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
+        const float w[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]};
+        const float cr[3] = {u[1] * w[2] - u[2] * w[1], u[2] * w[0] - u[0] * w[2],
+                             u[0] * w[1] - u[1] * w[0]};
+        for (int k = 0; k < 3; k++)
+            for (int a3 = 0; a3 < 3; a3++)
+                faces[(size_t)v[k] * 3 + a3] += cr[a3];
+    }
 #pragma omp parallel for schedule(static)
     for (size_t i = 0; i < m->n_vertices; i++) {
         struct esr_trilerp t;
         float *n = m->normal + i * 3;
+        const float *fa = faces + i * 3;
         esr_trilerp_locate(g, m->pos + i * 3, &t);
         esr_trilerp_dpoint(field, 1, 0, &t, n);
+        if (!(n[0] * fa[0] + n[1] * fa[1] + n[2] * fa[2] > 0.0f))
+            memcpy(n, fa, 3 * sizeof(float));
         float len = sqrtf(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
         for (int k = 0; k < 3; k++)
             n[k] = len > 0.0f ? n[k] / len : 0.0f;
     }
+    free(faces);
     return ESR_OK;
 }
 

@@ -3,7 +3,8 @@
  * marching_cubes.c) with face ambiguities resolved consistently between neighbouring cells, and
  * vertices on shared cube edges are shared, so a surface that does not leave the grid gives a
  * closed, consistently oriented mesh (triangles face increasing field). Vertex normals are the
- * normalised trilinear gradient of the field. */
+ * normalised trilinear gradient of the field, or where that is zero or points against the
+ * vertex's triangles (a sheet thinner than a voxel) their area-weighted normal. */
 #ifndef ESR_VOLUME_MARCHING_CUBES_H
 #define ESR_VOLUME_MARCHING_CUBES_H
 
