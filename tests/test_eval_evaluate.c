@@ -587,6 +587,24 @@ static void test_emitters(void **state)
     assert_float_equal(res.emo_baseline.iou, 0.5, 1e-9);
     assert_true(res.emo_baseline.k < 1.75); /* every k below it ties */
     esr_eval_result_free(&res);
+    /* the best threshold is found wherever it lies: L_emo 0.51 on the true emitters, 0.50 beside
+     * them (2% apart: the 64 log-spaced k used until 2026-11-28, 13.5% apart, have none between,
+     * and scored 0.5); the cut between gives IoU 1 at k = 0.505 */
+    struct esr_image on;
+    assert_int_equal(esr_image_alloc(&on, RES, RES, 3), ESR_OK);
+    for (int y = 0; y < RES; y++)
+        for (int x = 0; x < RES; x++)
+            for (int c = 0; c < 3; c++)
+                on.data[(y * RES + x) * 3 + c] = 0.75f + (x < RES / 2 ? 0.51f : 0.50f);
+    char on_path[2700];
+    path_in(on_path, sizeof on_path, render_dir, "c000_on.exr");
+    assert_int_equal(esr_exr_write(on_path, &on, 0), ESR_OK);
+    esr_image_free(&on);
+    assert_int_equal(esr_eval_phase(&ds, ESR_PHASE_TEST_NV, idx, n, render_dir, &res), ESR_OK);
+    assert_float_equal(res.emo_baseline.iou, 1.0, 1e-9);
+    assert_float_equal(res.emo_baseline.k, 0.505, 1e-4);
+    esr_eval_result_free(&res);
+    write_exr_const(on_path, 3, 2.5f, 1.0f);
     free(idx);
     esr_dataset_free(&ds);
     for (int i = 0; i < 2; i++) {

@@ -1635,6 +1635,9 @@ static void test_edit_eval_follows_lights(void **state)
         fail_msg("esr %s: exit %d:\n%s", cmd, rc, out);
     if (!strstr(out, "warning: dataset light 0 is edited by 9 frame(s), but no esr light follows it"))
         fail_msg("esr %s said:\n%s", cmd, out);
+    /* light 1 stays as it is in the _ind frames (x1): 6 of its 9 frames change it */
+    if (!strstr(out, "warning: dataset light 1 is edited by 6 frame(s)"))
+        fail_msg("esr %s said:\n%s", cmd, out);
     snprintf(cmd, sizeof cmd, "%s/eval/test_nvi_direct.json", run);
     root = test_read_json(cmd);
     assert_non_null(root);

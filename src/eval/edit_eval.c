@@ -11,6 +11,7 @@
 #include "core/colour.h"
 #include "core/error.h"
 #include "edit/editor.h"
+#include "eval/evaluate.h"
 #include "eval/html.h"
 #include "eval/metrics.h"
 #include "io/dir.h"
@@ -104,8 +105,10 @@ static void find_unmatched(const struct esr_dataset *ds, const struct esr_phase 
         int followed = 0, frames = 0;
         for (int j = 0; j < res->n_lights; j++)
             followed |= res->split.dataset_light[j] == k;
-        for (int i = 0; i < n && !followed; i++)
-            frames += ph->frames[idx[i]].lights[k].mode != ESR_LIGHT_ON;
+        for (int i = 0; i < n && !followed; i++) { /* frames that change light k */
+            const struct esr_light_edit e = light_state_edit(&ph->frames[idx[i]], k);
+            frames += e.intensity != 1.0f || e.recolour;
+        }
         if (frames > 0) {
             res->unmatched[res->n_unmatched] = k;
             res->unmatched_frames[res->n_unmatched++] = frames;
@@ -139,6 +142,7 @@ static int score_view(const struct esr_dataset *ds, const struct esr_frame *f,
         for (size_t i = 0; i < esr_image_count(&png); i++)
             png.data[i] = roundf(png.data[i] * 255.0f) / 255.0f;
         rc = esr_metric_psnr(&png, &gt, &v->psnr);
+        v->psnr = fmin(v->psnr, ESR_EVAL_PSNR_CAP); /* an exact match would make the mean inf */
     }
     if (rc == ESR_OK)
         rc = esr_metric_ssim(&png, &gt, &v->ssim);

@@ -3,10 +3,11 @@
  * saturation, value kept), rendered with the direct or the ratio method (edit/relight.h) or by
  * radiance fine-tuning (edit/finetune.h: frames grouped by edit, one fine-tune each). A frame
  * asking an edit esr cannot make (model/lights.h, esr_light_edit_problem) fails the phase before
- * anything is written. Dataset light K is
- * mapped to esr's light of best IoU with K's masks in up to 10 evenly spread frames of the phase
- * (eval/light_split.h, from their light-id renders: the masks are used by evaluation only); when two dataset lights map
- * to one esr light, the better-overlapping one's edit wins. PSNR and SSIM of the edited render
+ * anything is written. Each esr light
+ * takes the edit of the dataset light whose masks hold at least half of its pixels in up to 10
+ * evenly spread frames of the phase (eval/light_split.h, from their light-id renders: the masks
+ * are used by evaluation only); one that no dataset light holds so stays as found, and the
+ * dataset lights that frames change but no esr light follows are listed (res->unmatched). PSNR and SSIM of the edited render
  * (linear through the sRGB curve, clipped) against the ground-truth PNG on white, per view and
  * mean. Renders go to out_dir as N.png, N.exr, the ground truth (on white) as N_gt.png, and for
  * the mapping's frames N_lights.png. */

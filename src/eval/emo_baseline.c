@@ -4,23 +4,37 @@
 #include <math.h>
 #include <stdint.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "core/error.h"
+#include "core/order.h"
 #include "io/file.h"
 #include "io/image.h"
 #include "render/view.h"
 
-#define N_K 64
+/* Every pixel's max-channel L_emo, and those of the pixels the mask calls emitter. */
+struct emo_values {
+    float *all, *truth;
+    size_t n_all, n_truth, cap_all, cap_truth;
+};
 
-static double threshold(int i)
+static int push(float **v, size_t *n, size_t *cap, float x)
 {
-    return 0.01 * pow(3000.0, (double)i / (N_K - 1)); /* 0.01 .. 30 */
+    if (*n == *cap) {
+        const size_t c = *cap ? 2 * *cap : 65536;
+        float *t = realloc(*v, c * sizeof(float));
+        if (!t)
+            return ESR_FAIL("L_emo baseline: out of memory for %zu pixels", c);
+        *v = t, *cap = c;
+    }
+    (*v)[(*n)++] = x;
+    return ESR_OK;
 }
 
 /* Adds one camera: on, off (rendered linear RGB) and the ground-truth mask. */
 static int add_camera(const struct esr_image *on, const struct esr_image *off,
-                      const struct esr_image *gt, uint64_t *inter, uint64_t *uni)
+                      const struct esr_image *gt, struct emo_values *ev)
 {
     if (on->width != off->width || on->height != off->height || on->width != gt->width ||
         on->height != gt->height)
@@ -31,14 +45,37 @@ static int add_camera(const struct esr_image *on, const struct esr_image *off,
         float e = -INFINITY;
         for (int c = 0; c < 3; c++)
             e = fmaxf(e, on->data[p * on->channels + c] - off->data[p * off->channels + c]);
-        const int truth = gt->data[p * gt->channels] > 0.5f;
-        for (int i = 0; i < N_K; i++) {
-            const int pred = e > threshold(i);
-            inter[i] += (uint64_t)(pred & truth);
-            uni[i] += (uint64_t)(pred | truth);
-        }
+        if (!(e == e))
+            e = -INFINITY; /* NaN: never above a threshold */
+        ESR_TRY(push(&ev->all, &ev->n_all, &ev->cap_all, e));
+        if (gt->data[p * gt->channels] > 0.5f)
+            ESR_TRY(push(&ev->truth, &ev->n_truth, &ev->cap_truth, e));
     }
     return ESR_OK;
+}
+
+/* The best pooled IoU of (e > k) over every k that changes the prediction: with both lists
+ * sorted, each distinct value v of e (largest first) is a cut just below v, whose prediction is
+ * the pixels at v or above; k is reported midway to the next value down. */
+static void best_threshold(struct emo_values *ev, struct esr_emo_baseline *out)
+{
+    esr_sort_floats(ev->all, ev->n_all);
+    esr_sort_floats(ev->truth, ev->n_truth);
+    size_t a = ev->n_all, t = ev->n_truth; /* [a, n_all) predicted, [t, n_truth) of them true */
+    while (a > 0 && ev->all[a - 1] > -INFINITY) {
+        const float v = ev->all[a - 1];
+        while (a > 0 && ev->all[a - 1] == v)
+            a--;
+        while (t > 0 && ev->truth[t - 1] >= v)
+            t--;
+        const size_t pred = ev->n_all - a, inter = ev->n_truth - t;
+        const double iou = (double)inter / (double)(pred + ev->n_truth - inter);
+        if (iou > out->iou) {
+            out->iou = iou;
+            out->k = a > 0 && ev->all[a - 1] > -INFINITY ? 0.5 * ((double)v + ev->all[a - 1])
+                                                        : (double)v - 1.0;
+        }
+    }
 }
 
 /* "<dir>/<name with the trailing _on replaced by _off>.exr"; 0 when name does not end in _on. */
@@ -53,7 +90,8 @@ int esr_emo_baseline_eval(const struct esr_dataset *ds, enum esr_phase_id phase,
                           int n, const char *render_dir, struct esr_emo_baseline *out)
 {
     memset(out, 0, sizeof *out);
-    uint64_t inter[N_K] = {0}, uni[N_K] = {0};
+    struct emo_values ev;
+    memset(&ev, 0, sizeof ev);
     const struct esr_phase *ph = &ds->phases[phase];
     int status = ESR_OK;
     for (int i = 0; i < n && status == ESR_OK; i++) {
@@ -72,20 +110,16 @@ int esr_emo_baseline_eval(const struct esr_dataset *ds, enum esr_phase_id phase,
         if (status == ESR_OK)
             status = esr_image_read(gt_path, &gt);
         if (status == ESR_OK)
-            status = add_camera(&on, &off, &gt, inter, uni);
+            status = add_camera(&on, &off, &gt, &ev);
         if (status == ESR_OK)
             out->n_cameras++;
         esr_image_free(&on);
         esr_image_free(&off);
         esr_image_free(&gt);
     }
-    ESR_TRY(status);
-    for (int i = 0; i < N_K && out->n_cameras > 0; i++) {
-        double iou = uni[i] ? (double)inter[i] / (double)uni[i] : 0.0;
-        if (iou > out->iou) {
-            out->iou = iou;
-            out->k = threshold(i);
-        }
-    }
-    return ESR_OK;
+    if (status == ESR_OK && out->n_cameras > 0)
+        best_threshold(&ev, out);
+    free(ev.all);
+    free(ev.truth);
+    return status;
 }

@@ -101,9 +101,12 @@ int esr_light_split_eval(const struct esr_dataset *ds, enum esr_phase_id phase, 
     }
     out->mean_iou = out->n ? sum / out->n : 0.0;
     for (int j = 0; j < ESR_MAX_LIGHTS; j++) { /* most of its pixels in K's masks: it follows K */
-        for (int k = 0; k < lights; k++)
-            if (c.pred[j] > 0 && 2 * c.inter[k][j] >= c.pred[j])
+        for (int k = 0; k < lights; k++) {
+            const int have = out->dataset_light[j];
+            if (c.pred[j] > 0 && 2 * c.inter[k][j] >= c.pred[j] &&
+                (have < 0 || c.inter[k][j] > c.inter[have][j])) /* half each: the larger overlap */
                 out->dataset_light[j] = k;
+        }
     }
     return ESR_OK;
 }

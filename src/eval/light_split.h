@@ -26,7 +26,7 @@ struct esr_light_split {
      * none does (a light the dataset does not have, such as a reflection kept as emission, even
      * if a few of its pixels touch a mask's edge). Edits follow it, so a dataset light that esr
      * found in two pieces is edited in both. (Masks of different lights do not overlap, so at
-     * most one holds half.) */
+     * most one holds more than half; two holding half each: the lower id.) */
     int dataset_light[ESR_MAX_LIGHTS];
 };
 

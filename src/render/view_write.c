@@ -8,18 +8,13 @@
 #include "fields/env_sg.h"
 #include "render/view.h"
 
-static float clamp01(float v)
-{
-    return v < 0.0f ? 0.0f : (v > 1.0f ? 1.0f : v);
-}
-
 /* Display images derived from the raw outputs, filled into pre-allocated same-size images. */
 static void gamma_image(const struct esr_image *linear, float scale, struct esr_image *out)
 {
     long long n = (long long)esr_image_count(linear);
 #pragma omp parallel for schedule(static)
     for (long long i = 0; i < n; i++)
-        out->data[i] = esr_srgb_from_linear(clamp01(scale * linear->data[i]));
+        out->data[i] = esr_srgb_from_linear(esr_clamp01(scale * linear->data[i]));
 }
 
 /* c = 0.5 (n_w + 1) on the surface, white where empty: with n_c = sum w n (the composited
@@ -29,9 +24,9 @@ static void normal_image(const struct esr_view_images *v, struct esr_image *out)
     long long n = (long long)v->opacity.width * v->opacity.height;
 #pragma omp parallel for schedule(static)
     for (long long i = 0; i < n; i++) {
-        float a = clamp01(v->opacity.data[i]);
+        float a = esr_clamp01(v->opacity.data[i]);
         for (int c = 0; c < 3; c++)
-            out->data[3 * i + c] = clamp01(0.5f * (v->normal.data[3 * i + c] + a) + (1.0f - a));
+            out->data[3 * i + c] = esr_clamp01(0.5f * (v->normal.data[3 * i + c] + a) + (1.0f - a));
     }
 }
 
@@ -58,7 +53,7 @@ static void depth_image(const struct esr_view_images *v, struct esr_image *out)
     }
     float scale = hi > lo ? 1.0f / (hi - lo) : 0.0f;
     for (long long i = 0; i < n; i++)
-        out->data[i] = v->opacity.data[i] > 0.5f ? clamp01((v->depth.data[i] - lo) * scale) : 1.0f;
+        out->data[i] = v->opacity.data[i] > 0.5f ? esr_clamp01((v->depth.data[i] - lo) * scale) : 1.0f;
 }
 
 int esr_view_path(char *out, size_t n, const char *dir, const char *name, const char *suffix)
@@ -127,8 +122,8 @@ static void material_image(const struct esr_view_images *v, int c0, int n, int s
         for (int c = 0; c < n; c++) {
             float x = a > 1e-4f ? v->material[5 * i + c0 + c] / a : 0.0f;
             if (srgb)
-                x = esr_srgb_from_linear(clamp01(x));
-            out->data[n * i + c] = clamp01(a * x + (1.0f - a));
+                x = esr_srgb_from_linear(esr_clamp01(x));
+            out->data[n * i + c] = esr_clamp01(a * x + (1.0f - a));
         }
     }
 }
