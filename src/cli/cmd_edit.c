@@ -66,7 +66,6 @@ const struct esr_command cmd_edit = {
     1, /* view_loop */
 };
 
-
 struct edit_args {
     const char *run, *out, *views, *data, *frames;
     int orbit, spp, n_groups, iters;
