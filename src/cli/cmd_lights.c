@@ -14,6 +14,7 @@
 #include "io/json_file.h"
 #include "model/model.h"
 #include "train/lights.h"
+#include "train/lights_fit.h"
 #include "train/rays.h"
 
 static int run_lights(int argc, char **argv);
@@ -27,7 +28,8 @@ const struct esr_command cmd_lights = {
     "ended: the emitting surface split into connected lights, each light's strength fixed by the\n"
     "light it casts on the rest of the scene), prints them and writes RUN/lights.json:\n"
     "  {\"lights\": [{\"id\", \"centroid\", \"area\", \"points\", \"unseen_points\" (of its surface\n"
-    "               points, those no camera sees), \"rgb\" (emitted radiance, linear), \"hsv\" (of\n"
+    "               points, those whose emission no photo shows: no camera sees them, or only\n"
+    "               lights-off or clipped photos do), \"rgb\" (emitted radiance, linear), \"hsv\" (of\n"
     "               rgb: H, S in [0,1], V unbounded, linear), \"power\", \"field_rgb\",\n"
     "               \"strength_scale\", \"calibration_points\",\n"
     "               \"strength_fitted\" (false: too small to fit, the fitted lights' area-weighted mean scale)}...],\n"
@@ -63,12 +65,17 @@ static int find_and_calibrate(struct esr_model *m, const char *data, int find)
     if (rc == ESR_OK && rs.n_off == 0)
         rc = ESR_FAIL("dataset %s: no lights-off training images to calibrate with", data);
     if (rc == ESR_OK && find)
-        rc = esr_lights_find(m, rs.orig3, rs.dir3, rs.n);
+        rc = esr_lights_find(m, &rs);
     if (rc == ESR_OK && find && m->lights.n_left_out > 0)
         fprintf(stderr, "esr lights: " ESR_LIGHTS_LEFT_OUT_FMT "\n", m->lights.n_left_out, ESR_MAX_LIGHTS);
     if (rc == ESR_OK && m->lights.n > 0)
         rc = esr_lights_calibrate(m, rs.orig3, rs.dir3, rs.n_off, ESR_LIGHTS_CALIB_POINTS,
                                   (uint64_t)m->cfg.seed);
+    for (int i = 0; rc == ESR_OK && i < m->lights.n; i++) {
+        char line[320];
+        if (esr_lights_rim_text(&m->lights, i, line, sizeof line))
+            fprintf(stderr, "esr lights: %s\n", line);
+    }
     if (rc == ESR_OK && esr_lights_uncalibrated(&m->lights))
         fprintf(stderr, "esr lights: warning: " ESR_LIGHTS_UNCALIBRATED_TEXT "\n");
     struct esr_lights_balance_info bal;
@@ -161,7 +168,7 @@ static int lights(const char *run, const char *data_override, int again, const c
     }
     int borrowed = 0;
     if (rc == ESR_OK) {
-        long unseen[ESR_MAX_LIGHTS]; /* each light's points no camera sees */
+        long unseen[ESR_MAX_LIGHTS]; /* each light's points whose emission no photo shows */
         esr_lights_unseen_points(&m.lights, unseen);
         printf("%d light%s (emitter threshold k %.3g):\n", m.lights.n, m.lights.n == 1 ? "" : "s",
                (double)m.cfg.emitter_k);
@@ -187,13 +194,13 @@ static int lights(const char *run, const char *data_override, int again, const c
         int any_unseen = 0;
         for (int i = 0; i < m.lights.n; i++)
             if (unseen[i]) {
-                printf("  light %d: %ld of its %ld surface points seen by no camera\n", i, unseen[i],
-                       m.lights.light[i].points);
+                printf("  light %d: %ld of its %ld surface points unseen (no camera sees them, or "
+                       "only lights-off or clipped photos)\n", i, unseen[i], m.lights.light[i].points);
                 any_unseen = 1;
             }
         if (any_unseen)
-            printf("  (a light's part no camera looks at, such as a lampshade's bottom, emits the\n"
-                   "  light's mean field)\n");
+            printf("  (a light's unseen part, such as a lampshade's bottom, emits the light's mean\n"
+                   "  field)\n");
         if (esr_lights_balanced(&m.lights)) {
             float b[3];
             esr_lights_balance_of(&m.lights, b);

@@ -178,7 +178,7 @@ static void put_lights(FILE *out, const struct esr_report_spec *spec)
         return;
     const struct esr_light_split *sp = &spec->res->split;
     fprintf(out, "<h2>Lights found (%d)</h2>\n<table><tr><th>id</th><th>centroid</th><th>area</th>"
-                 "<th>points seen by no camera</th><th>calibrated radiance (linear RGB)</th>"
+                 "<th>points unseen</th><th>calibrated radiance (linear RGB)</th>"
                  "<th>power</th><th>strength scale</th><th>strength fitted?</th>%s</tr>\n",
             L->n, sp->views ? "<th>dataset light (evaluation)</th>" : "");
     long unseen[ESR_MAX_LIGHTS];
@@ -209,8 +209,9 @@ static void put_lights(FILE *out, const struct esr_report_spec *spec)
         }
         fputs("</tr>\n", out);
     }
-    fputs("</table>\n<p>Connected emitting surfaces; the part no camera sees (a lampshade's "
-          "bottom) emits the light's mean field; strength calibrated by the light each casts "
+    fputs("</table>\n<p>Connected emitting surfaces; the unseen part (a lampshade's bottom: "
+          "surface no camera sees, or that only lights-off or clipped photos show and whose "
+          "light the photos ask for) emits the light's mean field; strength calibrated by the light each casts "
           "on the non-emitting surfaces (<code>esr lights RUN</code> writes RUN/lights.json). "
           "Centroid and area in scene units; radiance in the dataset's linear radiance units; "
           "power = pi x area x the radiance's luminance (Lambertian, one side); strength scale = "

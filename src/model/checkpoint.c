@@ -351,6 +351,7 @@ static int read_lights(struct esr_model *m, const cJSON *h, struct rbuf *b)
     ESR_TRY(get(b, L->label, nl));
     for (size_t i = 0; i < nl; i++)
         if (ESR_LIGHT_LABEL_ID(L->label[i]) > n ||
+            (L->label[i] & ESR_LIGHT_UNDECIDED) || /* never saved */
             (L->label[i] == ESR_LIGHT_UNSEEN)) /* an unseen part of no light */
             return ESR_FAIL("checkpoint %s: light label %d of %d lights", b->path, L->label[i], n);
     return ESR_OK;

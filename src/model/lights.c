@@ -80,7 +80,7 @@ int esr_lights_drop(struct esr_lights *L, int id)
         if (k == id)
             L->label[i] = 0;
         else if (k > id) /* its id + 1 becomes id: one less, the unseen flag kept */
-            L->label[i] = (uint8_t)((L->label[i] & ESR_LIGHT_UNSEEN) | (uint8_t)k);
+            L->label[i] = (uint8_t)((L->label[i] & (ESR_LIGHT_UNSEEN | ESR_LIGHT_UNDECIDED)) | (uint8_t)k);
     }
     memmove(&L->light[id], &L->light[id + 1], (size_t)(L->n - id - 1) * sizeof L->light[0]);
     memmove(&L->edit[id], &L->edit[id + 1], (size_t)(L->n - id - 1) * sizeof L->edit[0]);

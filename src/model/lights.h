@@ -65,6 +65,14 @@ struct esr_lights {
     /* emitting regions large enough to be lights that esr_lights_find left out, past the
      * ESR_MAX_LIGHTS largest (not saved: said where they are found) */
     int n_left_out;
+    /* what the last calibration decided about each light's undecided rim (ESR_LIGHT_UNDECIDED;
+     * not saved: said where decided): its surface points (0: it had none), whether it emits,
+     * and how clearly the light it casts said so (train/lights_fit.h, esr_calib_decide_rims) */
+    struct esr_light_rim {
+        long points;
+        int emits;
+        float t_on;
+    } rim[ESR_MAX_LIGHTS];
     /* The colour balance found from the lights' own silhouettes (train/lights.h,
      * esr_lights_balance): the base colour is this times the BRDF field's, the environment map
      * the field's over this, per channel (the images fix only their product). 0 0 0: none (1). */
@@ -76,10 +84,15 @@ struct esr_lights {
 };
 
 /* A label's flag for a light's unseen part: surface next to the light that no training camera
- * sees (a lampshade's underside), which emits the light's mean field, not the field there. */
+ * sees (a lampshade's underside), or that only lights-off or clipped photos show and whose light
+ * the photos ask for (train/lights.h), which emits the light's mean field, not the field there. */
 #define ESR_LIGHT_UNSEEN 0x80u
+/* A label's flag, between finding the lights and calibrating them only (never saved), for a
+ * light's undecided rim: outer surface next to it that only lights-off or clipped photos see,
+ * which may emit or not (the calibration decides, train/lights.h). */
+#define ESR_LIGHT_UNDECIDED 0x40u
 /* The light id + 1 of a label (0: no light). */
-#define ESR_LIGHT_LABEL_ID(label) ((int)((label) & 0x7fu))
+#define ESR_LIGHT_LABEL_ID(label) ((int)((label) & 0x3fu))
 
 void esr_lights_free(struct esr_lights *L);
 

@@ -129,6 +129,19 @@ void esr_light_samples_free(struct esr_light_samples *s)
 
 int esr_light_samples_get(const struct esr_model *m, int id, struct esr_light_samples *out)
 {
+    return esr_light_samples_part(m, id, ESR_LIGHT_PART_ALL, out);
+}
+
+/* Whether a point labelled `label` belongs to part `part` of its light. */
+static int in_part(uint8_t label, enum esr_light_part part)
+{
+    const int undecided = (label & ESR_LIGHT_UNDECIDED) != 0;
+    return part == ESR_LIGHT_PART_ALL || (part == ESR_LIGHT_PART_UNDECIDED) == undecided;
+}
+
+int esr_light_samples_part(const struct esr_model *m, int id, enum esr_light_part part,
+                           struct esr_light_samples *out)
+{
     memset(out, 0, sizeof(*out));
     const struct esr_lights *L = &m->lights;
     if (id < 0 || id >= L->n)
@@ -140,7 +153,7 @@ int esr_light_samples_get(const struct esr_model *m, int id, struct esr_light_sa
     size_t k = 0;
     uint8_t *unseen = malloc(n ? n : 1);
     for (size_t i = 0; unseen && i < n; i++) /* the light's points, compacted in place */
-        if (ESR_LIGHT_LABEL_ID(L->label[idx[i]]) == id + 1) {
+        if (ESR_LIGHT_LABEL_ID(L->label[idx[i]]) == id + 1 && in_part(L->label[idx[i]], part)) {
             memmove(pos + k * 3, pos + i * 3, 3 * sizeof(float));
             memmove(nrm + k * 3, nrm + i * 3, 3 * sizeof(float));
             unseen[k++] = (L->label[idx[i]] & ESR_LIGHT_UNSEEN) != 0;

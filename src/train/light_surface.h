@@ -35,6 +35,11 @@ struct esr_light_samples {
 };
 
 int esr_light_samples_get(const struct esr_model *m, int id, struct esr_light_samples *out);
+/* The same over part of the light: all of it, its settled part, or its undecided rim
+ * (ESR_LIGHT_UNDECIDED, between finding and calibrating). */
+enum esr_light_part { ESR_LIGHT_PART_ALL, ESR_LIGHT_PART_SETTLED, ESR_LIGHT_PART_UNDECIDED };
+int esr_light_samples_part(const struct esr_model *m, int id, enum esr_light_part part,
+                           struct esr_light_samples *out);
 void esr_light_samples_free(struct esr_light_samples *s);
 
 #ifdef __cplusplus

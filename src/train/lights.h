@@ -12,7 +12,12 @@
  * the SDF closes and no camera looks up at. They are labelled ESR_LIGHT_UNSEEN and emit the
  * light's mean field E (their own E learned only from the light they cast, which clipped images
  * understate); the light's area, points, centroid and power count them (it emits over all of
- * its surface), its mean field E only the part found emitting.
+ * its surface), its mean field E only the part found emitting. Next to that, each light has an
+ * undecided rim (ESR_LIGHT_UNDECIDED): outer surface points one lattice point from it that some
+ * ray reaches, but only lights-off rays (which show no emission) or lights-on rays whose photo is
+ * clipped white (which any emitter, or the floor beside a strong one, shows): a rounded
+ * lampshade's lower edge, which only grazing rays touch. Whether it emits is the calibration's
+ * to decide (below), and it then joins the light's unseen part or leaves it.
  *
  * Strength: the emission field learns from LDR images, where every emitter is clipped to white,
  * so E comes out near 1 whatever the true strength. What does pin the strength is the light the
@@ -39,7 +44,11 @@
  * the BRDF cannot explain, a mirror's reflection, pull with a bounded force). A light under
  * ESR_LIGHTS_SMALL_SHARE of the lights' area is not fitted but takes the fitted lights' mean scale,
  * at which its light enters the fit (esr_lights_fitted, esr_lights_share_scale,
- * esr_lights_fit_columns). Caveat: images fix the product of albedo
+ * esr_lights_fit_columns). A light's undecided rim joins it when the fit with its light
+ * explains the rows clearly better (train/lights_fit.h, esr_calib_decide_rims): both scenes'
+ * lampshades gain the outer ring of the bottom the SDF closes (a closed shade's bottom emits,
+ * and so, seen from below, does an open one's inside), while the rim of floor and sphere around
+ * the default scene's orb, and lamp's bulb's, stay dark. Caveat: images fix the product of albedo
  * and light, so s_K is only as right as the reconstructed base colour (see docs); its colour is
  * set right afterwards by the lights' silhouettes (esr_lights_balance, below). */
 #ifndef ESR_TRAIN_LIGHTS_H
@@ -61,7 +70,11 @@ extern "C" {
  * outer surface counts: points that the free space seen along the cameras' rays (orig3/dir3
  * [n_rays*3], volume/free_space.h) touches from outside; the emission field is unconstrained on
  * surfaces no camera looks at (inside solids, under a floor), and they would cast no light. */
-int esr_lights_find(struct esr_model *m, const float *orig3, const float *dir3, size_t n_rays);
+int esr_lights_find(struct esr_model *m, const struct esr_ray_set *rs);
+/* Settles the lights' undecided rims (ESR_LIGHT_UNDECIDED): light K's joins it as unseen
+ * surface when emits[K], else leaves it; then measures the lights' points, centroid, area and
+ * power again. */
+int esr_lights_settle(struct esr_model *m, const int emits[ESR_MAX_LIGHTS]);
 
 /* Calibrates the strength of m's lights from calib_points surface points of the lights-off rays
  * (orig3/dir3 [n*3]; rays drawn at random, seeded). Sets scale, radiance, power, calib_points;

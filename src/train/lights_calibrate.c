@@ -9,13 +9,13 @@
 #include "core/colour.h"
 #include "core/error.h"
 #include "core/order.h"
-#include "core/ridge_solve.h"
 #include "core/rng.h"
 #include "core/vec3.h"
 #include "model/material_fields.h"
 #include "model/trace.h"
 #include "train/light_direct.h"
 #include "train/light_surface.h"
+#include "train/lights_fit.h"
 #include "train/lts.h"
 
 /* calibration: LTS points per call, hemisphere directions per point, area samples per point and
@@ -36,11 +36,6 @@
 /* the lights-off correction of a point's base colour, L_off / L^_off, is clamped to
  * [1 / this, this] */
 #define CALIB_MAX_CORRECTION 4.0
-/* ridge towards scale 1, relative to each light's own normal-equation diagonal */
-#define CALIB_RIDGE 1e-3
-/* Huber reweighting rounds of the fit (core/ridge_solve.h) */
-#define CALIB_ROBUST_ROUNDS 8
-_Static_assert(ESR_MAX_LIGHTS <= ESR_RIDGE_MAX, "the calibration solves one unknown per light");
 
 /* Calibration points: the strongest sample (weight >= CALIB_SURFACE_WEIGHT) of random rays,
  * kept when it lies on no light and its E is well below k. */
@@ -109,24 +104,12 @@ static int point_frame(const struct esr_lts *l, size_t p, struct esr_vec3 *n, st
     return esr_v3_dot(*n, *wo) > 0.0f;
 }
 
-/* Calibration rows, one per point and channel: L_emo - r B ~ sum_K s_K r A_K, both sides times
- * esr_image_error_scale at the point's lights-on radiance, r the lights-off correction of the
- * point's base colour over its median (train/lights.h says why). Kept apart until the medians
- * are known. */
-struct calib_rows {
-    size_t n, cap;  /* points */
-    double *a;      /* [cap * 3 * K] weighted A: point p, channel c at (p * 3 + c) * K */
-    double *emo;    /* [cap * 3] weighted L_emo */
-    double *b;      /* [cap * 3] weighted B */
-    double *r;      /* [cap * 3] L_off / L^_off */
-};
-
 /* Adds one LTS call's points as rows: A from esr_lights_direct, B from the hemisphere directions
  * (the other surfaces' emo radiance, and the lights' own reflected part L_emo - E where a
  * direction hits one). */
 static void accumulate(const struct esr_model *m, const struct esr_lts *l, size_t P,
-                       const float *hit_emit3, const double *Aall, struct calib_rows *rows,
-                       double *seen)
+                       const float *hit_emit3, const double *Aall, const double *Rall,
+                       struct esr_calib_rows *rows, double *seen)
 {
     const int K = m->lights.n;
     const size_t M = (size_t)l->M;
@@ -140,6 +123,7 @@ static void accumulate(const struct esr_model *m, const struct esr_lts *l, size_
         if (fmaxf(L_on[0], fmaxf(L_on[1], L_on[2])) > CALIB_MAX_ON)
             continue;
         const double *A = Aall + p * 2 * ESR_MAX_LIGHTS * 3; /* the camera direction's */
+        const double *Ar = Rall ? Rall + p * 2 * ESR_MAX_LIGHTS * 3 : NULL;
         double B[3] = {0, 0, 0};
         for (size_t j = 0; j < M; j++) {
             const size_t i = p * M + j;
@@ -165,8 +149,11 @@ static void accumulate(const struct esr_model *m, const struct esr_lts *l, size_
             rows->r[row] = hat_off > 1e-6 ? fmin(fmax(off / hat_off, 1.0 / CALIB_MAX_CORRECTION),
                                                  CALIB_MAX_CORRECTION)
                                           : 1.0;
-            for (int a = 0; a < K; a++)
+            for (int a = 0; a < K; a++) {
                 rows->a[row * (size_t)K + (size_t)a] = w * A[a * 3 + c];
+                if (Ar)
+                    rows->ar[row * (size_t)K + (size_t)a] = w * Ar[a * 3 + c];
+            }
         }
         rows->n++;
         for (int a = 0; a < K; a++)
@@ -188,22 +175,32 @@ int esr_lights_calibrate(struct esr_model *m, const float *orig3, const float *d
     for (int a = 0; a < K; a++)
         for (int c = 0; c < 3; c++)
             m->lights.light[a].scale[c] = 1.0f;
-    struct esr_light_samples ls[ESR_MAX_LIGHTS];
+    /* each light's settled part and its undecided rim, sampled apart */
+    struct esr_light_samples ls[ESR_MAX_LIGHTS], lr[ESR_MAX_LIGHTS];
     memset(ls, 0, sizeof ls);
-    double *Abuf = malloc((size_t)CALIB_CHUNK * 2 * ESR_MAX_LIGHTS * 3 * sizeof(double));
+    memset(lr, 0, sizeof lr);
+    int has_rim[ESR_MAX_LIGHTS] = {0}, any_rim = 0;
+    const size_t abytes = (size_t)CALIB_CHUNK * 2 * ESR_MAX_LIGHTS * 3 * sizeof(double);
+    double *Abuf = malloc(abytes), *Rbuf = malloc(abytes);
     float *pos = malloc((size_t)want * 3 * sizeof(float)), *dir = malloc((size_t)want * 3 * sizeof(float));
-    struct calib_rows rows = {0, (size_t)want, malloc((size_t)want * 3 * K * sizeof(double)),
+    struct esr_calib_rows rows = {0, (size_t)want, malloc((size_t)want * 3 * K * sizeof(double)),
+                              malloc((size_t)want * 3 * K * sizeof(double)),
                               malloc((size_t)want * 3 * sizeof(double)),
                               malloc((size_t)want * 3 * sizeof(double)),
-                              malloc((size_t)want * 3 * sizeof(double))};
+                              malloc((size_t)want * 3 * sizeof(double)), {1, 1, 1}};
     double *ca = malloc((size_t)want * K * sizeof(double)), *cy = malloc((size_t)want * sizeof(double));
     double seen[ESR_MAX_LIGHTS] = {0};
     int got = 0;
-    int rc = pos && dir && rows.a && rows.emo && rows.b && rows.r && ca && cy && Abuf
+    int rc = pos && dir && rows.a && rows.ar && rows.emo && rows.b && rows.r && ca && cy && Abuf && Rbuf
                  ? ESR_OK
                  : ESR_FAIL("lights: out of memory for the calibration");
-    for (int a = 0; rc == ESR_OK && a < K; a++)
-        rc = esr_light_samples_get(m, a, &ls[a]);
+    for (int a = 0; rc == ESR_OK && a < K; a++) {
+        rc = esr_light_samples_part(m, a, ESR_LIGHT_PART_SETTLED, &ls[a]);
+        if (rc == ESR_OK)
+            rc = esr_light_samples_part(m, a, ESR_LIGHT_PART_UNDECIDED, &lr[a]);
+        has_rim[a] = lr[a].n > 0;
+        any_rim |= has_rim[a];
+    }
     if (rc == ESR_OK)
         rc = calib_points(m, orig3, dir3, n, want, seed, pos, dir, &got);
     /* the LTS machinery at these points: its own sizes, first hit */
@@ -236,38 +233,39 @@ int esr_lights_calibrate(struct esr_model *m, const float *orig3, const float *d
             rc = esr_material_fields_fwd(&mf, m, sdf, l.hit_pos3, P * CALIB_DIRS);
         /* A_K: the samples carry the field's E (scales 1), the scale is what is solved for */
         const struct esr_direct_points dp = {P, l.pos3, l.nrm3, l.mf.brdf5, l.wo3, 2};
+        const uint64_t dseed = seed ^ (uint64_t)(p0 + 1) * 0x9e3779b97f4a7c15ULL;
         if (rc == ESR_OK)
-            rc = esr_lights_direct(&shadows, ls, K, NULL, &dp, CALIB_LIGHT_SPP,
-                                   seed ^ (uint64_t)(p0 + 1) * 0x9e3779b97f4a7c15ULL, Abuf, NULL);
+            rc = esr_lights_direct(&shadows, ls, K, NULL, &dp, CALIB_LIGHT_SPP, dseed, Abuf, NULL);
+        if (rc == ESR_OK && any_rim)
+            rc = esr_lights_direct(&shadows, lr, K, NULL, &dp, CALIB_LIGHT_SPP, ~dseed, Rbuf, NULL);
         if (rc == ESR_OK)
-            accumulate(m, &l, P, mf.emit3, Abuf, &rows, seen);
+            accumulate(m, &l, P, mf.emit3, Abuf, any_rim ? Rbuf : NULL, &rows, seen);
     }
     esr_material_fields_free(&mf);
     esr_lts_free(&l);
     esr_light_shadows_free(&shadows);
     m->step = keep_step;
-    int fit[ESR_MAX_LIGHTS];
-    const int nf = esr_lights_fitted(&m->lights, fit);
     for (int c = 0; rc == ESR_OK && c < 3; c++) {
         for (size_t p = 0; p < rows.n; p++) /* the median correction (cy as scratch) */
             cy[p] = rows.r[p * 3 + (size_t)c];
-        const double median = rows.n ? esr_median_doubles(cy, rows.n) : 1.0;
-        for (size_t p = 0; p < rows.n; p++) { /* channel c's rows of the fitted lights */
-            const size_t row = p * 3 + (size_t)c;
-            const double r = rows.r[row] / median;
-            cy[p] = rows.emo[row] - r * rows.b[row];
-            double *col = ca + p * (size_t)nf;
-            esr_lights_fit_columns(&m->lights, fit, nf, rows.a + row * (size_t)K, col);
-            for (int f = 0; f < nf; f++)
-                col[f] *= r;
-        }
-        double s[ESR_MAX_LIGHTS];
-        if (esr_ridge_fit_robust(nf, rows.n, ca, cy, CALIB_RIDGE, CALIB_ROBUST_ROUNDS, s) != 0)
-            rc = ESR_FAIL("lights: out of memory for the calibration");
-        for (int f = 0; rc == ESR_OK && f < nf; f++)
-            m->lights.light[fit[f]].scale[c] = (float)s[f];
-        if (rc == ESR_OK)
-            esr_lights_share_scale(&m->lights, c);
+        rows.median[c] = rows.n ? esr_median_doubles(cy, rows.n) : 1.0;
+    }
+    int fit[ESR_MAX_LIGHTS], emits[ESR_MAX_LIGHTS] = {0};
+    float t_on[ESR_MAX_LIGHTS] = {0};
+    const int nf = esr_lights_fitted(&m->lights, fit);
+    if (rc == ESR_OK && any_rim && esr_calib_decide_rims(&m->lights, &rows, fit, nf, has_rim, ca, cy, emits, t_on) != 0)
+        rc = ESR_FAIL("lights: out of memory for the calibration");
+    double scale[3][ESR_MAX_LIGHTS];
+    if (rc == ESR_OK && esr_calib_fit(&m->lights, &rows, fit, nf, emits, ca, cy, scale, NULL, NULL, NULL) != 0)
+        rc = ESR_FAIL("lights: out of memory for the calibration");
+    if (rc == ESR_OK)
+        rc = esr_lights_settle(m, emits);
+    for (int a = 0; rc == ESR_OK && a < K; a++)
+        m->lights.rim[a] = (struct esr_light_rim){(long)lr[a].n, emits[a], t_on[a]};
+    for (int c = 0; rc == ESR_OK && c < 3; c++) {
+        for (int f = 0; f < nf; f++)
+            m->lights.light[fit[f]].scale[c] = (float)scale[c][f];
+        esr_lights_share_scale(&m->lights, c);
     }
     for (int a = 0; rc == ESR_OK && a < K; a++) {
         struct esr_light *lt = &m->lights.light[a];
@@ -275,12 +273,17 @@ int esr_lights_calibrate(struct esr_model *m, const float *orig3, const float *d
         /* a light too small to fit took the others' scale: no point of its own fixed it */
         lt->calib_points = esr_light_strength_fitted(&m->lights, a) ? (float)seen[a] : 0.0f;
     }
-    for (int a = 0; a < K; a++)
+    for (int a = 0; a < K; a++) {
         esr_light_samples_free(&ls[a]);
-    free(pos), free(dir), free(rows.a), free(rows.emo), free(rows.b), free(rows.r), free(ca), free(cy);
-    free(Abuf);
-    if (rc != ESR_OK)
+        esr_light_samples_free(&lr[a]);
+    }
+    free(pos), free(dir), free(rows.a), free(rows.ar), free(rows.emo), free(rows.b), free(rows.r);
+    free(ca), free(cy), free(Abuf), free(Rbuf);
+    if (rc != ESR_OK) {
         memcpy(m->lights.light, keep, sizeof keep);
+        const int none[ESR_MAX_LIGHTS] = {0};
+        (void)esr_lights_settle(m, none); /* no undecided label is left to be saved */
+    }
     return rc;
 }
 

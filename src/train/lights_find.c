@@ -81,33 +81,59 @@ static int components(const struct esr_grid *g, const uint8_t *flag, int32_t *co
     return ESR_OK;
 }
 
-/* Marks seen[] (lattice points, zeroed by the caller) within one lattice point of some ray's
- * first SDF hit. */
-static int mark_seen(const struct esr_model *m, const float *orig3, const float *dir3,
-                     size_t n_rays, uint8_t *seen)
+/* the rays whose first hits mark_seen finds per batch */
+#define SEEN_BATCH 65536
+/* a lights-on pixel whose every channel reaches this (sRGB) is clipped: it shows an emitter, or
+ * light too strong to read, and says nothing on whether the surface it sees emits */
+#define SEEN_CLIPPED 0.99f
+
+/* Whether ray r of rs counts in the set `which` (SEEN_ANY: every ray; SEEN_CLEAR: the lights-on
+ * rays whose photo is not clipped). */
+enum seen_by { SEEN_ANY, SEEN_CLEAR };
+static int ray_counts(const struct esr_ray_set *rs, size_t r, enum seen_by which)
+{
+    if (which == SEEN_ANY)
+        return 1;
+    const float *c = rs->rgb3 + r * 3;
+    return r >= rs->n_off && fminf(c[0], fminf(c[1], c[2])) < SEEN_CLIPPED;
+}
+
+/* Marks seen[] (lattice points, zeroed by the caller) within one lattice point of the first SDF
+ * hit of some ray of rs in the set `which`. */
+static int mark_seen(const struct esr_model *m, const struct esr_ray_set *rs, enum seen_by which,
+                     uint8_t *seen)
 {
     const struct esr_grid *g = esr_model_grid(m, ESR_COMP_SDF);
-    float *t = malloc((n_rays ? n_rays : 1) * sizeof(float));
-    float *hit = malloc((n_rays ? n_rays : 1) * 3 * sizeof(float));
-    int rc = t && hit ? ESR_OK : ESR_FAIL("lights: out of memory for the cameras' first hits");
+    float *o = malloc(SEEN_BATCH * 3 * sizeof(float)), *d = malloc(SEEN_BATCH * 3 * sizeof(float));
+    float *t = malloc(SEEN_BATCH * sizeof(float)), *hit = malloc(SEEN_BATCH * 3 * sizeof(float));
+    int rc = o && d && t && hit ? ESR_OK
+                                : ESR_FAIL("lights: out of memory for the cameras' first hits");
     struct esr_first_hit_params fp;
     esr_first_hit_params_init(&fp, g);
     fp.refine_iters = 4; /* a lattice point is all the precision asked */
-    const struct esr_first_hit_rays fr = {orig3, dir3, NULL, NULL, n_rays};
-    const struct esr_first_hit_out fo = {t, NULL, hit, NULL};
-    if (rc == ESR_OK)
-        rc = esr_first_hit(g, esr_model_values(m, ESR_COMP_SDF), &fp, &fr, &fo);
-    for (size_t r = 0; rc == ESR_OK && r < n_rays; r++) {
-        if (!isfinite(t[r]))
-            continue;
-        const size_t at = esr_trilerp_nearest(g, hit + r * 3); /* the march is clipped to the box */
-        size_t nb[26];
-        const int nn = neighbours26(g, at, nb);
-        seen[at] = 1;
-        for (int q = 0; q < nn; q++)
-            seen[nb[q]] = 1;
+    for (size_t r0 = 0; rc == ESR_OK && r0 < rs->n;) {
+        size_t nb = 0;
+        for (; r0 < rs->n && nb < SEEN_BATCH; r0++)
+            if (ray_counts(rs, r0, which)) {
+                memcpy(o + nb * 3, rs->orig3 + r0 * 3, 3 * sizeof(float));
+                memcpy(d + nb * 3, rs->dir3 + r0 * 3, 3 * sizeof(float));
+                nb++;
+            }
+        const struct esr_first_hit_rays fr = {o, d, NULL, NULL, nb};
+        const struct esr_first_hit_out fo = {t, NULL, hit, NULL};
+        rc = nb ? esr_first_hit(g, esr_model_values(m, ESR_COMP_SDF), &fp, &fr, &fo) : ESR_OK;
+        for (size_t r = 0; rc == ESR_OK && r < nb; r++) {
+            if (!isfinite(t[r]))
+                continue;
+            const size_t at = esr_trilerp_nearest(g, hit + r * 3); /* the march is clipped to the box */
+            size_t nbr[26];
+            const int nn = neighbours26(g, at, nbr);
+            seen[at] = 1;
+            for (int q = 0; q < nn; q++)
+                seen[nbr[q]] = 1;
+        }
     }
-    free(t), free(hit);
+    free(o), free(d), free(t), free(hit);
     return rc;
 }
 
@@ -134,7 +160,79 @@ static void grow_unseen(const struct esr_grid *g, const uint8_t *unseen_outer, u
     }
 }
 
-int esr_lights_find(struct esr_model *m, const float *orig3, const float *dir3, size_t n_rays)
+/* Labels the undecided rim of each light: the flagged points (outer surface that only
+ * lights-off or clipped pixels see) one lattice point from it, with the light's id,
+ * ESR_LIGHT_UNSEEN and ESR_LIGHT_UNDECIDED (the calibration decides whether each light's rim
+ * emits, esr_lights_settle). One point deep: without the limit the rims of both scenes grow by
+ * only 5-10% (lamp's lampshade 276 -> 302 points), and a rim of floor beside a light could run
+ * on across the floor. */
+static void mark_undecided(const struct esr_grid *g, const uint8_t *flag, uint8_t *label)
+{
+    const size_t N = esr_grid_voxels(g);
+    for (size_t i = 0; i < N; i++) {
+        if (!flag[i] || label[i])
+            continue;
+        size_t nb[26];
+        const int nn = neighbours26(g, i, nb);
+        for (int q = 0; q < nn; q++)
+            if (label[nb[q]] && !(label[nb[q]] & ESR_LIGHT_UNDECIDED)) {
+                label[i] = (uint8_t)(ESR_LIGHT_LABEL_ID(label[nb[q]]) | ESR_LIGHT_UNSEEN |
+                                     ESR_LIGHT_UNDECIDED);
+                break;
+            }
+    }
+}
+
+/* Each light's points, centroid, area and power from its labels over the n surface points
+ * (lattice indices idx, positions pos, normals nrm), on a lattice of spacing h. */
+static void measure(struct esr_lights *L, float h, const uint32_t *idx, const float *pos,
+                    const float *nrm, size_t n)
+{
+    double acc[ESR_MAX_LIGHTS][4]; /* centroid 3, area */
+    memset(acc, 0, sizeof acc);
+    for (int j = 0; j < L->n; j++)
+        L->light[j].points = 0;
+    for (size_t i = 0; i < n; i++) {
+        const int id = ESR_LIGHT_LABEL_ID(L->label[idx[i]]) - 1;
+        if (id < 0 || id >= L->n)
+            continue;
+        L->light[id].points++;
+        for (int a = 0; a < 3; a++)
+            acc[id][a] += pos[i * 3 + a];
+        acc[id][3] += esr_light_point_area(h, nrm + i * 3);
+    }
+    for (int j = 0; j < L->n; j++) {
+        struct esr_light *l = &L->light[j];
+        const double np = (double)(l->points > 0 ? l->points : 1);
+        for (int a = 0; a < 3; a++)
+            l->centroid[a] = (float)(acc[j][a] / np);
+        l->area = (float)acc[j][3];
+        esr_light_update_radiance(l);
+    }
+}
+
+int esr_lights_settle(struct esr_model *m, const int emits[ESR_MAX_LIGHTS])
+{
+    struct esr_lights *L = &m->lights;
+    if (L->n == 0)
+        return ESR_OK;
+    const size_t N = esr_grid_voxels(&L->grid);
+    for (size_t i = 0; i < N; i++) {
+        if (!(L->label[i] & ESR_LIGHT_UNDECIDED))
+            continue;
+        const int id = ESR_LIGHT_LABEL_ID(L->label[i]) - 1;
+        L->label[i] = id >= 0 && id < L->n && emits[id] ? (uint8_t)(L->label[i] & ~ESR_LIGHT_UNDECIDED) : 0;
+    }
+    uint32_t *idx = NULL;
+    float *pos = NULL, *nrm = NULL;
+    size_t n = 0;
+    ESR_TRY(esr_light_surface_points(m, &idx, &pos, &nrm, &n));
+    measure(L, esr_grid_voxel_size(esr_model_grid(m, ESR_COMP_SDF), 0), idx, pos, nrm, n);
+    free(idx), free(pos), free(nrm);
+    return ESR_OK;
+}
+
+int esr_lights_find(struct esr_model *m, const struct esr_ray_set *rs)
 {
     esr_lights_free(&m->lights);
     if (!esr_model_has(m, ESR_COMP_EMIT_MLP))
@@ -160,7 +258,7 @@ int esr_lights_find(struct esr_model *m, const float *orig3, const float *dir3, 
     if (rc == ESR_OK)
         rc = esr_light_emission_at(m, pos, n, emit);
     if (rc == ESR_OK)
-        rc = esr_free_space_carve(g, esr_model_values(m, ESR_COMP_SDF), orig3, dir3, n_rays,
+        rc = esr_free_space_carve(g, esr_model_values(m, ESR_COMP_SDF), rs->orig3, rs->dir3, rs->n,
                                   CARVE_MARGIN, free_mask);
     long emitting = 0;
     for (size_t i = 0; rc == ESR_OK && i < n; i++) {
@@ -204,7 +302,8 @@ int esr_lights_find(struct esr_model *m, const float *orig3, const float *dir3, 
     }
     if (rc == ESR_OK && kept > 0) {
         L->n = kept;
-        double acc[ESR_MAX_LIGHTS][7]; /* centroid 3, E 3, area */
+        double acc[ESR_MAX_LIGHTS][3]; /* E */
+        long emitting_points[ESR_MAX_LIGHTS] = {0};
         memset(acc, 0, sizeof acc);
         for (size_t i = 0; i < n; i++) {
             const int c = comp[idx[i]];
@@ -212,47 +311,38 @@ int esr_lights_find(struct esr_model *m, const float *orig3, const float *dir3, 
             if (id < 0)
                 continue;
             L->label[idx[i]] = (uint8_t)(id + 1);
-            L->light[id].points++;
-            for (int a = 0; a < 3; a++) {
-                acc[id][a] += pos[i * 3 + a];
-                acc[id][3 + a] += emit[i * 3 + a];
-            }
-            acc[id][6] += esr_light_point_area(h, nrm + i * 3);
+            emitting_points[id]++;
+            for (int a = 0; a < 3; a++)
+                acc[id][a] += emit[i * 3 + a];
         }
         for (int j = 0; j < kept; j++) { /* E: the mean over the part the field learned */
             struct esr_light *l = &L->light[j];
-            const double np = (double)(l->points > 0 ? l->points : 1);
+            const double np = (double)(emitting_points[j] > 0 ? emitting_points[j] : 1);
             for (int a = 0; a < 3; a++) {
-                l->field_rgb[a] = (float)(acc[j][3 + a] / np);
+                l->field_rgb[a] = (float)(acc[j][a] / np);
                 l->scale[a] = 1.0f;
-                l->radiance[a] = l->field_rgb[a];
             }
         }
         /* the lights' unseen parts: outer surface points no camera sees (flag reused) */
         memset(flag, 0, N);
-        rc = mark_seen(m, orig3, dir3, n_rays, seen);
+        rc = mark_seen(m, rs, SEEN_ANY, seen);
         for (size_t i = 0; rc == ESR_OK && i < n; i++)
             if (!seen[idx[i]] && outer[i])
                 flag[idx[i]] = 1;
         if (rc == ESR_OK)
             grow_unseen(g, flag, L->label, queue);
-        for (size_t i = 0; rc == ESR_OK && i < n; i++) /* they emit: they count in the light */
-            if (L->label[idx[i]] & ESR_LIGHT_UNSEEN) {
-                const int id = ESR_LIGHT_LABEL_ID(L->label[idx[i]]) - 1;
-                L->light[id].points++;
-                for (int a = 0; a < 3; a++)
-                    acc[id][a] += pos[i * 3 + a];
-                acc[id][6] += esr_light_point_area(h, nrm + i * 3);
-            }
-        for (int j = 0; j < kept; j++) {
-            struct esr_light *l = &L->light[j];
-            const double np = (double)(l->points > 0 ? l->points : 1);
-            for (int a = 0; a < 3; a++)
-                l->centroid[a] = (float)(acc[j][a] / np);
-            l->area = (float)acc[j][6];
-            esr_light_update_radiance(l);
-        }
+        /* the undecided rims: outer points next to a light that only lights-off or clipped
+         * pixels see (seen reused) */
+        memset(seen, 0, N);
+        if (rc == ESR_OK)
+            rc = mark_seen(m, rs, SEEN_CLEAR, seen);
+        for (size_t i = 0; rc == ESR_OK && i < n; i++)
+            flag[idx[i]] = !seen[idx[i]] && outer[i] && !L->label[idx[i]];
+        if (rc == ESR_OK)
+            mark_undecided(g, flag, L->label);
     }
+    if (rc == ESR_OK && kept > 0)
+        measure(L, h, idx, pos, nrm, n);
     free(idx), free(pos), free(nrm), free(emit), free(flag), free(free_mask), free(comp), free(queue);
     free(seen), free(outer);
     free(sizes), free(id_of);

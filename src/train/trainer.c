@@ -26,6 +26,7 @@
 #include "nn/schedule.h"
 #include "train/env_init.h"
 #include "train/lights.h"
+#include "train/lights_fit.h"
 #include "train/rays.h"
 #include "train/render_loss.h"
 #include "train/step.h"
@@ -313,7 +314,7 @@ static int build_mask(struct run *r, struct esr_model *m)
 /* The lights of the emitter stage's model: found, calibrated on the lights-off training rays. */
 static int find_lights(struct run *r, struct esr_model *m, enum esr_stage s)
 {
-    ESR_TRY(esr_lights_find(m, r->rays.orig3, r->rays.dir3, r->rays.n));
+    ESR_TRY(esr_lights_find(m, &r->rays));
     if (m->lights.n_left_out > 0)
         say(r, s, ESR_LIGHTS_LEFT_OUT_FMT, m->lights.n_left_out, ESR_MAX_LIGHTS);
     if (m->lights.n == 0) { /* decided over the whole surface, not one batch's rays */
@@ -324,6 +325,11 @@ static int find_lights(struct run *r, struct esr_model *m, enum esr_stage s)
     }
     ESR_TRY(esr_lights_calibrate(m, r->rays.orig3, r->rays.dir3, r->rays.n_off,
                                  ESR_LIGHTS_CALIB_POINTS, (uint64_t)r->cfg.seed));
+    for (int i = 0; i < m->lights.n; i++) {
+        char rim[320];
+        if (esr_lights_rim_text(&m->lights, i, rim, sizeof rim))
+            say(r, s, "%s", rim);
+    }
     struct esr_lights_balance_info bal;
     ESR_TRY(esr_lights_balance(m, &r->rays, &bal));
     char line[256];

@@ -1,0 +1,68 @@
+/* The lights' calibration fit (train/lights.h, esr_lights_calibrate): the rows it solves, the
+ * per-channel robust fit of the lights' scales, and the choice of which lights' undecided rims
+ * emit. Apart from the tracing that builds the rows, so that they can be tested on rows made up
+ * for the purpose. */
+#ifndef ESR_TRAIN_LIGHTS_FIT_H
+#define ESR_TRAIN_LIGHTS_FIT_H
+
+#include <stddef.h>
+
+#include "model/lights.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* ridge towards scale 1, relative to each light's own normal-equation diagonal */
+#define ESR_CALIB_RIDGE 1e-3
+/* Huber reweighting rounds of the fit (core/ridge_solve.h) */
+#define ESR_CALIB_ROBUST_ROUNDS 8
+/* a light's undecided rim changes sides when the points' mean change of Huber loss is this many
+ * standard errors below 0: a choice the rows make clearly, not one noise makes */
+#define ESR_CALIB_RIM_T 3.0
+
+/* Calibration rows, one per point and channel: L_emo - r B ~ sum_K s_K r A_K, both sides times
+ * esr_image_error_scale at the point's lights-on radiance, r the lights-off correction of the
+ * point's base colour over its median (train/lights.h says why). Kept apart until the medians
+ * are known; with K lights (esr_lights.n). */
+struct esr_calib_rows {
+    size_t n, cap;  /* points */
+    double *a;      /* [cap * 3 * K] weighted A: point p, channel c at (p * 3 + c) * K */
+    double *ar;     /* [cap * 3 * K] the same from each light's undecided rim (NULL: none) */
+    double *emo;    /* [cap * 3] weighted L_emo */
+    double *b;      /* [cap * 3] weighted B */
+    double *r;      /* [cap * 3] L_off / L^_off */
+    double median[3]; /* r's median per channel */
+};
+
+/* Fits the fitted lights' scales (fit [nf], esr_lights_fitted) to the rows, per channel, light
+ * K's undecided rim counted as part of it when emits[K] (NULL: no rim counts): scale[c][f]. The
+ * residuals' scale per channel (1.4826 median |residual|) goes to sigma_out (or NULL), and when
+ * sigma is given each row's Huber loss at that scale to loss [n*3] (point p, channel c at
+ * p * 3 + c). ca [n*nf] and cy [n] are scratch. Returns 0, -1 when out of memory. */
+int esr_calib_fit(const struct esr_lights *L, const struct esr_calib_rows *rows, const int *fit,
+                  int nf, const int *emits, double *ca, double *cy, double scale[3][ESR_MAX_LIGHTS],
+                  const double *sigma, double *sigma_out, double *loss);
+
+/* Decides which lights' undecided rims emit (emits[K]; has_rim[K]: light K has one), by the
+ * light they would cast: starting from none, light by light until nothing changes, a rim changes
+ * sides when the fit that way explains the rows clearly better: the points' paired change of
+ * Huber loss (summed over a point's channels, at the residual scale of the fit without rims) is
+ * ESR_CALIB_RIM_T standard errors below 0. t_on[K]: the last such change measured for light K's rim, from dark to emitting (negative:
+ * it emits, the rows say so by -t_on standard errors). Returns 0, -1 when out of memory.
+ * The photos cannot say whether such surface emits (lights-off pixels show no emission, clipped
+ * ones any); the light it casts on the rest of the scene can: a lampshade's closed bottom that
+ * in truth emits lights the floor beneath it, one that is open in truth (a bulb inside) would
+ * light it twice. */
+int esr_calib_decide_rims(const struct esr_lights *L, const struct esr_calib_rows *rows,
+                          const int *fit, int nf, const int *has_rim, double *ca, double *cy,
+                          int emits[ESR_MAX_LIGHTS], float t_on[ESR_MAX_LIGHTS]);
+
+/* One line on what the calibration decided about light id's undecided rim (esr_lights.rim),
+ * for logs and `esr lights`; returns 0 (writing "") when the light had none. */
+int esr_lights_rim_text(const struct esr_lights *L, int id, char *out, size_t size);
+
+#ifdef __cplusplus
+}
+#endif
+#endif
