@@ -136,12 +136,36 @@ static void test_rim_in_the_noise_stays_dark(void **state)
     assert_int_equal(on, 0);
 }
 
+/* What the trainer and `esr lights` say about a rim: nothing without one, the choice and how
+ * clearly otherwise. */
+static void test_rim_text(void **state)
+{
+    (void)state;
+    struct esr_lights L;
+    two_lights(&L);
+    char line[320];
+    assert_int_equal(esr_lights_rim_text(&L, 0, line, sizeof line), 0);
+    assert_string_equal(line, "");
+    L.rim[0] = (struct esr_light_rim){145, 1, -7.4f};
+    L.rim[1] = (struct esr_light_rim){1, 0, 1.0f};
+    assert_int_equal(esr_lights_rim_text(&L, 0, line, sizeof line), 1);
+    assert_non_null(strstr(line, "light 0: its rim of 145 surface points"));
+    assert_non_null(strstr(line, "emits"));
+    assert_non_null(strstr(line, "by 7.4 standard errors"));
+    assert_int_equal(esr_lights_rim_text(&L, 1, line, sizeof line), 1);
+    assert_non_null(strstr(line, "rim of 1 surface point that"));
+    assert_non_null(strstr(line, "stays dark"));
+    assert_non_null(strstr(line, "(-1.0 standard errors, 3 needed)"));
+    assert_int_equal(esr_lights_rim_text(&L, 2, line, sizeof line), 0); /* no such light */
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_rim_in_the_rows_emits),
         cmocka_unit_test(test_rim_choice_follows_the_rows),
         cmocka_unit_test(test_rim_in_the_noise_stays_dark),
+        cmocka_unit_test(test_rim_text),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -105,18 +105,19 @@ int esr_calib_decide_rims(const struct esr_lights *L, const struct esr_calib_row
 
 int esr_lights_rim_text(const struct esr_lights *L, int id, char *out, size_t size)
 {
-    const struct esr_light_rim *r = &L->rim[id];
     if (size)
         out[0] = '\0';
-    if (id < 0 || id >= L->n || r->points == 0)
+    if (id < 0 || id >= L->n || L->rim[id].points == 0)
         return 0;
+    const struct esr_light_rim *r = &L->rim[id];
     if (r->emits)
-        snprintf(out, size, "light %d: its rim of %ld surface points that only lights-off or clipped "
-                 "photos show emits: the light it casts fits the photos better by %.1f standard "
-                 "errors", id, r->points, -(double)r->t_on);
+        snprintf(out, size, "light %d: its rim of %ld surface point%s that only lights-off or "
+                 "clipped photos show emits: the light it casts fits the photos better by %.1f "
+                 "standard errors", id, r->points, r->points == 1 ? "" : "s", -(double)r->t_on);
     else
-        snprintf(out, size, "light %d: its rim of %ld surface points that only lights-off or clipped "
-                 "photos show stays dark: the light it would cast fits the photos no better "
-                 "(%.1f standard errors, %.0f needed)", id, r->points, -(double)r->t_on, ESR_CALIB_RIM_T);
+        snprintf(out, size, "light %d: its rim of %ld surface point%s that only lights-off or "
+                 "clipped photos show stays dark: the light it would cast fits the photos no "
+                 "better (%.1f standard errors, %.0f needed)", id, r->points,
+                 r->points == 1 ? "" : "s", -(double)r->t_on, ESR_CALIB_RIM_T);
     return 1;
 }
