@@ -54,7 +54,8 @@ static void make_rows(struct made_rows *mr, const double rim_gain[K], double rim
         mr->b[i] = 0.0;
         mr->r[i] = 1.0;
     }
-    mr->rows = (struct esr_calib_rows){POINTS, POINTS, mr->a, mr->ar, mr->emo, mr->b, mr->r, {1, 1, 1}};
+    mr->rows = (struct esr_calib_rows){.n = POINTS, .cap = POINTS, .a = mr->a, .ar = mr->ar,
+                                       .emo = mr->emo, .b = mr->b, .r = mr->r, .median = {1, 1, 1}};
 }
 
 static void two_lights(struct esr_lights *L)

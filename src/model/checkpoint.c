@@ -110,6 +110,11 @@ static cJSON *header_json(const struct esr_model *m)
 
 int esr_model_save(const struct esr_model *m, const char *path)
 {
+    const size_t labels = m->lights.n > 0 ? esr_grid_voxels(&m->lights.grid) : 0;
+    for (size_t i = 0; i < labels; i++) /* settled by the calibration (train/lights.h) */
+        if (m->lights.label[i] & ESR_LIGHT_UNDECIDED)
+            return ESR_FAIL("checkpoint %s: the lights' rims are undecided (calibrate them first)",
+                            path);
     cJSON *h = header_json(m);
     char *text = h ? cJSON_PrintUnformatted(h) : NULL;
     cJSON_Delete(h);

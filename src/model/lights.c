@@ -84,6 +84,7 @@ int esr_lights_drop(struct esr_lights *L, int id)
     }
     memmove(&L->light[id], &L->light[id + 1], (size_t)(L->n - id - 1) * sizeof L->light[0]);
     memmove(&L->edit[id], &L->edit[id + 1], (size_t)(L->n - id - 1) * sizeof L->edit[0]);
+    memmove(&L->rim[id], &L->rim[id + 1], (size_t)(L->n - id - 1) * sizeof L->rim[0]);
     if (--L->n == 0)
         esr_lights_free(L);
     return ESR_OK;
@@ -132,6 +133,11 @@ static uint8_t label_at(const struct esr_lights *L, const float pos[3])
         }
     }
     return best;
+}
+
+uint8_t esr_lights_label_at(const struct esr_lights *L, const float pos[3])
+{
+    return label_at(L, pos);
 }
 
 int esr_lights_id_at(const struct esr_lights *L, const float pos[3])

@@ -124,6 +124,8 @@ int esr_lights_drop(struct esr_lights *L, int id);
  * for id < L->n. */
 void esr_lights_unseen_points(const struct esr_lights *L, long unseen[ESR_MAX_LIGHTS]);
 
+/* The label of a surface point: that of the nearest labelled corner of its lattice cell, or 0. */
+uint8_t esr_lights_label_at(const struct esr_lights *L, const float pos[3]);
 /* Light id of a surface point (the label of the nearest labelled corner of its lattice cell),
  * or -1. */
 int esr_lights_id_at(const struct esr_lights *L, const float pos[3]);

@@ -124,7 +124,8 @@ static void accumulate(const struct esr_model *m, const struct esr_lts *l, size_
             continue;
         const double *A = Aall + p * 2 * ESR_MAX_LIGHTS * 3; /* the camera direction's */
         const double *Ar = Rall ? Rall + p * 2 * ESR_MAX_LIGHTS * 3 : NULL;
-        double B[3] = {0, 0, 0};
+        double B[3] = {0, 0, 0}, Br[ESR_MAX_LIGHTS][3];
+        memset(Br, 0, sizeof Br);
         for (size_t j = 0; j < M; j++) {
             const size_t i = p * M + j;
             if (l->hit_row[i] < 0)
@@ -132,10 +133,14 @@ static void accumulate(const struct esr_model *m, const struct esr_lts *l, size_
             float R[3];
             const float *wi = l->wi3 + i * 3;
             esr_brdf_eval(&mat, n, wo, esr_v3(wi[0], wi[1], wi[2]), R);
-            const int on_light = esr_lights_id_at(&m->lights, l->hit_pos3 + i * 3) >= 0;
+            const uint8_t label = esr_lights_label_at(&m->lights, l->hit_pos3 + i * 3);
+            const int rim = label & ESR_LIGHT_UNDECIDED ? ESR_LIGHT_LABEL_ID(label) - 1 : -1;
             for (int c = 0; c < 3; c++) {
                 const double w = (double)R[c] * l->wt[i], li = l->li_emo3[i * 3 + c];
-                B[c] += (on_light ? li - hit_emit3[i * 3 + c] : li) * w;
+                const double e = hit_emit3[i * 3 + c];
+                B[c] += (label ? li - e : li) * w;
+                if (rim >= 0) /* back in B while the rim stays dark (esr_calib_fit) */
+                    Br[rim][c] += e * w;
             }
         }
         /* L_emo at the point for the camera direction: on row minus off row */
@@ -151,6 +156,7 @@ static void accumulate(const struct esr_model *m, const struct esr_lts *l, size_
                                           : 1.0;
             for (int a = 0; a < K; a++) {
                 rows->a[row * (size_t)K + (size_t)a] = w * A[a * 3 + c];
+                rows->br[row * (size_t)K + (size_t)a] = w * Br[a][c];
                 if (Ar)
                     rows->ar[row * (size_t)K + (size_t)a] = w * Ar[a * 3 + c];
             }
@@ -165,10 +171,13 @@ int esr_lights_calibrate(struct esr_model *m, const float *orig3, const float *d
                          int want, uint64_t seed)
 {
     const int K = m->lights.n;
-    if (K == 0 || want <= 0)
-        return ESR_OK;
-    if (n == 0)
-        return ESR_FAIL("lights: no lights-off rays to calibrate the lights' strength with");
+    const int none[ESR_MAX_LIGHTS] = {0};
+    if (K == 0 || want <= 0 || n == 0) { /* no undecided label is left to be saved */
+        ESR_TRY(esr_lights_settle(m, none));
+        return K == 0 || want <= 0
+                   ? ESR_OK
+                   : ESR_FAIL("lights: no lights-off rays to calibrate the lights' strength with");
+    }
     struct esr_light keep[ESR_MAX_LIGHTS]; /* put back if the calibration fails */
     memcpy(keep, m->lights.light, sizeof keep);
     /* solved from the field itself: the light samples below carry E at scale 1 */
@@ -185,13 +194,14 @@ int esr_lights_calibrate(struct esr_model *m, const float *orig3, const float *d
     float *pos = malloc((size_t)want * 3 * sizeof(float)), *dir = malloc((size_t)want * 3 * sizeof(float));
     struct esr_calib_rows rows = {0, (size_t)want, malloc((size_t)want * 3 * K * sizeof(double)),
                               malloc((size_t)want * 3 * K * sizeof(double)),
+                              malloc((size_t)want * 3 * K * sizeof(double)),
                               malloc((size_t)want * 3 * sizeof(double)),
                               malloc((size_t)want * 3 * sizeof(double)),
                               malloc((size_t)want * 3 * sizeof(double)), {1, 1, 1}};
     double *ca = malloc((size_t)want * K * sizeof(double)), *cy = malloc((size_t)want * sizeof(double));
     double seen[ESR_MAX_LIGHTS] = {0};
     int got = 0;
-    int rc = pos && dir && rows.a && rows.ar && rows.emo && rows.b && rows.r && ca && cy && Abuf && Rbuf
+    int rc = pos && dir && rows.a && rows.ar && rows.br && rows.emo && rows.b && rows.r && ca && cy && Abuf && Rbuf
                  ? ESR_OK
                  : ESR_FAIL("lights: out of memory for the calibration");
     for (int a = 0; rc == ESR_OK && a < K; a++) {
@@ -252,16 +262,19 @@ int esr_lights_calibrate(struct esr_model *m, const float *orig3, const float *d
     }
     int fit[ESR_MAX_LIGHTS], emits[ESR_MAX_LIGHTS] = {0};
     float t_on[ESR_MAX_LIGHTS] = {0};
-    const int nf = esr_lights_fitted(&m->lights, fit);
-    if (rc == ESR_OK && any_rim && esr_calib_decide_rims(&m->lights, &rows, fit, nf, has_rim, ca, cy, emits, t_on) != 0)
-        rc = ESR_FAIL("lights: out of memory for the calibration");
-    double scale[3][ESR_MAX_LIGHTS];
-    if (rc == ESR_OK && esr_calib_fit(&m->lights, &rows, fit, nf, emits, ca, cy, scale, NULL, NULL, NULL) != 0)
+    int nf = esr_lights_fitted(&m->lights, fit);
+    if (rc == ESR_OK && any_rim &&
+        esr_calib_decide_rims(&m->lights, &rows, fit, nf, has_rim, ca, cy, emits, t_on) != 0)
         rc = ESR_FAIL("lights: out of memory for the calibration");
     if (rc == ESR_OK)
         rc = esr_lights_settle(m, emits);
     for (int a = 0; rc == ESR_OK && a < K; a++)
         m->lights.rim[a] = (struct esr_light_rim){(long)lr[a].n, emits[a], t_on[a]};
+    /* the lights to fit by their settled areas (a rim left dark can move one past the share) */
+    nf = esr_lights_fitted(&m->lights, fit);
+    double scale[3][ESR_MAX_LIGHTS];
+    if (rc == ESR_OK && esr_calib_fit(&m->lights, &rows, fit, nf, emits, ca, cy, scale, NULL, NULL, NULL) != 0)
+        rc = ESR_FAIL("lights: out of memory for the calibration");
     for (int c = 0; rc == ESR_OK && c < 3; c++) {
         for (int f = 0; f < nf; f++)
             m->lights.light[fit[f]].scale[c] = (float)scale[c][f];
@@ -277,11 +290,10 @@ int esr_lights_calibrate(struct esr_model *m, const float *orig3, const float *d
         esr_light_samples_free(&ls[a]);
         esr_light_samples_free(&lr[a]);
     }
-    free(pos), free(dir), free(rows.a), free(rows.ar), free(rows.emo), free(rows.b), free(rows.r);
+    free(pos), free(dir), free(rows.a), free(rows.ar), free(rows.br), free(rows.emo), free(rows.b), free(rows.r);
     free(ca), free(cy), free(Abuf), free(Rbuf);
     if (rc != ESR_OK) {
         memcpy(m->lights.light, keep, sizeof keep);
-        const int none[ESR_MAX_LIGHTS] = {0};
         (void)esr_lights_settle(m, none); /* no undecided label is left to be saved */
     }
     return rc;

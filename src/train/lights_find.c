@@ -84,7 +84,8 @@ static int components(const struct esr_grid *g, const uint8_t *flag, int32_t *co
 /* the rays whose first hits mark_seen finds per batch */
 #define SEEN_BATCH 65536
 /* a lights-on pixel whose every channel reaches this (sRGB) is clipped: it shows an emitter, or
- * light too strong to read, and says nothing on whether the surface it sees emits */
+ * light too strong to read, and says nothing on whether the surface it sees emits (nor does a
+ * masked photo's background, composited on white, which counts the same) */
 #define SEEN_CLIPPED 0.99f
 
 /* Whether ray r of rs counts in the set `which` (SEEN_ANY: every ray; SEEN_CLEAR: the lights-on

@@ -29,11 +29,16 @@ int esr_calib_fit(const struct esr_lights *L, const struct esr_calib_rows *rows,
         for (size_t p = 0; p < rows->n; p++) { /* channel c's rows of the fitted lights */
             const size_t row = p * 3 + (size_t)c;
             const double r = rows->r[row] / rows->median[c];
-            double a[ESR_MAX_LIGHTS];
-            for (int k = 0; k < K; k++)
-                a[k] = rows->a[row * (size_t)K + (size_t)k] +
-                       (emits && emits[k] ? rows->ar[row * (size_t)K + (size_t)k] : 0.0);
-            cy[p] = rows->emo[row] - r * rows->b[row];
+            double a[ESR_MAX_LIGHTS], b = rows->b[row];
+            for (int k = 0; k < K; k++) {
+                const size_t at = row * (size_t)K + (size_t)k;
+                a[k] = rows->a[at];
+                if (emits && emits[k])
+                    a[k] += rows->ar[at];
+                else if (rows->br) /* a dark rim's own emission is other surfaces' light */
+                    b += rows->br[at];
+            }
+            cy[p] = rows->emo[row] - r * b;
             double *col = ca + p * (size_t)nf;
             esr_lights_fit_columns(L, fit, nf, a, col);
             for (int f = 0; f < nf; f++)
@@ -56,9 +61,24 @@ int esr_calib_fit(const struct esr_lights *L, const struct esr_calib_rows *rows,
     return 0;
 }
 
+/* The points' paired change of loss from `from` to `to` (rows: point p, channel c at p * 3 + c;
+ * a point's three channels are one observation, not three): its mean over its standard error. */
+static double paired_t(const double *to, const double *from, size_t np)
+{
+    double sum = 0.0, sum2 = 0.0;
+    for (size_t p = 0; p < np; p++) {
+        const double d = to[p * 3] + to[p * 3 + 1] + to[p * 3 + 2] -
+                         (from[p * 3] + from[p * 3 + 1] + from[p * 3 + 2]);
+        sum += d, sum2 += d * d;
+    }
+    const double mean = np ? sum / (double)np : 0.0;
+    const double var = np > 1 ? (sum2 - sum * mean) / (double)(np - 1) : 0.0;
+    return var > 0.0 ? mean / sqrt(var / (double)np) : 0.0;
+}
+
 int esr_calib_decide_rims(const struct esr_lights *L, const struct esr_calib_rows *rows, const int *fit,
-                       int nf, const int *has_rim, double *ca, double *cy, int emits[ESR_MAX_LIGHTS],
-                       float t_on[ESR_MAX_LIGHTS])
+                          int nf, const int *has_rim, double *ca, double *cy, int emits[ESR_MAX_LIGHTS],
+                          float t_on[ESR_MAX_LIGHTS])
 {
     double scale[3][ESR_MAX_LIGHTS], sigma[3];
     const size_t nr = rows->n * 3;
@@ -67,41 +87,41 @@ int esr_calib_decide_rims(const struct esr_lights *L, const struct esr_calib_row
     memset(t_on, 0, ESR_MAX_LIGHTS * sizeof(float));
     int rc = best && loss ? 0 : -1;
     if (rc == 0)
-        rc = esr_calib_fit(L, rows, fit, nf, NULL, ca, cy, scale, NULL, sigma, NULL);
+        rc = esr_calib_fit(L, rows, fit, nf, emits, ca, cy, scale, NULL, sigma, NULL);
     if (rc == 0)
         rc = esr_calib_fit(L, rows, fit, nf, emits, ca, cy, scale, sigma, NULL, best);
-    for (int changed = 1; rc == 0 && changed;) {
-        changed = 0;
+    /* forward: the rim whose light helps most, while one helps clearly (a rim once on stays on) */
+    for (;;) {
+        int pick = -1;
+        double t_pick = -ESR_CALIB_RIM_T;
         for (int k = 0; rc == 0 && k < L->n; k++) {
-            if (!has_rim[k])
+            if (!has_rim[k] || emits[k])
                 continue;
-            emits[k] = !emits[k];
+            emits[k] = 1;
             rc = esr_calib_fit(L, rows, fit, nf, emits, ca, cy, scale, sigma, NULL, loss);
-            /* the points' paired change of loss (a point's three channels are one observation,
-             * not three): its mean over its standard error */
-            const size_t np = rows->n;
-            double sum = 0.0, sum2 = 0.0;
-            for (size_t p = 0; p < np; p++) {
-                const double d = loss[p * 3] + loss[p * 3 + 1] + loss[p * 3 + 2] -
-                                 (best[p * 3] + best[p * 3 + 1] + best[p * 3 + 2]);
-                sum += d, sum2 += d * d;
-            }
-            const double mean = np ? sum / (double)np : 0.0;
-            const double var = np > 1 ? (sum2 - sum * mean) / (double)(np - 1) : 0.0;
-            const double t = var > 0.0 ? mean / sqrt(var / (double)np) : 0.0;
-            t_on[k] = (float)(emits[k] ? t : -t);
-            if (rc == 0 && t < -ESR_CALIB_RIM_T) {
-                memcpy(best, loss, nr * sizeof(double));
-                changed = 1;
-            } else {
-                emits[k] = !emits[k];
-            }
+            emits[k] = 0;
+            const double t = paired_t(loss, best, rows->n);
+            if (rc == 0 && t < t_pick)
+                pick = k, t_pick = t;
         }
+        if (rc != 0 || pick < 0)
+            break;
+        emits[pick] = 1;
+        rc = esr_calib_fit(L, rows, fit, nf, emits, ca, cy, scale, sigma, NULL, best);
+    }
+    /* what each rim's light does against the final choice, for the report */
+    for (int k = 0; rc == 0 && k < L->n; k++) {
+        if (!has_rim[k])
+            continue;
+        emits[k] = !emits[k];
+        rc = esr_calib_fit(L, rows, fit, nf, emits, ca, cy, scale, sigma, NULL, loss);
+        emits[k] = !emits[k];
+        const double t = paired_t(loss, best, rows->n);
+        t_on[k] = (float)(emits[k] ? -t : t);
     }
     free(best), free(loss);
     return rc;
 }
-
 
 int esr_lights_rim_text(const struct esr_lights *L, int id, char *out, size_t size)
 {

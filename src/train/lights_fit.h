@@ -29,6 +29,9 @@ struct esr_calib_rows {
     size_t n, cap;  /* points */
     double *a;      /* [cap * 3 * K] weighted A: point p, channel c at (p * 3 + c) * K */
     double *ar;     /* [cap * 3 * K] the same from each light's undecided rim (NULL: none) */
+    double *br;     /* [cap * 3 * K] weighted, the part of B that is each rim's own emission E:
+                       B leaves it out (the rim's light is A's, at the light's scale, when it
+                       emits) and it is added back when the rim stays dark (NULL: none) */
     double *emo;    /* [cap * 3] weighted L_emo */
     double *b;      /* [cap * 3] weighted B */
     double *r;      /* [cap * 3] L_off / L^_off */
@@ -45,15 +48,13 @@ int esr_calib_fit(const struct esr_lights *L, const struct esr_calib_rows *rows,
                   const double *sigma, double *sigma_out, double *loss);
 
 /* Decides which lights' undecided rims emit (emits[K]; has_rim[K]: light K has one), by the
- * light they would cast: starting from none, light by light until nothing changes, a rim changes
- * sides when the fit that way explains the rows clearly better: the points' paired change of
- * Huber loss (summed over a point's channels, at the residual scale of the fit without rims) is
- * ESR_CALIB_RIM_T standard errors below 0. t_on[K]: the last such change measured for light K's rim, from dark to emitting (negative:
- * it emits, the rows say so by -t_on standard errors). Returns 0, -1 when out of memory.
- * The photos cannot say whether such surface emits (lights-off pixels show no emission, clipped
- * ones any); the light it casts on the rest of the scene can: a lampshade's closed bottom that
- * in truth emits lights the floor beneath it, one that is open in truth (a bulb inside) would
- * light it twice. */
+ * light they would cast: starting from none, the rim whose light explains the rows best joins,
+ * while one does so clearly: the points' paired change of Huber loss (summed over a point's
+ * channels, at the residual scale of the fit without rims) is ESR_CALIB_RIM_T standard errors
+ * below 0. A rim once on stays on. t_on[K]: light K's rim against the final choice, measured
+ * from dark to emitting (negative: its light helps, by -t_on standard errors; with rims that
+ * light the same points an emitting one can end above -ESR_CALIB_RIM_T). Returns 0, -1 when out
+ * of memory. */
 int esr_calib_decide_rims(const struct esr_lights *L, const struct esr_calib_rows *rows,
                           const int *fit, int nf, const int *has_rim, double *ca, double *cy,
                           int emits[ESR_MAX_LIGHTS], float t_on[ESR_MAX_LIGHTS]);
