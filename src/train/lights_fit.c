@@ -20,9 +20,8 @@ static double huber(double u)
 }
 
 int esr_calib_fit(const struct esr_lights *L, const struct esr_calib_rows *rows, const int *fit,
-                      int nf, const int *emits, double *ca, double *cy,
-                      double scale[3][ESR_MAX_LIGHTS], const double *sigma, double *sigma_out,
-                      double *loss)
+                  int nf, const int *emits, double *ca, double *cy, double scale[3][ESR_MAX_LIGHTS],
+                  const double *sigma, double *sigma_out, double *loss)
 {
     const int K = L->n;
     for (int c = 0; c < 3; c++) {
@@ -44,7 +43,8 @@ int esr_calib_fit(const struct esr_lights *L, const struct esr_calib_rows *rows,
             for (int f = 0; f < nf; f++)
                 col[f] *= r;
         }
-        if (esr_ridge_fit_robust(nf, rows->n, ca, cy, ESR_CALIB_RIDGE, ESR_CALIB_ROBUST_ROUNDS, scale[c]) != 0)
+        if (esr_ridge_fit_robust(nf, rows->n, ca, cy, ESR_CALIB_RIDGE, ESR_CALIB_ROBUST_ROUNDS,
+                                 scale[c]) != 0)
             return -1;
         for (size_t p = 0; p < rows->n; p++) { /* the residuals, into cy */
             double e = cy[p];
@@ -76,13 +76,14 @@ static double paired_t(const double *to, const double *from, size_t np)
     return var > 0.0 ? mean / sqrt(var / (double)np) : 0.0;
 }
 
-int esr_calib_decide_rims(const struct esr_lights *L, const struct esr_calib_rows *rows, const int *fit,
-                          int nf, const int *has_rim, double *ca, double *cy, int emits[ESR_MAX_LIGHTS],
-                          float t_on[ESR_MAX_LIGHTS])
+int esr_calib_decide_rims(const struct esr_lights *L, const struct esr_calib_rows *rows,
+                          const int *fit, int nf, const int *has_rim, double *ca, double *cy,
+                          int emits[ESR_MAX_LIGHTS], float t_on[ESR_MAX_LIGHTS])
 {
     double scale[3][ESR_MAX_LIGHTS], sigma[3];
     const size_t nr = rows->n * 3;
-    double *best = malloc((nr ? nr : 1) * sizeof(double)), *loss = malloc((nr ? nr : 1) * sizeof(double));
+    double *best = malloc((nr ? nr : 1) * sizeof(double));
+    double *loss = malloc((nr ? nr : 1) * sizeof(double));
     memset(emits, 0, ESR_MAX_LIGHTS * sizeof(int));
     memset(t_on, 0, ESR_MAX_LIGHTS * sizeof(float));
     int rc = best && loss ? 0 : -1;
