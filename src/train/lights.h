@@ -72,8 +72,8 @@ extern "C" {
  * surfaces no camera looks at (inside solids, under a floor), and they would cast no light. */
 int esr_lights_find(struct esr_model *m, const struct esr_ray_set *rs);
 /* Settles the lights' undecided rims (ESR_LIGHT_UNDECIDED): light K's joins it as unseen
- * surface when emits[K], else leaves it; then measures the lights' points, centroid, area and
- * power again. */
+ * surface when emits[K], else leaves it; then, when there was any, measures the lights' points,
+ * centroid, area and power again. */
 int esr_lights_settle(struct esr_model *m, const int emits[ESR_MAX_LIGHTS]);
 
 /* Calibrates the strength of m's lights from calib_points surface points of the lights-off rays

@@ -172,11 +172,11 @@ int esr_lights_calibrate(struct esr_model *m, const float *orig3, const float *d
 {
     const int K = m->lights.n;
     const int none[ESR_MAX_LIGHTS] = {0};
-    if (K == 0 || want <= 0 || n == 0) { /* no undecided label is left to be saved */
-        ESR_TRY(esr_lights_settle(m, none));
-        return K == 0 || want <= 0
-                   ? ESR_OK
-                   : ESR_FAIL("lights: no lights-off rays to calibrate the lights' strength with");
+    if (K == 0 || want <= 0 || n == 0) {
+        ESR_TRY(esr_lights_settle(m, none)); /* no undecided label is left to be saved */
+        if (K > 0 && want > 0)
+            return ESR_FAIL("lights: no lights-off rays to calibrate the lights' strength with");
+        return ESR_OK;
     }
     struct esr_light keep[ESR_MAX_LIGHTS]; /* put back if the calibration fails */
     memcpy(keep, m->lights.light, sizeof keep);

@@ -88,53 +88,45 @@ static int components(const struct esr_grid *g, const uint8_t *flag, int32_t *co
  * masked photo's background, composited on white, which counts the same) */
 #define SEEN_CLIPPED 0.99f
 
-/* Whether ray r of rs counts in the set `which` (SEEN_ANY: every ray; SEEN_CLEAR: the lights-on
- * rays whose photo is not clipped). */
-enum seen_by { SEEN_ANY, SEEN_CLEAR };
-static int ray_counts(const struct esr_ray_set *rs, size_t r, enum seen_by which)
+/* Whether ray r of rs sees clearly: a lights-on ray whose photo is not clipped. */
+static int sees_clearly(const struct esr_ray_set *rs, size_t r)
 {
-    if (which == SEEN_ANY)
-        return 1;
     const float *c = rs->rgb3 + r * 3;
     return r >= rs->n_off && fminf(c[0], fminf(c[1], c[2])) < SEEN_CLIPPED;
 }
 
-/* Marks seen[] (lattice points, zeroed by the caller) within one lattice point of the first SDF
- * hit of some ray of rs in the set `which`. */
-static int mark_seen(const struct esr_model *m, const struct esr_ray_set *rs, enum seen_by which,
-                     uint8_t *seen)
+/* Marks the lattice points (both arrays zeroed by the caller) within one lattice point of the
+ * first SDF hit of some ray of rs: in seen[] for every ray, in seen_clearly[] for the rays that
+ * see clearly. One march serves both. */
+static int mark_seen(const struct esr_model *m, const struct esr_ray_set *rs, uint8_t *seen,
+                     uint8_t *seen_clearly)
 {
     const struct esr_grid *g = esr_model_grid(m, ESR_COMP_SDF);
-    float *o = malloc(SEEN_BATCH * 3 * sizeof(float)), *d = malloc(SEEN_BATCH * 3 * sizeof(float));
     float *t = malloc(SEEN_BATCH * sizeof(float)), *hit = malloc(SEEN_BATCH * 3 * sizeof(float));
-    int rc = o && d && t && hit ? ESR_OK
-                                : ESR_FAIL("lights: out of memory for the cameras' first hits");
+    int rc = t && hit ? ESR_OK : ESR_FAIL("lights: out of memory for the cameras' first hits");
     struct esr_first_hit_params fp;
     esr_first_hit_params_init(&fp, g);
     fp.refine_iters = 4; /* a lattice point is all the precision asked */
-    for (size_t r0 = 0; rc == ESR_OK && r0 < rs->n;) {
-        size_t nb = 0;
-        for (; r0 < rs->n && nb < SEEN_BATCH; r0++)
-            if (ray_counts(rs, r0, which)) {
-                memcpy(o + nb * 3, rs->orig3 + r0 * 3, 3 * sizeof(float));
-                memcpy(d + nb * 3, rs->dir3 + r0 * 3, 3 * sizeof(float));
-                nb++;
-            }
-        const struct esr_first_hit_rays fr = {o, d, NULL, NULL, nb};
+    for (size_t r0 = 0; rc == ESR_OK && r0 < rs->n; r0 += SEEN_BATCH) {
+        const size_t nb = rs->n - r0 < SEEN_BATCH ? rs->n - r0 : SEEN_BATCH;
+        const struct esr_first_hit_rays fr = {rs->orig3 + r0 * 3, rs->dir3 + r0 * 3, NULL, NULL, nb};
         const struct esr_first_hit_out fo = {t, NULL, hit, NULL};
-        rc = nb ? esr_first_hit(g, esr_model_values(m, ESR_COMP_SDF), &fp, &fr, &fo) : ESR_OK;
+        rc = esr_first_hit(g, esr_model_values(m, ESR_COMP_SDF), &fp, &fr, &fo);
         for (size_t r = 0; rc == ESR_OK && r < nb; r++) {
             if (!isfinite(t[r]))
                 continue;
             const size_t at = esr_trilerp_nearest(g, hit + r * 3); /* the march is clipped to the box */
             size_t nbr[26];
             const int nn = neighbours26(g, at, nbr);
-            seen[at] = 1;
-            for (int q = 0; q < nn; q++)
-                seen[nbr[q]] = 1;
+            uint8_t *marks[2] = {seen, sees_clearly(rs, r0 + r) ? seen_clearly : NULL};
+            for (int k = 0; k < 2 && marks[k]; k++) {
+                marks[k][at] = 1;
+                for (int q = 0; q < nn; q++)
+                    marks[k][nbr[q]] = 1;
+            }
         }
     }
-    free(o), free(d), free(t), free(hit);
+    free(t), free(hit);
     return rc;
 }
 
@@ -218,12 +210,16 @@ int esr_lights_settle(struct esr_model *m, const int emits[ESR_MAX_LIGHTS])
     if (L->n == 0)
         return ESR_OK;
     const size_t N = esr_grid_voxels(&L->grid);
+    size_t undecided = 0;
     for (size_t i = 0; i < N; i++) {
         if (!(L->label[i] & ESR_LIGHT_UNDECIDED))
             continue;
         const int id = ESR_LIGHT_LABEL_ID(L->label[i]) - 1;
         L->label[i] = id >= 0 && id < L->n && emits[id] ? (uint8_t)(L->label[i] & ~ESR_LIGHT_UNDECIDED) : 0;
+        undecided++;
     }
+    if (undecided == 0) /* the lights are as measured */
+        return ESR_OK;
     uint32_t *idx = NULL;
     float *pos = NULL, *nrm = NULL;
     size_t n = 0;
@@ -247,13 +243,14 @@ int esr_lights_find(struct esr_model *m, const struct esr_ray_set *rs)
     size_t n = 0;
     ESR_TRY(esr_light_surface_points(m, &idx, &pos, &nrm, &n));
     uint8_t *flag = calloc(N, 1), *free_mask = malloc(N), *seen = calloc(N, 1);
+    uint8_t *seen_clearly = calloc(N, 1);
     uint8_t *outer = malloc(n ? n : 1);
     int32_t *comp = malloc(N * sizeof(int32_t));
     uint32_t *queue = malloc(N * sizeof(uint32_t));
     emit = malloc((n ? n : 1) * 3 * sizeof(float));
     long *sizes = NULL;
     int nc = 0;
-    int rc = flag && free_mask && seen && outer && comp && queue && emit
+    int rc = flag && free_mask && seen && seen_clearly && outer && comp && queue && emit
                  ? ESR_OK
                  : ESR_FAIL("lights: out of memory");
     if (rc == ESR_OK)
@@ -326,26 +323,23 @@ int esr_lights_find(struct esr_model *m, const struct esr_ray_set *rs)
         }
         /* the lights' unseen parts: outer surface points no camera sees (flag reused) */
         memset(flag, 0, N);
-        rc = mark_seen(m, rs, SEEN_ANY, seen);
+        rc = mark_seen(m, rs, seen, seen_clearly);
         for (size_t i = 0; rc == ESR_OK && i < n; i++)
             if (!seen[idx[i]] && outer[i])
                 flag[idx[i]] = 1;
         if (rc == ESR_OK)
             grow_unseen(g, flag, L->label, queue);
         /* the undecided rims: outer points next to a light that only lights-off or clipped
-         * pixels see (seen reused) */
-        memset(seen, 0, N);
-        if (rc == ESR_OK)
-            rc = mark_seen(m, rs, SEEN_CLEAR, seen);
+         * pixels see */
         for (size_t i = 0; rc == ESR_OK && i < n; i++)
-            flag[idx[i]] = !seen[idx[i]] && outer[i] && !L->label[idx[i]];
+            flag[idx[i]] = !seen_clearly[idx[i]] && outer[i] && !L->label[idx[i]];
         if (rc == ESR_OK)
             mark_undecided(g, flag, L->label);
     }
     if (rc == ESR_OK && kept > 0)
         measure(L, h, idx, pos, nrm, n);
     free(idx), free(pos), free(nrm), free(emit), free(flag), free(free_mask), free(comp), free(queue);
-    free(seen), free(outer);
+    free(seen), free(seen_clearly), free(outer);
     free(sizes), free(id_of);
     if (rc != ESR_OK)
         esr_lights_free(L);
