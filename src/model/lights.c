@@ -104,7 +104,7 @@ void esr_lights_unseen_points(const struct esr_lights *L, long unseen[ESR_MAX_LI
 }
 
 /* The label of a surface point: that of the nearest labelled corner of its lattice cell, or 0. */
-static uint8_t label_at(const struct esr_lights *L, const float pos[3])
+uint8_t esr_lights_label_at(const struct esr_lights *L, const float pos[3])
 {
     if (L->n == 0 || !L->label)
         return 0;
@@ -135,14 +135,9 @@ static uint8_t label_at(const struct esr_lights *L, const float pos[3])
     return best;
 }
 
-uint8_t esr_lights_label_at(const struct esr_lights *L, const float pos[3])
-{
-    return label_at(L, pos);
-}
-
 int esr_lights_id_at(const struct esr_lights *L, const float pos[3])
 {
-    const uint8_t label = label_at(L, pos);
+    const uint8_t label = esr_lights_label_at(L, pos);
     return label ? ESR_LIGHT_LABEL_ID(label) - 1 : -1;
 }
 
@@ -152,7 +147,7 @@ void esr_lights_scale_emission(const struct esr_lights *L, const float *pos3, si
         return;
 #pragma omp parallel for schedule(static)
     for (size_t i = 0; i < n; i++) {
-        const uint8_t label = label_at(L, pos3 + i * 3);
+        const uint8_t label = esr_lights_label_at(L, pos3 + i * 3);
         if (!label)
             continue;
         const int id = ESR_LIGHT_LABEL_ID(label) - 1;
