@@ -7,6 +7,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "core/buffers.h"
 #include "core/error.h"
 #include "core/order.h"
 #include "io/file.h"
@@ -19,19 +20,6 @@ struct emo_values {
     size_t n_all, n_truth, cap_all, cap_truth;
 };
 
-static int push(float **v, size_t *n, size_t *cap, float x)
-{
-    if (*n == *cap) {
-        const size_t c = *cap ? 2 * *cap : 65536;
-        float *t = realloc(*v, c * sizeof(float));
-        if (!t)
-            return ESR_FAIL("L_emo baseline: out of memory for %zu pixels", c);
-        *v = t, *cap = c;
-    }
-    (*v)[(*n)++] = x;
-    return ESR_OK;
-}
-
 /* Adds one camera: on, off (rendered linear RGB) and the ground-truth mask. */
 static int add_camera(const struct esr_image *on, const struct esr_image *off,
                       const struct esr_image *gt, struct emo_values *ev)
@@ -41,15 +29,18 @@ static int add_camera(const struct esr_image *on, const struct esr_image *off,
         return ESR_FAIL("L_emo baseline: rendered %dx%d / %dx%d and mask %dx%d differ", on->width,
                         on->height, off->width, off->height, gt->width, gt->height);
     const long long np = (long long)on->width * on->height;
+    ESR_TRY(esr_floats_reserve(&ev->all, &ev->cap_all, ev->n_all + (size_t)np, "L_emo baseline pixels"));
+    ESR_TRY(esr_floats_reserve(&ev->truth, &ev->cap_truth, ev->n_truth + (size_t)np,
+                               "L_emo baseline pixels"));
     for (long long p = 0; p < np; p++) {
         float e = -INFINITY;
         for (int c = 0; c < 3; c++)
             e = fmaxf(e, on->data[p * on->channels + c] - off->data[p * off->channels + c]);
         if (!(e == e))
             e = -INFINITY; /* NaN: never above a threshold */
-        ESR_TRY(push(&ev->all, &ev->n_all, &ev->cap_all, e));
+        ev->all[ev->n_all++] = e;
         if (gt->data[p * gt->channels] > 0.5f)
-            ESR_TRY(push(&ev->truth, &ev->n_truth, &ev->cap_truth, e));
+            ev->truth[ev->n_truth++] = e;
     }
     return ESR_OK;
 }

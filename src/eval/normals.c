@@ -7,6 +7,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "core/buffers.h"
 #include "core/error.h"
 #include "core/order.h"
 #include "io/file.h"
@@ -42,21 +43,6 @@ static int is_surface(const float *n)
     return n[0] != 0.0f || n[1] != 0.0f || n[2] != 0.0f;
 }
 
-static int grow(struct esr_normal_errors *e, size_t extra)
-{
-    if (e->n + extra <= e->cap)
-        return ESR_OK;
-    size_t cap = e->cap ? e->cap : 4096;
-    while (cap < e->n + extra)
-        cap *= 2;
-    float *deg = realloc(e->deg, cap * sizeof *deg);
-    if (!deg)
-        return ESR_FAIL("out of memory collecting %zu normal errors", cap);
-    e->deg = deg;
-    e->cap = cap;
-    return ESR_OK;
-}
-
 int esr_normal_errors_add(struct esr_normal_errors *e, const struct esr_image *pred, const struct esr_image *gt)
 {
     if (pred->width != gt->width || pred->height != gt->height)
@@ -67,7 +53,7 @@ int esr_normal_errors_add(struct esr_normal_errors *e, const struct esr_image *p
     if (gt->channels < 3)
         return ESR_FAIL("ground-truth normal map has %d channels; expected 3 or 4", gt->channels);
     size_t n_pix = (size_t)gt->width * (size_t)gt->height;
-    ESR_TRY(grow(e, n_pix));
+    ESR_TRY(esr_floats_reserve(&e->deg, &e->cap, e->n + n_pix, "normal errors"));
     for (size_t i = 0; i < n_pix; i++) {
         const float *g = gt->data + (size_t)gt->channels * i, *p = pred->data + 4 * i;
         if (!is_surface(g))
