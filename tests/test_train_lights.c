@@ -352,39 +352,6 @@ static void test_lights_survive_a_checkpoint(void **state)
     esr_model_free(&m);
 }
 
-/* Gives each lattice point of m's SDF the value reshape(its position, its value, the voxel
- * edge); returns how many changed. */
-static long reshape_sdf(struct esr_model *m, float (*reshape)(const float p[3], float v, float h))
-{
-    const struct esr_grid *g = esr_model_grid(m, ESR_COMP_SDF);
-    float *f = esr_model_values(m, ESR_COMP_SDF);
-    const float h = esr_grid_voxel_size(g, 0);
-    long changed = 0;
-    for (int z = 0; z < g->nz; z++)
-        for (int y = 0; y < g->ny; y++)
-            for (int x = 0; x < g->nx; x++) {
-                float p[3];
-                esr_grid_voxel_pos(g, x, y, z, p);
-                float *v = &f[((size_t)z * g->ny + y) * g->nx + x];
-                const float w = reshape(p, *v, h);
-                changed += w != *v;
-                *v = w;
-            }
-    return changed;
-}
-
-static float cavity(const float p[3], float v, float h)
-{
-    (void)h;
-    return fmaxf(v, 0.3f - sqrtf(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]));
-}
-
-/* the lattice points of the upper half 0.9-1.6 voxels under the surface turn positive */
-static float pocket(const float p[3], float v, float h)
-{
-    return p[2] > 0.2f && v < -0.9f * h && v > -1.6f * h ? 0.3f * h : v;
-}
-
 /* A hollow emitting sphere: the inner wall (a cavity no camera sees into) emits as much as the
  * outer one, but only the outer surface is a light. */
 static void test_unseen_cavity_is_no_light(void **state)
@@ -393,7 +360,16 @@ static void test_unseen_cavity_is_no_light(void **state)
     struct esr_model m;
     const float cx[1] = {0.0f};
     setup(&m, cx, 1, 0.6f, 3.0f);
-    reshape_sdf(&m, cavity); /* a cavity of radius 0.3 */
+    const struct esr_grid *g = esr_model_grid(&m, ESR_COMP_SDF);
+    float *f = esr_model_values(&m, ESR_COMP_SDF);
+    for (int z = 0; z < g->nz; z++) /* carve a cavity of radius 0.3 */
+        for (int y = 0; y < g->ny; y++)
+            for (int x = 0; x < g->nx; x++) {
+                float p[3];
+                esr_grid_voxel_pos(g, x, y, z, p);
+                float *v = &f[((size_t)z * g->ny + y) * g->nx + x];
+                *v = fmaxf(*v, 0.3f - sqrtf(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]));
+            }
     assert_int_equal(find_lights(&m), ESR_OK);
     assert_int_equal(m.lights.n, 1);
     const double outer = 4.0 * M_PI * 0.36, inner = 4.0 * M_PI * 0.09;
@@ -410,8 +386,8 @@ static void test_unseen_cavity_is_no_light(void **state)
 }
 
 /* An emitting sphere with pockets under its skin (as a trained SDF has them, a voxel under a
- * found orb's surface): on its upper half the lattice points 0.9-1.6 voxels under the surface
- * turn positive. Their walls are surface points whose outside (1.5
+ * found orb's surface): on its upper half the lattice points between depth_lo and depth_hi
+ * voxels under the surface turn positive. Their walls are surface points whose outside (1.5
  * voxels along the normal) lies back in the solid next to the free space; they are no light. */
 static void test_pockets_under_the_skin_are_no_light(void **state)
 {
@@ -419,7 +395,21 @@ static void test_pockets_under_the_skin_are_no_light(void **state)
     struct esr_model m;
     const float cx[1] = {0.0f};
     setup(&m, cx, 1, 0.6f, 3.0f);
-    const long pockets = reshape_sdf(&m, pocket);
+    const struct esr_grid *g = esr_model_grid(&m, ESR_COMP_SDF);
+    float *f = esr_model_values(&m, ESR_COMP_SDF);
+    const float h = esr_grid_voxel_size(g, 0);
+    long pockets = 0;
+    for (int z = 0; z < g->nz; z++)
+        for (int y = 0; y < g->ny; y++)
+            for (int x = 0; x < g->nx; x++) {
+                float p[3];
+                esr_grid_voxel_pos(g, x, y, z, p);
+                float *v = &f[((size_t)z * g->ny + y) * g->nx + x];
+                if (p[2] > 0.2f && *v < -0.9f * h && *v > -1.6f * h) {
+                    *v = 0.3f * h;
+                    pockets++;
+                }
+            }
     assert_int_equal(find_lights(&m), ESR_OK);
     assert_int_equal(m.lights.n, 1);
     const double sphere = 4.0 * M_PI * 0.36;
