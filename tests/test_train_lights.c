@@ -385,41 +385,6 @@ static void test_unseen_cavity_is_no_light(void **state)
     esr_model_free(&m);
 }
 
-/* An emitting sphere with pockets under its skin (as a trained SDF has them, a voxel under a
- * found orb's surface): on its upper half the lattice points between depth_lo and depth_hi
- * voxels under the surface turn positive. Their walls are surface points whose outside (1.5
- * voxels along the normal) lies back in the solid next to the free space; they are no light. */
-static void test_pockets_under_the_skin_are_no_light(void **state)
-{
-    (void)state;
-    struct esr_model m;
-    const float cx[1] = {0.0f};
-    setup(&m, cx, 1, 0.6f, 3.0f);
-    const struct esr_grid *g = esr_model_grid(&m, ESR_COMP_SDF);
-    float *f = esr_model_values(&m, ESR_COMP_SDF);
-    const float h = esr_grid_voxel_size(g, 0);
-    long pockets = 0;
-    for (int z = 0; z < g->nz; z++)
-        for (int y = 0; y < g->ny; y++)
-            for (int x = 0; x < g->nx; x++) {
-                float p[3];
-                esr_grid_voxel_pos(g, x, y, z, p);
-                float *v = &f[((size_t)z * g->ny + y) * g->nx + x];
-                if (p[2] > 0.2f && *v < -0.9f * h && *v > -1.6f * h) {
-                    *v = 0.3f * h;
-                    pockets++;
-                }
-            }
-    assert_int_equal(find_lights(&m), ESR_OK);
-    assert_int_equal(m.lights.n, 1);
-    const double sphere = 4.0 * M_PI * 0.36;
-    print_message("sphere with %ld pocket points under its skin: area %.4f (the sphere %.4f)\n", pockets,
-                  (double)m.lights.light[0].area, sphere);
-    assert_true(pockets > 100);
-    assert_true(fabs(m.lights.light[0].area - sphere) < 0.05 * sphere);
-    esr_model_free(&m);
-}
-
 /* E = softplus(f - 6), f = 9 on the emission feature grid's lattice points above z_from and 0
  * below: the emission MLP passes feature 0 through one unit of each hidden layer (ReLU) to every
  * channel. High (3.05) above, dark (0.0025) below, one feature voxel between. */
@@ -868,7 +833,6 @@ int main(void)
         cmocka_unit_test(test_dark_field_has_no_lights),
         cmocka_unit_test(test_lights_survive_a_checkpoint),
         cmocka_unit_test(test_unseen_cavity_is_no_light),
-        cmocka_unit_test(test_pockets_under_the_skin_are_no_light),
         cmocka_unit_test(test_light_grows_over_its_unseen_part),
         cmocka_unit_test(test_clipped_band_is_an_undecided_rim),
         cmocka_unit_test(test_small_light_shares_the_fitted_scale),

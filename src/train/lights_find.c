@@ -258,22 +258,12 @@ int esr_lights_find(struct esr_model *m, const struct esr_ray_set *rs)
     if (rc == ESR_OK)
         rc = esr_free_space_carve(g, esr_model_values(m, ESR_COMP_SDF), rs->orig3, rs->dir3, rs->n,
                                   CARVE_MARGIN, free_mask);
-    /* each point's outside, OUTER_OFFSET voxels along its normal, and the SDF there */
-    float *probe = rc == ESR_OK ? malloc((n ? n : 1) * 4 * sizeof(float)) : NULL;
-    if (rc == ESR_OK && !probe)
-        rc = ESR_FAIL("lights: out of memory");
-    for (size_t i = 0; rc == ESR_OK && i < n; i++)
-        for (int a = 0; a < 3; a++)
-            probe[i * 3 + a] = pos[i * 3 + a] + OUTER_OFFSET * h * nrm[i * 3 + a];
-    float *probe_sdf = probe + n * 3;
-    if (rc == ESR_OK)
-        esr_grid_sample_fwd(g, esr_model_values(m, ESR_COMP_SDF), probe, n, probe_sdf);
     long emitting = 0;
     for (size_t i = 0; rc == ESR_OK && i < n; i++) {
-        /* outside the SDF there too: a pocket under the skin thinner than the offset puts the
-         * probe back in the solid, in a cell that the free space beside the skin still
-         * touches (a tenth of a found orb's points were such, casting no light) */
-        outer[i] = (uint8_t)(probe_sdf[i] > 0.0f && esr_free_space_at(g, free_mask, probe + i * 3));
+        float out[3];
+        for (int a = 0; a < 3; a++)
+            out[a] = pos[i * 3 + a] + OUTER_OFFSET * h * nrm[i * 3 + a];
+        outer[i] = (uint8_t)esr_free_space_at(g, free_mask, out);
         if (esr_max_channel(emit + i * 3) > k && outer[i]) {
             flag[idx[i]] = 1;
             emitting++;
@@ -349,7 +339,7 @@ int esr_lights_find(struct esr_model *m, const struct esr_ray_set *rs)
     if (rc == ESR_OK && kept > 0)
         measure(L, h, idx, pos, nrm, n);
     free(idx), free(pos), free(nrm), free(emit), free(flag), free(free_mask), free(comp), free(queue);
-    free(seen), free(seen_clearly), free(outer), free(probe);
+    free(seen), free(seen_clearly), free(outer);
     free(sizes), free(id_of);
     if (rc != ESR_OK)
         esr_lights_free(L);
