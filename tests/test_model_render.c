@@ -1,7 +1,8 @@
 /* Rendered normals (esr_model_render_rays, options normal_ksize/normal_sigma): a tilted plane
  * whose SDF carries voxel-scale noise, the failure the default scene's floors showed. The raw
  * trilinear gradient follows the noise; the normal from the smoothed SDF must be close to the
- * plane's true normal, and normal_ksize = 0 must give back the raw gradient. */
+ * plane's true normal, and normal_ksize = 0 must give back the raw gradient. And the SDF as
+ * first hits see it (model/render_sdf.h) against the render. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -13,6 +14,8 @@
 
 #include "model/model.h"
 #include "model/render_sdf.h"
+#include "train/light_direct.h"
+#include "volume/first_hit.h"
 #include "test_grad.h"
 #include "test_model.h"
 
@@ -120,12 +123,76 @@ static void test_normal_sdf_off_when_ksize_below_two(void **state)
     esr_model_free(&m);
 }
 
+/* A first-hit march sees what the renderer sees: a solid sphere at +x inside the mask cache
+ * and, at -x, a blob of negative SDF in space the mask marks empty (a trained SDF drifts there,
+ * where no sample ever reaches). A ray along +x renders the sphere; the raw SDF's first hit is
+ * the blob, the first-hit SDF's is the sphere, where the render puts the surface; a shadow ray
+ * across the blob passes. */
+static void test_first_hits_see_no_surface_where_renders_skip(void **state)
+{
+    (void)state;
+    struct esr_train_config cfg;
+    test_small_config(&cfg, 0.5f);
+    cfg.fine.res = RES;
+    const float bmin[3] = {-1, -1, -1}, bmax[3] = {1, 1, 1};
+    struct esr_model m;
+    assert_int_equal(esr_model_init(&m, &cfg, ESR_STAGE_FINE, NULL, bmin, bmax), 0);
+    m.inv_s = 400.0f;
+    const struct esr_grid *g = esr_model_grid(&m, ESR_COMP_SDF);
+    float *v = esr_model_values(&m, ESR_COMP_SDF);
+    for (int z = 0; z < g->nz; z++)
+        for (int y = 0; y < g->ny; y++)
+            for (int x = 0; x < g->nx; x++) {
+                float p[3];
+                esr_grid_voxel_pos(g, x, y, z, p);
+                const float sphere = sqrtf((p[0] - 0.5f) * (p[0] - 0.5f) + p[1] * p[1] + p[2] * p[2]) - 0.25f;
+                const float blob = sqrtf((p[0] + 0.5f) * (p[0] + 0.5f) + p[1] * p[1] + p[2] * p[2]) - 0.15f;
+                v[esr_grid_index(g, x, y, z)] = fminf(sphere, blob);
+            }
+    struct esr_mask *k = &m.mask; /* occupied for x >= -0.1 only */
+    esr_mask_free(k);
+    assert_int_equal(esr_mask_alloc(k, g), 0);
+    m.has_mask = 1;
+    for (int z = 0; z < k->nz; z++)
+        for (int y = 0; y < k->ny; y++)
+            for (int x = 0; x < k->nx; x++)
+                k->occ[((size_t)z * k->ny + y) * k->nx + x] = k->bmin[0] + (float)x / k->scale[0] >= -0.1f;
+    const float o[3] = {-0.95f, 0.01f, 0.02f}, d[3] = {1.0f, 0.0f, 0.0f};
+    float depth, opac;
+    struct esr_render_out out = {.depth = &depth, .opacity = &opac};
+    assert_int_equal(esr_model_render_rays(&m, o, d, 1, 0, &out), 0);
+    assert_true(opac > 0.9f);
+    float *seen = NULL;
+    assert_int_equal(esr_model_first_hit_sdf(&m, &seen), 0);
+    struct esr_first_hit_params fp;
+    esr_first_hit_params_init(&fp, g);
+    const struct esr_first_hit_rays fr = {o, d, NULL, NULL, 1};
+    float t_raw, t_seen;
+    const struct esr_first_hit_out raw_out = {&t_raw, NULL, NULL, NULL}, seen_out = {&t_seen, NULL, NULL, NULL};
+    assert_int_equal(esr_first_hit(g, v, &fp, &fr, &raw_out), 0);
+    assert_int_equal(esr_first_hit(g, seen, &fp, &fr, &seen_out), 0);
+    print_message("ray along +x: render depth %.3f, first hit %.3f on the raw SDF, %.3f as first "
+                  "hits see it\n", (double)(depth / opac), (double)t_raw, (double)t_seen);
+    assert_true(fabsf(t_raw - 0.30f) < 0.05f);           /* the blob's near side */
+    assert_true(fabsf(t_seen - 1.20f) < 0.05f);          /* the sphere's */
+    assert_true(fabsf(t_seen - depth / opac) < 0.05f);   /* where the render has it */
+    struct esr_light_shadows sh;
+    assert_int_equal(esr_light_shadows_init(&sh, &m), 0);
+    const float a[3] = {-0.95f, 0.0f, 0.0f}, b[3] = {-0.1f, 0.0f, 0.0f}, c[3] = {0.9f, 0.0f, 0.0f};
+    assert_false(esr_first_hit_segment_blocked(&sh.grid, &sh.params, a, b)); /* across the blob */
+    assert_true(esr_first_hit_segment_blocked(&sh.grid, &sh.params, a, c));  /* into the sphere */
+    esr_light_shadows_free(&sh);
+    free(seen);
+    esr_model_free(&m);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_clean_plane_normals_exact_either_way),
         cmocka_unit_test(test_smoothed_normals_reject_voxel_noise),
         cmocka_unit_test(test_normal_sdf_off_when_ksize_below_two),
+        cmocka_unit_test(test_first_hits_see_no_surface_where_renders_skip),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -1,4 +1,5 @@
-/* Inference rendering of a model (esr_model_render_rays) and the SDF view the renderer sees. */
+/* Inference rendering of a model (esr_model_render_rays), the SDF view the renderer sees, and the
+ * SDF as marches for the first hit must see it. */
 #include <stdlib.h>
 #include <string.h>
 
@@ -41,6 +42,47 @@ int esr_model_normal_sdf(const struct esr_model *m, float **out)
         free(smooth);
     else
         *out = smooth;
+    return rc;
+}
+
+void esr_model_sdf_skipped(const struct esr_model *m, uint8_t *skipped)
+{
+    const struct esr_grid *g = esr_model_grid(m, ESR_COMP_SDF);
+#pragma omp parallel for schedule(static)
+    for (int z = 0; z < g->nz; z++)
+        for (int y = 0; y < g->ny; y++)
+            for (int x = 0; x < g->nx; x++) {
+                float p[3];
+                esr_grid_voxel_pos(g, x, y, z, p);
+                skipped[esr_grid_index(g, x, y, z)] = !esr_model_renders_at(m, p);
+            }
+}
+
+void esr_model_sdf_lift_skipped(const struct esr_model *m, const float *sdf, const uint8_t *skipped,
+                                float *out)
+{
+    const struct esr_grid *g = esr_model_grid(m, ESR_COMP_SDF);
+    const float lift = esr_grid_voxel_size(g, 0);
+    const size_t n = esr_grid_voxels(g);
+#pragma omp parallel for simd schedule(static)
+    for (size_t i = 0; i < n; i++)
+        out[i] = skipped[i] && sdf[i] < lift ? lift : sdf[i];
+}
+
+int esr_model_first_hit_sdf(const struct esr_model *m, float **out)
+{
+    const size_t n = esr_grid_voxels(esr_model_grid(m, ESR_COMP_SDF));
+    float *f = malloc(n * sizeof(float));
+    uint8_t *skipped = malloc(n);
+    int rc = f && skipped ? ESR_OK : ESR_FAIL("out of memory for the SDF as first hits see it");
+    if (rc == ESR_OK) {
+        esr_model_sdf_skipped(m, skipped);
+        esr_model_sdf_lift_skipped(m, esr_model_values(m, ESR_COMP_SDF), skipped, f);
+    }
+    free(skipped);
+    if (rc != ESR_OK)
+        free(f), f = NULL;
+    *out = f;
     return rc;
 }
 

@@ -1,9 +1,12 @@
-/* The SDF values the renderer sees (internal to src/train): the raw grid, or in the coarse stage
+/* The SDF values the renderer sees (internal to the library): the raw grid, or in the coarse stage
  * its Gaussian-smoothed copy (METHOD.md stage 2; the optimiser updates the raw grid through the
  * smoothing's adjoint). */
 #ifndef ESR_MODEL_RENDER_SDF_H
 #define ESR_MODEL_RENDER_SDF_H
 
+#include <stdint.h>
+
+#include "fields/mask.h"
 #include "model/model.h"
 
 /* out (and scratch) hold esr_grid_count(&m->sdf) floats; raw may not alias out. */
@@ -13,5 +16,26 @@ int esr_model_view_sdf(const struct esr_model *m, const float *raw, float *out, 
  * *out when that is off (then the normals are the marched SDF's own gradient). *out is allocated;
  * the caller frees it. */
 int esr_model_normal_sdf(const struct esr_model *m, float **out);
+
+/* Whether the renderer samples at p: m has no mask cache yet, or p's nearest mask point is
+ * occupied (volume/sampler.h drops every other sample). */
+static inline int esr_model_renders_at(const struct esr_model *m, const float p[3])
+{
+    return !m->has_mask || esr_mask_query(&m->mask, p);
+}
+
+/* The lattice points of m's SDF grid whose nearest mask-cache point is empty: skipped[i] = 1
+ * (esr_grid_voxels bytes). The renderer drops every sample there, so the grid's values in that
+ * space were never trained by an image: they drift to ~0 (a trained default scene has sign
+ * changes in mid-air between its objects, 94% of the shadow rays they stopped ended outside the
+ * mask), and a march for the first hit finds surfaces no render shows. */
+void esr_model_sdf_skipped(const struct esr_model *m, uint8_t *skipped);
+/* out = sdf raised to at least a voxel wherever skipped: the SDF as a march for the first hit
+ * (shadow rays, the first-hit estimator, free-space carving) must see it to agree with the
+ * renders. out may alias sdf. */
+void esr_model_sdf_lift_skipped(const struct esr_model *m, const float *sdf, const uint8_t *skipped,
+                                float *out);
+/* Both for the model's own SDF: *out allocated, the caller frees it. */
+int esr_model_first_hit_sdf(const struct esr_model *m, float **out);
 
 #endif

@@ -7,30 +7,35 @@
 #include "core/colour.h"
 #include "core/error.h"
 #include "fields/sdf.h"
+#include "model/render_sdf.h"
 #include "volume/marching_cubes.h"
 
-/* The SDF lattice resampled to res^3 over the same box (res = 0: a copy of the model's). */
+/* The SDF lattice as renders show it (no surface where they skip space: model/render_sdf.h)
+ * resampled to res^3 over the same box (res = 0: the model's own lattice). */
 static int sdf_lattice(const struct esr_model *m, int res, struct esr_grid *g, float **data)
 {
     const struct esr_grid *src;
-    const float *src_data;
+    const float *raw;
     *data = NULL;
-    ESR_TRY(esr_model_sdf_grid(m, &src, &src_data));
+    ESR_TRY(esr_model_sdf_grid(m, &src, &raw));
     if (res != 0 && (res < ESR_MODEL_MESH_RES_MIN || res > ESR_MODEL_MESH_RES_MAX))
         return ESR_FAIL("mesh resolution must be %d..%d (or 0 = the model's %dx%dx%d), got %d",
                         ESR_MODEL_MESH_RES_MIN, ESR_MODEL_MESH_RES_MAX, src->nx, src->ny, src->nz, res);
-    if (res == 0)
-        *g = *src;
-    else
-        ESR_TRY(esr_grid_init(g, 1, res, res, res, src->bmin, src->bmax));
-    *data = malloc(esr_grid_count(g) * sizeof **data);
-    if (!*data)
-        return ESR_FAIL("out of memory for a %dx%dx%d SDF grid", g->nx, g->ny, g->nz);
+    float *seen;
+    ESR_TRY(esr_model_first_hit_sdf(m, &seen));
     if (res == 0) {
-        memcpy(*data, src_data, esr_grid_count(g) * sizeof **data);
+        *g = *src;
+        *data = seen;
         return ESR_OK;
     }
-    return esr_grid_resample(src, src_data, g, *data);
+    int rc = esr_grid_init(g, 1, res, res, res, src->bmin, src->bmax);
+    if (rc == ESR_OK) {
+        *data = malloc(esr_grid_count(g) * sizeof **data);
+        rc = *data ? esr_grid_resample(src, seen, g, *data)
+                   : ESR_FAIL("out of memory for a %dx%dx%d SDF grid", g->nx, g->ny, g->nz);
+    }
+    free(seen);
+    return rc;
 }
 
 /* Off-lighting linear radiance along each vertex normal (see model_mesh.h). */

@@ -2,6 +2,7 @@
 #include "train/light_direct.h"
 
 #include <math.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "core/brdf.h"
@@ -11,16 +12,27 @@
 #include "core/vec3.h"
 #include "fields/grid.h"
 #include "model/material_fields.h"
+#include "model/render_sdf.h"
 #include "volume/first_hit.h"
 
 int esr_light_shadows_init(struct esr_light_shadows *s, const struct esr_model *m)
 {
+    memset(s, 0, sizeof(*s));
     const struct esr_grid *g = esr_model_grid(m, ESR_COMP_SDF);
     s->voxel = esr_grid_voxel_size(g, 0);
-    return esr_first_hit_shadow_setup(&s->grid, &s->params, g, esr_model_values(m, ESR_COMP_SDF));
+    ESR_TRY(esr_model_first_hit_sdf(m, &s->sdf));
+    const int rc = esr_first_hit_shadow_setup(&s->grid, &s->params, g, s->sdf);
+    if (rc != ESR_OK)
+        esr_light_shadows_free(s);
+    return rc;
 }
 
-void esr_light_shadows_free(struct esr_light_shadows *s) { esr_first_hit_grid_free(&s->grid); }
+void esr_light_shadows_free(struct esr_light_shadows *s)
+{
+    esr_first_hit_grid_free(&s->grid);
+    free(s->sdf);
+    s->sdf = NULL;
+}
 
 /* Shadow rays start this many voxels off the surface along its normal and stop this many short
  * of the light's sample (its own surface). */

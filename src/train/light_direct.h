@@ -37,10 +37,12 @@ struct esr_direct_points {
 
 /* A model's SDF as shadow rays march it (volume/first_hit.h: the grid's global bound G takes a
  * pass over the grid), prepared once for every call while the SDF stays the same: a fine-tune
- * (geometry frozen) or a calibration. Points into the model's SDF values. */
+ * (geometry frozen) or a calibration. Holds its own copy of the SDF as first hits see it
+ * (model/render_sdf.h, esr_model_first_hit_sdf: no surface where the renderer skips space). */
 struct esr_light_shadows {
     struct esr_first_hit_grid grid;
     struct esr_first_hit_params params;
+    float *sdf;
     float voxel; /* the SDF grid's voxel edge along x: shadow rays start 1 voxel off the
                     surface and stop 1.5 short of the light's sample */
 };

@@ -10,12 +10,13 @@
 #include "fields/grid.h"
 #include "model/lights.h"
 #include "model/material_fields.h"
+#include "model/render_sdf.h"
 
 /* material-field evaluations per batch */
 #define EVAL_CHUNK 16384
 
-/* Lattice points with a sign change to an axis neighbour: indices and surface positions
- * (projected along the SDF gradient by at most a voxel) and unit normals. */
+/* Lattice points with a sign change to an axis neighbour, in space the renderer does not skip:
+ * indices, surface positions and unit normals. */
 int esr_light_surface_points(const struct esr_model *m, uint32_t **idx_out, float **pos_out,
                              float **nrm_out, size_t *n_out)
 {
@@ -29,6 +30,10 @@ int esr_light_surface_points(const struct esr_model *m, uint32_t **idx_out, floa
         for (int y = 0; y < g->ny; y++)
             for (int x = 0; x < g->nx; x++) {
                 const size_t i = esr_grid_index(g, x, y, z);
+                float at[3];
+                esr_grid_voxel_pos(g, x, y, z, at);
+                if (!esr_model_renders_at(m, at))
+                    continue; /* space the renderer skips (model/render_sdf.h) */
                 const int in = f[i] <= 0.0f;
                 const int nb[6][3] = {{x - 1, y, z}, {x + 1, y, z}, {x, y - 1, z},
                                       {x, y + 1, z}, {x, y, z - 1}, {x, y, z + 1}};

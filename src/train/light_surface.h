@@ -14,7 +14,8 @@
 extern "C" {
 #endif
 
-/* Lattice points of m's SDF with a sign change to an axis neighbour: their indices, surface
+/* Lattice points of m's SDF with a sign change to an axis neighbour, outside the space the
+ * renderer skips (the mask cache; model/render_sdf.h says why): their indices, surface
  * positions (projected along the SDF gradient by at most a voxel) and unit normals, allocated
  * (*n_out of each; free them). */
 int esr_light_surface_points(const struct esr_model *m, uint32_t **idx_out, float **pos_out,

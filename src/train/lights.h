@@ -2,10 +2,10 @@
  * how strongly each emits (model/lights.h holds the result).
  *
  * Finding: the SDF lattice points next to the zero level set (a sign change to an axis
- * neighbour) are projected onto the surface; E is evaluated there, and a point emits when any
+ * neighbour), outside the space the renderer skips (model/render_sdf.h), are projected onto
+ * the surface; E is evaluated there, and a point emits when any
  * channel of E exceeds the emitter threshold k (the pdra stage's final k) and the point is on the
- * outer surface (the cameras' free space touches it from outside, where the SDF is positive:
- * the walls of a pocket under the skin are not). Emitting points are
+ * outer surface (the cameras' free space touches it from outside). Emitting points are
  * split into 26-connected components; components below LIGHTS_MIN_SHARE of the emitting points
  * (or LIGHTS_MIN_POINTS) are noise and dropped; the rest, largest first, are the lights. Each
  * light then grows over its unseen part: outer surface points 26-connected to it that no
@@ -69,8 +69,7 @@ extern "C" {
 
 /* Labels the emitting surface of m into lights (m->lights, replacing any), scales 1. Only the
  * outer surface counts: points that the free space seen along the cameras' rays (orig3/dir3
- * [n_rays*3], volume/free_space.h) touches from outside, 1.5 voxels along the normal, where the
- * SDF is positive too; the emission field is unconstrained on
+ * [n_rays*3], volume/free_space.h) touches from outside; the emission field is unconstrained on
  * surfaces no camera looks at (inside solids, under a floor), and they would cast no light. */
 int esr_lights_find(struct esr_model *m, const struct esr_ray_set *rs);
 /* Settles the lights' undecided rims (ESR_LIGHT_UNDECIDED): light K's joins it as unseen

@@ -10,6 +10,7 @@
 #include "core/error.h"
 #include "fields/grid.h"
 #include "fields/trilerp.h"
+#include "model/render_sdf.h"
 #include "train/light_surface.h"
 #include "volume/first_hit.h"
 #include "volume/free_space.h"
@@ -96,10 +97,10 @@ static int sees_clearly(const struct esr_ray_set *rs, size_t r)
 }
 
 /* Marks the lattice points (both arrays zeroed by the caller) within one lattice point of the
- * first SDF hit of some ray of rs: in seen[] for every ray, in seen_clearly[] for the rays that
+ * first hit of some ray of rs on sdf (the SDF as first hits see it, model/render_sdf.h): in seen[] for every ray, in seen_clearly[] for the rays that
  * see clearly. One march serves both. */
-static int mark_seen(const struct esr_model *m, const struct esr_ray_set *rs, uint8_t *seen,
-                     uint8_t *seen_clearly)
+static int mark_seen(const struct esr_model *m, const float *sdf, const struct esr_ray_set *rs,
+                     uint8_t *seen, uint8_t *seen_clearly)
 {
     const struct esr_grid *g = esr_model_grid(m, ESR_COMP_SDF);
     float *t = malloc(SEEN_BATCH * sizeof(float)), *hit = malloc(SEEN_BATCH * 3 * sizeof(float));
@@ -111,7 +112,7 @@ static int mark_seen(const struct esr_model *m, const struct esr_ray_set *rs, ui
         const size_t nb = rs->n - r0 < SEEN_BATCH ? rs->n - r0 : SEEN_BATCH;
         const struct esr_first_hit_rays fr = {rs->orig3 + r0 * 3, rs->dir3 + r0 * 3, NULL, NULL, nb};
         const struct esr_first_hit_out fo = {t, NULL, hit, NULL};
-        rc = esr_first_hit(g, esr_model_values(m, ESR_COMP_SDF), &fp, &fr, &fo);
+        rc = esr_first_hit(g, sdf, &fp, &fr, &fo);
         for (size_t r = 0; rc == ESR_OK && r < nb; r++) {
             if (!isfinite(t[r]))
                 continue;
@@ -253,11 +254,13 @@ int esr_lights_find(struct esr_model *m, const struct esr_ray_set *rs)
     int rc = flag && free_mask && seen && seen_clearly && outer && comp && queue && emit
                  ? ESR_OK
                  : ESR_FAIL("lights: out of memory");
+    float *hit_sdf = NULL; /* what the cameras' rays first hit: no surface where renders skip */
+    if (rc == ESR_OK)
+        rc = esr_model_first_hit_sdf(m, &hit_sdf);
     if (rc == ESR_OK)
         rc = esr_light_emission_at(m, pos, n, emit);
     if (rc == ESR_OK)
-        rc = esr_free_space_carve(g, esr_model_values(m, ESR_COMP_SDF), rs->orig3, rs->dir3, rs->n,
-                                  CARVE_MARGIN, free_mask);
+        rc = esr_free_space_carve(g, hit_sdf, rs->orig3, rs->dir3, rs->n, CARVE_MARGIN, free_mask);
     long emitting = 0;
     for (size_t i = 0; rc == ESR_OK && i < n; i++) {
         float out[3];
@@ -323,7 +326,7 @@ int esr_lights_find(struct esr_model *m, const struct esr_ray_set *rs)
         }
         /* the lights' unseen parts: outer surface points no camera sees (flag reused) */
         memset(flag, 0, N);
-        rc = mark_seen(m, rs, seen, seen_clearly);
+        rc = mark_seen(m, hit_sdf, rs, seen, seen_clearly);
         for (size_t i = 0; rc == ESR_OK && i < n; i++)
             if (!seen[idx[i]] && outer[i])
                 flag[idx[i]] = 1;
@@ -339,7 +342,7 @@ int esr_lights_find(struct esr_model *m, const struct esr_ray_set *rs)
     if (rc == ESR_OK && kept > 0)
         measure(L, h, idx, pos, nrm, n);
     free(idx), free(pos), free(nrm), free(emit), free(flag), free(free_mask), free(comp), free(queue);
-    free(seen), free(seen_clearly), free(outer);
+    free(seen), free(seen_clearly), free(outer), free(hit_sdf);
     free(sizes), free(id_of);
     if (rc != ESR_OK)
         esr_lights_free(L);

@@ -41,10 +41,11 @@ void esr_lts_free(struct esr_lts *l)
                      l->d_li_off3,  l->d_li_emo3, l->orig3,   l->hit_t,     l->hit_pos3,
                      l->q_pos3,     l->q_dir3,   l->d_tone3,  l->d_lin3,    l->d_emit3,
                      l->d_brdf5,    l->hat3,     l->sec_off3, l->sec_emo3, l->d_sec_off3, l->d_sec_emo3,
-                     l->edit_direct3, l->found_direct3};
+                     l->edit_direct3, l->found_direct3, l->hit_sdf};
     for (size_t i = 0; i < sizeof bufs / sizeof bufs[0]; i++)
         free(bufs[i]);
     free(l->hit_flags);
+    free(l->skipped);
     free(l->on_light);
     free(l->certain);
     free(l->pick);
@@ -105,6 +106,15 @@ int esr_lts_init_sized(struct esr_lts *l, const struct esr_model *m, int points,
         rc = esr_lts_reserve_rows(l, 4 * P + 2 * PM);
     if (rc == ESR_OK && l->estimator == ESR_LTS_VOLUME)
         rc = esr_march_init(&l->sec, (int)PM, 1);
+    if (rc == ESR_OK && l->estimator == ESR_LTS_FIRST_HIT) {
+        const size_t N = esr_grid_voxels(esr_model_grid(m, ESR_COMP_SDF));
+        l->skipped = malloc(N);
+        l->hit_sdf = malloc(N * sizeof(float));
+        if (l->skipped && l->hit_sdf)
+            esr_model_sdf_skipped(m, l->skipped); /* the mask cache is the alphamask stage's */
+        else
+            rc = ESR_FAIL("lts: out of memory for the SDF as first hits see it");
+    }
     if (rc == ESR_OK)
         rc = esr_point_fields_init(&l->pf, m, 4 * P + 2 * PM, 1);
     if (rc == ESR_OK)

@@ -74,6 +74,10 @@ struct esr_lts {
                                   direction (NaN for a back-facing one): (p, o, off/emo, rgb) */
     uint8_t *hit_flags;
     int32_t *hit_row;
+    /* first hit: the lattice points of the SDF the renderer skips (once) and, each call, the SDF
+     * as first hits see it, no surface there (model/render_sdf.h) */
+    uint8_t *skipped;
+    float *hit_sdf;
     /* point-field query rows [cap_rows]: 4 per point (2 outgoing x off/on), then 2 (off, on)
      * per hit (first hit) or per kept secondary sample (volume) */
     size_t cap_rows;

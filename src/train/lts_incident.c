@@ -7,6 +7,7 @@
 #include "core/buffers.h"
 #include "core/error.h"
 #include "fields/grid.h"
+#include "model/render_sdf.h"
 #include "model/trace.h"
 #include "volume/composite.h"
 #include "volume/first_hit.h"
@@ -50,7 +51,8 @@ static void put_row_pair(struct esr_lts *l, size_t r, const float *pos, const fl
     }
 }
 
-/* First hit: sphere-trace to the surface, one row pair per hit. */
+/* First hit: sphere-trace to the surface as first hits see it (no surface where the renderer
+ * skips space), one row pair per hit. */
 static int first_hit_trace(struct esr_lts *l, const struct esr_model *m, const float *sdf,
                            size_t P, size_t *rows)
 {
@@ -61,7 +63,8 @@ static int first_hit_trace(struct esr_lts *l, const struct esr_model *m, const f
     hp.inside = ESR_FIRST_HIT_INSIDE_SKIP; /* march out of any inside region first */
     struct esr_first_hit_rays hr = {l->orig3, l->wi3, NULL, NULL, PM};
     struct esr_first_hit_out ho = {l->hit_t, l->hit_flags, l->hit_pos3, NULL};
-    ESR_TRY(esr_first_hit(g, sdf, &hp, &hr, &ho));
+    esr_model_sdf_lift_skipped(m, sdf, l->skipped, l->hit_sdf);
+    ESR_TRY(esr_first_hit(g, l->hit_sdf, &hp, &hr, &ho));
     size_t r = 4 * P;
     for (size_t i = 0; i < PM; i++) {
         l->hit_row[i] = -1;
