@@ -30,10 +30,6 @@ int esr_light_surface_points(const struct esr_model *m, uint32_t **idx_out, floa
         for (int y = 0; y < g->ny; y++)
             for (int x = 0; x < g->nx; x++) {
                 const size_t i = esr_grid_index(g, x, y, z);
-                float at[3];
-                esr_grid_voxel_pos(g, x, y, z, at);
-                if (!esr_model_renders_at(m, at))
-                    continue; /* space the renderer skips (model/render_sdf.h) */
                 const int in = f[i] <= 0.0f;
                 const int nb[6][3] = {{x - 1, y, z}, {x + 1, y, z}, {x, y - 1, z},
                                       {x, y + 1, z}, {x, y, z - 1}, {x, y, z + 1}};
@@ -47,6 +43,10 @@ int esr_light_surface_points(const struct esr_model *m, uint32_t **idx_out, floa
                 }
                 if (!edge)
                     continue;
+                float at[3];
+                esr_grid_voxel_pos(g, x, y, z, at);
+                if (!esr_model_renders_at(m, at))
+                    continue; /* space the renderer skips (model/render_sdf.h) */
                 if (n == cap) {
                     uint32_t *t = realloc(idx, 2 * cap * sizeof(uint32_t));
                     if (!t) {

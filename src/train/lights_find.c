@@ -97,8 +97,8 @@ static int sees_clearly(const struct esr_ray_set *rs, size_t r)
 }
 
 /* Marks the lattice points (both arrays zeroed by the caller) within one lattice point of the
- * first hit of some ray of rs on sdf (the SDF as first hits see it, model/render_sdf.h): in seen[] for every ray, in seen_clearly[] for the rays that
- * see clearly. One march serves both. */
+ * first hit of some ray of rs on sdf (the SDF as first hits see it, model/render_sdf.h): in
+ * seen[] for every ray, in seen_clearly[] for the rays that see clearly. One march serves both. */
 static int mark_seen(const struct esr_model *m, const float *sdf, const struct esr_ray_set *rs,
                      uint8_t *seen, uint8_t *seen_clearly)
 {
