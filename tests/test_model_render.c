@@ -14,6 +14,7 @@
 
 #include "model/model.h"
 #include "model/render_sdf.h"
+#include "render/model_mesh.h"
 #include "train/light_direct.h"
 #include "volume/first_hit.h"
 #include "test_grad.h"
@@ -123,6 +124,29 @@ static void test_normal_sdf_off_when_ksize_below_two(void **state)
     esr_model_free(&m);
 }
 
+/* A fine-stage model on [-1,1]^3 whose SDF is the union of a sphere at (sx, 0, 0) of radius sr
+ * and a blob at (bx, 0, 0) of radius br; its mask cache is left to the caller. */
+static void sphere_and_blob(struct esr_model *m, float sx, float sr, float bx, float br)
+{
+    struct esr_train_config cfg;
+    test_small_config(&cfg, 0.5f);
+    cfg.fine.res = RES;
+    const float bmin[3] = {-1, -1, -1}, bmax[3] = {1, 1, 1};
+    assert_int_equal(esr_model_init(m, &cfg, ESR_STAGE_FINE, NULL, bmin, bmax), 0);
+    m->inv_s = 400.0f;
+    const struct esr_grid *g = esr_model_grid(m, ESR_COMP_SDF);
+    float *v = esr_model_values(m, ESR_COMP_SDF);
+    for (int z = 0; z < g->nz; z++)
+        for (int y = 0; y < g->ny; y++)
+            for (int x = 0; x < g->nx; x++) {
+                float p[3];
+                esr_grid_voxel_pos(g, x, y, z, p);
+                const float sphere = sqrtf((p[0] - sx) * (p[0] - sx) + p[1] * p[1] + p[2] * p[2]) - sr;
+                const float blob = sqrtf((p[0] - bx) * (p[0] - bx) + p[1] * p[1] + p[2] * p[2]) - br;
+                v[esr_grid_index(g, x, y, z)] = fminf(sphere, blob);
+            }
+}
+
 /* A first-hit march sees what the renderer sees: a solid sphere at +x inside the mask cache
  * and, at -x, a blob of negative SDF in space the mask marks empty (a trained SDF drifts there,
  * where no sample ever reaches). A ray along +x renders the sphere; the raw SDF's first hit is
@@ -131,24 +155,10 @@ static void test_normal_sdf_off_when_ksize_below_two(void **state)
 static void test_first_hits_see_no_surface_where_renders_skip(void **state)
 {
     (void)state;
-    struct esr_train_config cfg;
-    test_small_config(&cfg, 0.5f);
-    cfg.fine.res = RES;
-    const float bmin[3] = {-1, -1, -1}, bmax[3] = {1, 1, 1};
     struct esr_model m;
-    assert_int_equal(esr_model_init(&m, &cfg, ESR_STAGE_FINE, NULL, bmin, bmax), 0);
-    m.inv_s = 400.0f;
+    sphere_and_blob(&m, 0.5f, 0.25f, -0.5f, 0.15f);
     const struct esr_grid *g = esr_model_grid(&m, ESR_COMP_SDF);
-    float *v = esr_model_values(&m, ESR_COMP_SDF);
-    for (int z = 0; z < g->nz; z++)
-        for (int y = 0; y < g->ny; y++)
-            for (int x = 0; x < g->nx; x++) {
-                float p[3];
-                esr_grid_voxel_pos(g, x, y, z, p);
-                const float sphere = sqrtf((p[0] - 0.5f) * (p[0] - 0.5f) + p[1] * p[1] + p[2] * p[2]) - 0.25f;
-                const float blob = sqrtf((p[0] + 0.5f) * (p[0] + 0.5f) + p[1] * p[1] + p[2] * p[2]) - 0.15f;
-                v[esr_grid_index(g, x, y, z)] = fminf(sphere, blob);
-            }
+    const float *v = esr_model_values(&m, ESR_COMP_SDF);
     struct esr_mask *k = &m.mask; /* occupied for x >= -0.1 only */
     esr_mask_free(k);
     assert_int_equal(esr_mask_alloc(k, g), 0);
@@ -186,6 +196,50 @@ static void test_first_hits_see_no_surface_where_renders_skip(void **state)
     esr_model_free(&m);
 }
 
+/* The mesh shows what renders show, with the renderer's usual mask: a band of 3 voxels round a
+ * solid sphere skips both the air beyond it and the sphere's inside. A blob of negative SDF in
+ * the air is no part of the mesh, and the inside, which the band's end encloses, grows no
+ * second shell. */
+static void test_mesh_is_the_rendered_surface(void **state)
+{
+    (void)state;
+    struct esr_model m;
+    sphere_and_blob(&m, 0.3f, 0.5f, -0.7f, 0.1f);
+    const struct esr_grid *g = esr_model_grid(&m, ESR_COMP_SDF);
+    const float h = esr_grid_voxel_size(g, 0);
+    /* the band round the sphere only: the blob lies outside it */
+    float *band = malloc(esr_grid_voxels(g) * sizeof(float));
+    for (int z = 0; z < g->nz; z++)
+        for (int y = 0; y < g->ny; y++)
+            for (int x = 0; x < g->nx; x++) {
+                float p[3];
+                esr_grid_voxel_pos(g, x, y, z, p);
+                band[esr_grid_index(g, x, y, z)] =
+                    sqrtf((p[0] - 0.3f) * (p[0] - 0.3f) + p[1] * p[1] + p[2] * p[2]) - 0.5f;
+            }
+    esr_mask_free(&m.mask);
+    assert_int_equal(esr_mask_alloc(&m.mask, g), 0);
+    assert_int_equal(esr_mask_from_sdf(&m.mask, g, band, 3.0f * h, 0), 0);
+    m.has_mask = 1;
+    free(band);
+    struct esr_mesh mesh;
+    assert_int_equal(esr_model_mesh(&m, 0, 0, &mesh), 0);
+    float rmin = INFINITY, xmin = INFINITY;
+    for (size_t i = 0; i < mesh.n_vertices; i++) {
+        const float *q = mesh.pos + 3 * i;
+        rmin = fminf(rmin, sqrtf((q[0] - 0.3f) * (q[0] - 0.3f) + q[1] * q[1] + q[2] * q[2]));
+        xmin = fminf(xmin, q[0]);
+    }
+    print_message("mesh of a sphere (radius 0.5) in a 3-voxel band mask, a blob in the air: %zu "
+                  "vertices, nearest the centre %.3f, lowest x %.3f\n", mesh.n_vertices,
+                  (double)rmin, (double)xmin);
+    assert_true(mesh.n_vertices > 100);
+    assert_true(rmin > 0.5f - h);   /* no shell inside */
+    assert_true(xmin > -0.2f - h);  /* no blob (the sphere reaches down to x = -0.2) */
+    esr_mesh_free(&mesh);
+    esr_model_free(&m);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -193,6 +247,7 @@ int main(void)
         cmocka_unit_test(test_smoothed_normals_reject_voxel_noise),
         cmocka_unit_test(test_normal_sdf_off_when_ksize_below_two),
         cmocka_unit_test(test_first_hits_see_no_surface_where_renders_skip),
+        cmocka_unit_test(test_mesh_is_the_rendered_surface),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -1,5 +1,6 @@
 /* Inference rendering of a model (esr_model_render_rays), the SDF view the renderer sees, and the
  * SDF as marches for the first hit must see it. */
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -45,28 +46,86 @@ int esr_model_normal_sdf(const struct esr_model *m, float **out)
     return rc;
 }
 
-void esr_model_sdf_skipped(const struct esr_model *m, uint8_t *skipped)
+/* Whether lattice point i's 6 neighbours include one that is rendered with the SDF above 0, or
+ * the grid's edge (space outside): its skipped region is empty space, not a solid's inside. */
+static int touches_outside(const struct esr_grid *g, const float *sdf, const uint8_t *skipped,
+                           int x, int y, int z)
+{
+    const int nb[6][3] = {{x - 1, y, z}, {x + 1, y, z}, {x, y - 1, z},
+                          {x, y + 1, z}, {x, y, z - 1}, {x, y, z + 1}};
+    for (int k = 0; k < 6; k++) {
+        const int *q = nb[k];
+        if (q[0] < 0 || q[1] < 0 || q[2] < 0 || q[0] >= g->nx || q[1] >= g->ny || q[2] >= g->nz)
+            return 1;
+        const size_t j = esr_grid_index(g, q[0], q[1], q[2]);
+        if (!skipped[j] && sdf[j] > 0.0f)
+            return 1;
+    }
+    return 0;
+}
+
+int esr_model_sdf_skipped(const struct esr_model *m, uint8_t *skipped)
 {
     const struct esr_grid *g = esr_model_grid(m, ESR_COMP_SDF);
+    const float *sdf = esr_model_values(m, ESR_COMP_SDF);
+    const size_t n = esr_grid_voxels(g);
 #pragma omp parallel for schedule(static)
     for (int z = 0; z < g->nz; z++)
         for (int y = 0; y < g->ny; y++)
             for (int x = 0; x < g->nx; x++) {
                 float p[3];
                 esr_grid_voxel_pos(g, x, y, z, p);
-                skipped[esr_grid_index(g, x, y, z)] = !esr_model_renders_at(m, p);
+                skipped[esr_grid_index(g, x, y, z)] =
+                    esr_model_renders_at(m, p) ? ESR_SDF_RENDERED : ESR_SDF_SKIPPED_INSIDE;
             }
+    /* the skipped regions (6-connected) that touch space outside are empty space: flood them
+     * from every such point; what stays ESR_SDF_SKIPPED_INSIDE is enclosed by solid (a band
+     * mask skips the inside of every thick solid) */
+    uint32_t *queue = malloc(n * sizeof(uint32_t));
+    if (!queue)
+        return ESR_FAIL("out of memory for the space the renderer skips");
+    size_t head = 0, tail = 0;
+    for (int z = 0; z < g->nz; z++)
+        for (int y = 0; y < g->ny; y++)
+            for (int x = 0; x < g->nx; x++) {
+                const size_t i = esr_grid_index(g, x, y, z);
+                if (skipped[i] == ESR_SDF_SKIPPED_INSIDE && touches_outside(g, sdf, skipped, x, y, z)) {
+                    skipped[i] = ESR_SDF_SKIPPED_EMPTY;
+                    queue[tail++] = (uint32_t)i;
+                }
+            }
+    while (head < tail) {
+        const size_t i = queue[head++];
+        const int x = (int)(i % (size_t)g->nx), y = (int)(i / (size_t)g->nx % (size_t)g->ny),
+                  z = (int)(i / ((size_t)g->nx * (size_t)g->ny));
+        const int nb[6][3] = {{x - 1, y, z}, {x + 1, y, z}, {x, y - 1, z},
+                              {x, y + 1, z}, {x, y, z - 1}, {x, y, z + 1}};
+        for (int k = 0; k < 6; k++) {
+            const int *q = nb[k];
+            if (q[0] < 0 || q[1] < 0 || q[2] < 0 || q[0] >= g->nx || q[1] >= g->ny || q[2] >= g->nz)
+                continue;
+            const size_t j = esr_grid_index(g, q[0], q[1], q[2]);
+            if (skipped[j] == ESR_SDF_SKIPPED_INSIDE) {
+                skipped[j] = ESR_SDF_SKIPPED_EMPTY;
+                queue[tail++] = (uint32_t)j;
+            }
+        }
+    }
+    free(queue);
+    return ESR_OK;
 }
 
 void esr_model_sdf_lift_skipped(const struct esr_model *m, const float *sdf, const uint8_t *skipped,
                                 float *out)
 {
     const struct esr_grid *g = esr_model_grid(m, ESR_COMP_SDF);
-    const float lift = esr_grid_voxel_size(g, 0);
+    const float h = esr_grid_voxel_size(g, 0);
     const size_t n = esr_grid_voxels(g);
 #pragma omp parallel for simd schedule(static)
     for (size_t i = 0; i < n; i++)
-        out[i] = skipped[i] && sdf[i] < lift ? lift : sdf[i];
+        out[i] = skipped[i] == ESR_SDF_SKIPPED_EMPTY    ? fmaxf(sdf[i], h)
+                 : skipped[i] == ESR_SDF_SKIPPED_INSIDE ? fminf(sdf[i], -h)
+                                                        : sdf[i];
 }
 
 int esr_model_first_hit_sdf(const struct esr_model *m, float **out)
@@ -75,10 +134,10 @@ int esr_model_first_hit_sdf(const struct esr_model *m, float **out)
     float *f = malloc(n * sizeof(float));
     uint8_t *skipped = malloc(n);
     int rc = f && skipped ? ESR_OK : ESR_FAIL("out of memory for the SDF as first hits see it");
-    if (rc == ESR_OK) {
-        esr_model_sdf_skipped(m, skipped);
+    if (rc == ESR_OK)
+        rc = esr_model_sdf_skipped(m, skipped);
+    if (rc == ESR_OK)
         esr_model_sdf_lift_skipped(m, esr_model_values(m, ESR_COMP_SDF), skipped, f);
-    }
     free(skipped);
     if (rc != ESR_OK)
         free(f), f = NULL;

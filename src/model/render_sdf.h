@@ -24,15 +24,20 @@ static inline int esr_model_renders_at(const struct esr_model *m, const float p[
     return !m->has_mask || esr_mask_query(&m->mask, p);
 }
 
-/* The lattice points of m's SDF grid whose nearest mask-cache point is empty: skipped[i] = 1
- * (esr_grid_voxels bytes). The renderer drops every sample there, so the grid's values in that
- * space were never trained by an image: they drift to ~0 (a trained default scene has sign
- * changes in mid-air between its objects, 94% of the shadow rays they stopped ended outside the
- * mask), and a march for the first hit finds surfaces no render shows. */
-void esr_model_sdf_skipped(const struct esr_model *m, uint8_t *skipped);
-/* out = sdf raised to at least a voxel wherever skipped: the SDF as a march for the first hit
- * (shadow rays, the first-hit estimator, free-space carving) must see it to agree with the
- * renders. out may alias sdf. */
+/* What the renderer makes of each lattice point of m's SDF grid: it samples there, or the
+ * point's nearest mask-cache point is empty and it drops every sample there. Skipped space was
+ * never trained by an image: its values drift to ~0 (a trained default scene has sign changes
+ * in mid-air between its objects; 94% of the shadow rays they stopped ended outside the mask),
+ * and a march for the first hit finds surfaces no render shows. Skipped regions (6-connected)
+ * that touch rendered space outside a surface, or the grid's edge, are empty space; the others
+ * are enclosed by solid (a band mask skips the inside of every thick solid). */
+enum { ESR_SDF_RENDERED = 0, ESR_SDF_SKIPPED_EMPTY = 1, ESR_SDF_SKIPPED_INSIDE = 2 };
+/* skipped[i] (esr_grid_voxels bytes) = one of the above. */
+int esr_model_sdf_skipped(const struct esr_model *m, uint8_t *skipped);
+/* out = sdf raised to at least a voxel in skipped empty space and lowered to at most minus a
+ * voxel in skipped insides: the SDF as a march for the first hit (shadow rays, the first-hit
+ * estimator, free-space carving) and the mesh must see it to agree with the renders, with no
+ * shell where a band mask ends inside a solid. out may alias sdf. */
 void esr_model_sdf_lift_skipped(const struct esr_model *m, const float *sdf, const uint8_t *skipped,
                                 float *out);
 /* Both for the model's own SDF: *out allocated, the caller frees it. */

@@ -39,14 +39,18 @@ int esr_light_surface_points(const struct esr_model *m, uint32_t **idx_out, floa
                     if (q[0] < 0 || q[1] < 0 || q[2] < 0 || q[0] >= g->nx || q[1] >= g->ny ||
                         q[2] >= g->nz)
                         continue;
-                    edge = (f[esr_grid_index(g, q[0], q[1], q[2])] <= 0.0f) != in;
+                    if ((f[esr_grid_index(g, q[0], q[1], q[2])] <= 0.0f) == in)
+                        continue;
+                    float at[3]; /* both ends where the renderer samples (model/render_sdf.h) */
+                    esr_grid_voxel_pos(g, q[0], q[1], q[2], at);
+                    edge = esr_model_renders_at(m, at);
                 }
                 if (!edge)
                     continue;
                 float at[3];
                 esr_grid_voxel_pos(g, x, y, z, at);
                 if (!esr_model_renders_at(m, at))
-                    continue; /* space the renderer skips (model/render_sdf.h) */
+                    continue;
                 if (n == cap) {
                     uint32_t *t = realloc(idx, 2 * cap * sizeof(uint32_t));
                     if (!t) {

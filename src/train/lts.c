@@ -110,10 +110,8 @@ int esr_lts_init_sized(struct esr_lts *l, const struct esr_model *m, int points,
         const size_t N = esr_grid_voxels(esr_model_grid(m, ESR_COMP_SDF));
         l->skipped = malloc(N);
         l->hit_sdf = malloc(N * sizeof(float));
-        if (l->skipped && l->hit_sdf)
-            esr_model_sdf_skipped(m, l->skipped); /* the mask cache is the alphamask stage's */
-        else
-            rc = ESR_FAIL("lts: out of memory for the SDF as first hits see it");
+        rc = l->skipped && l->hit_sdf ? esr_model_sdf_skipped(m, l->skipped) /* the mask is fixed */
+                                      : ESR_FAIL("lts: out of memory for the SDF as first hits see it");
     }
     if (rc == ESR_OK)
         rc = esr_point_fields_init(&l->pf, m, 4 * P + 2 * PM, 1);
