@@ -46,22 +46,33 @@ int esr_model_normal_sdf(const struct esr_model *m, float **out)
     return rc;
 }
 
-/* Whether lattice point i's 6 neighbours include one that is rendered with the SDF above 0, or
- * the grid's edge (space outside): its skipped region is empty space, not a solid's inside. */
-static int touches_outside(const struct esr_grid *g, const float *sdf, const uint8_t *skipped,
-                           int x, int y, int z)
+/* The lattice indices of point i's 6 axis neighbours inside the grid; returns their count (below
+ * 6 on the grid's edge). */
+static int neighbours6(const struct esr_grid *g, size_t i, size_t nb[6])
 {
-    const int nb[6][3] = {{x - 1, y, z}, {x + 1, y, z}, {x, y - 1, z},
-                          {x, y + 1, z}, {x, y, z - 1}, {x, y, z + 1}};
-    for (int k = 0; k < 6; k++) {
-        const int *q = nb[k];
-        if (q[0] < 0 || q[1] < 0 || q[2] < 0 || q[0] >= g->nx || q[1] >= g->ny || q[2] >= g->nz)
+    const int x = (int)(i % (size_t)g->nx), y = (int)(i / (size_t)g->nx % (size_t)g->ny),
+              z = (int)(i / ((size_t)g->nx * (size_t)g->ny));
+    const int q[6][3] = {{x - 1, y, z}, {x + 1, y, z}, {x, y - 1, z},
+                         {x, y + 1, z}, {x, y, z - 1}, {x, y, z + 1}};
+    int n = 0;
+    for (int k = 0; k < 6; k++)
+        if (q[k][0] >= 0 && q[k][1] >= 0 && q[k][2] >= 0 && q[k][0] < g->nx && q[k][1] < g->ny &&
+            q[k][2] < g->nz)
+            nb[n++] = esr_grid_index(g, q[k][0], q[k][1], q[k][2]);
+    return n;
+}
+
+/* Whether skipped lattice point i borders space outside: the grid's edge, or a rendered
+ * neighbour with the SDF above 0 (its skipped region is empty space, not a solid's inside). */
+static int touches_outside(const struct esr_grid *g, const float *sdf, const uint8_t *skipped,
+                           size_t i)
+{
+    size_t nb[6];
+    const int n = neighbours6(g, i, nb);
+    for (int k = 0; k < n; k++)
+        if (skipped[nb[k]] == ESR_SDF_RENDERED && sdf[nb[k]] > 0.0f)
             return 1;
-        const size_t j = esr_grid_index(g, q[0], q[1], q[2]);
-        if (!skipped[j] && sdf[j] > 0.0f)
-            return 1;
-    }
-    return 0;
+    return n < 6;
 }
 
 int esr_model_sdf_skipped(const struct esr_model *m, uint8_t *skipped)
@@ -84,32 +95,20 @@ int esr_model_sdf_skipped(const struct esr_model *m, uint8_t *skipped)
     uint32_t *queue = malloc(n * sizeof(uint32_t));
     if (!queue)
         return ESR_FAIL("out of memory for the space the renderer skips");
-    size_t head = 0, tail = 0;
-    for (int z = 0; z < g->nz; z++)
-        for (int y = 0; y < g->ny; y++)
-            for (int x = 0; x < g->nx; x++) {
-                const size_t i = esr_grid_index(g, x, y, z);
-                if (skipped[i] == ESR_SDF_SKIPPED_INSIDE && touches_outside(g, sdf, skipped, x, y, z)) {
-                    skipped[i] = ESR_SDF_SKIPPED_EMPTY;
-                    queue[tail++] = (uint32_t)i;
-                }
-            }
-    while (head < tail) {
-        const size_t i = queue[head++];
-        const int x = (int)(i % (size_t)g->nx), y = (int)(i / (size_t)g->nx % (size_t)g->ny),
-                  z = (int)(i / ((size_t)g->nx * (size_t)g->ny));
-        const int nb[6][3] = {{x - 1, y, z}, {x + 1, y, z}, {x, y - 1, z},
-                              {x, y + 1, z}, {x, y, z - 1}, {x, y, z + 1}};
-        for (int k = 0; k < 6; k++) {
-            const int *q = nb[k];
-            if (q[0] < 0 || q[1] < 0 || q[2] < 0 || q[0] >= g->nx || q[1] >= g->ny || q[2] >= g->nz)
-                continue;
-            const size_t j = esr_grid_index(g, q[0], q[1], q[2]);
-            if (skipped[j] == ESR_SDF_SKIPPED_INSIDE) {
-                skipped[j] = ESR_SDF_SKIPPED_EMPTY;
-                queue[tail++] = (uint32_t)j;
-            }
+    size_t tail = 0;
+    for (size_t i = 0; i < n; i++)
+        if (skipped[i] == ESR_SDF_SKIPPED_INSIDE && touches_outside(g, sdf, skipped, i)) {
+            skipped[i] = ESR_SDF_SKIPPED_EMPTY;
+            queue[tail++] = (uint32_t)i;
         }
+    for (size_t head = 0; head < tail; head++) {
+        size_t nb[6];
+        const int nn = neighbours6(g, queue[head], nb);
+        for (int k = 0; k < nn; k++)
+            if (skipped[nb[k]] == ESR_SDF_SKIPPED_INSIDE) {
+                skipped[nb[k]] = ESR_SDF_SKIPPED_EMPTY;
+                queue[tail++] = (uint32_t)nb[k];
+            }
     }
     free(queue);
     return ESR_OK;
