@@ -72,7 +72,12 @@ static void test_set(void **state)
     expect_fail(esr_config_set(&c, "batch_rays"), "expected key=value");
     expect_fail(esr_config_set(&c, "smooth_ksize=4"), "odd");
     assert_int_equal(c.fine.iters, 200); /* failed sets change nothing */
-    /* lts_split needs lobe directions in even counts: checked across options */
+    /* lts_split needs lobe directions in even counts: checked across options; pdra's own pair
+     * (on by default: 4 lobe directions, split) the same */
+    assert_int_equal(c.pdra_split, 1);
+    assert_int_equal(esr_config_set(&c, "pdra.lobe_dirs=0"), 0);
+    expect_fail(esr_config_validate(&c), "pdra.split 1 needs");
+    assert_int_equal(esr_config_set(&c, "pdra.lobe_dirs=4"), 0);
     assert_int_equal(esr_config_set(&c, "lts_split=1"), 0);
     expect_fail(esr_config_validate(&c), "lts_split 1 needs");
     assert_int_equal(esr_config_set(&c, "lts_lobe_dirs=3"), 0);
@@ -81,6 +86,13 @@ static void test_set(void **state)
     assert_int_equal(esr_config_validate(&c), 0);
     assert_int_equal(esr_config_set(&c, "lts_estimator=1"), 0);
     expect_fail(esr_config_validate(&c), "lts_estimator 0");
+    /* pdra's pair (on) applies only where it can: the faithful estimator or fewer directions
+     * are still a valid run, as before the pair existed */
+    assert_int_equal(esr_config_set(&c, "lts_split=0"), 0);
+    assert_int_equal(esr_config_validate(&c), 0);
+    assert_int_equal(esr_config_set(&c, "lts_estimator=0"), 0);
+    assert_int_equal(esr_config_set(&c, "lts_dirs=7"), 0);
+    assert_int_equal(esr_config_validate(&c), 0);
 }
 
 static void test_json_files(void **state)

@@ -24,6 +24,7 @@
 #include "fields/env_sg.h"
 #include "fields/sdf.h"
 #include "model/model.h"
+#include "train/light_surface.h"
 #include "train/lts.h"
 #include "train/pdra_reg.h"
 #include "train/render_loss.h"
@@ -56,7 +57,8 @@ static void setup_stage(struct fixture *fx, enum esr_stage stage, const uint8_t 
     /* the BRDF lobe's directions (lts_lobe_dirs) follow the roughness, so a finite difference of
      * a BRDF entry moves them, while the gradient (rightly: they are samples) holds them fixed;
      * their estimator is tested on its own (test_core_brdf_sampling) */
-    cfg.lts_lobe_dirs = lobe_dirs;
+    cfg.lts_lobe_dirs = cfg.pdra_lobe_dirs = lobe_dirs;
+    cfg.lts_split = cfg.pdra_split = 0; /* set below, past validation */
     /* the full gradient of the loss, which finite differences see (test_geom_on_weight checks
      * the weighted one) */
     cfg.coarse.geom_on = cfg.fine.geom_on = 1.0f;
@@ -67,7 +69,7 @@ static void setup_stage(struct fixture *fx, enum esr_stage stage, const uint8_t 
     assert_int_equal(esr_model_init(m, &cfg, stage, NULL, bmin, bmax), 0);
     /* set past esr_config_validate, which refuses a split without lobe directions for training's
      * sake: the gradient is the same code, and only there can the BRDF entries be compared */
-    m->cfg.lts_split = split_loss;
+    m->cfg.lts_split = m->cfg.pdra_split = split_loss;
     assert_int_equal(esr_sdf_init_sphere(esr_model_grid(m, ESR_COMP_SDF),
                                          esr_model_values(m, ESR_COMP_SDF), 0.5f),
                      0);
@@ -393,6 +395,72 @@ static void test_lts_volume_gradients(void **state)
     check_lts_gradients(ESR_LTS_VOLUME, 0, 0);
 }
 
+/* Lights in the transport (pdra.lights_at, esr_lts_set_lights): a secondary ray whose first hit
+ * lies on a light sees the light's calibrated emission, scale x E there (on the light's unseen
+ * part scale x its mean field), and sends nothing back to the radiance field there. The light is
+ * the walls' x > 0.5 side, its unseen part every other lattice point. The emo MLP feeds only L_emo, so its finite
+ * differences agree only if the hits on the light take no gradient; E at the hits is read
+ * without gradient too, so E's components (the emo feature grid feeds it) are not compared. */
+static void test_lts_lights_in_transport(void **state)
+{
+    (void)state;
+    struct fixture fx;
+    setup_emitter_stage(&fx, ESR_STAGE_LTS, ESR_LTS_FIRST_HIT);
+    struct esr_model *m = &fx.m;
+    const struct esr_grid *g = esr_model_grid(m, ESR_COMP_SDF);
+    struct esr_lights L;
+    memset(&L, 0, sizeof L);
+    L.n = 1;
+    L.grid = *g;
+    L.grid.channels = 1;
+    L.label = calloc(esr_grid_voxels(g), 1);
+    assert_non_null(L.label);
+    for (int z = 0; z < g->nz; z++)
+        for (int y = 0; y < g->ny; y++)
+            for (int x = 0; x < g->nx; x++) {
+                float p[3];
+                esr_grid_voxel_pos(g, x, y, z, p);
+                if (p[0] > 0.5f)
+                    L.label[((size_t)z * g->ny + y) * g->nx + x] =
+                        (uint8_t)(1u | ((x + y + z) % 2 ? ESR_LIGHT_UNSEEN : 0u));
+            }
+    const float scale[3] = {2.0f, 3.0f, 4.0f}, field[3] = {0.7f, 0.5f, 0.3f};
+    memcpy(L.light[0].scale, scale, sizeof scale);
+    memcpy(L.light[0].field_rgb, field, sizeof field);
+    assert_int_equal(esr_lts_set_lights(&fx.st.lts, m, &L), 0);
+    assert_null(L.label); /* taken over */
+    analytic_gradient(&fx);
+    const struct esr_lts *l = &fx.st.lts;
+    const size_t PM = fx.st.lts_stats.points * (size_t)l->M;
+    size_t seen = 0, unseen = 0, other = 0;
+    for (size_t i = 0; i < PM; i++) {
+        if (l->hit_row[i] < 0)
+            continue;
+        const float *pos = l->hit_pos3 + i * 3;
+        const uint8_t label = esr_lights_label_at(&l->lights, pos);
+        assert_int_equal(l->emo_fixed[i], label != 0);
+        if (!label) {
+            other++;
+            continue;
+        }
+        float E[3];
+        assert_int_equal(esr_light_emission_at(m, pos, 1, E), 0);
+        const int is_unseen = (label & ESR_LIGHT_UNSEEN) != 0;
+        unseen += is_unseen;
+        seen += !is_unseen;
+        for (int c = 0; c < 3; c++) {
+            const float want = scale[c] * (is_unseen ? field[c] : E[c]);
+            assert_float_equal(l->li_emo3[i * 3 + c], want, 1e-5f * fmaxf(1.0f, want));
+        }
+    }
+    print_message("lights in the transport: %zu hits on the light's seen part, %zu on its unseen "
+                  "part, %zu elsewhere\n", seen, unseen, other);
+    assert_true(seen > 0 && unseen > 0 && other > 0);
+    assert_true(max_abs(&fx, ESR_COMP_EMO_MLP) > 1e-3);
+    check_stage(&fx, ESR_BIT(ESR_COMP_SDF) | ESR_BIT(ESR_COMP_EMO_FEAT) | ESR_BIT(ESR_COMP_EMIT_MLP));
+    teardown(&fx);
+}
+
 /* The fine-tune's direct-light hook for the edit test: fixed values per point and outgoing
  * direction (the edited light brighter and bluer than the found one), whatever the weights. */
 static int fixed_direct(void *user, const struct esr_lts *l, size_t P,
@@ -662,6 +730,7 @@ int main(void)
         cmocka_unit_test(test_lts_lobe_gradients),
         cmocka_unit_test(test_lts_split_gradients),
         cmocka_unit_test(test_lts_volume_gradients),
+        cmocka_unit_test(test_lts_lights_in_transport),
         cmocka_unit_test(test_finetune_edit_gradients),
         cmocka_unit_test(test_pdra_gradients),
         cmocka_unit_test(test_pdra_split_gradients),

@@ -70,7 +70,7 @@ static int find_and_calibrate(struct esr_model *m, const char *data, int find)
         fprintf(stderr, "esr lights: " ESR_LIGHTS_LEFT_OUT_FMT "\n", m->lights.n_left_out, ESR_MAX_LIGHTS);
     if (rc == ESR_OK && m->lights.n > 0)
         rc = esr_lights_calibrate(m, rs.orig3, rs.dir3, rs.n_off, ESR_LIGHTS_CALIB_POINTS,
-                                  (uint64_t)m->cfg.seed);
+                                  (uint64_t)m->cfg.seed, 1);
     for (int i = 0; rc == ESR_OK && i < m->lights.n; i++) {
         char line[320];
         if (esr_lights_rim_text(&m->lights, i, line, sizeof line))

@@ -85,12 +85,12 @@ static const struct opt opts[] = {
     /* 4: glossier BRDFs (lamp's mirror sphere roughness 0.75 -> 0.57) but no better lights or
      * relighting on our scenes (docs/design.md, Finding the lights: Estimators) */
     {"lts_lobe_dirs", OPT_INT, OFF(lts_lobe_dirs), 0, 64, DEF(0, 0),
-     "lts: of the first-hit estimator's incident directions, this many per outgoing direction "
+     "lts stage: of the first-hit estimator's incident directions, this many per outgoing direction "
      "reflected about half vectors from the BRDF's specular lobe, the rest cosine-weighted, "
      "combined by the balance heuristic (core/brdf_sampling.h); used when lts_dirs is at least "
      "4x this (0 = cosine only)"},
     {"lts_split", OPT_INT, OFF(lts_split), 0, 1, DEF(0, 0),
-     "lts: 1 = the loss multiplies the errors of two independent half-estimates (the even and "
+     "lts stage: 1 = the loss multiplies the errors of two independent half-estimates (the even and "
      "the odd incident directions) instead of squaring one error, so the estimate's variance, "
      "which pushes glossy surfaces rough, is not penalised; needs lts_estimator 0 and an even "
      "lts_lobe_dirs above 0 (e.g. 4)"},
@@ -144,6 +144,21 @@ static const struct opt opts[] = {
     {"pdra.progressive", OPT_INT, OFF(pdra_progressive), 0, 1, DEF(1, 1),
      "pdra: ray groups with the rising k (0 = the seed's ablation \"w/o progressive\": every "
      "ray uncertain, no suppression)"},
+    /* with pdra.lights_at, which without them lets the lights' strength run up (the default
+     * scene's lampshade 53% over; docs/design.md, "Lights in the transport") */
+    {"pdra.lobe_dirs", OPT_INT, OFF(pdra_lobe_dirs), 0, 64, DEF(4, 0),
+     "pdra: lts_lobe_dirs for the stage (and for the lights' calibration on its model); applied "
+     "where the directions are at least 4x it (fine-tuning's 4 are not)"},
+    {"pdra.split", OPT_INT, OFF(pdra_split), 0, 1, DEF(1, 0),
+     "pdra: lts_split for the stage (needs an even pdra.lobe_dirs above 0); applied where "
+     "pdra.lobe_dirs is, with lts_estimator 0 and an even lts_dirs, else pdra trains without it"},
+    /* lamp direct relight test_nvi 27.43 -> 27.88 dB, default scene's lights 13.6% / 11.9% ->
+     * 13.2% / 2.6% off (docs/design.md, "Lights in the transport") */
+    {"pdra.lights_at", OPT_FLOAT, OFF(pdra_lights_at), 0, 1, DEF(0.5, 0),
+     "pdra: share of the stage after which the lights are found and calibrated (without the "
+     "lights-off correction) and the light-transport loss's secondary rays that end on a light "
+     "see its calibrated emission instead of the radiance field there, which clipped photos keep "
+     "near 1 (first-hit estimator; 0 = never, the seed's)"},
     {"tv_every", OPT_INT, OFF(tv_every), 1, 1000, DEF(4, 1),
      "total-variation regularisers every N iterations (weight scaled by N)"},
     /* Stage options: one DEF(fast, paper) per stage, in the order alphamask, coarse, fine, lts, pdra. */
@@ -320,6 +335,11 @@ int esr_config_validate(const struct esr_train_config *c)
         return ESR_FAIL("config: lts_split 1 needs lts_estimator 0, an even lts_lobe_dirs above 0 "
                         "and an even lts_dirs of at least 4x it (got estimator %d, lobe %d, dirs %d)",
                         c->lts_estimator, c->lts_lobe_dirs, c->lts_dirs);
+    /* pdra's pair, on by default, applies only where it can (train/lts.c): refusing the rest
+     * would refuse every run and checkpoint that sets another estimator or fewer directions */
+    if (c->pdra_split && (c->pdra_lobe_dirs <= 0 || c->pdra_lobe_dirs % 2))
+        return ESR_FAIL("config: pdra.split 1 needs an even pdra.lobe_dirs above 0 (got %d)",
+                        c->pdra_lobe_dirs);
     return ESR_OK;
 }
 

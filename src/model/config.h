@@ -87,6 +87,10 @@ struct esr_train_config {
     float pdra_w_ent;       /* pdra: final-transmittance entropy weight */
     int pdra_sg;            /* pdra: stop-gradient pair on (0: the "w/o sg" ablation) */
     int pdra_progressive;   /* pdra: ray groups on (0: the "w/o progressive" ablation) */
+    int pdra_lobe_dirs;     /* pdra: lts_lobe_dirs for the stage */
+    int pdra_split;         /* pdra: lts_split for the stage */
+    float pdra_lights_at;   /* pdra: share of the stage after which the light transport sees the
+                               lights at their calibrated strength (0: never) */
     struct esr_stage_config alphamask, coarse, fine, lts, pdra;
 };
 

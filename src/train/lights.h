@@ -29,11 +29,13 @@
  *              point), E(y) R(x, wo, wi) |n_y . wi| dA / d^2, a shadow ray to each
  *     B(x)   = the other incident emo radiance (other surfaces, the lights' own reflected part
  *              L_emo(y) - E(y)), from CALIB_DIRS hemisphere directions (cosine-weighted;
- *              with the run's lts_lobe_dirs, some from the BRDF's lobe) and their first hits
+ *              with the lobe directions of the model's stage, pdra.lobe_dirs for a pdra model,
+ *              some from the BRDF's lobe) and their first hits
  * (seed eq. 4 with the trained BRDF; sampling the lights by area, not by direction, keeps A
  * nearly noise-free, and noise in A would bias a small light's least-squares scale towards 0).
  * The scales s_K come from least squares over calib_points points seen by the lights-off
- * training cameras, per channel, A and B times the point's lights-off correction of its base
+ * training cameras, per channel, A and B times (unless correct_base is 0, below) the point's
+ * lights-off correction of its base
  * colour, L_off / L^_off (the trained lights-off radiance over its LTS estimate; base colour
  * next to a light absorbed some of the light it casts), over that ratio's median (the estimate
  * runs 15-30% above L_off everywhere), each row weighted as an image would weigh its error (the sRGB
@@ -80,9 +82,14 @@ int esr_lights_settle(struct esr_model *m, const int emits[ESR_MAX_LIGHTS]);
 /* Calibrates the strength of m's lights from calib_points surface points of the lights-off rays
  * (orig3/dir3 [n*3]; rays drawn at random, seeded). Sets scale, radiance, power, calib_points;
  * on failure (n 0, out of memory) the lights are left as they were. When no point away from the
- * lights is lit by them (esr_lights_uncalibrated), each keeps its field's strength. */
+ * lights is lit by them (esr_lights_uncalibrated), each keeps its field's strength.
+ * correct_base 1: each point's direct light is multiplied by its base colour's lights-off
+ * correction (L_off / L^_off over its median), the strengths a user gets; 0: the BRDF is taken
+ * as it stands, the strengths it explains the light with (what pdra's light transport is given
+ * part way through the stage, pdra.lights_at: the rest of the stage then trains the BRDF to
+ * them, see docs/design.md). */
 int esr_lights_calibrate(struct esr_model *m, const float *orig3, const float *dir3, size_t n,
-                         int calib_points, uint64_t seed);
+                         int calib_points, uint64_t seed, int correct_base);
 /* 1 when the last calibration fitted no light on any point (see esr_lights_calibrate), which the
  * trainer and `esr lights` say in these words. */
 int esr_lights_uncalibrated(const struct esr_lights *L);

@@ -109,7 +109,7 @@ static int point_frame(const struct esr_lts *l, size_t p, struct esr_vec3 *n, st
  * direction hits one). */
 static void accumulate(const struct esr_model *m, const struct esr_lts *l, size_t P,
                        const float *hit_emit3, const double *Aall, const double *Rall,
-                       struct esr_calib_rows *rows, double *seen)
+                       int correct_base, struct esr_calib_rows *rows, double *seen)
 {
     const int K = m->lights.n;
     const size_t M = (size_t)l->M;
@@ -151,7 +151,7 @@ static void accumulate(const struct esr_model *m, const struct esr_lts *l, size_
             const double off = lin[(p * 4) * 3 + c], hat_off = l->hat3[(p * 2) * 6 + c];
             rows->emo[row] = w * ((double)lin[(p * 4 + 1) * 3 + c] - off);
             rows->b[row] = w * B[c];
-            rows->r[row] = hat_off > 1e-6 ? fmin(fmax(off / hat_off, 1.0 / CALIB_MAX_CORRECTION),
+            rows->r[row] = correct_base && hat_off > 1e-6 ? fmin(fmax(off / hat_off, 1.0 / CALIB_MAX_CORRECTION),
                                                  CALIB_MAX_CORRECTION)
                                           : 1.0;
             for (int a = 0; a < K; a++) {
@@ -168,7 +168,7 @@ static void accumulate(const struct esr_model *m, const struct esr_lts *l, size_
 }
 
 int esr_lights_calibrate(struct esr_model *m, const float *orig3, const float *dir3, size_t n,
-                         int want, uint64_t seed)
+                         int want, uint64_t seed, int correct_base)
 {
     const int K = m->lights.n;
     const int none[ESR_MAX_LIGHTS] = {0};
@@ -249,7 +249,7 @@ int esr_lights_calibrate(struct esr_model *m, const float *orig3, const float *d
         if (rc == ESR_OK && any_rim)
             rc = esr_lights_direct(&shadows, lr, K, NULL, &dp, CALIB_LIGHT_SPP, ~dseed, Rbuf, NULL);
         if (rc == ESR_OK)
-            accumulate(m, &l, P, mf.emit3, Abuf, any_rim ? Rbuf : NULL, &rows, seen);
+            accumulate(m, &l, P, mf.emit3, Abuf, any_rim ? Rbuf : NULL, correct_base, &rows, seen);
     }
     esr_material_fields_free(&mf);
     esr_lts_free(&l);

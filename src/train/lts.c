@@ -50,6 +50,11 @@ void esr_lts_free(struct esr_lts *l)
     free(l->certain);
     free(l->pick);
     free(l->hit_row);
+    free(l->emo_fixed);
+    free(l->light_pos3);
+    if (l->lights.n > 0)
+        esr_material_fields_free(&l->light_mf);
+    esr_lights_free(&l->lights);
     free(l->q_on);
     esr_march_free(&l->sec);
     esr_point_fields_free(&l->pf);
@@ -77,10 +82,17 @@ int esr_lts_init_sized(struct esr_lts *l, const struct esr_model *m, int points,
     l->P = points;
     l->M = dirs;
     l->estimator = estimator;
-    l->lobe = dirs >= 4 * m->cfg.lts_lobe_dirs ? m->cfg.lts_lobe_dirs : 0;
-    /* esr_config_validate keeps the counts even: each half holds half of each technique's
-     * directions, the same balance-heuristic estimate with half the samples */
-    l->split = m->cfg.lts_split;
+    /* a pdra model has its own pair (pdra.lobe_dirs, pdra.split: its transport sees the lights
+     * at their calibrated strength, pdra.lights_at), applied where it can be: the split needs
+     * lobe directions and even counts, so each half holds half of each technique's directions,
+     * the same balance-heuristic estimate with half the samples (esr_config_validate checks
+     * lts_split's pair, which applies as set) */
+    const int pdra = m->stage == ESR_STAGE_PDRA;
+    const int lobe = pdra ? m->cfg.pdra_lobe_dirs : m->cfg.lts_lobe_dirs;
+    l->lobe = dirs >= 4 * lobe ? lobe : 0;
+    l->split = pdra ? m->cfg.pdra_split && estimator == ESR_LTS_FIRST_HIT && l->lobe > 0 &&
+                          l->lobe % 2 == 0 && dirs % 2 == 0
+                    : m->cfg.lts_split;
     l->emo = m->cfg.emission ? 1.0f : 0.0f;
     const size_t P = (size_t)l->P, PM = P * (size_t)l->M;
     struct {
@@ -120,6 +132,35 @@ int esr_lts_init_sized(struct esr_lts *l, const struct esr_model *m, int points,
     if (rc != ESR_OK)
         esr_lts_free(l);
     return rc;
+}
+
+int esr_lts_set_lights(struct esr_lts *l, const struct esr_model *m, struct esr_lights *lights)
+{
+    if (l->estimator != ESR_LTS_FIRST_HIT) {
+        esr_lights_free(lights);
+        return ESR_FAIL("lts: lights in the transport need the first-hit estimator (lts_estimator 0)");
+    }
+    const size_t PM = (size_t)l->P * (size_t)l->M;
+    if (l->lights.n > 0)
+        esr_material_fields_free(&l->light_mf);
+    esr_lights_free(&l->lights);
+    if (lights->n == 0)
+        return ESR_OK;
+    if (!l->emo_fixed)
+        l->emo_fixed = malloc(PM);
+    if (!l->light_pos3)
+        l->light_pos3 = malloc(PM * 3 * sizeof(float));
+    int rc = l->emo_fixed && l->light_pos3 ? ESR_OK
+                                           : ESR_FAIL("lts: out of memory for the lights' hits");
+    if (rc == ESR_OK)
+        rc = esr_material_fields_init(&l->light_mf, m, PM, ESR_MATERIAL_EMISSION_ONLY);
+    if (rc != ESR_OK) {
+        esr_lights_free(lights);
+        return rc;
+    }
+    l->lights = *lights;
+    memset(lights, 0, sizeof *lights);
+    return ESR_OK;
 }
 
 static void v3_put(float *a, size_t i, struct esr_vec3 v)
@@ -428,6 +469,8 @@ int esr_lts_run(struct esr_lts *l, const struct esr_model *m, const float *sdf, 
     esr_env_sg_fwd(env, lobes, l->wi3, PM, l->env3);
     esr_lights_balance_env(&m->lights, l->env3, PM);
     esr_lts_incident_gather(l, P);
+    if (l->lights.n > 0)
+        ESR_TRY(esr_lts_incident_lights(l, m, sdf, P));
     memset(l->d_lin3, 0, rows * 3 * sizeof(float));
     memset(l->d_li_off3, 0, PM * 3 * sizeof(float));
     memset(l->d_li_emo3, 0, PM * 3 * sizeof(float));

@@ -78,6 +78,14 @@ struct esr_lts {
      * as first hits see it, no surface there (model/render_sdf.h) */
     uint8_t *skipped;
     float *hit_sdf;
+    /* The lights the transport sees (pdra.lights_at, esr_lts_set_lights; n 0: none, the seed's
+     * transport): a first hit on one of them sees its calibrated emission instead of the
+     * radiance field there, without gradient (emo_fixed [P*M]); light_pos3 [P*M*3] and light_mf
+     * query E at those hits. */
+    struct esr_lights lights;
+    uint8_t *emo_fixed;
+    float *light_pos3;
+    struct esr_material_fields light_mf;
     /* point-field query rows [cap_rows]: 4 per point (2 outgoing x off/on), then 2 (off, on)
      * per hit (first hit) or per kept secondary sample (volume) */
     size_t cap_rows;
@@ -131,6 +139,14 @@ int esr_lts_init(struct esr_lts *l, const struct esr_model *m);
 int esr_lts_init_sized(struct esr_lts *l, const struct esr_model *m, int points, int dirs,
                        int estimator);
 void esr_lts_free(struct esr_lts *l);
+/* Hands l's light transport the lights in *lights (taken over, *lights zeroed; found and
+ * calibrated from the model being trained): from the next call, a secondary ray whose first hit
+ * lies on a light sees the light's calibrated emission there, scale x E (its unseen part: scale
+ * x its mean field), not the radiance field's L_emo, with no gradient to either. The photos
+ * show a light clipped near 1, so the field's L_emo on it stays near 1 whatever the light
+ * casts, and without this the BRDF round a light absorbs the difference (docs/design.md,
+ * "Lights in the transport"). First-hit estimator only. */
+int esr_lts_set_lights(struct esr_lts *l, const struct esr_model *m, struct esr_lights *lights);
 /* The next step recomputes the normals from the model's SDF, as a run resumed from a checkpoint
  * saved now would (its workspace starts without them): the trainer calls it after each
  * checkpoint inside a stage, so a resumed stage trains exactly as one never stopped. */

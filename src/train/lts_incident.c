@@ -139,6 +139,27 @@ void esr_lts_incident_gather(struct esr_lts *l, size_t P)
         }
 }
 
+int esr_lts_incident_lights(struct esr_lts *l, const struct esr_model *m, const float *sdf,
+                            size_t P)
+{
+    const size_t PM = P * (size_t)l->M;
+    size_t n = 0;
+    for (size_t i = 0; i < PM; i++) {
+        l->emo_fixed[i] = l->hit_row[i] >= 0 && esr_lights_id_at(&l->lights, l->hit_pos3 + i * 3) >= 0;
+        if (l->emo_fixed[i])
+            memcpy(l->light_pos3 + 3 * n++, l->hit_pos3 + i * 3, 3 * sizeof(float));
+    }
+    if (n == 0)
+        return ESR_OK;
+    ESR_TRY(esr_material_fields_fwd(&l->light_mf, m, sdf, l->light_pos3, n));
+    float *emit3 = l->light_mf.emit3;
+    esr_lights_scale_emission(&l->lights, l->light_pos3, n, emit3);
+    for (size_t i = 0, k = 0; i < PM; i++)
+        if (l->emo_fixed[i])
+            memcpy(l->li_emo3 + i * 3, emit3 + 3 * k++, 3 * sizeof(float));
+    return ESR_OK;
+}
+
 size_t esr_lts_incident_scatter(struct esr_lts *l, size_t P, float *g_sdf)
 {
     const size_t PM = P * (size_t)l->M;
@@ -174,7 +195,8 @@ size_t esr_lts_incident_scatter(struct esr_lts *l, size_t P, float *g_sdf)
         for (int c = 0; c < 3; c++) {
             if (r >= 0) { /* off row; emo -> the on row's emo branch */
                 l->d_lin3[(size_t)r * 3 + c] += l->d_li_off3[i * 3 + c];
-                l->d_lin3[(size_t)(r + 1) * 3 + c] += l->d_li_emo3[i * 3 + c];
+                if (!(l->lights.n > 0 && l->emo_fixed[i])) /* a light's emission: fixed */
+                    l->d_lin3[(size_t)(r + 1) * 3 + c] += l->d_li_emo3[i * 3 + c];
                 l->d_env3[i * 3 + c] = 0.0f;
             } else {
                 l->d_env3[i * 3 + c] = l->d_li_off3[i * 3 + c];

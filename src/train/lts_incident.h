@@ -24,6 +24,11 @@ int esr_lts_incident_trace(struct esr_lts *l, const struct esr_model *m, const f
                            size_t P, uint64_t seed, size_t *rows);
 /* After the point fields' forward: l->li_off3 and l->li_emo3 (l->env3 must be filled). */
 void esr_lts_incident_gather(struct esr_lts *l, size_t P);
+/* After the gather, with lights in the transport (l->lights, esr_lts_set_lights): l->li_emo3 of
+ * each direction whose first hit lies on a light becomes the light's calibrated emission there
+ * (emo_fixed marks them: the scatter sends them no gradient). */
+int esr_lts_incident_lights(struct esr_lts *l, const struct esr_model *m, const float *sdf,
+                            size_t P);
 /* Given l->d_li_off3 / d_li_emo3: ADDS into l->d_lin3's secondary rows and g_sdf, sets
  * l->d_env3. Returns the secondary rays that reached a surface. */
 size_t esr_lts_incident_scatter(struct esr_lts *l, size_t P, float *g_sdf);
