@@ -398,9 +398,10 @@ static void test_lts_volume_gradients(void **state)
 /* Lights in the transport (pdra.lights_at, esr_lts_set_lights): a secondary ray whose first hit
  * lies on a light sees the light's calibrated emission, scale x E there (on the light's unseen
  * part scale x its mean field), and sends nothing back to the radiance field there. The light is
- * the walls' x > 0.5 side, its unseen part every other lattice point. The emo MLP feeds only L_emo, so its finite
- * differences agree only if the hits on the light take no gradient; E at the hits is read
- * without gradient too, so E's components (the emo feature grid feeds it) are not compared. */
+ * the walls' x > 0.5 side, its unseen part every other lattice point. The emo MLP feeds only
+ * L_emo, so its finite differences agree only if the hits on the light take no gradient; E at
+ * the hits is read without gradient too, so E's components (the emo feature grid feeds it) are
+ * not compared. */
 static void test_lts_lights_in_transport(void **state)
 {
     (void)state;
@@ -457,7 +458,8 @@ static void test_lts_lights_in_transport(void **state)
                   "part, %zu elsewhere\n", seen, unseen, other);
     assert_true(seen > 0 && unseen > 0 && other > 0);
     assert_true(max_abs(&fx, ESR_COMP_EMO_MLP) > 1e-3);
-    check_stage(&fx, ESR_BIT(ESR_COMP_SDF) | ESR_BIT(ESR_COMP_EMO_FEAT) | ESR_BIT(ESR_COMP_EMIT_MLP));
+    check_stage(&fx,
+                ESR_BIT(ESR_COMP_SDF) | ESR_BIT(ESR_COMP_EMO_FEAT) | ESR_BIT(ESR_COMP_EMIT_MLP));
     teardown(&fx);
 }
 

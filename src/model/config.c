@@ -85,13 +85,13 @@ static const struct opt opts[] = {
     /* 4: glossier BRDFs (lamp's mirror sphere roughness 0.75 -> 0.57) but no better lights or
      * relighting on our scenes (docs/design.md, Finding the lights: Estimators) */
     {"lts_lobe_dirs", OPT_INT, OFF(lts_lobe_dirs), 0, 64, DEF(0, 0),
-     "lts stage: of the first-hit estimator's incident directions, this many per outgoing direction "
-     "reflected about half vectors from the BRDF's specular lobe, the rest cosine-weighted, "
-     "combined by the balance heuristic (core/brdf_sampling.h); used when lts_dirs is at least "
-     "4x this (0 = cosine only)"},
+     "lts stage: of the first-hit estimator's incident directions, this many per outgoing "
+     "direction reflected about half vectors from the BRDF's specular lobe, the rest "
+     "cosine-weighted, combined by the balance heuristic (core/brdf_sampling.h); used when "
+     "lts_dirs is at least 4x this (0 = cosine only)"},
     {"lts_split", OPT_INT, OFF(lts_split), 0, 1, DEF(0, 0),
-     "lts stage: 1 = the loss multiplies the errors of two independent half-estimates (the even and "
-     "the odd incident directions) instead of squaring one error, so the estimate's variance, "
+     "lts stage: 1 = the loss multiplies the errors of two independent half-estimates (the even "
+     "and the odd incident directions) instead of squaring one error, so the estimate's variance, "
      "which pushes glossy surfaces rough, is not penalised; needs lts_estimator 0 and an even "
      "lts_lobe_dirs above 0 (e.g. 4)"},
     {"emission", OPT_INT, OFF(emission), 0, 1, DEF(1, 1),

@@ -151,9 +151,10 @@ static void accumulate(const struct esr_model *m, const struct esr_lts *l, size_
             const double off = lin[(p * 4) * 3 + c], hat_off = l->hat3[(p * 2) * 6 + c];
             rows->emo[row] = w * ((double)lin[(p * 4 + 1) * 3 + c] - off);
             rows->b[row] = w * B[c];
-            rows->r[row] = correct_base && hat_off > 1e-6 ? fmin(fmax(off / hat_off, 1.0 / CALIB_MAX_CORRECTION),
-                                                 CALIB_MAX_CORRECTION)
-                                          : 1.0;
+            rows->r[row] = correct_base && hat_off > 1e-6
+                               ? fmin(fmax(off / hat_off, 1.0 / CALIB_MAX_CORRECTION),
+                                      CALIB_MAX_CORRECTION)
+                               : 1.0;
             for (int a = 0; a < K; a++) {
                 rows->a[row * (size_t)K + (size_t)a] = w * A[a * 3 + c];
                 rows->br[row * (size_t)K + (size_t)a] = w * Br[a][c];

@@ -52,8 +52,7 @@ void esr_lts_free(struct esr_lts *l)
     free(l->hit_row);
     free(l->emo_fixed);
     free(l->light_pos3);
-    if (l->lights.n > 0)
-        esr_material_fields_free(&l->light_mf);
+    esr_material_fields_free(&l->light_mf); /* a no-op on a zeroed one: no lights handed over */
     esr_lights_free(&l->lights);
     free(l->q_on);
     esr_march_free(&l->sec);
@@ -138,11 +137,11 @@ int esr_lts_set_lights(struct esr_lts *l, const struct esr_model *m, struct esr_
 {
     if (l->estimator != ESR_LTS_FIRST_HIT) {
         esr_lights_free(lights);
-        return ESR_FAIL("lts: lights in the transport need the first-hit estimator (lts_estimator 0)");
+        return ESR_FAIL("lts: lights in the transport need the first-hit estimator "
+                        "(lts_estimator 0)");
     }
     const size_t PM = (size_t)l->P * (size_t)l->M;
-    if (l->lights.n > 0)
-        esr_material_fields_free(&l->light_mf);
+    esr_material_fields_free(&l->light_mf);
     esr_lights_free(&l->lights);
     if (lights->n == 0)
         return ESR_OK;

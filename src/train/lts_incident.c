@@ -145,7 +145,8 @@ int esr_lts_incident_lights(struct esr_lts *l, const struct esr_model *m, const 
     const size_t PM = P * (size_t)l->M;
     size_t n = 0;
     for (size_t i = 0; i < PM; i++) {
-        l->emo_fixed[i] = l->hit_row[i] >= 0 && esr_lights_id_at(&l->lights, l->hit_pos3 + i * 3) >= 0;
+        l->emo_fixed[i] =
+            l->hit_row[i] >= 0 && esr_lights_id_at(&l->lights, l->hit_pos3 + i * 3) >= 0;
         if (l->emo_fixed[i])
             memcpy(l->light_pos3 + 3 * n++, l->hit_pos3 + i * 3, 3 * sizeof(float));
     }

@@ -233,13 +233,19 @@ static int save_in_stage(struct run *r, const struct esr_model *m, enum esr_stag
     return save(r, &with_lights, s);
 }
 
+/* Whether stage s's light transport can be handed the lights (esr_lts_set_lights): the stage
+ * that finds them, with the first-hit estimator. */
+static int transport_takes_lights(enum esr_stage s, const struct esr_train_step *b)
+{
+    return esr_stage_info(s)->finds_lights && b->has_lts && b->lts.estimator == ESR_LTS_FIRST_HIT;
+}
+
 /* The step after which pdra's light transport sees the lights at their calibrated strength
  * (pdra.lights_at); 0: never (another stage, the option 0, the volume estimator). */
 static long transport_lights_step(const struct esr_model *m, enum esr_stage s,
                                   const struct esr_stage_config *sc, const struct esr_train_step *b)
 {
-    if (!esr_stage_info(s)->finds_lights || !b->has_lts || !(m->cfg.pdra_lights_at > 0.0f) ||
-        b->lts.estimator != ESR_LTS_FIRST_HIT)
+    if (!transport_takes_lights(s, b) || !(m->cfg.pdra_lights_at > 0.0f))
         return 0;
     const long at = lroundf(m->cfg.pdra_lights_at * (float)sc->iters);
     return at < 1 ? 1 : at;
@@ -277,7 +283,7 @@ static int resume_transport_lights(struct esr_model *m, struct esr_train_step *b
 {
     if (m->stage_done || !esr_stage_info(s)->finds_lights || m->lights.n == 0)
         return ESR_OK;
-    if (!b->has_lts || b->lts.estimator != ESR_LTS_FIRST_HIT) {
+    if (!transport_takes_lights(s, b)) {
         esr_lights_free(&m->lights);
         return ESR_OK;
     }
@@ -302,7 +308,7 @@ static int recover(struct run *r, struct esr_model *m, enum esr_stage s, long it
     memcpy(m->adam.v, good.adam.v, m->params.count * sizeof(float));
     m->step = good.step;
     m->inv_s = good.inv_s;
-    if (esr_stage_info(s)->finds_lights && b->has_lts && b->lts.estimator == ESR_LTS_FIRST_HIT) {
+    if (transport_takes_lights(s, b)) {
         /* the transport's lights, as the checkpoint saved them (none before pdra.lights_at) */
         int rc = esr_lts_set_lights(&b->lts, m, &good.lights);
         if (rc != ESR_OK) {
