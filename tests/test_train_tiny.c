@@ -1618,6 +1618,29 @@ static void test_edit_eval_follows_lights(void **state)
             followed[k] = 1;
     }
     assert_true(following > 0); /* the tiny run always finds the lampshade */
+    /* the means per edit asked (the _ind frames apart): recomputed here from the views */
+    const cJSON *views = cJSON_GetObjectItemCaseSensitive(root, "views");
+    const cJSON *by_edit = cJSON_GetObjectItemCaseSensitive(root, "by_edit");
+    assert_int_equal(cJSON_GetArraySize(by_edit), 3); /* x0.5 both, x2 both, lampshade off */
+    int grouped = 0;
+    for (int g = 0; g < 3; g++) {
+        const cJSON *grp = cJSON_GetArrayItem(by_edit, g);
+        const char *edit = cJSON_GetObjectItemCaseSensitive(grp, "edit")->valuestring;
+        double sum = 0.0;
+        int count = 0;
+        for (int i = 0; i < cJSON_GetArraySize(views); i++) {
+            const cJSON *v = cJSON_GetArrayItem(views, i);
+            if (!strcmp(cJSON_GetObjectItemCaseSensitive(v, "edit")->valuestring, edit)) {
+                sum += cJSON_GetObjectItemCaseSensitive(v, "psnr")->valuedouble;
+                count++;
+            }
+        }
+        assert_int_equal((int)cJSON_GetObjectItemCaseSensitive(grp, "n_views")->valuedouble, count);
+        assert_true(fabs(cJSON_GetObjectItemCaseSensitive(grp, "psnr")->valuedouble - sum / count) < 1e-9);
+        grouped += count;
+    }
+    assert_int_equal(grouped, cJSON_GetArraySize(views));
+    assert_non_null(strstr(out, "edit mean"));
     /* a dataset light no esr light follows (one the tiny run did not find) is in the JSON and
      * warned about, and only such a light */
     const cJSON *unmatched = cJSON_GetObjectItemCaseSensitive(sp, "edited_lights_unmatched");

@@ -49,8 +49,9 @@ const struct esr_command cmd_eval = {
     "\"ratio\" = |found| / |true|) and \"light_split\" (per dataset light the esr light of best IoU).\n"
     "Edit phases (test_nvi, test_nvc, test_nvic) relight each frame as its lights[] say with\n"
     "--method (edit/relight.h; dataset lights mapped to esr's by the frames' per-light masks) into\n"
-    "RUN/render/P_METHOD, and write RUN/eval/P_METHOD.json (PSNR, SSIM per view and mean, the light\n"
-    "split) and RUN/report_P_METHOD.html (original, edit, ground truth side by side).\n"
+    "RUN/render/P_METHOD, and write RUN/eval/P_METHOD.json (PSNR, SSIM per view, mean, mean per\n"
+    "edit asked; the light split) and RUN/report_P_METHOD.html (original, edit, ground truth side\n"
+    "by side).\n"
     "\n"
     "options:\n"
     "  --phase P        phase to evaluate (default: test_nv)\n"
@@ -341,6 +342,9 @@ static int evaluate_edits(const struct eval_args *a, const struct esr_run_select
                    res.views[i].ssim, res.views[i].seconds);
         printf("%-16s %8.2f %7.4f %8.2f  (%s, %s, %d views)\n", "mean", res.psnr, res.ssim,
                res.seconds, phase, method, res.n);
+        for (int g = 0; g < res.n_groups; g++)
+            printf("  %-14s %8.2f %7.4f  (%d views: %s)\n", "edit mean", res.groups[g].psnr,
+                   res.groups[g].ssim, res.groups[g].n, res.groups[g].edit);
         if (a->method == ESR_EDIT_FINETUNE)
             printf("%d fine-tune(s), %.1f s each\n", res.n_edits, res.finetune_seconds);
         for (int k = 0; k < res.split.n; k++)

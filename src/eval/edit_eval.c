@@ -25,6 +25,7 @@
 void esr_edit_eval_free(struct esr_edit_eval *res)
 {
     free(res->views);
+    free(res->groups);
     memset(res, 0, sizeof(*res));
 }
 
@@ -197,6 +198,30 @@ static void order_by_edit(const struct esr_light_edit (*edits)[ESR_MAX_LIGHTS], 
     }
 }
 
+/* res->groups: the views' means per distinct edit string, in the order the views first ask it. */
+static int group_by_edit(struct esr_edit_eval *res)
+{
+    res->groups = calloc((size_t)(res->n > 0 ? res->n : 1), sizeof *res->groups);
+    if (!res->groups)
+        return ESR_FAIL("out of memory for %d views", res->n);
+    for (int i = 0; i < res->n; i++) {
+        const struct esr_edit_eval_view *v = &res->views[i];
+        int g = 0;
+        while (g < res->n_groups && strcmp(res->groups[g].edit, v->edit))
+            g++;
+        if (g == res->n_groups)
+            snprintf(res->groups[res->n_groups++].edit, sizeof res->groups[0].edit, "%s", v->edit);
+        res->groups[g].n++;
+        res->groups[g].psnr += v->psnr;
+        res->groups[g].ssim += v->ssim;
+    }
+    for (int g = 0; g < res->n_groups; g++) {
+        res->groups[g].psnr /= res->groups[g].n;
+        res->groups[g].ssim /= res->groups[g].n;
+    }
+    return ESR_OK;
+}
+
 int esr_edit_eval_phase(struct esr_model *m, const struct esr_dataset *ds,
                         enum esr_phase_id phase, const int *idx, int n, const char *out_dir,
                         enum esr_edit_method method, int spp, const struct esr_finetune_opts *ft,
@@ -267,6 +292,7 @@ int esr_edit_eval_phase(struct esr_model *m, const struct esr_dataset *ds,
             res->ssim += res->views[i].ssim / n;
             res->seconds += res->views[i].seconds / n;
         }
+        rc = group_by_edit(res);
     }
     return rc;
 }
@@ -297,6 +323,15 @@ int esr_edit_eval_write_json(const char *path, const struct esr_edit_eval *res)
     cJSON_AddNumberToObject(mean, "psnr", res->psnr);
     cJSON_AddNumberToObject(mean, "ssim", res->ssim);
     cJSON_AddNumberToObject(mean, "seconds", res->seconds);
+    cJSON *by_edit = cJSON_AddArrayToObject(root, "by_edit");
+    for (int g = 0; g < res->n_groups; g++) {
+        cJSON *o = cJSON_CreateObject();
+        cJSON_AddStringToObject(o, "edit", res->groups[g].edit);
+        cJSON_AddNumberToObject(o, "n_views", res->groups[g].n);
+        cJSON_AddNumberToObject(o, "psnr", res->groups[g].psnr);
+        cJSON_AddNumberToObject(o, "ssim", res->groups[g].ssim);
+        cJSON_AddItemToArray(by_edit, o);
+    }
     cJSON *sp = cJSON_AddObjectToObject(root, "light_split");
     cJSON_AddNumberToObject(sp, "mean_iou", res->split.mean_iou);
     cJSON *arr = cJSON_AddArrayToObject(sp, "lights");
@@ -341,7 +376,14 @@ int esr_edit_eval_write_html(const char *path, const char *title, const struct e
     else
         fprintf(out, ", after one fine-tune per distinct edit: %d, %.1f s each).</p>\n",
                 res->n_edits, res->finetune_seconds);
-    fputs("<table><tr><th>dataset light</th><th>esr light</th><th>IoU</th></tr>\n", out);
+    fputs("<table><tr><th>edit asked</th><th>views</th><th>PSNR</th><th>SSIM</th></tr>\n", out);
+    for (int g = 0; g < res->n_groups; g++) {
+        fputs("<tr><td>", out);
+        esr_html_put_escaped(out, res->groups[g].edit);
+        fprintf(out, "</td><td>%d</td><td>%.2f</td><td>%.4f</td></tr>\n", res->groups[g].n,
+                res->groups[g].psnr, res->groups[g].ssim);
+    }
+    fputs("</table>\n<table><tr><th>dataset light</th><th>esr light</th><th>IoU</th></tr>\n", out);
     for (int k = 0; k < res->split.n; k++) {
         fprintf(out, "<tr><td>%d ", res->split.rows[k].light);
         esr_html_put_escaped(out, res->split.rows[k].name);

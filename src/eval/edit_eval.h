@@ -25,12 +25,22 @@ struct esr_edit_eval_view {
     double psnr, ssim, seconds;
 };
 
+/* The views that asked one edit (the seed's tables score intensity, colour and individual
+ * control apart: lamp's "_ind" frames turn one light off and keep the other). */
+struct esr_edit_eval_group {
+    char edit[160]; /* as esr_edit_eval_view's */
+    int n;
+    double psnr, ssim; /* means over its views */
+};
+
 struct esr_edit_eval {
     enum esr_phase_id phase;
     enum esr_edit_method method;
     int n;
     struct esr_edit_eval_view *views;
     double psnr, ssim, seconds; /* means */
+    int n_groups;
+    struct esr_edit_eval_group *groups; /* per distinct edit, in the order views first ask it */
     int spp;                 /* direct, ratio: light samples per pixel and light */
     int n_edits;             /* finetune: distinct edits fine-tuned */
     double finetune_seconds; /* finetune: mean seconds per fine-tune */
@@ -60,13 +70,15 @@ int esr_edit_eval_phase(struct esr_model *m, const struct esr_dataset *ds,
 void esr_edit_eval_free(struct esr_edit_eval *res);
 
 /* {"phase", "method": "direct"|"ratio"|"finetune", "spp" (direct, ratio) | "finetunes",
- *  "finetune_seconds" (finetune), "n_views", "views": [{"name", "psnr", "ssim",
- *  "seconds"}...], "mean": {"psnr", "ssim", "seconds"}, "light_split": {...}} */
+ *  "finetune_seconds" (finetune), "n_views", "views": [{"name", "edit", "psnr", "ssim",
+ *  "seconds"}...], "mean": {"psnr", "ssim", "seconds"}, "by_edit": [{"edit", "n_views", "psnr",
+ *  "ssim"}...], "light_split": {...}} */
 int esr_edit_eval_write_json(const char *path, const struct esr_edit_eval *res);
 
 /* An HTML page: per view the original (orig_href/<camera>_on_linear.png, the test_nv render of the
  * same camera, named by the frame name up to its first '_'), the edit and the ground truth
- * (render_href/N.png, N_gt.png), PSNR and SSIM; the means and the light split. */
+ * (render_href/N.png, N_gt.png), PSNR and SSIM; the means (all views, and per edit asked) and the
+ * light split. */
 int esr_edit_eval_write_html(const char *path, const char *title, const struct esr_edit_eval *res,
                              const char *render_href, const char *orig_href);
 
