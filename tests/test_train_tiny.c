@@ -1618,29 +1618,47 @@ static void test_edit_eval_follows_lights(void **state)
             followed[k] = 1;
     }
     assert_true(following > 0); /* the tiny run always finds the lampshade */
-    /* the means per edit asked (the _ind frames apart): recomputed here from the views */
+    /* the means per edit asked (the _ind frames apart), in the order the views first ask them:
+     * recomputed here from the views */
     const cJSON *views = cJSON_GetObjectItemCaseSensitive(root, "views");
     const cJSON *by_edit = cJSON_GetObjectItemCaseSensitive(root, "by_edit");
     assert_int_equal(cJSON_GetArraySize(by_edit), 3); /* x0.5 both, x2 both, lampshade off */
-    int grouped = 0;
+    int grouped = 0, first_seen = 0;
+    const char *edits[3];
     for (int g = 0; g < 3; g++) {
         const cJSON *grp = cJSON_GetArrayItem(by_edit, g);
-        const char *edit = cJSON_GetObjectItemCaseSensitive(grp, "edit")->valuestring;
-        double sum = 0.0;
-        int count = 0;
+        const cJSON *edit = cJSON_GetObjectItemCaseSensitive(grp, "edit");
+        assert_true(cJSON_IsString(edit));
+        edits[g] = edit->valuestring;
+        for (int h = 0; h < g; h++)
+            assert_string_not_equal(edits[h], edits[g]);
+        double psnr = 0.0, ssim = 0.0;
+        int count = 0, first = -1;
         for (int i = 0; i < cJSON_GetArraySize(views); i++) {
             const cJSON *v = cJSON_GetArrayItem(views, i);
-            if (!strcmp(cJSON_GetObjectItemCaseSensitive(v, "edit")->valuestring, edit)) {
-                sum += cJSON_GetObjectItemCaseSensitive(v, "psnr")->valuedouble;
+            const cJSON *ve = cJSON_GetObjectItemCaseSensitive(v, "edit");
+            assert_true(cJSON_IsString(ve));
+            if (!strcmp(ve->valuestring, edits[g])) {
+                psnr += cJSON_GetObjectItemCaseSensitive(v, "psnr")->valuedouble;
+                ssim += cJSON_GetObjectItemCaseSensitive(v, "ssim")->valuedouble;
+                first = first < 0 ? i : first;
                 count++;
             }
         }
-        assert_int_equal((int)cJSON_GetObjectItemCaseSensitive(grp, "n_views")->valuedouble, count);
-        assert_true(fabs(cJSON_GetObjectItemCaseSensitive(grp, "psnr")->valuedouble - sum / count) < 1e-9);
+        assert_true(count > 0 && (g == 0 ? first == 0 : first > first_seen)); /* asked order */
+        first_seen = first;
+        const double n_views = cJSON_GetObjectItemCaseSensitive(grp, "n_views")->valuedouble;
+        const double g_psnr = cJSON_GetObjectItemCaseSensitive(grp, "psnr")->valuedouble;
+        const double g_ssim = cJSON_GetObjectItemCaseSensitive(grp, "ssim")->valuedouble;
+        assert_int_equal((int)n_views, count);
+        assert_true(fabs(g_psnr - psnr / count) < 1e-9 && fabs(g_ssim - ssim / count) < 1e-12);
         grouped += count;
     }
     assert_int_equal(grouped, cJSON_GetArraySize(views));
     assert_non_null(strstr(out, "edit mean"));
+    snprintf(cmd, sizeof cmd, "grep -q 'Mean per edit asked' '%s'/report_test_nvi_direct.html",
+             run);
+    assert_int_equal(system(cmd), 0);
     /* a dataset light no esr light follows (one the tiny run did not find) is in the JSON and
      * warned about, and only such a light */
     const cJSON *unmatched = cJSON_GetObjectItemCaseSensitive(sp, "edited_lights_unmatched");

@@ -342,7 +342,7 @@ static int evaluate_edits(const struct eval_args *a, const struct esr_run_select
                    res.views[i].ssim, res.views[i].seconds);
         printf("%-16s %8.2f %7.4f %8.2f  (%s, %s, %d views)\n", "mean", res.psnr, res.ssim,
                res.seconds, phase, method, res.n);
-        for (int g = 0; g < res.n_groups; g++)
+        for (int g = 0; res.n_groups > 1 && g < res.n_groups; g++)
             printf("  %-14s %8.2f %7.4f  (%d views: %s)\n", "edit mean", res.groups[g].psnr,
                    res.groups[g].ssim, res.groups[g].n, res.groups[g].edit);
         if (a->method == ESR_EDIT_FINETUNE)

@@ -376,7 +376,8 @@ int esr_edit_eval_write_html(const char *path, const char *title, const struct e
     else
         fprintf(out, ", after one fine-tune per distinct edit: %d, %.1f s each).</p>\n",
                 res->n_edits, res->finetune_seconds);
-    fputs("<table><tr><th>edit asked</th><th>views</th><th>PSNR</th><th>SSIM</th></tr>\n", out);
+    fputs("<table><caption>Mean per edit asked</caption>\n"
+          "<tr><th>edit asked</th><th>views</th><th>PSNR</th><th>SSIM</th></tr>\n", out);
     for (int g = 0; g < res->n_groups; g++) {
         fputs("<tr><td>", out);
         esr_html_put_escaped(out, res->groups[g].edit);

@@ -3,13 +3,13 @@
  * saturation, value kept), rendered with the direct or the ratio method (edit/relight.h) or by
  * radiance fine-tuning (edit/finetune.h: frames grouped by edit, one fine-tune each). A frame
  * asking an edit esr cannot make (model/lights.h, esr_light_edit_problem) fails the phase before
- * anything is written. Each esr light
- * takes the edit of the dataset light whose masks hold at least half of its pixels in up to 10
- * evenly spread frames of the phase (eval/light_split.h, from their light-id renders: the masks
- * are used by evaluation only); one that no dataset light holds so stays as found, and the
- * dataset lights that frames change but no esr light follows are listed (res->unmatched). PSNR and SSIM of the edited render
- * (linear through the sRGB curve, clipped) against the ground-truth PNG on white, per view and
- * mean. Renders go to out_dir as N.png, N.exr, the ground truth (on white) as N_gt.png, and for
+ * anything is written. Each esr light takes the edit of the dataset light whose masks hold at
+ * least half of its pixels in up to 10 evenly spread frames of the phase (eval/light_split.h,
+ * from their light-id renders: the masks are used by evaluation only); one that no dataset light
+ * holds so stays as found, and the dataset lights that frames change but no esr light follows
+ * are listed (res->unmatched). PSNR and SSIM of the edited render (linear through the sRGB
+ * curve, clipped) against the ground-truth PNG on white, per view, mean, and mean per edit
+ * asked. Renders go to out_dir as N.png, N.exr, the ground truth (on white) as N_gt.png, and for
  * the mapping's frames N_lights.png. */
 #ifndef ESR_EVAL_EDIT_EVAL_H
 #define ESR_EVAL_EDIT_EVAL_H
@@ -26,7 +26,8 @@ struct esr_edit_eval_view {
 };
 
 /* The views that asked one edit (the seed's tables score intensity, colour and individual
- * control apart: lamp's "_ind" frames turn one light off and keep the other). */
+ * control apart: lamp's "_ind" frames turn one light off and keep the other): views whose edit
+ * descriptions match, intensities to 3 significant digits, hue and saturation to 2 decimals. */
 struct esr_edit_eval_group {
     char edit[160]; /* as esr_edit_eval_view's */
     int n;

@@ -152,9 +152,10 @@ static const struct opt opts[] = {
     {"pdra.split", OPT_INT, OFF(pdra_split), 0, 1, DEF(1, 0),
      "pdra: lts_split for the stage (needs an even pdra.lobe_dirs above 0); applied where "
      "pdra.lobe_dirs is, with lts_estimator 0 and an even lts_dirs, else pdra trains without it"},
-    /* lamp direct relight test_nvi 27.43 -> 27.88 dB at 0.5, 28.07 at 0.25 (28.05 at 0.1, its
-     * lights weaker); default scene's lights 13.6% / 11.9% -> 13.2% / 2.6% off at 0.5
-     * (docs/design.md, "Lights in the transport") */
+    /* lamp direct relight test_nvi 27.43 -> 27.88 dB at 0.5, 28.07 at 0.25 (seed 2: 27.83 ->
+     * 28.12; 28.05 at 0.1, its lights weaker); the default scene's lights 13.6% / 11.9% ->
+     * 13.2% / 2.6% off at 0.5, 15.2% / 2.2% at 0.25 (seed 2: 9.1% / 2.1% -> 6.5% / 9.5%)
+     * (docs/design.md, "Lights in the transport", "When") */
     {"pdra.lights_at", OPT_FLOAT, OFF(pdra_lights_at), 0, 1, DEF(0.25, 0),
      "pdra: share of the stage after which the lights are found and calibrated (without the "
      "lights-off correction) and the light-transport loss's secondary rays that end on a light "
