@@ -213,7 +213,7 @@ static void test_bad_json(void **state)
         const char *name, *json, *what;
     } cases[] = {
         {"malformed", "{\"camera_angle_x\": 0.6911, \"frames\": [", "malformed JSON"},
-        {"trailing", "{\"camera_angle_x\": 0.6911, \"frames\": []} x", "malformed JSON (near byte 41)"},
+        {"trailing", "{\"camera_angle_x\": 0.6911, \"frames\": []} x", "malformed JSON (line 1, column 42)"},
         {"no_matrix", "{\"camera_angle_x\": 0.6911, \"frames\": [{\"file_path\":\"train/r_000\",\"lights\":[]}]}",
          "transform_matrix"},
         {"no_angle", "{\"frames\": []}", "camera_angle_x"},

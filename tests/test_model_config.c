@@ -134,7 +134,10 @@ static void test_json_files(void **state)
     assert_int_equal(test_write_file(path, "[1, 2]"), 0);
     expect_fail(esr_config_load_json(&c, path), "not a JSON object");
     assert_int_equal(test_write_file(path, "{\"fine\": {\"iters\": 3}} {\"fine\": {\"iters\": 4}}"), 0);
-    expect_fail(esr_config_load_json(&c, path), "cfg.json: malformed JSON (near byte 23)");
+    expect_fail(esr_config_load_json(&c, path), "cfg.json:1:24: malformed JSON (line 1, column 24)");
+    /* where an editor shows it: the line and column of the stray text, not a byte offset */
+    assert_int_equal(test_write_file(path, "{\n  \"fine\": {\"iters\": 3},\n  \"coarse\": {\"iters\" 4}\n}"), 0);
+    expect_fail(esr_config_load_json(&c, path), "cfg.json:3:22: malformed JSON (line 3, column 22)");
     assert_int_equal(test_write_file(path, "{\"fine\": {\"iters\": 3"), 0);
     expect_fail(esr_config_load_json(&c, path), "malformed JSON");
     assert_int_equal(test_write_file(path, "{\"preset\": \"huge\"}"), 0);

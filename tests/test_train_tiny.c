@@ -414,6 +414,14 @@ static void test_resume_applies_set(void **state)
     /* trained again without --resume, only to alphamask: the earlier run's coarse checkpoint
      * goes (it used to stay, and be resumed, rendered and evaluated as this run's) */
     opts_for(&o, run, ESR_STAGE_ALPHAMASK, &lc);
+    /* a forgotten --resume is refused, the run left as it was; --force starts over */
+    assert_int_equal(esr_train_run(&o), ESR_ERR);
+    assert_non_null(strstr(esr_error_message(), "add --resume to continue the run in it, or --force"));
+    esr_error_clear();
+    snprintf(cmd, sizeof cmd, "%s/ckpt_coarse.bin", run);
+    assert_true(esr_file_exists(cmd));
+    opts_for(&o, run, ESR_STAGE_ALPHAMASK, &lc);
+    o.force = 1;
     if (esr_train_run(&o) != ESR_OK)
         fail_msg("%s", esr_error_message());
     assert_non_null(strstr(lc.text, "starting over: removed the earlier run's checkpoints"));

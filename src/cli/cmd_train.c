@@ -18,7 +18,7 @@ static int run_train(int argc, char **argv);
 const struct esr_command cmd_train = {
     "train",
     "train the model: geometry, radiance, then emission and materials (alphamask .. pdra)",
-    "usage: esr train DATA --out RUN [--until STAGE] [--resume] [--preset fast|paper]\n"
+    "usage: esr train DATA --out RUN [--until STAGE] [--resume | --force] [--preset fast|paper]\n"
     "                 [--config FILE.json] [--set key=value ...] [--eval]\n"
     "\n"
     "Runs the stages alphamask -> coarse -> fine -> lts -> pdra on DATA's train frames (lights\n"
@@ -30,8 +30,9 @@ const struct esr_command cmd_train = {
     "Ctrl-C (or SIGTERM) during training saves the checkpoint at the step reached and stops\n"
     "(before the first step, nothing in RUN has changed): --resume loses nothing; a second\n"
     "one stops at once.\n"
-    "Without --resume, a RUN that holds an earlier run loses that run's checkpoints,\n"
-    "lights.json and train_log.jsonl first (its log keeps its lines).\n"
+    "A RUN that holds anything is refused without --resume (continue it) or --force (start\n"
+    "over: the earlier run's checkpoints, lights.json and train_log.jsonl are removed first;\n"
+    "its log keeps its lines), so a forgotten --resume never wipes a finished run.\n"
     "A loss or gradient that turns NaN/Inf reloads the last checkpoint with half the learning\n"
     "rate; the third failure stops the run (the checkpoint stays intact).\n"
     "\n"
@@ -43,6 +44,7 @@ const struct esr_command cmd_train = {
     "                       one, with the options given now, said); --set changes options of\n"
     "                       the stages still to train and is written to it (e.g. lts and pdra\n"
     "                       again from a copy's fine checkpoint)\n"
+    "  --force              start over in a RUN that holds an earlier run (not with --resume)\n"
     "  --preset NAME        defaults: fast (CPU, default) or paper (the authors' sizes)\n"
     "  --config FILE.json   options as JSON ({\"fine.iters\": 200} or {\"fine\": {\"iters\": 200}},\n"
     "                       optional \"preset\"); unknown keys or out-of-range values are refused\n"
@@ -229,6 +231,8 @@ static int run_train(int argc, char **argv)
                 return cli_fail_lib(&cmd_train);
         } else if (!strcmp(a, "--resume")) {
             o.resume = 1;
+        } else if (!strcmp(a, "--force")) {
+            o.force = 1;
         } else if (!strcmp(a, "--eval")) {
             do_eval = 1;
         } else if (!strcmp(a, "--set")) {
@@ -252,6 +256,9 @@ static int run_train(int argc, char **argv)
     if (!o.run_dir)
         return cli_fail(&cmd_train, "missing --out RUN");
     o.data_dir = data;
+    if (o.resume && o.force)
+        return cli_fail(&cmd_train, "--resume continues the run in %s and --force starts it over: "
+                        "give one", o.run_dir);
     if (o.resume) {
         char cfg_path[4200];
         snprintf(cfg_path, sizeof cfg_path, "%s/config.json", o.run_dir);

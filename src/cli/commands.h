@@ -18,6 +18,14 @@ int cli_fail(const struct esr_command *cmd, const char *fmt, ...) __attribute__(
 int cli_fail_lib(const struct esr_command *cmd);
 /* 1 if argv contains -h or --help (then usage has been printed). */
 int cli_wants_help(const struct esr_command *cmd, int argc, char **argv);
+/* The grammar every command shares (cli/options.c), applied before the command parses its
+ * arguments: `--name=value` becomes `--name value`, an option spelt with "colour" or "color"
+ * takes the spelling the command's usage uses, and an option the usage text does not name is
+ * refused with the nearest one it does. 0 with *argc, *argv replaced; 1 (said) on an unknown
+ * option. */
+int cli_normalise_args(const struct esr_command *cmd, int *argc, char ***argv);
+/* 1 when cmd's usage text names the option (e.g. "--orbit"). */
+int cli_option_known(const struct esr_command *cmd, const char *name);
 /* Parses a whole-string decimal integer in [lo, hi] (lo, hi within int); 0 on success, -1 else. */
 int cli_parse_int(const char *text, long lo, long hi, int *out);
 /* A decimal number in [lo, hi] (no leading space or '+', no hexadecimal, inf or nan): 0 on

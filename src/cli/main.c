@@ -8,6 +8,8 @@
 #include "cli/commands.h"
 #include "core/error.h"
 #include "core/limits.h"
+#include "core/suggest.h"
+#include "nn/tile_gemm.h"
 
 /* One row per subcommand, in the order `esr --help` lists them. */
 static const struct esr_command *const commands[] = {
@@ -63,7 +65,8 @@ static void print_help(FILE *out)
     for (int i = 0; i < N_COMMANDS; i++)
         if (commands[i])
             fprintf(out, "  %-10s %s\n", commands[i]->name, commands[i]->summary);
-    fprintf(out, "\n`esr <command> --help` describes a command's options.\n");
+    fprintf(out, "\n`esr help <command>` (or `esr <command> --help`) describes a command's options;\n"
+                 "`esr --version` names the build and its code paths.\n");
 }
 
 /* ESR_MEMORY_LIMIT caps the memory a run may hold (core/limits.h): on a shared machine, or to
@@ -98,6 +101,43 @@ static void keep_freed_memory(void)
 #endif
 }
 
+extern const char esr_build_commit[]; /* generated at build time (cmake/version.cmake) */
+
+/* `esr --version`: what a bug report needs: the release, the commit built, and the code paths
+ * this CPU gets (the MLP kernels pick AVX-512, AVX2 or generic at run time; the hot loops have
+ * an x86-64-v3 clone beside the portable one). */
+static void print_version(void)
+{
+    printf("esr %s (commit %s, built %s)\n", ESR_VERSION, esr_build_commit, __DATE__);
+    printf("code paths on this CPU: MLP kernels %s, hot loops %s\n", esr_gemm_isa(),
+#if defined(__x86_64__)
+           __builtin_cpu_supports("x86-64-v3") ? "x86-64-v3 (AVX2, FMA)" : "x86-64 (baseline)"
+#else
+           "portable"
+#endif
+    );
+}
+
+static const struct esr_command *find_command(const char *name)
+{
+    for (int i = 0; i < N_COMMANDS; i++)
+        if (commands[i] && !strcmp(name, commands[i]->name))
+            return commands[i];
+    return NULL;
+}
+
+/* An unknown command: the nearest one by name, not the whole help. */
+static int unknown_command(const char *name)
+{
+    const char *names[N_COMMANDS];
+    for (int i = 0; i < N_COMMANDS; i++)
+        names[i] = commands[i] ? commands[i]->name : NULL;
+    const char *near = esr_suggest(name, names, N_COMMANDS);
+    fprintf(stderr, "esr: unknown command '%s'%s%s%s\n(`esr --help` lists the commands)\n", name,
+            near ? " (did you mean " : "", near ? near : "", near ? "?)" : "");
+    return 1;
+}
+
 int main(int argc, char **argv)
 {
     if (apply_memory_limit() != 0)
@@ -106,17 +146,29 @@ int main(int argc, char **argv)
         print_help(stderr);
         return 1;
     }
+    if (!strcmp(argv[1], "--version") || !strcmp(argv[1], "-V") || !strcmp(argv[1], "version")) {
+        print_version();
+        return 0;
+    }
+    if (!strcmp(argv[1], "help") && argc >= 3) { /* esr help CMD: CMD's own --help */
+        const struct esr_command *cmd = find_command(argv[2]);
+        if (!cmd)
+            return unknown_command(argv[2]);
+        char *help_argv[] = {(char *)cmd->name, (char *)"--help", NULL};
+        return cmd->run(2, help_argv);
+    }
     if (!strcmp(argv[1], "-h") || !strcmp(argv[1], "--help") || !strcmp(argv[1], "help")) {
         print_help(stdout);
         return 0;
     }
-    for (int i = 0; i < N_COMMANDS; i++)
-        if (commands[i] && !strcmp(argv[1], commands[i]->name)) {
-            if (commands[i]->view_loop)
-                keep_freed_memory();
-            return commands[i]->run(argc - 1, argv + 1);
-        }
-    fprintf(stderr, "esr: unknown command '%s'\n\n", argv[1]);
-    print_help(stderr);
-    return 1;
+    const struct esr_command *cmd = find_command(argv[1]);
+    if (!cmd)
+        return unknown_command(argv[1]);
+    int cmd_argc = argc - 1;
+    char **cmd_argv = argv + 1;
+    if (cli_normalise_args(cmd, &cmd_argc, &cmd_argv) != 0)
+        return 1;
+    if (cmd->view_loop)
+        keep_freed_memory();
+    return cmd->run(cmd_argc, cmd_argv);
 }

@@ -22,6 +22,17 @@ int esr_error_set(const char *file, int line, const char *fmt, ...)
     return ESR_ERR;
 }
 
+void esr_error_append(const char *fmt, ...)
+{
+    if (!error_is_pending)
+        return;
+    const size_t len = strlen(error_message);
+    va_list args;
+    va_start(args, fmt);
+    vsnprintf(error_message + len, sizeof error_message - len, fmt, args);
+    va_end(args);
+}
+
 const char *esr_error_message(void) { return error_is_pending ? error_message : ""; }
 const char *esr_error_origin(void) { return error_is_pending ? error_origin : ""; }
 int esr_error_pending(void) { return error_is_pending; }

@@ -15,6 +15,9 @@ int esr_error_set(const char *file, int line, const char *fmt, ...)
     __attribute__((format(printf, 3, 4)));
 /* The pending message ("" when none). Valid until the next esr_error_clear on this thread. */
 const char *esr_error_message(void);
+/* Adds text to the end of the pending message (nothing when none is pending): advice that only
+ * the caller knows, such as how to recover from a damaged file. */
+void esr_error_append(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
 /* Where the pending error was raised ("file:line", "" when none). */
 const char *esr_error_origin(void);
 void esr_error_clear(void);

@@ -2,6 +2,7 @@
  * of a killed run's leftovers, and the lock a training holds on its run folder. */
 #include "io/dir.h"
 
+#include <dirent.h>
 #include <errno.h>
 #include <fcntl.h>
 #include <stdio.h>
@@ -151,4 +152,28 @@ void esr_dir_unlock(int fd)
 {
     if (fd >= 0)
         close(fd); /* releases the lock */
+}
+
+int esr_dir_list_entries(const char *dir, char *names, size_t n)
+{
+    if (names && n)
+        names[0] = '\0';
+    DIR *d = opendir(dir);
+    if (!d)
+        return 0;
+    int count = 0;
+    for (struct dirent *e; (e = readdir(d));) {
+        if (!strcmp(e->d_name, ".") || !strcmp(e->d_name, "..") || !strcmp(e->d_name, ".esr.lock"))
+            continue;
+        count++;
+        if (names && n) {
+            const size_t len = strlen(names);
+            if (count <= 6 && len + strlen(e->d_name) + 8 < n)
+                snprintf(names + len, n - len, "%s%s", len ? ", " : "", e->d_name);
+            else if (count == 7 && len + 6 < n)
+                snprintf(names + len, n - len, ", ...");
+        }
+    }
+    closedir(d);
+    return count;
 }

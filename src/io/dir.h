@@ -28,6 +28,10 @@ int esr_dir_prepare_output_made(const char *path, char *made, size_t made_size);
  * be created, the file system has no flock) it goes on unlocked, *fd_out -1. */
 int esr_dir_lock(const char *dir, const char *what, int *fd_out);
 void esr_dir_unlock(int fd);
+/* What an output folder holds, for a command that would replace it: the number of entries in
+ * dir other than "." , ".." and the lock file (0 when dir does not exist), and the first few of
+ * their names, comma-separated, in names (n bytes; "" when none). */
+int esr_dir_list_entries(const char *dir, char *names, size_t n);
 /* A run directory to read: fails naming it when it does not exist or is a file. */
 int esr_dir_check_run(const char *run);
 

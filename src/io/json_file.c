@@ -58,6 +58,15 @@ cJSON *esr_json_parse_whole(const char *text, size_t size, const char *name)
     if (root && !bad)
         return root;
     cJSON_Delete(root);
-    ESR_FAIL("%s: malformed JSON (near byte %ld)", name, bad ? (long)(bad - text) : -1L);
+    if (!bad) {
+        ESR_FAIL("%s: malformed JSON", name);
+        return NULL;
+    }
+    /* where an editor shows it: line and column, both from 1 (a column counts bytes) */
+    long line = 1, col = 1;
+    for (const char *c = text; c < bad; c++, col++)
+        if (*c == '\n')
+            line++, col = 0;
+    ESR_FAIL("%s:%ld:%ld: malformed JSON (line %ld, column %ld)", name, line, col, line, col);
     return NULL;
 }

@@ -13,7 +13,8 @@ int esr_json_write_atomic(const char *path, cJSON *root);
 
 /* The document of text[0..size) (no NUL needed), which must be one JSON value with nothing but
  * white space (or NUL bytes) after it; NULL when it is malformed or something follows, with the
- * error "NAME: malformed JSON (near byte B)" (B the offset where, -1 when not known). */
+ * error "NAME:LINE:COLUMN: malformed JSON (line L, column C)" where the parser stopped (both from 1),
+ * or "NAME: malformed JSON" when it does not say. */
 cJSON *esr_json_parse_whole(const char *text, size_t size, const char *name);
 
 /* A JSON array of the n floats v (NULL on out of memory). */

@@ -463,6 +463,34 @@ static int check_named_stage(struct esr_model *m, const char *file)
     return ESR_OK;
 }
 
+/* A run's checkpoint that does not load (truncated, corrupt, of another version) has one way
+ * out, and the message says it: remove it and every later stage's (a later stage trained from
+ * the damaged one would be resumed as it is), then `esr train --resume` trains those stages again
+ * from the earlier stages' checkpoints, which are kept. */
+static void advise_damaged(const char *file)
+{
+    const char *base = strrchr(file, '/');
+    const size_t dir_len = base ? (size_t)(base - file) : 1;
+    const char *dir = base ? file : ".";
+    base = base ? base + 1 : file;
+    for (int s = 0; s < ESR_STAGE_COUNT; s++) {
+        char name[64], rm[1024] = "";
+        snprintf(name, sizeof name, "ckpt_%s.bin", esr_stage_name((enum esr_stage)s));
+        if (strcmp(base, name) != 0)
+            continue;
+        for (int t = s; t < ESR_STAGE_COUNT; t++) {
+            const size_t len = strlen(rm);
+            snprintf(rm + len, sizeof rm - len, " %.*s/ckpt_%s.bin", (int)dir_len, dir,
+                     esr_stage_name((enum esr_stage)t));
+        }
+        esr_error_append(". To recover: rm -f%s, then `esr train DATA --out %.*s --resume` trains "
+                         "the %s stage%s again from the earlier stages' checkpoints (kept)",
+                         rm, (int)dir_len, dir, esr_stage_name((enum esr_stage)s),
+                         s + 1 < ESR_STAGE_COUNT ? " and those after it" : "");
+        return;
+    }
+}
+
 int esr_model_load(struct esr_model *m, const char *path)
 {
     memset(m, 0, sizeof(*m));
@@ -479,6 +507,8 @@ int esr_model_load(struct esr_model *m, const char *path)
     ESR_TRY(esr_file_read_all(file, &data, &size));
     int rc = esr_model_load_buffer(m, data, size, file);
     free(data);
+    if (rc != ESR_OK)
+        advise_damaged(file);
     return rc == ESR_OK ? check_named_stage(m, file) : rc;
 }
 

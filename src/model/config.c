@@ -9,6 +9,7 @@
 #include <string.h>
 
 #include "core/error.h"
+#include "core/suggest.h"
 #include "io/file.h"
 #include "io/json_file.h"
 
@@ -299,11 +300,22 @@ static int opt_check(const struct opt *o, double v, const char *where)
     return ESR_OK;
 }
 
+/* An unknown key, with the nearest option's name when it looks like a typo of one. */
+static int unknown_key(const char *where, const char *key)
+{
+    const char *names[N_OPTS];
+    for (size_t i = 0; i < N_OPTS; i++)
+        names[i] = opts[i].name;
+    const char *near = esr_suggest(key, names, (int)N_OPTS);
+    return ESR_FAIL("%s: unknown option '%s'%s%s%s (see `esr train --help`)", where, key,
+                    near ? " (did you mean " : "", near ? near : "", near ? "?)" : "");
+}
+
 static int opt_apply(struct esr_train_config *c, const char *key, double v, const char *where)
 {
     const struct opt *o = opt_find(key);
     if (!o)
-        return ESR_FAIL("%s: unknown option '%s' (see `esr train --help`)", where, key);
+        return unknown_key(where, key);
     ESR_TRY(opt_check(o, v, where));
     opt_store(c, o, v);
     return ESR_OK;
@@ -360,7 +372,7 @@ static int json_apply(struct esr_train_config *c, const cJSON *obj, const char *
         }
         if (!cJSON_IsNumber(it)) {
             if (!opt_find(key))
-                return ESR_FAIL("%s: unknown option '%s'", source, key);
+                return unknown_key(source, key);
             return ESR_FAIL("%s: option '%s' must be a number", source, key);
         }
         ESR_TRY(opt_apply(c, key, it->valuedouble, source));

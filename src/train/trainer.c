@@ -712,6 +712,13 @@ static int remove_earlier_run(struct run *r)
 static int setup(struct run *r)
 {
     char path[4200];
+    if (!r->o->resume && !r->o->force) { /* a forgotten --resume must not wipe a finished run */
+        char held[512];
+        if (esr_dir_list_entries(r->o->run_dir, held, sizeof held) > 0)
+            return ESR_FAIL("%s is not empty (%s): add --resume to continue the run in it, or "
+                            "--force to start over there (its checkpoints are then removed); "
+                            "nothing was changed", r->o->run_dir, held);
+    }
     snprintf(path, sizeof path, "%s/config.json", r->o->run_dir);
     const int stored = r->o->resume && esr_file_exists(path);
     if (stored) {

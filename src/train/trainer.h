@@ -50,6 +50,9 @@ struct esr_train_opts {
     const char *run_dir;           /* created if missing */
     enum esr_stage until;          /* last stage to run */
     int resume;                    /* continue from the checkpoints in run_dir */
+    int force;                     /* without resume: start over in a run_dir that holds
+                                      anything (its checkpoints removed); without force such a
+                                      run_dir is refused, nothing in it changed */
     struct esr_train_config cfg;   /* ignored on resume when run_dir has a config (it wins) */
     const char *const *resume_set; /* on resume with a config: "key=value" options applied over
                                       it (the CLI's --set), checked, and written back to it */
