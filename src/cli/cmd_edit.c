@@ -1,4 +1,5 @@
 /* esr edit RUN: relight a trained scene (turn lights up, down, off, recolour them) and render it. */
+#include <dirent.h>
 #include <math.h>
 #include <omp.h>
 #include <stdio.h>
@@ -14,6 +15,7 @@
 #include "io/dir.h"
 #include "io/staging.h"
 #include "io/image.h"
+#include "io/json_file.h"
 #include "model/model.h"
 #include "render/view.h"
 
@@ -35,8 +37,10 @@ const struct esr_command cmd_edit = {
     "doubles light 0; two groups that set the same thing for one light are refused.\n"
     "Writes per view DIR/N.png (linear through the sRGB curve, clipped) and DIR/N.exr (linear\n"
     "RGB on white); DIR may not lie in RUN's render or eval folders, nor in the dataset unless\n"
-    "inside RUN. On an error the views already written are removed, and so is any folder the\n"
-    "edit made.\n"
+    "inside RUN. The views are written aside and replace DIR only once all are complete, with\n"
+    "DIR/edit.json (the command, the model's fingerprint, each light's edit, the views): an\n"
+    "error or Ctrl-C leaves DIR as it was. A DIR that holds other files than an earlier edit's\n"
+    "is refused.\n"
     "\n"
     "methods:\n"
     "  direct     (default) the lights-off radiance plus the direct light of every light at its\n"
@@ -67,6 +71,8 @@ const struct esr_command cmd_edit = {
 };
 
 struct edit_args {
+    int argc;
+    char **argv; /* for edit.json */
     const char *run, *out, *views, *data, *frames;
     int orbit, spp, n_groups, iters;
     enum esr_edit_method method;
@@ -121,6 +127,8 @@ static int text_value(const char *o, const char *v, const char **out)
 static int parse(int argc, char **argv, struct edit_args *a)
 {
     memset(a, 0, sizeof(*a));
+    a->argc = argc;
+    a->argv = argv;
     a->spp = 8;
     a->method = ESR_EDIT_DIRECT;
     for (int i = 1; i < argc; i++) {
@@ -269,14 +277,12 @@ static int edits_of(const struct edit_args *a, int n, struct esr_light_edit *edi
     return ESR_OK;
 }
 
-/* Writes the view's N.exr and N.png; *written counts the files in place (0, 1 or 2). */
-static int write_view(const char *dir, const char *name, const struct esr_image *lin, int *written)
+/* Writes the view's N.exr and N.png. */
+static int write_view(const char *dir, const char *name, const struct esr_image *lin)
 {
     char path[4200];
-    *written = 0;
     ESR_TRY(esr_view_path(path, sizeof path, dir, name, ".exr"));
     ESR_TRY(esr_exr_write(path, lin, 0));
-    *written = 1;
     struct esr_image png;
     ESR_TRY(esr_image_alloc(&png, lin->width, lin->height, 3));
     for (size_t i = 0; i < esr_image_count(lin); i++)
@@ -285,21 +291,65 @@ static int write_view(const char *dir, const char *name, const struct esr_image 
     if (rc == ESR_OK)
         rc = esr_png_write(path, &png, 8);
     esr_image_free(&png);
-    *written += rc == ESR_OK;
     return rc;
 }
 
-/* After an error: removes the first n views' files this edit wrote (the last one's first
- * `last_files`), so that a failed edit leaves none of its views (and then no folder it made). */
-static void remove_views(const char *dir, char (*names)[ESR_NAME_MAX], int n, int last_files)
+/* An --out that holds something is replaced only when it is an earlier edit's folder (its
+ * edit.json, or nothing but views: N.png and N.exr): a user's other files are never deleted. */
+static int check_replaceable(const char *out)
 {
-    static const char *const ext[2] = {".exr", ".png"};
-    for (int v = 0; v < n; v++)
-        for (int f = 0; f < (v == n - 1 ? last_files : 2); f++) {
-            char path[4200];
-            if (esr_view_path(path, sizeof path, dir, names[v], ext[f]) == ESR_OK)
-                remove(path);
+    DIR *d = opendir(out);
+    if (!d)
+        return ESR_OK; /* absent (made later), or not a folder (said when it is made) */
+    int foreign = 0, record = 0;
+    char first[256] = "";
+    for (struct dirent *e; (e = readdir(d));) {
+        const char *n = e->d_name, *dot = strrchr(n, '.');
+        if (!strcmp(n, ".") || !strcmp(n, ".."))
+            continue;
+        record |= !strcmp(n, "edit.json");
+        if (!strcmp(n, "edit.json") || (dot && (!strcmp(dot, ".png") || !strcmp(dot, ".exr"))))
+            continue;
+        if (!foreign++)
+            snprintf(first, sizeof first, "%s", n);
+    }
+    closedir(d);
+    if (foreign && !record)
+        return ESR_FAIL("--out %s holds files that no esr edit wrote (%s%s): give a new or empty "
+                        "folder (an earlier edit's folder is replaced whole once the new views are "
+                        "complete)", out, first, foreign > 1 ? ", ..." : "");
+    return ESR_OK;
+}
+
+/* DIR/edit.json: what made the folder (command, options, build, time), the model and its lights
+ * by fingerprint, each light's edit and the views. */
+static int write_record(const char *dir, const struct edit_args *a, const struct esr_model *m,
+                        const struct esr_light_edit *edits, char (*names)[ESR_NAME_MAX], int views)
+{
+    cJSON *r = cli_record("edit", a->argc, a->argv);
+    char fp[32];
+    snprintf(fp, sizeof fp, "%016llx", (unsigned long long)esr_model_fingerprint(m));
+    cJSON_AddStringToObject(r, "run", a->run);
+    cJSON_AddStringToObject(r, "model_fingerprint", fp);
+    cJSON_AddStringToObject(r, "method", esr_edit_method_name(a->method));
+    cJSON_AddNumberToObject(r, "spp", a->spp);
+    cJSON *lights = cJSON_AddArrayToObject(r, "lights");
+    for (int k = 0; k < m->lights.n; k++) {
+        cJSON *l = cJSON_CreateObject();
+        cJSON_AddNumberToObject(l, "id", k);
+        cJSON_AddNumberToObject(l, "intensity", edits[k].intensity);
+        if (edits[k].recolour) {
+            cJSON_AddNumberToObject(l, "hue", edits[k].hue);
+            cJSON_AddNumberToObject(l, "saturation", edits[k].sat);
         }
+        cJSON_AddItemToArray(lights, l);
+    }
+    cJSON *v = cJSON_AddArrayToObject(r, "views");
+    for (int i = 0; i < views; i++)
+        cJSON_AddItemToArray(v, cJSON_CreateString(names[i]));
+    char path[4200];
+    snprintf(path, sizeof path, "%s/edit.json", dir);
+    return esr_json_write_atomic(path, r);
 }
 
 /* Refuses an output folder in RUN's own render and eval folders, or in the dataset outside RUN
@@ -346,9 +396,25 @@ static int edit(const struct edit_args *a)
     if (rc == ESR_OK && a->orbit)
         rc = esr_camera_orbit(&sel.ds.phases[sel.phase].frames[sel.idx[0]].camera, centre, 0,
                               a->orbit, &orbit0);
-    char made[4200] = ""; /* the outermost folder of --out this edit created */
+    /* the views go into a staging folder beside --out, which replaces it only once every view
+     * and edit.json are written: a failed or interrupted edit leaves --out as it was */
+    char parent[4200], made[4200] = "", staging[4200] = "";
+    snprintf(parent, sizeof parent, "%s", a->out);
+    char *slash = strrchr(parent, '/');
+    while (slash && slash > parent && slash[1] == '\0') { /* "dir/" */
+        *slash = '\0';
+        slash = strrchr(parent, '/');
+    }
+    if (slash)
+        *(slash == parent ? slash + 1 : slash) = '\0';
+    else
+        snprintf(parent, sizeof parent, ".");
     if (rc == ESR_OK)
-        rc = esr_dir_prepare_output_made(a->out, made, sizeof made);
+        rc = check_replaceable(a->out);
+    if (rc == ESR_OK)
+        rc = esr_dir_prepare_output_made(parent, made, sizeof made);
+    if (rc == ESR_OK)
+        rc = esr_staging_begin(a->out, 1, staging, sizeof staging);
     if (rc == ESR_OK)
         rc = esr_editor_init(&ed, &m, &sel.ds, a->method, a->spp, &ft);
     if (rc == ESR_OK && a->method == ESR_EDIT_FINETUNE)
@@ -364,13 +430,17 @@ static int edit(const struct edit_args *a)
     char(*names)[ESR_NAME_MAX] = rc == ESR_OK ? calloc((size_t)views, sizeof *names) : NULL;
     if (rc == ESR_OK && !names)
         rc = ESR_FAIL("out of memory for %d view names", views);
-    int done = 0, last_files = 0; /* views whose files were (partly) written */
     /* the previous view: a phase's off and on frames of one camera give the same edited view
      * (the edit, not the frame, sets the lighting), so it is rendered once */
     struct esr_image prev = {0};
     struct esr_camera prev_cam;
     memset(&prev_cam, 0, sizeof prev_cam);
     for (int v = 0; rc == ESR_OK && v < views; v++) {
+        if (cli_interrupted()) {
+            rc = ESR_FAIL("interrupted after %d of %d views: nothing was written (%s is as it was)",
+                          v, views, a->out);
+            break;
+        }
         const struct esr_frame *f = &ph->frames[sel.idx[a->orbit ? 0 : v]];
         char *name = names[v];
         struct esr_camera cam = f->camera;
@@ -388,19 +458,28 @@ static int edit(const struct edit_args *a)
             prev_cam = cam;
         }
         const double secs = omp_get_wtime() - t0;
-        if (rc == ESR_OK) {
-            done = v + 1;
-            rc = write_view(a->out, name, &prev, &last_files);
-        }
+        if (rc == ESR_OK)
+            rc = write_view(staging, name, &prev);
         if (rc == ESR_OK)
             fprintf(stderr, "  %-16s %4d / %-4d  %.2f s%s\n", name, v + 1, views, secs,
                     same ? " (the previous frame's camera: its view)" : "");
     }
     esr_image_free(&prev);
-    if (rc != ESR_OK && done > 0)
-        remove_views(a->out, names, done, last_files);
-    if (rc != ESR_OK)
-        esr_dir_remove_made(a->out, made);
+    if (rc == ESR_OK)
+        rc = write_record(staging, a, &m, edits, names, views);
+    if (rc == ESR_OK) {
+        cli_hold_signals(1); /* the swap is not cut in two */
+        rc = esr_staging_commit(staging, a->out);
+        cli_hold_signals(0);
+    }
+    if (rc == ESR_OK) {
+        fprintf(stderr, "wrote %d view%s to %s (N.png: sRGB, N.exr: linear; %s%s) and edit.json\n",
+                views, views == 1 ? "" : "s", a->out, names[0], views > 1 ? " ..." : "");
+    } else {
+        if (staging[0])
+            esr_remove_tree(staging);
+        esr_dir_remove_made(parent, made);
+    }
     free(names);
     esr_editor_free(&ed);
     esr_model_free(&m);
@@ -415,5 +494,9 @@ static int run_edit(int argc, char **argv)
     struct edit_args a;
     if (parse(argc, argv, &a))
         return 1;
-    return edit(&a) == ESR_OK ? 0 : cli_fail_lib(&cmd_edit);
+    cli_catch_interrupt(&cmd_edit, 0);
+    if (edit(&a) == ESR_OK)
+        return 0;
+    cli_fail_lib(&cmd_edit);
+    return cli_interrupted() ? 128 + cli_interrupted() : 1;
 }

@@ -241,9 +241,10 @@ static int make_paths(const char *run, const char *phase, struct eval_paths *p)
 /* Chamfer distance of the model's surface to the dataset's ground-truth mesh, when both exist
  * (*scored set then, *r the result), written to eval/geometry.json. */
 static int score_geometry(const char *run, const struct esr_dataset *ds, const struct eval_paths *p,
-                          struct esr_chamfer_result *r, int *scored)
+                          struct cli_aside *aside, struct esr_chamfer_result *r, int *scored)
 {
     char gt[ESR_PATH_MAX], json[ESR_PATH_MAX];
+    const char *to;
     *scored = 0;
     if (!esr_geometry_gt_path(ds->root, gt, sizeof gt))
         return ESR_OK;
@@ -254,10 +255,11 @@ static int score_geometry(const char *run, const struct esr_dataset *ds, const s
     }
     int status = esr_geometry_score(&model, gt, r);
     esr_model_free(&model);
-    if (snprintf(json, sizeof json, "%s/geometry.json", p->eval) >= (int)sizeof json)
+    if (snprintf(json, sizeof json, "%s/geometry.json", p->eval) >= (int)sizeof json ||
+        !(to = cli_aside_add(aside, json)))
         return ESR_FAIL("run path '%s' is too long", run);
     if (status == ESR_OK)
-        status = esr_geometry_write_json(json, gt, r);
+        status = esr_geometry_write_json(to, gt, r);
     if (status == ESR_OK)
         printf("geometry vs %s: chamfer %.5f  (accuracy %.5f, completeness %.5f; %zu samples each)\n", gt,
                r->chamfer, r->accuracy, r->completeness, r->n_samples);
@@ -272,14 +274,20 @@ static int evaluate(const struct eval_args *a, const struct esr_run_selection *s
     ESR_TRY(esr_eval_check_truth(&sel->ds, sel->phase, sel->idx, sel->n));
     ESR_TRY(ensure_renders(a, sel, p->render));
     int status = esr_eval_phase(&sel->ds, sel->phase, sel->idx, sel->n, p->render, &res);
+    /* the scores, the geometry and the report are written aside and replace the earlier ones
+     * together, once all three are complete */
+    struct cli_aside aside = {0};
+    const char *json_to = cli_aside_add(&aside, p->json), *report_to = cli_aside_add(&aside, p->report);
+    if (status == ESR_OK && (!json_to || !report_to))
+        status = ESR_FAIL("run path '%s' is too long", a->run);
     if (status == ESR_OK)
         status = esr_dir_prepare_output(p->eval);
     if (status == ESR_OK)
-        status = esr_eval_write_json(p->json, &sel->ds, &res);
+        status = esr_eval_write_json(json_to, &sel->ds, &res);
     struct esr_chamfer_result geometry; /* the surface, for the report too */
     int scored = 0;
     if (status == ESR_OK)
-        status = score_geometry(a->run, &sel->ds, p, &geometry, &scored);
+        status = score_geometry(a->run, &sel->ds, p, &aside, &geometry, &scored);
     /* the lights the run found, for the report (a run without a pdra checkpoint has none) */
     struct esr_model m;
     memset(&m, 0, sizeof m);
@@ -288,12 +296,18 @@ static int evaluate(const struct eval_args *a, const struct esr_run_selection *s
     if (status == ESR_OK && esr_file_exists(ckpt))
         status = esr_model_load(&m, ckpt);
     if (status == ESR_OK) {
-        struct esr_report_spec spec = {p->report, a->run,    &sel->ds, &res,     p->render_href,
+        struct esr_report_spec spec = {report_to, a->run,    &sel->ds, &res,     p->render_href,
                                        p->gt,     p->gt_href, p->log,   &m.lights,
                                        scored ? &geometry : NULL};
         status = esr_report_write(&spec);
     }
     esr_model_free(&m);
+    if (status == ESR_OK && cli_interrupted())
+        status = ESR_FAIL("interrupted: the earlier scores and report are as they were");
+    if (status == ESR_OK)
+        status = cli_aside_commit(&aside);
+    else
+        cli_aside_discard(&aside);
     if (status == ESR_OK) {
         print_table(&res);
         print_normals(&res);
@@ -329,12 +343,20 @@ static int evaluate_edits(const struct eval_args *a, const struct esr_run_select
         status = esr_edit_eval_phase(&m, &sel->ds, sel->phase, sel->idx, sel->n, dir, a->method,
                                      a->spp, &ft, show_edit_progress, NULL, &res);
     }
+    struct cli_aside aside = {0};
+    const char *json_to = cli_aside_add(&aside, json), *html_to = cli_aside_add(&aside, html);
+    if (status == ESR_OK && (!json_to || !html_to))
+        status = ESR_FAIL("run path '%s' is too long", a->run);
     if (status == ESR_OK)
         status = esr_dir_prepare_output(eval_dir);
     if (status == ESR_OK)
-        status = esr_edit_eval_write_json(json, &res);
+        status = esr_edit_eval_write_json(json_to, &res);
     if (status == ESR_OK)
-        status = esr_edit_eval_write_html(html, a->run, &res, href, "render/test_nv");
+        status = esr_edit_eval_write_html(html_to, a->run, &res, href, "render/test_nv");
+    if (status == ESR_OK)
+        status = cli_aside_commit(&aside);
+    else
+        cli_aside_discard(&aside);
     if (status == ESR_OK) {
         printf("%-16s %8s %7s %8s\n", "view", "PSNR", "SSIM", "seconds");
         for (int i = 0; i < res.n; i++)
@@ -407,6 +429,9 @@ static int run_eval(int argc, char **argv)
         return cli_fail(&cmd_eval, "missing RUN directory");
     if (a.iters && a.method != ESR_EDIT_FINETUNE)
         return cli_fail(&cmd_eval, "--iters is read only with --method finetune");
+    /* Ctrl-C: the aside files go, the earlier results stay (the renders made so far are kept:
+     * each is complete and recorded, and the next eval reuses them) */
+    cli_catch_interrupt(&cmd_eval, 1);
     struct eval_paths paths;
     struct esr_run_selection sel;
     memset(&sel, 0, sizeof sel);

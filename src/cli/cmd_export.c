@@ -7,6 +7,7 @@
 #include <unistd.h>
 
 #include "cli/commands.h"
+#include "io/dir.h"
 #include "core/error.h"
 #include "io/ply.h"
 #include "io/stale.h"
@@ -77,8 +78,10 @@ static int export_mesh(const char *run, const char *mesh_path, const char *gltf_
         if (status == ESR_OK && gltf_path) { /* the temporary name, reserved */
             status = esr_stale_template(tmp, sizeof tmp, prefix);
             const int fd = status == ESR_OK ? mkstemp(tmp) : -1;
-            if (fd >= 0)
+            if (fd >= 0) {
                 close(fd);
+                cli_aside_register(tmp); /* removed by a Ctrl-C */
+            }
             else {
                 if (status == ESR_OK)
                     status = ESR_FAIL("cannot write beside %s: %s", mesh_path, strerror(errno));
@@ -156,6 +159,8 @@ static int run_export(int argc, char **argv)
     for (int i = 0; i < 2; i++)
         if (outs[i] && check_not_input(run, outs[i]) != ESR_OK)
             return cli_fail_lib(&cmd_export);
+    if (esr_dir_check_run(run) != ESR_OK)
+        return cli_fail_lib(&cmd_export);
     if (mesh && gltf) { /* the glTF would replace the PLY just written */
         char a[4096], b[4096];
         if (esr_path_resolve(mesh, a, sizeof a) != ESR_OK || esr_path_resolve(gltf, b, sizeof b) != ESR_OK)
@@ -163,5 +168,21 @@ static int run_export(int argc, char **argv)
         if (!strcmp(a, b))
             return cli_fail(&cmd_export, "--mesh and --gltf name the same file (%s)", a);
     }
-    return export_mesh(run, mesh, gltf, res, colours) == ESR_OK ? 0 : cli_fail_lib(&cmd_export);
+    /* the outputs' folders before the model is loaded and meshed */
+    char made[2][4200] = {"", ""};
+    int status = ESR_OK;
+    if (mesh)
+        status = cli_output_file("--mesh", mesh, ".ply", made[0], sizeof made[0]);
+    if (status == ESR_OK && gltf)
+        status = cli_output_file("--gltf", gltf, ".glb", made[1], sizeof made[1]);
+    cli_catch_interrupt(&cmd_export, 1); /* the outputs are written atomically: a Ctrl-C keeps
+                                            the earlier ones */
+    if (status == ESR_OK)
+        status = export_mesh(run, mesh, gltf, res, colours);
+    if (status == ESR_OK)
+        return 0;
+    for (int i = 1; i >= 0; i--)
+        if (outs[i])
+            esr_dir_remove_made(outs[i], made[i]);
+    return cli_fail_lib(&cmd_export);
 }

@@ -155,6 +155,10 @@ static int run_info(int argc, char **argv)
     }
     if (!dir)
         return cli_fail(&cmd_info, "missing DATA_DIR");
+    /* the outputs' names and folders before the dataset is checked (a minute on a large one) */
+    if ((json_path && cli_output_file("--json", json_path, ".json", NULL, 0) != ESR_OK) ||
+        (sheet_path && cli_output_file("--contact-sheet", sheet_path, ".png", NULL, 0) != ESR_OK))
+        return cli_fail_lib(&cmd_info);
     struct esr_dataset ds;
     if (esr_dataset_load(dir, &ds) != ESR_OK)
         return cli_fail_lib(&cmd_info);

@@ -32,6 +32,44 @@ int cli_parse_int(const char *text, long lo, long hi, int *out);
  * success, -1 otherwise. */
 int cli_parse_double(const char *text, double lo, double hi, double *out);
 
+/* Interruption of a command that writes results (cli/interrupt.c). at_once 0: SIGINT/SIGTERM
+ * set a flag (cli_interrupted: the signal's number) that the command checks between units of
+ * work; 1: the registered temporary files are removed and the process exits (128 + signal). */
+void cli_catch_interrupt(const struct esr_command *cmd, int at_once);
+int cli_interrupted(void);
+/* Registers a temporary file for removal on an at-once interruption; returns the stored path
+ * (NULL when the table is full). cli_aside_clear forgets them all (once they are in place). */
+const char *cli_aside_register(const char *path);
+void cli_aside_clear(void);
+/* Holds SIGINT and SIGTERM back (hold 1) while results move into place, or lets them in (0). */
+int cli_hold_signals(int hold);
+
+/* Files that belong together (a phase's scores and the report that shows them), written aside
+ * under temporary names and moved into place together once all are complete (signals held off
+ * meanwhile), so a failed or interrupted command leaves the earlier set, never a mix. */
+#define CLI_ASIDE_MAX 8
+struct cli_aside {
+    int n;
+    char final[CLI_ASIDE_MAX][4200];
+    char temp[CLI_ASIDE_MAX][4300];
+};
+/* The temporary path to write `final` to (registered for an at-once interruption); NULL when
+ * the set is full or the path too long. */
+const char *cli_aside_add(struct cli_aside *s, const char *final);
+/* Moves every written temporary file onto its final name (ESR_ERR naming the file, the rest
+ * removed, on failure); cli_aside_discard removes them instead. */
+int cli_aside_commit(struct cli_aside *s);
+void cli_aside_discard(struct cli_aside *s);
+
+/* An output file given by `option`: refused (ESR_ERR, said why) unless its name ends in ext
+ * (".ply", ".glb", ".json", ".png"; case aside) or when it names a folder; its missing folders
+ * are made now, before any work (made: the outermost one made, for esr_dir_remove_made). */
+int cli_output_file(const char *option, const char *path, const char *ext, char *made, size_t n);
+
+/* The record of what made an output (cli/record.c): {"command": "esr NAME ARGS", "argv": [...],
+ * "esr": version, "commit", "time": ISO 8601 UTC}; the caller owns it. */
+struct cJSON *cli_record(const char *cmd_name, int argc, char **argv);
+
 /* Add `extern const struct esr_command cmd_<name>;` here and a row in main.c's table. */
 extern const struct esr_command cmd_metrics;
 extern const struct esr_command cmd_info;
