@@ -41,6 +41,7 @@ struct run {
     int nan_failures;
     int nan_injected;
     int stopped; /* the stop_test_iter hook fired */
+    struct esr_train_health health;
     int lock_fd; /* RUN held for this run (io/dir.h esr_dir_lock), -1 before */
     char log_path[4096];
 };
@@ -207,6 +208,7 @@ static void report_window(struct run *r, const struct esr_model *m, enum esr_sta
              p.kept_per_ray, (double)m->inv_s, extra);
     append_jsonl(r, line);
     emit(r, &p);
+    r->health.last_psnr = p.psnr;
     memset(w, 0, sizeof(*w));
     w->t0 = now;
 }
@@ -297,6 +299,7 @@ static int recover(struct run *r, struct esr_model *m, enum esr_stage s, long it
     char path[4200];
     ckpt_path(r, s, path, sizeof path);
     r->nan_failures++;
+    r->health.nan_recoveries = r->nan_failures;
     if (r->nan_failures >= MAX_NAN_FAILURES)
         return ESR_FAIL("train: non-finite loss or gradient in stage %s at iteration %ld, "
                         "failure %d of %d: stopping; the last good checkpoint %s is intact",
@@ -406,6 +409,8 @@ static int find_lights(struct run *r, struct esr_model *m, enum esr_stage s)
     esr_lights_balance_text(m, &bal, line, sizeof line);
     say(r, s, "%s", line);
     say(r, s, "lights found: %d", m->lights.n);
+    r->health.lights_found = m->lights.n;
+    r->health.lights_left_out = m->lights.n_left_out;
     if (esr_lights_uncalibrated(&m->lights))
         say(r, s, ESR_LIGHTS_UNCALIBRATED_TEXT);
     for (int i = 0; i < m->lights.n; i++) {
@@ -706,6 +711,56 @@ static int remove_earlier_run(struct run *r)
     return ESR_OK;
 }
 
+/* The data's failure line (esr_train_health.psnr_floor): the PSNR of painting every training
+ * pixel its lighting's mean colour, plus 3 dB. */
+static double psnr_floor(const struct esr_ray_set *rs)
+{
+    double sq = 0.0;
+    const size_t parts[3] = {0, rs->n_off, rs->n};
+    for (int g = 0; g < 2; g++) {
+        const size_t a = parts[g], b = parts[g + 1];
+        if (b <= a)
+            continue;
+        for (int c = 0; c < 3; c++) {
+            double sum = 0.0, sum2 = 0.0;
+            for (size_t i = a; i < b; i++) {
+                const double v = rs->rgb3[3 * i + c];
+                sum += v;
+                sum2 += v * v;
+            }
+            const double mean = sum / (double)(b - a);
+            sq += sum2 - mean * sum; /* the squared deviations from the mean, summed */
+        }
+    }
+    const double mse = rs->n > 0 ? sq / (3.0 * (double)rs->n) : 0.0;
+    return esr_psnr_from_mse(mse > 1e-12 ? mse : 1e-12) + 3.0;
+}
+
+int esr_train_health_problems(const struct esr_train_health *h, char lines[][320], int max)
+{
+    int n = 0;
+    if (h->trained && h->last_stage >= ESR_STAGE_COARSE && isfinite(h->last_psnr) &&
+        h->last_psnr < h->psnr_floor && n < max)
+        snprintf(lines[n++], 320, "stage %s ended at a training PSNR of %.1f dB, below this "
+                 "dataset's floor of %.1f dB (a constant colour per lighting scores 3 dB less): "
+                 "it did not converge (too few iterations, or a learning rate too high)",
+                 esr_stage_name(h->last_stage), h->last_psnr, h->psnr_floor);
+    if (h->lights_listed > 0 && h->lights_found > 2 * h->lights_listed &&
+        h->lights_found >= h->lights_listed + 3 && n < max)
+        snprintf(lines[n++], 320, "%d lights found where the dataset describes %d: the emission "
+                 "is fragmented (the emitter stages did not converge)", h->lights_found,
+                 h->lights_listed);
+    else if (h->lights_left_out > 0 && n < max)
+        snprintf(lines[n++], 320, "%d lights found and %d more emitting regions left out: the "
+                 "emission is fragmented (the emitter stages did not converge)", h->lights_found,
+                 h->lights_left_out);
+    if (h->nan_recoveries > 0 && n < max)
+        snprintf(lines[n++], 320, "%d non-finite loss%s or gradients recovered from (learning "
+                 "rate halved each time): check the run's figures", h->nan_recoveries,
+                 h->nan_recoveries == 1 ? "" : "es");
+    return n;
+}
+
 /* The run's options and training rays. The options, the dataset and every training image are
  * checked before anything is written: a bad dataset leaves a new RUN folder uncreated and an
  * existing run's config.json and run.json as they were. */
@@ -745,6 +800,7 @@ static int setup(struct run *r)
                                 "about its centre: [%.3g, %.3g, %.3g] .. [%.3g, %.3g, %.3g]",
             (double)ds.bbox_min[0], (double)ds.bbox_min[1], (double)ds.bbox_min[2], (double)ds.bbox_max[0],
             (double)ds.bbox_max[1], (double)ds.bbox_max[2]);
+    r->health.lights_listed = ds.n_lights;
     int rc = esr_ray_set_build(&r->rays, &ds, ESR_PHASE_TRAIN);
     char root[sizeof ds.root];
     snprintf(root, sizeof root, "%s", ds.root);
@@ -773,6 +829,7 @@ static int setup(struct run *r)
             say(r, ESR_STAGE_COUNT, "resume: %s holds no run yet (no config.json): training from "
                                     "the start", r->o->run_dir);
     }
+    r->health.psnr_floor = psnr_floor(&r->rays);
     if (!r->o->resume)
         ESR_TRY(remove_earlier_run(r));
     if (!stored || r->o->n_resume_set > 0)
@@ -814,8 +871,12 @@ int esr_train_run(const struct esr_train_opts *o)
         have_prev = 0;
         if (rc != ESR_OK)
             break;
-        if (!cur.stage_done)
+        r.health.last_stage = (enum esr_stage)s;
+        if (!cur.stage_done) {
+            r.health.trained = 1;
+            r.health.last_psnr = NAN;
             rc = run_stage(&r, &cur, (enum esr_stage)s);
+        }
         prev = cur;
         have_prev = 1;
         if (rc == ESR_OK && o->interrupt && *o->interrupt && s < (int)o->until)
@@ -828,5 +889,7 @@ int esr_train_run(const struct esr_train_opts *o)
         esr_model_free(&prev);
     esr_ray_set_free(&r.rays);
     esr_dir_unlock(r.lock_fd);
+    if (o->health)
+        *o->health = r.health;
     return rc;
 }

@@ -45,6 +45,20 @@ struct esr_train_progress {
 
 typedef void (*esr_train_report_fn)(void *user, const struct esr_train_progress *p);
 
+/* How a run went, for the warning a failed run must end with (esr_train_health_problems): a
+ * training can finish every iteration and still have learned nothing. */
+struct esr_train_health {
+    enum esr_stage last_stage; /* the last stage this call trained or resumed */
+    int trained;               /* iterations ran in this call (a run resumed as finished: 0) */
+    double last_psnr;          /* the last stage's final window: batch PSNR (dB) of the colour */
+    double psnr_floor;         /* what the data sets as failure: the PSNR of painting every pixel
+                                  its lighting's mean training colour, plus 3 dB (a model that
+                                  does not halve that constant guess's error learned nothing) */
+    int nan_recoveries;        /* non-finite losses or gradients recovered from */
+    int lights_found, lights_left_out; /* pdra: lights, and emitting regions past ESR_MAX_LIGHTS */
+    int lights_listed;         /* lights the dataset's frames describe (0: it does not say) */
+};
+
 struct esr_train_opts {
     const char *data_dir;
     const char *run_dir;           /* created if missing */
@@ -72,7 +86,14 @@ struct esr_train_opts {
                                       stage stop_test_stage, without saving, as a kill -9 would
                                       leave the run (0 = never) */
     enum esr_stage stop_test_stage;
+    struct esr_train_health *health; /* or NULL: filled as the run goes */
 };
+
+/* The problems that say a finished run failed, one line each into lines (at most max): a PSNR
+ * below the data's floor, far more lights than the dataset describes (more than twice as many
+ * and at least 3 more) or emitting regions past the lights' limit (the emission is fragmented),
+ * non-finite recoveries. Returns how many. */
+int esr_train_health_problems(const struct esr_train_health *h, char lines[][320], int max);
 
 /* Runs the stages up to opts->until. ESR_ERR with a message on bad data, I/O failure or after
  * repeated NaN failures. */
