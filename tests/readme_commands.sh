@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The README's command lines run as written, as far as a cheap check can tell: every command in
-# its fenced code blocks that starts with `esr` (or a path ending in /esr, such as ./build/esr)
-# must name a subcommand whose `--help` succeeds, and every --option it uses must appear in that
+# its fenced code blocks that starts with `esr` (or a path ending in /esr, such as ./build/esr),
+# and every inline code span that is a `./build/esr ...` command line, must name a subcommand whose `--help` succeeds, and every --option it uses must appear in that
 # --help text. Nothing is trained or rendered. A README line naming an option that --help does not
 # list (one renamed or removed, or a typo) fails the test, naming the line.
 #
@@ -12,11 +12,20 @@ esr=${2:?usage: readme_commands.sh README.md ESR_BINARY}
 [ -r "$readme" ] || { echo "readme_commands: cannot read $readme"; exit 1; }
 [ -x "$esr" ] || { echo "readme_commands: $esr is not an executable"; exit 1; }
 
-# The fenced blocks' lines, continuations (a trailing backslash) joined, comments (` # ...`)
+# The fenced blocks' lines (and the inline ./build/esr spans), continuations (a trailing backslash) joined, comments (` # ...`)
 # dropped, as "LINENO<TAB>TEXT".
 commands=$(awk '
   /^[[:space:]]*```/ { fenced = !fenced; next }
-  !fenced { next }
+  !fenced {
+    # inline code that is a runnable command line: `./build/esr ...` (tables, prose)
+    rest = $0
+    while (match(rest, /`[^`]+`/)) {
+      span = substr(rest, RSTART + 1, RLENGTH - 2)
+      rest = substr(rest, RSTART + RLENGTH)
+      if (span ~ /^(\/usr\/bin\/time -v )?\.\/build\/esr /) print NR "\t" span
+    }
+    next
+  }
   {
     line = $0
     if (pending != "") { line = pending " " line; start = pstart } else start = NR
@@ -26,6 +35,7 @@ commands=$(awk '
     print start "\t" line
   }' "$readme")
 
+name=${readme##*/}
 checked=0
 failed=0
 declare -A help_of
@@ -55,7 +65,7 @@ while IFS=$'\t' read -r lineno text; do
         sub=${tok[$((i + 1))]:-}
         rest=$((i + 2))
         if [ -z "$sub" ] || [ "${sub#-}" != "$sub" ]; then
-            echo "README.md:$lineno: '$seg' names no subcommand"
+            echo "$name:$lineno: '$seg' names no subcommand"
             failed=$((failed + 1))
             continue
         fi
@@ -67,7 +77,7 @@ while IFS=$'\t' read -r lineno text; do
         if [ -z "${help_of[$key]+set}" ]; then
             # shellcheck disable=SC2086
             if ! help_of[$key]=$("$esr" $key --help 2>&1); then
-                echo "README.md:$lineno: 'esr $key --help' fails: the README names a command esr does not have"
+                echo "$name:$lineno: 'esr $key --help' fails: the README names a command esr does not have"
                 failed=$((failed + 1))
                 help_of[$key]=""
                 continue
@@ -80,7 +90,7 @@ while IFS=$'\t' read -r lineno text; do
             case "$opt" in --[a-zA-Z]*) ;; *) continue ;; esac
             opt=${opt%%=*}
             if ! grep -Eq -- "${opt}([^a-zA-Z0-9_-]|\$)" <<<"${help_of[$key]}"; then
-                echo "README.md:$lineno: 'esr $key' has no option $opt in its --help (line: $seg)"
+                echo "$name:$lineno: 'esr $key' has no option $opt in its --help (line: $seg)"
                 failed=$((failed + 1))
             fi
         done
