@@ -61,7 +61,9 @@ while IFS=$'\t' read -r lineno text; do
             esac
             i=$((i + 1))
         done
-        [ $i -lt ${#tok[@]} ] && is_esr "${tok[$i]}" || continue
+        if [ $i -ge ${#tok[@]} ] || ! is_esr "${tok[$i]}"; then
+            continue
+        fi
         sub=${tok[$((i + 1))]:-}
         rest=$((i + 2))
         if [ -z "$sub" ] || [ "${sub#-}" != "$sub" ]; then
