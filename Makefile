@@ -1,6 +1,6 @@
 # Set-up and entry points. `make demo` and `make test` are the two commands in the README:
 # both install missing Debian packages (as root, non-interactively), build, and leave build/esr.
-.PHONY: all deps test-tools build demo test test-release test-asan bench colmap-roundtrip fuzz clean
+.PHONY: all deps test-tools build check demo test test-release test-asan bench colmap-roundtrip fuzz clean
 
 DEB_PACKAGES := build-essential cmake pkg-config libspng-dev libopenexr-dev libcjson-dev \
                 libjpeg62-turbo-dev libcmocka-dev zlib1g-dev libzip-dev imagemagick libdnnl-dev libopenblas-pthread-dev
@@ -34,6 +34,11 @@ test-tools: deps
 build: deps
 	cmake -S . -B build -DCMAKE_BUILD_TYPE=Release >/dev/null
 	cmake --build build -j $(JOBS)
+
+# the quick loop: after `make build`, the unit tests of every module (ctest label `unit`: no
+# training, no kills; the end-to-end runs are `e2e`, the gradient sweep `slow`), under 2 minutes
+check: build
+	cd build && ctest --output-on-failure -j $(JOBS) -L unit
 
 demo: build
 	./build/esr demo --out $(DEMO_OUT)

@@ -15,7 +15,7 @@
 #include "io/file.h"
 #include "test_support.h"
 
-static const char *const TRAIN_OPTS = "--set batch_rays=512 --set alphamask.iters=100 --set alphamask.res=16 "
+static const char *const TRAIN_OPTS = "--allow-poor --set batch_rays=512 --set alphamask.iters=100 --set alphamask.res=16 "
                                       "--set coarse.iters=10 --set coarse.res=16";
 
 /* Runs esr with args under a file-size limit of blocks x 512 bytes (0: none), output into out. */

@@ -61,7 +61,7 @@ static void test_check_against_a_budget(void **state)
     esr_error_clear();
 }
 
-static const char *TRAIN_OPTS = "--until coarse --set batch_rays=512 --set alphamask.res=16 "
+static const char *TRAIN_OPTS = "--until coarse --allow-poor --set batch_rays=512 --set alphamask.res=16 "
                                 "--set alphamask.iters=100 --set coarse.res=32 --set coarse.iters=5";
 
 /* Trains into run under ESR_MEMORY_LIMIT=limit; returns the exit status, output in out. */

@@ -5,6 +5,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 
 #include "cli/commands.h"
 #include "core/colour.h"
@@ -294,27 +295,30 @@ static int write_view(const char *dir, const char *name, const struct esr_image 
     return rc;
 }
 
-/* An --out that holds something is replaced only when it is an earlier edit's folder (its
- * edit.json, or nothing but views: N.png and N.exr): a user's other files are never deleted. */
+/* An --out that holds something is replaced only when it is an earlier edit's folder (nothing
+ * but files named N.png, N.exr and edit.json): a user's other files are never deleted. */
 static int check_replaceable(const char *out)
 {
     DIR *d = opendir(out);
     if (!d)
         return ESR_OK; /* absent (made later), or not a folder (said when it is made) */
-    int foreign = 0, record = 0;
+    int foreign = 0;
     char first[256] = "";
     for (struct dirent *e; (e = readdir(d));) {
         const char *n = e->d_name, *dot = strrchr(n, '.');
         if (!strcmp(n, ".") || !strcmp(n, ".."))
             continue;
-        record |= !strcmp(n, "edit.json");
-        if (!strcmp(n, "edit.json") || (dot && (!strcmp(dot, ".png") || !strcmp(dot, ".exr"))))
+        char path[4400];
+        struct stat st;
+        snprintf(path, sizeof path, "%s/%s", out, n);
+        const int file = lstat(path, &st) == 0 && S_ISREG(st.st_mode);
+        if (file && (!strcmp(n, "edit.json") || (dot && (!strcmp(dot, ".png") || !strcmp(dot, ".exr")))))
             continue;
         if (!foreign++)
             snprintf(first, sizeof first, "%s", n);
     }
     closedir(d);
-    if (foreign && !record)
+    if (foreign)
         return ESR_FAIL("--out %s holds files that no esr edit wrote (%s%s): give a new or empty "
                         "folder (an earlier edit's folder is replaced whole once the new views are "
                         "complete)", out, first, foreign > 1 ? ", ..." : "");

@@ -167,3 +167,45 @@ long test_dead_pid(void)
         return -1;
     return (long)p;
 }
+
+long test_spawn_esr(const char *args, const char *log)
+{
+    char cmd[12288];
+    snprintf(cmd, sizeof cmd, "exec '%s' %s > '%s' 2>&1", ESR_BINARY, args, log);
+    const pid_t pid = fork();
+    if (pid == 0) {
+        execl("/bin/sh", "sh", "-c", cmd, (char *)NULL);
+        _exit(127);
+    }
+    return pid;
+}
+
+int test_wait_esr(long pid)
+{
+    int status;
+    if (waitpid((pid_t)pid, &status, 0) != (pid_t)pid)
+        return -1;
+    return WIFEXITED(status) ? WEXITSTATUS(status) : WIFSIGNALED(status) ? 128 + WTERMSIG(status) : -1;
+}
+
+int test_wait_for_text(const char *path, const char *text, int timeout_ms)
+{
+    for (int waited = 0; waited <= timeout_ms; waited += 5) {
+        unsigned char *data = NULL;
+        size_t size = 0;
+        if (esr_file_read_all(path, &data, &size) == 0) {
+            char *t = realloc(data, size + 1);
+            if (t) {
+                t[size] = '\0';
+                const int found = strstr(t, text) != NULL;
+                free(t);
+                if (found)
+                    return 1;
+            } else {
+                free(data);
+            }
+        }
+        usleep(5000);
+    }
+    return 0;
+}

@@ -18,6 +18,12 @@ int test_teardown_tmpdir(void **state);
 int test_run_esr(const char *args, char *out, size_t n);
 /* The same after shell commands `shell` (for example limits: "ulimit -f 8; "), in one sh -c. */
 int test_run_esr_after(const char *shell, const char *args, char *out, size_t n);
+/* Starts `esr args` in the background, its output to the file log; returns its process id. */
+long test_spawn_esr(const char *args, const char *log);
+/* Waits for it: its exit status, or 128 + the signal that ended it. */
+int test_wait_esr(long pid);
+/* 1 once the file path holds text (polled every 5 ms), 0 after timeout_ms. */
+int test_wait_for_text(const char *path, const char *text, int timeout_ms);
 /* esr synth of a small scene into dir (16 px, 1 sample, 4 + 4 training views, 1 test camera,
  * a second or two): the data of tests that train briefly. Returns esr's exit code. */
 int test_synth_small(const char *dir);
