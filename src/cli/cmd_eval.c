@@ -77,6 +77,8 @@ struct eval_args {
     int spp, iters;
     enum esr_edit_method method;
     const char *edit_option; /* the first of --method, --spp, --iters given (edit phases only) */
+    int argc;
+    char **argv; /* for the JSON's "made_by" */
 };
 
 static void show_progress(void *user, const struct esr_view_progress *p)
@@ -284,6 +286,8 @@ static int evaluate(const struct eval_args *a, const struct esr_run_selection *s
         status = esr_dir_prepare_output(p->eval);
     if (status == ESR_OK)
         status = esr_eval_write_json(json_to, &sel->ds, &res);
+    if (status == ESR_OK)
+        status = cli_record_into(json_to, "eval", a->argc, a->argv);
     struct esr_chamfer_result geometry; /* the surface, for the report too */
     int scored = 0;
     if (status == ESR_OK)
@@ -352,6 +356,8 @@ static int evaluate_edits(const struct eval_args *a, const struct esr_run_select
     if (status == ESR_OK)
         status = esr_edit_eval_write_json(json_to, &res);
     if (status == ESR_OK)
+        status = cli_record_into(json_to, "eval", a->argc, a->argv);
+    if (status == ESR_OK)
         status = esr_edit_eval_write_html(html_to, a->run, &res, href, "render/test_nv");
     if (status == ESR_OK)
         status = cli_aside_commit(&aside);
@@ -389,7 +395,7 @@ static int run_eval(int argc, char **argv)
 {
     if (cli_wants_help(&cmd_eval, argc, argv))
         return 0;
-    struct eval_args a = {NULL, "test_nv", NULL, NULL, 0, 0, 8, 0, ESR_EDIT_DIRECT, NULL};
+    struct eval_args a = {NULL, "test_nv", NULL, NULL, 0, 0, 8, 0, ESR_EDIT_DIRECT, NULL, argc, argv};
     for (int i = 1; i < argc; i++) {
         const char *s = argv[i];
         int has_value = i + 1 < argc;

@@ -110,9 +110,14 @@ static int run_render(int argc, char **argv)
         status = esr_output_check_outside(out, dataset, what, 1, run);
     if (status == ESR_OK)
         status = render_selected(run, &sel, out ? out : out_dir);
+    char record[ESR_PATH_MAX + 16]; /* render.json says which command made the folder */
+    snprintf(record, sizeof record, "%s/render.json", out ? out : out_dir);
+    if (status == ESR_OK)
+        status = cli_record_into(record, "render", argc, argv);
+    const int sel_n = sel.n;
     esr_run_selection_free(&sel);
     if (status != ESR_OK)
         return cli_fail_lib(&cmd_render);
-    fprintf(stderr, "wrote %s\n", out ? out : out_dir);
+    fprintf(stderr, "wrote %d view(s) of %s and render.json to %s\n", sel_n, phase, out ? out : out_dir);
     return 0;
 }

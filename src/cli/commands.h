@@ -69,6 +69,8 @@ int cli_output_file(const char *option, const char *path, const char *ext, char 
 /* The record of what made an output (cli/record.c): {"command": "esr NAME ARGS", "argv": [...],
  * "esr": version, "commit", "time": ISO 8601 UTC}; the caller owns it. */
 struct cJSON *cli_record(const char *cmd_name, int argc, char **argv);
+/* Sets that record as "made_by" in the JSON object at path (rewritten atomically). */
+int cli_record_into(const char *path, const char *cmd_name, int argc, char **argv);
 
 /* Add `extern const struct esr_command cmd_<name>;` here and a row in main.c's table. */
 extern const struct esr_command cmd_metrics;

@@ -2,12 +2,16 @@
  * render.json, the eval JSON's "made_by", run.json), so a folder found later says which
  * command, options and build wrote it, and when. */
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 #include <time.h>
 
 #include <cjson/cJSON.h>
 
 #include "cli/commands.h"
+#include "core/error.h"
+#include "io/file.h"
+#include "io/json_file.h"
 
 extern const char esr_build_commit[];
 
@@ -36,4 +40,22 @@ cJSON *cli_record(const char *cmd_name, int argc, char **argv)
     strftime(when, sizeof when, "%Y-%m-%dT%H:%M:%SZ", &tm);
     cJSON_AddStringToObject(r, "time", when);
     return r;
+}
+
+int cli_record_into(const char *path, const char *cmd_name, int argc, char **argv)
+{
+    unsigned char *text;
+    size_t size;
+    ESR_TRY(esr_file_read_all(path, &text, &size));
+    cJSON *root = esr_json_parse_whole((const char *)text, size, path);
+    free(text);
+    if (!root)
+        return ESR_ERR;
+    if (!cJSON_IsObject(root)) {
+        cJSON_Delete(root);
+        return ESR_FAIL("%s: not a JSON object", path);
+    }
+    cJSON_DeleteItemFromObjectCaseSensitive(root, "made_by");
+    cJSON_AddItemToObject(root, "made_by", cli_record(cmd_name, argc, argv));
+    return esr_json_write_atomic(path, root);
 }
