@@ -14,6 +14,7 @@
 #include "eval/emitter_radiance.h"
 #include "eval/emo_baseline.h"
 #include "eval/light_split.h"
+#include "eval/materials.h"
 #include "eval/metrics.h"
 #include "eval/normals.h"
 #include "io/dataset.h"
@@ -54,6 +55,7 @@ struct esr_eval_result {
     struct esr_emo_baseline emo_baseline;      /* thresholded L_emo (n_cameras 0: not computed) */
     struct esr_emitter_radiance_result radiance; /* per light vs scene.json (n 0: not scored) */
     struct esr_light_split split;              /* esr's lights vs per-light masks (views 0: none) */
+    struct esr_materials_result materials;     /* material maps vs truth (has_truth 0: none) */
 };
 
 /* Evaluates the frames idx[0..n) of `phase` (esr_select_frames) against the images in
@@ -87,7 +89,8 @@ int esr_eval_check_truth(const struct esr_dataset *ds, enum esr_phase_id phase, 
  *                          "ratio"}...] (eval/emitter_radiance.h; when scored),
  *    "hdr_mse_off", "hdr_mse_on": by_mode's hdr_mse of those modes (when they have views),
  *    "light_split": {"views", "mean_iou", "lights": [{"light", "name", "esr_light", "iou",
- *                    "true_pixels"}...]} (eval/light_split.h; when scored)}
+ *                    "true_pixels"}...]} (eval/light_split.h; when scored),
+ *    "materials": {...} (eval/materials.h; when the dataset has material truth maps)}
  * (a view carries "emitter_iou" too; both only when some view has the two masks; the baseline
  * when some camera has both lightings rendered and a ground-truth mask)
  * The normal_* keys of a view and "normals" are present only when there is a ground-truth normal
