@@ -458,7 +458,7 @@ static void test_eval_files(void **state)
     cJSON *root = test_read_json(path);
     const cJSON *o = cJSON_GetObjectItem(root, "materials");
     assert_non_null(o);
-    assert_int_equal(cJSON_GetObjectItem(o, "views")->valueint, 1);
+    assert_int_equal(cJSON_GetObjectItem(o, "n_views")->valueint, 1);
     assert_int_equal(cJSON_GetObjectItem(o, "n_pixels")->valueint, 225);
     expect_near(cJSON_GetObjectItem(o, "base_color_psnr")->valuedouble, -10.0 * log10(0.04), 1e-4, "JSON PSNR");
     assert_true(cJSON_IsNumber(cJSON_GetObjectItem(o, "base_color_psnr_gain")));

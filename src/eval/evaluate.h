@@ -3,7 +3,8 @@
  * the ground-truth PNG (composited on white), and HDR MSE of the linear EXR against the
  * ground-truth EXR (composited on white), per view, overall and per lighting mode; and, on
  * datasets with ground-truth normal maps (eval/normals.h), the angular error of the rendered
- * surface normals.
+ * surface normals, and with ground-truth material maps (eval/materials.h), the rendered base
+ * colour, roughness and metallic against them.
  *
  * The rendered directory holds, per frame name N, the files of render/view.h (esr_view_write):
  * N.png (tone-mapped RGB on white), N_linear.png (sRGB OETF of the linear RGB on white, clipped

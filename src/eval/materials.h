@@ -122,7 +122,7 @@ int esr_materials_eval(const struct esr_dataset *ds, enum esr_phase_id phase, co
 void esr_materials_result_free(struct esr_materials_result *r);
 
 /* The result as the "materials" object of RUN/eval/P.json (cJSON *, returned as void * so that
- * this header does not need cJSON): {"views", "n_gt_pixels", "n_pixels", "coverage",
+ * this header does not need cJSON): {"n_views", "n_gt_pixels", "n_pixels", "coverage",
  * "min_opacity", "base_color_psnr", "base_color_psnr_gain", "gain": [r, g, b], "roughness_mae",
  * "metallic_mae", "metallic": {"pixels", "roughness_mae", "metallic_mae", "mean_metallic"},
  * "non_metallic": {...}, "metallic_at_least": 0.9, "non_metallic_at_most": 0.1, "ground_truth",

@@ -39,7 +39,7 @@ void *esr_materials_json(const struct esr_materials_result *r)
         return o;
     }
     const struct esr_material_stats *s = &r->pooled;
-    cJSON_AddNumberToObject(o, "views", r->n_views);
+    cJSON_AddNumberToObject(o, "n_views", r->n_views);
     cJSON_AddNumberToObject(o, "n_gt_pixels", (double)s->n_gt);
     cJSON_AddNumberToObject(o, "n_pixels", (double)s->n);
     cJSON_AddNumberToObject(o, "min_opacity", ESR_NORMAL_MIN_OPACITY);
