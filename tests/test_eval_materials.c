@@ -586,6 +586,20 @@ static void test_missing_and_bad_files(void **state)
     path_in(path, sizeof path, ds_dir, "gt/c000_roughness.exr");
     write_image(path, 8, 8, 1, t_rough);
     expect_error("c000_roughness.exr' is 8x8 but the dataset's images are 16x16");
+    {   /* and before any rendering (esr eval checks the truth first) */
+        struct esr_dataset ds;
+        int *idx, n;
+        assert_int_equal(esr_dataset_load(ds_dir, &ds), ESR_OK);
+        assert_int_equal(esr_select_frames(&ds.phases[ESR_PHASE_TEST_NV], "test_nv", NULL, 0, &idx, &n), ESR_OK);
+        assert_int_equal(esr_eval_check_truth(&ds, ESR_PHASE_TEST_NV, idx, n), ESR_ERR);
+        assert_non_null(strstr(esr_error_message(), "c000_roughness.exr' is 8x8"));
+        esr_error_clear();
+        move(ds_dir, "gt/c000_roughness.exr", "aside", 0); /* missing: not an error there */
+        assert_int_equal(esr_eval_check_truth(&ds, ESR_PHASE_TEST_NV, idx, n), ESR_OK);
+        move(ds_dir, "gt/c000_roughness.exr", "aside", 1);
+        free(idx);
+        esr_dataset_free(&ds);
+    }
     write_truth("roughness", t_rough, 1);
     /* a rendered map of another size */
     path_in(path, sizeof path, render_dir, "c000_off_basecolor.png");

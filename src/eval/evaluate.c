@@ -186,7 +186,7 @@ int esr_eval_check_truth(const struct esr_dataset *ds, enum esr_phase_id phase, 
             return ESR_FAIL("%s is %dx%d, the dataset's images are %dx%d", path, w, h, ds->width,
                             ds->height);
     }
-    return ESR_OK;
+    return esr_materials_check_truth(ds, phase, idx, n);
 }
 
 /* Mean of the views whose mode is `mode` (every view when mode < 0). */

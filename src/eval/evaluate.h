@@ -69,8 +69,8 @@ int esr_eval_phase(const struct esr_dataset *ds, enum esr_phase_id phase, const 
 void esr_eval_result_free(struct esr_eval_result *res);
 
 /* Reads the ground truth esr_eval_phase compares with (each frame's image and, when the dataset
- * has it, its linear EXR) and fails naming the first file that is missing, unreadable or of
- * another size: called before rendering, so a broken dataset stops an evaluation before it
+ * has it, its linear EXR and material maps) and fails naming the first file that is missing,
+ * unreadable or of another size: called before rendering, so a broken dataset stops an evaluation before it
  * spends minutes on renders it cannot score. */
 int esr_eval_check_truth(const struct esr_dataset *ds, enum esr_phase_id phase, const int *idx,
                          int n);

@@ -121,6 +121,11 @@ int esr_materials_eval(const struct esr_dataset *ds, enum esr_phase_id phase, co
                        const char *render_dir, struct esr_materials_result *out);
 void esr_materials_result_free(struct esr_materials_result *r);
 
+/* Reads the truth maps esr_materials_eval would read for the frames idx[0..n) and fails naming
+ * the first that is unreadable or of another size than the dataset's (a missing one is not an
+ * error: the scores are skipped then): for esr_eval_check_truth, before any rendering. */
+int esr_materials_check_truth(const struct esr_dataset *ds, enum esr_phase_id phase, const int *idx, int n);
+
 /* The result as the "materials" object of RUN/eval/P.json (cJSON *, returned as void * so that
  * this header does not need cJSON): {"n_views", "n_gt_pixels", "n_pixels", "coverage",
  * "min_opacity", "base_color_psnr", "base_color_psnr_gain", "gain": [r, g, b], "roughness_mae",

@@ -164,6 +164,24 @@ static int pick_cameras(const struct esr_dataset *ds, enum esr_phase_id phase, c
     return ESR_OK;
 }
 
+int esr_materials_check_truth(const struct esr_dataset *ds, enum esr_phase_id phase, const int *idx, int n)
+{
+    struct esr_materials_result r;
+    memset(&r, 0, sizeof r);
+    int status = pick_cameras(ds, phase, idx, n, &r);
+    char path[ESR_PATH_MAX];
+    for (int k = 0; k < r.n_views && status == ESR_OK; k++)
+        for (int j = 0; j < 4 && status == ESR_OK; j++) {
+            if (!esr_material_gt_path(ds->root, r.views[k].name, truth_names[j], path, sizeof path))
+                continue; /* a missing map is a reason to skip the scores, said then */
+            struct esr_image img = {0};
+            status = read_sized(ds, path, "ground-truth map", &img);
+            esr_image_free(&img);
+        }
+    esr_materials_result_free(&r);
+    return status;
+}
+
 int esr_materials_eval(const struct esr_dataset *ds, enum esr_phase_id phase, const int *idx, int n,
                        const char *render_dir, struct esr_materials_result *out)
 {
