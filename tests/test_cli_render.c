@@ -173,6 +173,11 @@ static void test_eval(void **state)
     assert_true(cJSON_IsNumber(cJSON_GetObjectItem(v0, "normal_deg")));
     assert_non_null(strstr(out, "normal-deg"));
     assert_non_null(strstr(out, "normals vs gt"));
+    /* synth wrote the material maps too, but a coarse model renders none: skipped, saying why */
+    const cJSON *mat = cJSON_GetObjectItem(root, "materials");
+    assert_non_null(mat);
+    assert_non_null(strstr(cJSON_GetObjectItem(mat, "skipped")->valuestring, "before the lts stage"));
+    assert_non_null(strstr(out, "material maps not scored"));
     cJSON_Delete(root);
     snprintf(path, sizeof path, "%s/report.html", run_dir);
     assert_true(esr_file_exists(path));

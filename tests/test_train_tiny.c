@@ -189,6 +189,36 @@ static void test_tiny_reaches_psnr(void **state)
     double iou = esr_iou_value(&res.emitter);
     print_message("tiny scene emitter IoU after 60 lts iterations: %.3f\n", iou);
     assert_true(iou >= 0.0 && iou <= 1.0);
+    /* the lts model's material maps against synth's gt/c<CCC>_{base_color,roughness,metallic}.exr,
+     * each camera once, and the "materials" object of the JSON */
+    const struct esr_materials_result *mat = &res.materials;
+    const struct esr_material_stats *ms = &mat->pooled;
+    assert_true(mat->has_truth);
+    assert_string_equal(mat->skipped, "");
+    assert_int_equal(mat->n_views, 3); /* --test 3 cameras, each lights off and on */
+    print_message("tiny scene materials: base colour %.2f dB (%.2f with gains %.2f %.2f %.2f), roughness MAE "
+                  "%.3f, metallic MAE %.3f; metallic pixels %ld (mean metallic %.3f), non-metallic %ld (%.3f); "
+                  "coverage %.3f\n",
+                  ms->base_color_psnr, ms->base_color_psnr_gain, ms->gain[0], ms->gain[1], ms->gain[2],
+                  ms->roughness_mae, ms->metallic_mae, ms->metal.n, ms->metal.mean_metallic, ms->dielectric.n,
+                  ms->dielectric.mean_metallic, ms->coverage);
+    assert_true(ms->coverage > 0.8);
+    assert_true(ms->base_color_psnr > 5.0 && ms->base_color_psnr < ESR_MATERIAL_PSNR_CAP);
+    assert_true(ms->base_color_psnr_gain >= ms->base_color_psnr - 0.5); /* least squares in linear */
+    assert_true(ms->roughness_mae >= 0.0 && ms->roughness_mae <= 1.0);
+    assert_true(ms->metallic_mae >= 0.0 && ms->metallic_mae <= 1.0);
+    assert_true(ms->metal.n + ms->dielectric.n <= ms->n && ms->dielectric.n > 0);
+    snprintf(path, sizeof path, "%s/eval_test_nv.json", run);
+    assert_int_equal(esr_eval_write_json(path, &ds, &res), ESR_OK);
+    cJSON *json = test_read_json(path);
+    const cJSON *jm = cJSON_GetObjectItem(json, "materials");
+    assert_non_null(jm);
+    assert_true(cJSON_IsNumber(cJSON_GetObjectItem(jm, "base_color_psnr")));
+    assert_true(cJSON_IsNumber(cJSON_GetObjectItem(jm, "base_color_psnr_gain")));
+    assert_true(cJSON_IsNumber(cJSON_GetObjectItem(jm, "roughness_mae")));
+    assert_true(cJSON_IsObject(cJSON_GetObjectItem(jm, "metallic")));
+    assert_int_equal(cJSON_GetArraySize(cJSON_GetObjectItem(jm, "per_view")), 3);
+    cJSON_Delete(json);
     esr_eval_result_free(&res);
     free(idx);
     esr_model_free(&m);

@@ -34,6 +34,11 @@ const struct esr_command cmd_eval = {
     "writes), also the angular error in degrees of the rendered surface normals (N_normal.exr) over\n"
     "the pixels where the ground truth has a surface and the render's opacity is over 0.5: mean,\n"
     "median, fraction under 10 degrees, covered fraction (JSON \"normals\", per view \"normal_deg\").\n"
+    "With its material maps (DATA/gt/c<CCC>_{base_color,roughness,metallic}.exr) and a model with\n"
+    "a BRDF (lts stage on), the rendered N_basecolor.png, N_roughness.png, N_metallic.png over the\n"
+    "same pixels: base colour PSNR of the sRGB maps, also with one least-squares gain per channel\n"
+    "(in linear), roughness and metallic mean absolute error, also over the truly metallic (>= 0.9)\n"
+    "and non-metallic (<= 0.1) pixels with their mean predicted metallic (JSON \"materials\").\n"
     "Writes RUN/eval/P.json (per view, mean, mean per lighting mode), RUN/report.html\n"
     "(thumbnails, metrics, training curves from RUN/train_log.jsonl) and prints a table.\n"
     "PSNR of identical images is capped at 100 dB.\n"
@@ -315,6 +320,7 @@ static int evaluate(const struct eval_args *a, const struct esr_run_selection *s
     if (status == ESR_OK) {
         print_table(&res);
         print_normals(&res);
+        esr_materials_print(stdout, stderr, &res.materials);
         print_emitters(&res);
         fprintf(stderr, "wrote %s and %s\n", p->json, p->report);
     }

@@ -186,7 +186,7 @@ int esr_eval_check_truth(const struct esr_dataset *ds, enum esr_phase_id phase, 
             return ESR_FAIL("%s is %dx%d, the dataset's images are %dx%d", path, w, h, ds->width,
                             ds->height);
     }
-    return ESR_OK;
+    return esr_materials_check_truth(ds, phase, idx, n);
 }
 
 /* Mean of the views whose mode is `mode` (every view when mode < 0). */
@@ -259,6 +259,8 @@ int esr_eval_phase(const struct esr_dataset *ds, enum esr_phase_id phase, const 
         status = esr_emitter_radiance_eval(ds, phase, idx, res->n_views, render_dir, &res->radiance);
     if (status == ESR_OK)
         status = esr_light_split_eval(ds, phase, idx, res->n_views, render_dir, &res->split);
+    if (status == ESR_OK)
+        status = esr_materials_eval(ds, phase, idx, res->n_views, render_dir, &res->materials);
     ESR_TRY(status);
     res->all = mean_of(res, -1);
     for (int mode = 0; mode < ESR_LIGHT_MODE_COUNT; mode++)
@@ -269,5 +271,6 @@ int esr_eval_phase(const struct esr_dataset *ds, enum esr_phase_id phase, const 
 void esr_eval_result_free(struct esr_eval_result *res)
 {
     free(res->views);
+    esr_materials_result_free(&res->materials);
     memset(res, 0, sizeof *res);
 }

@@ -3,7 +3,8 @@
  * the ground-truth PNG (composited on white), and HDR MSE of the linear EXR against the
  * ground-truth EXR (composited on white), per view, overall and per lighting mode; and, on
  * datasets with ground-truth normal maps (eval/normals.h), the angular error of the rendered
- * surface normals.
+ * surface normals, and with ground-truth material maps (eval/materials.h), the rendered base
+ * colour, roughness and metallic against them.
  *
  * The rendered directory holds, per frame name N, the files of render/view.h (esr_view_write):
  * N.png (tone-mapped RGB on white), N_linear.png (sRGB OETF of the linear RGB on white, clipped
@@ -14,6 +15,7 @@
 #include "eval/emitter_radiance.h"
 #include "eval/emo_baseline.h"
 #include "eval/light_split.h"
+#include "eval/materials.h"
 #include "eval/metrics.h"
 #include "eval/normals.h"
 #include "io/dataset.h"
@@ -54,6 +56,7 @@ struct esr_eval_result {
     struct esr_emo_baseline emo_baseline;      /* thresholded L_emo (n_cameras 0: not computed) */
     struct esr_emitter_radiance_result radiance; /* per light vs scene.json (n 0: not scored) */
     struct esr_light_split split;              /* esr's lights vs per-light masks (views 0: none) */
+    struct esr_materials_result materials;     /* material maps vs truth (has_truth 0: none) */
 };
 
 /* Evaluates the frames idx[0..n) of `phase` (esr_select_frames) against the images in
@@ -66,8 +69,8 @@ int esr_eval_phase(const struct esr_dataset *ds, enum esr_phase_id phase, const 
 void esr_eval_result_free(struct esr_eval_result *res);
 
 /* Reads the ground truth esr_eval_phase compares with (each frame's image and, when the dataset
- * has it, its linear EXR) and fails naming the first file that is missing, unreadable or of
- * another size: called before rendering, so a broken dataset stops an evaluation before it
+ * has it, its linear EXR and material maps) and fails naming the first file that is missing,
+ * unreadable or of another size: called before rendering, so a broken dataset stops an evaluation before it
  * spends minutes on renders it cannot score. */
 int esr_eval_check_truth(const struct esr_dataset *ds, enum esr_phase_id phase, const int *idx,
                          int n);
@@ -87,7 +90,8 @@ int esr_eval_check_truth(const struct esr_dataset *ds, enum esr_phase_id phase, 
  *                          "ratio"}...] (eval/emitter_radiance.h; when scored),
  *    "hdr_mse_off", "hdr_mse_on": by_mode's hdr_mse of those modes (when they have views),
  *    "light_split": {"views", "mean_iou", "lights": [{"light", "name", "esr_light", "iou",
- *                    "true_pixels"}...]} (eval/light_split.h; when scored)}
+ *                    "true_pixels"}...]} (eval/light_split.h; when scored),
+ *    "materials": {...} (eval/materials.h; when the dataset has material truth maps)}
  * (a view carries "emitter_iou" too; both only when some view has the two masks; the baseline
  * when some camera has both lightings rendered and a ground-truth mask)
  * The normal_* keys of a view and "normals" are present only when there is a ground-truth normal

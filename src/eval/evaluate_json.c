@@ -130,6 +130,9 @@ static cJSON *result_json(const struct esr_dataset *ds, const struct esr_eval_re
             cJSON_AddItemToArray(arr, o);
         }
     }
+    cJSON *materials = esr_materials_json(&res->materials);
+    if (materials)
+        cJSON_AddItemToObject(root, "materials", materials);
     const enum esr_light_mode modes[2] = {ESR_LIGHT_OFF, ESR_LIGHT_ON};
     const char *keys[2] = {"hdr_mse_off", "hdr_mse_on"};
     for (int i = 0; i < 2; i++)

@@ -418,7 +418,7 @@ static int write_gt_copies(const struct esr_report_spec *spec)
         if (spec->res->n_emitter_views > 0)
             ESR_TRY(write_true_effect(spec, ph, f));
     }
-    return ESR_OK;
+    return esr_materials_write_truth(spec->ds, &spec->res->materials, spec->gt_dir);
 }
 
 /* Links to the edit phases' pages next to the report (report_<phase>_<method>.html, as `esr eval
@@ -458,6 +458,7 @@ static int put_page(FILE *out, const struct esr_report_spec *spec)
     put_summary(out, spec->res);
     put_geometry(out, spec->geometry);
     put_normals(out, spec->res);
+    esr_materials_put_html(out, &spec->res->materials, spec->render_href, spec->gt_href);
     put_emitters(out, spec->res);
     put_lights(out, spec);
     put_split(out, &spec->res->split);
