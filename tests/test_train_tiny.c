@@ -502,6 +502,7 @@ static void test_interrupt_saves_and_resumes(void **state)
     /* raised before training began (a fresh start would remove this checkpoint): refused */
     opts_for(&o, run, ESR_STAGE_COARSE, NULL);
     o.interrupt = &interrupt_flag;
+    o.force = 1;
     assert_int_equal(esr_train_run(&o), ESR_ERR);
     assert_non_null(strstr(esr_error_message(), "interrupted before training began"));
     esr_error_clear();

@@ -415,8 +415,8 @@ static int edit(const struct edit_args *a)
         snprintf(parent, sizeof parent, ".");
     if (rc == ESR_OK)
         rc = check_replaceable(a->out);
-    if (rc == ESR_OK)
-        rc = esr_dir_prepare_output_made(parent, made, sizeof made);
+    if (rc == ESR_OK && (rc = esr_dir_prepare_output_made(parent, made, sizeof made)) != ESR_OK)
+        esr_error_append(" (the folder --out %s goes in)", a->out);
     if (rc == ESR_OK)
         rc = esr_staging_begin(a->out, 1, staging, sizeof staging);
     if (rc == ESR_OK)

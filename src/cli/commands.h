@@ -24,6 +24,9 @@ int cli_wants_help(const struct esr_command *cmd, int argc, char **argv);
  * refused with the nearest one it does. 0 with *argc, *argv replaced; 1 (said) on an unknown
  * option. */
 int cli_normalise_args(const struct esr_command *cmd, int *argc, char ***argv);
+/* The command's arguments as typed, before cli_normalise_args (argv[0] the command's name);
+ * 0 before it ran. */
+int cli_typed_args(char ***argv);
 /* 1 when cmd's usage text names the option (e.g. "--orbit"). */
 int cli_option_known(const struct esr_command *cmd, const char *name);
 /* Parses a whole-string decimal integer in [lo, hi] (lo, hi within int); 0 on success, -1 else. */

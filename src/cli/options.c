@@ -69,6 +69,14 @@ int cli_option_known(const struct esr_command *cmd, const char *name)
 }
 
 static char **normalised; /* kept for the process: the command's argv */
+static int typed_argc;    /* and what was typed, for the records of what made an output */
+static char **typed_argv;
+
+int cli_typed_args(char ***argv)
+{
+    *argv = typed_argv;
+    return typed_argc;
+}
 
 int cli_normalise_args(const struct esr_command *cmd, int *argc, char ***argv)
 {
@@ -76,6 +84,8 @@ int cli_normalise_args(const struct esr_command *cmd, int *argc, char ***argv)
     usage_options(cmd->usage, &k);
     const int n = *argc;
     char **in = *argv;
+    typed_argc = n;
+    typed_argv = in;
     char **out = calloc((size_t)(2 * n + 1), sizeof *out);
     if (!out) {
         fprintf(stderr, "esr %s: error: out of memory\n", cmd->name);

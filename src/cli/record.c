@@ -17,6 +17,12 @@ extern const char esr_build_commit[];
 
 cJSON *cli_record(const char *cmd_name, int argc, char **argv)
 {
+    char **typed;
+    const int n_typed = cli_typed_args(&typed);
+    if (n_typed > 0) { /* what the user typed (--name=value kept), not its normalised form */
+        argc = n_typed;
+        argv = typed;
+    }
     cJSON *r = cJSON_CreateObject();
     char line[8192];
     int used = snprintf(line, sizeof line, "esr %s", cmd_name);

@@ -767,13 +767,6 @@ int esr_train_health_problems(const struct esr_train_health *h, char lines[][320
 static int setup(struct run *r)
 {
     char path[4200];
-    if (!r->o->resume && !r->o->force) { /* a forgotten --resume must not wipe a finished run */
-        char held[512];
-        if (esr_dir_list_entries(r->o->run_dir, held, sizeof held) > 0)
-            return ESR_FAIL("%s is not empty (%s): add --resume to continue the run in it, or "
-                            "--force to start over there (its checkpoints are then removed); "
-                            "nothing was changed", r->o->run_dir, held);
-    }
     snprintf(path, sizeof path, "%s/config.json", r->o->run_dir);
     const int stored = r->o->resume && esr_file_exists(path);
     if (stored) {
@@ -814,6 +807,14 @@ static int setup(struct run *r)
             return ESR_FAIL("stage %s needs lights-off training images to tell emission from "
                             "reflection, and this dataset has none (train with --until fine; "
                             "nothing was trained)", esr_stage_name((enum esr_stage)s));
+    /* after the dataset's checks (their message says more), before anything in RUN changes */
+    if (!r->o->resume && !r->o->force) { /* a forgotten --resume must not wipe a finished run */
+        char held[512];
+        if (esr_dir_list_entries(r->o->run_dir, held, sizeof held) > 0)
+            return ESR_FAIL("%s is not empty (%s): add --resume to continue the run in it, or "
+                            "--force to start over there (its checkpoints are then removed); "
+                            "nothing was changed", r->o->run_dir, held);
+    }
     ESR_TRY(esr_dir_prepare_output(r->o->run_dir));
     ESR_TRY(esr_dir_lock(r->o->run_dir, "train", &r->lock_fd));
     if (r->o->interrupt && *r->o->interrupt) /* before the earlier run's files go */
