@@ -1,6 +1,7 @@
 /* The source folders form layers, and an include may only point down (or within its own folder):
- *   0 core   1 io, nn   2 fields   3 volume, synth   4 model   5 train, render   6 edit
+ *   0 core   1 io, nn   2 fields, import   3 volume, synth   4 model   5 train, render   6 edit
  *   7 eval   8 cli
+ * import turns photo captures into datasets with io alone (nothing that trains or renders);
  * core is plain maths and data; io/nn know nothing of fields; volume holds the rendering
  * primitives (rays, samplers, NeuS, compositing, first hit, marching cubes) that know no model;
  * model assembles the fields and the trace engine; train and render use a model; edit relights
@@ -28,7 +29,8 @@ struct layer {
 };
 
 static const struct layer layers[] = {
-    {"core", 0},  {"io", 1},    {"nn", 1},     {"fields", 2}, {"volume", 3}, {"synth", 3},
+    {"core", 0},  {"io", 1},    {"nn", 1},     {"fields", 2}, {"import", 2}, {"volume", 3},
+    {"synth", 3},
     {"model", 4}, {"train", 5}, {"render", 5}, {"edit", 6},   {"eval", 7},   {"cli", 8},
 };
 #define N_LAYERS (sizeof layers / sizeof layers[0])

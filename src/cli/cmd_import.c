@@ -5,8 +5,8 @@
 
 #include "cli/commands.h"
 #include "core/error.h"
-#include "io/colmap_import.h"
-#include "io/dtu_import.h"
+#include "import/colmap_import.h"
+#include "import/dtu_import.h"
 
 static int run_import(int argc, char **argv);
 

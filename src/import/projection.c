@@ -1,6 +1,6 @@
 /* RQ decomposition of a projection matrix's left 3x3 by Gram-Schmidt from its last row (see
  * projection.h): M's rows are m3 = k22 r3, m2 = k11 r2 + k12 r3, m1 = k00 r1 + k01 r2 + k02 r3. */
-#include "io/projection.h"
+#include "import/projection.h"
 
 #include <math.h>
 #include <string.h>

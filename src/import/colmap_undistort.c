@@ -1,5 +1,5 @@
 /* Undistortion and resampling of COLMAP photos (see colmap_undistort.h). */
-#include "io/colmap_undistort.h"
+#include "import/colmap_undistort.h"
 
 #include <math.h>
 #include <stdio.h>

@@ -1,5 +1,5 @@
 /* A COLMAP reconstruction aligned to and compared with true cameras (see colmap_align.h). */
-#include "io/colmap_align.h"
+#include "import/colmap_align.h"
 
 #include <math.h>
 #include <stdint.h>
@@ -11,7 +11,7 @@
 
 #include "core/error.h"
 #include "core/order.h"
-#include "io/colmap_camera.h"
+#include "import/colmap_camera.h"
 #include "io/file.h"
 
 /* The true train frame named like image `name` ("off/sub/r_003.png" -> "r_003"), or NULL. */

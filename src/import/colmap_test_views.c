@@ -1,5 +1,5 @@
 /* The true dataset's test_nv phase copied into an aligned import (see colmap_test_views.h). */
-#include "io/colmap_test_views.h"
+#include "import/colmap_test_views.h"
 
 #include <stdio.h>
 #include <string.h>

@@ -4,7 +4,7 @@
 #ifndef ESR_IO_COLMAP_SCENE_H
 #define ESR_IO_COLMAP_SCENE_H
 
-#include "io/colmap.h"
+#include "import/colmap.h"
 
 /* esr world = scale * rotation * (source world - centre). */
 struct esr_scene_frame {

@@ -6,8 +6,8 @@
 #ifndef ESR_IO_COLMAP_UNDISTORT_H
 #define ESR_IO_COLMAP_UNDISTORT_H
 
-#include "io/colmap.h"
-#include "io/colmap_camera.h"
+#include "import/colmap.h"
+#include "import/colmap_camera.h"
 #include "io/image.h"
 
 /* An undistorted centred pinhole view: pixel (i, j)'s centre looks along the normalised

@@ -1,7 +1,7 @@
 /* `esr import dtu`: list the photos and their masks, read their cameras, choose the shared
  * pinhole view and the scene's place, then resample every photo into a staging folder and write
  * the JSON (see dtu_import.h). */
-#include "io/dtu_import.h"
+#include "import/dtu_import.h"
 
 #include <dirent.h>
 #include <math.h>
@@ -12,10 +12,10 @@
 #include <sys/stat.h>
 
 #include "core/error.h"
-#include "io/colmap_undistort.h"
-#include "io/dtu_cameras.h"
+#include "import/colmap_undistort.h"
+#include "import/dtu_cameras.h"
 #include "io/file.h"
-#include "io/import_layout.h"
+#include "import/import_layout.h"
 #include "io/staging.h"
 
 #define MAX_FRAMES 100000

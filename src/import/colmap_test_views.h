@@ -2,7 +2,7 @@
  * into the imported dataset, so a run trained on the import is scored by `esr eval --phase
  * test_nv` on exactly the images and cameras a run on the true dataset is scored on. The
  * cameras are copied unchanged because the alignment placed the import in the true world
- * (io/colmap_align.h). Frames are rewritten in the import's convention (one light, "off" or "on")
+ * (import/colmap_align.h). Frames are rewritten in the import's convention (one light, "off" or "on")
  * since a dataset's frames must agree on the light count; their PNGs, EXRs and emission masks
  * are copied. */
 #ifndef ESR_IO_COLMAP_TEST_VIEWS_H

@@ -19,8 +19,8 @@
 
 #include "core/error.h"
 #include "core/similarity.h"
-#include "io/colmap.h"
-#include "io/colmap_align.h"
+#include "import/colmap.h"
+#include "import/colmap_align.h"
 #include "io/dataset.h"
 #include "io/file.h"
 #include "test_support.h"

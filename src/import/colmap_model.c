@@ -1,5 +1,5 @@
 /* The COLMAP model container shared by the text and binary readers (see colmap.h). */
-#include "io/colmap.h"
+#include "import/colmap.h"
 
 #include <math.h>
 #include <stdio.h>
@@ -7,7 +7,7 @@
 #include <string.h>
 
 #include "core/error.h"
-#include "io/colmap_camera.h"
+#include "import/colmap_camera.h"
 #include "io/file.h"
 
 static const struct {

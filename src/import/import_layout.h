@@ -6,7 +6,7 @@
 
 #include <cjson/cJSON.h>
 
-#include "io/colmap_scene.h"
+#include "import/colmap_scene.h"
 #include "io/dataset.h"
 
 /* A path inside a staging folder (at most ESR_PATH_MAX long): a file name or two more. */

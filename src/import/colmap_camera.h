@@ -8,7 +8,7 @@
 #ifndef ESR_IO_COLMAP_CAMERA_H
 #define ESR_IO_COLMAP_CAMERA_H
 
-#include "io/colmap.h"
+#include "import/colmap.h"
 
 /* Every supported model as the general OPENCV form (unused terms 0), plus a skew that no COLMAP
  * model has but calibrated cameras such as DTU's do, so the undistortion (colmap_undistort.h)

@@ -9,8 +9,8 @@
 #define ESR_IO_COLMAP_ALIGN_H
 
 #include "core/similarity.h"
-#include "io/colmap.h"
-#include "io/colmap_scene.h"
+#include "import/colmap.h"
+#include "import/colmap_scene.h"
 #include "io/dataset.h"
 
 struct esr_colmap_alignment {

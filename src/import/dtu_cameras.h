@@ -2,11 +2,11 @@
  * world_mat_<i> (4x4, P = K [R | t]: world -> image, OpenCV's camera frame) and scale_mat_<i>
  * (4x4: the normalised frame, whose unit sphere holds the object, -> world). NeuS projects with
  * world_mat @ scale_mat and splits that into K and a pose (cv2.decomposeProjectionMatrix); so does
- * this, with io/projection.h. */
+ * this, with import/projection.h. */
 #ifndef ESR_IO_DTU_CAMERAS_H
 #define ESR_IO_DTU_CAMERAS_H
 
-#include "io/colmap_camera.h"
+#include "import/colmap_camera.h"
 #include "io/npz.h"
 
 struct esr_dtu_camera {

@@ -1,7 +1,7 @@
 /* A DTU scan as NeuS and IDR distribute it turned into a dataset in the ESR layout
  * (../shared/scenes/FORMAT.md).
  *
- * Input (SCAN): cameras_sphere.npz (io/dtu_cameras.h), image/<n>.png (or .jpg; n the camera
+ * Input (SCAN): cameras_sphere.npz (import/dtu_cameras.h), image/<n>.png (or .jpg; n the camera
  * index, e.g. 000000.png), optionally mask/<n>.png or mask/%03d.png (grey or RGB, > 127 is
  * foreground). Every photo is a lights-off training frame.
  *
@@ -11,14 +11,14 @@
  * (RGB; RGBA with the mask as alpha when the scan has masks, which esr composites on white as it
  * does NeRF-synthetic), and DATA/import.json (the mapping from the normalised frame, whether
  * masks were used). Each photo is resampled into one centred pinhole with square pixels shared by
- * all frames (io/colmap_undistort.h), `size` pixels on the longer side. The normalised frame's
+ * all frames (import/colmap_undistort.h), `size` pixels on the longer side. The normalised frame's
  * unit sphere becomes esr's unit sphere (scale 1, or less if the cameras' median distance exceeds
- * 4), turned so the cameras' mean image-up is +Z (io/colmap_scene.h). Written into a staging
+ * 4), turned so the cameras' mean image-up is +Z (import/colmap_scene.h). Written into a staging
  * folder renamed at the end, so DATA is never half-written. */
 #ifndef ESR_IO_DTU_IMPORT_H
 #define ESR_IO_DTU_IMPORT_H
 
-#include "io/colmap_scene.h"
+#include "import/colmap_scene.h"
 
 struct esr_dtu_import_opts {
     const char *scan_dir;   /* SCAN */

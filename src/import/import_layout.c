@@ -1,5 +1,5 @@
 /* The ESR-layout pieces the importers share (see import_layout.h). */
-#include "io/import_layout.h"
+#include "import/import_layout.h"
 
 #include <math.h>
 #include <stdio.h>

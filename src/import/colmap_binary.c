@@ -11,7 +11,7 @@
 #include <string.h>
 
 #include "core/error.h"
-#include "io/colmap.h"
+#include "import/colmap.h"
 
 struct reader {
     const unsigned char *p, *end;

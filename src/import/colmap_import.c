@@ -1,6 +1,6 @@
 /* `esr import colmap`: plan the frames, choose the shared pinhole view and the scene's place,
  * then undistort every photo into a staging folder and write the JSON (see colmap_import.h). */
-#include "io/colmap_import.h"
+#include "import/colmap_import.h"
 
 #include <math.h>
 #include <stdio.h>
@@ -9,12 +9,12 @@
 #include <sys/stat.h>
 
 #include "core/error.h"
-#include "io/colmap_camera.h"
-#include "io/colmap_test_views.h"
-#include "io/colmap_undistort.h"
+#include "import/colmap_camera.h"
+#include "import/colmap_test_views.h"
+#include "import/colmap_undistort.h"
 #include "io/dataset.h"
 #include "io/file.h"
-#include "io/import_layout.h"
+#include "import/import_layout.h"
 #include "io/staging.h"
 
 /* One registered photo and what it becomes. */

@@ -10,15 +10,15 @@
  * intensity say off or on, and "colmap_image": the photo's name in the model), the photos as
  * 8-bit RGB PNGs DATA/train/<stem>_<off|on>.png, and DATA/import.json (where the scene was put:
  * centre, rotation, scale; the model and image folders). Every photo is undistorted to one
- * centred pinhole shared by all frames (io/colmap_undistort.h) whose field of view is the largest
+ * centred pinhole shared by all frames (import/colmap_undistort.h) whose field of view is the largest
  * that every camera covers, and resampled so its longer side has `size` pixels. The scene is
- * placed by io/colmap_scene.h. Written into a staging folder renamed at the end, so DATA is never
+ * placed by import/colmap_scene.h. Written into a staging folder renamed at the end, so DATA is never
  * half-written. */
 #ifndef ESR_IO_COLMAP_IMPORT_H
 #define ESR_IO_COLMAP_IMPORT_H
 
-#include "io/colmap_align.h"
-#include "io/colmap_scene.h"
+#include "import/colmap_align.h"
+#include "import/colmap_scene.h"
 
 struct esr_colmap_import_opts {
     const char *model_dir;  /* COLMAP sparse model (text or binary) */
@@ -52,10 +52,10 @@ struct esr_colmap_import_result {
 };
 
 /* With align_to (a synthetic capture whose true cameras are known, e.g. `esr synth`'s training
- * renders posed by COLMAP; io/colmap_align.h): the scene is placed by the similarity that aligns
+ * renders posed by COLMAP; import/colmap_align.h): the scene is placed by the similarity that aligns
  * the COLMAP cameras to the true ones, so the import lives in the true world; the photos are
  * written in the true dataset's pinhole (its size and camera_angle_x; `size` is not used) and the
- * true test_nv phase is copied in (io/colmap_test_views.h), so both datasets are scored on the
+ * true test_nv phase is copied in (import/colmap_test_views.h), so both datasets are scored on the
  * same test views; import.json records the camera errors.
  *
  * Fails naming the file on: a model that cannot be read, fewer than 3 registered images, an

@@ -1,5 +1,5 @@
 /* COLMAP's camera models and poses (see colmap_camera.h). */
-#include "io/colmap_camera.h"
+#include "import/colmap_camera.h"
 
 #include <math.h>
 #include <string.h>

@@ -9,7 +9,7 @@
 #include <string.h>
 
 #include "core/error.h"
-#include "io/colmap.h"
+#include "import/colmap.h"
 
 /* A growing array of fixed-size records. */
 struct records {

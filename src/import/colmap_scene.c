@@ -1,5 +1,5 @@
 /* The imported scene's placement in esr's world (see colmap_scene.h). */
-#include "io/colmap_scene.h"
+#include "import/colmap_scene.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -7,7 +7,7 @@
 
 #include "core/error.h"
 #include "core/order.h"
-#include "io/colmap_camera.h"
+#include "import/colmap_camera.h"
 
 /* The q-quantile (0..1, nearest rank) of v[0..n-1], n > 0; v is sorted in place. */
 static double quantile(double *v, long n, double q)

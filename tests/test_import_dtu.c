@@ -25,7 +25,7 @@
 #include "io/image.h"
 #include "io/npy.h"
 #include "io/npz.h"
-#include "io/projection.h"
+#include "import/projection.h"
 #include "test_support.h"
 
 #define NPZ_CORPUS ESR_SOURCE_DIR "/../fuzz/corpus/npz"

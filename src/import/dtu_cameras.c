@@ -1,11 +1,11 @@
 /* DTU cameras from cameras_sphere.npz (see dtu_cameras.h). */
-#include "io/dtu_cameras.h"
+#include "import/dtu_cameras.h"
 
 #include <stdio.h>
 #include <string.h>
 
 #include "core/error.h"
-#include "io/projection.h"
+#include "import/projection.h"
 
 /* The 4x4 array `<prefix>_<i>`, named with its photo when absent. */
 static int read_mat4(const struct esr_npz *z, const char *prefix, int i, const char *image, double m[16])
