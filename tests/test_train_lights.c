@@ -806,8 +806,8 @@ static void test_direct_light_is_measured_from_the_point(void **state)
             const struct esr_light_samples ls = {1, pos3, nrm3, emit3, &area, area, 5.0f};
             float got[1][3] = {{0}};
             struct esr_rng rng = esr_rng_init(7, 0);
-            assert_int_equal((int)esr_light_direct_point(&sh, &ls, NULL, 1, &mat, x, n, &wo, 1,
-                                                         1.0f, &rng, got, NULL), 1);
+            const struct esr_direct_point_query q = {&sh, &ls, NULL, 1, &mat, x, n, &wo, 1, 1.0f};
+            assert_int_equal((int)esr_light_direct_point(&q, &rng, got, NULL), 1);
             const struct esr_vec3 v = esr_v3_sub(y, x);
             const float d = esr_v3_length(v);
             const struct esr_vec3 wi = esr_v3_scale(v, 1.0f / d);

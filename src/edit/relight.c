@@ -150,11 +150,12 @@ ESR_HOT static size_t layers_direct_light(const struct esr_relight *r,
             const struct esr_vec3 wo = esr_v3_scale(d, -1.0f);
             const struct esr_material mat = esr_material_of_row(b->l_mat5 + i * ESR_BRDF_CHANNELS, a);
             for (int k = 0; k < r->n_lights; k++)
-                if (lights_up(r, edits, k))
-                    traced += esr_light_direct_point(
-                        &r->shadows, &r->samples[k], &edits[k], r->spp, &mat, x, n, &wo, 1, a,
-                        &rng, (float(*)[3])(edited3 + i * 3),
-                        found3 ? (float(*)[3])(found3 + i * 3) : NULL);
+                if (lights_up(r, edits, k)) {
+                    const struct esr_direct_point_query q = {
+                        &r->shadows, &r->samples[k], &edits[k], r->spp, &mat, x, n, &wo, 1, a};
+                    traced += esr_light_direct_point(&q, &rng, (float(*)[3])(edited3 + i * 3),
+                                                     found3 ? (float(*)[3])(found3 + i * 3) : NULL);
+                }
         }
     }
     return traced;

@@ -39,14 +39,16 @@ void esr_light_shadows_free(struct esr_light_shadows *s)
 #define SHADOW_OFFSET_VOX 1.0f
 #define SHADOW_STOP_VOX 1.5f
 
-ESR_HOT size_t esr_light_direct_point(const struct esr_light_shadows *sh,
-                                      const struct esr_light_samples *ls,
-                                      const struct esr_light_edit *edit, int spp,
-                                      const struct esr_material *mat, struct esr_vec3 x,
-                                      struct esr_vec3 n, const struct esr_vec3 *wo, int n_wo,
-                                      float scale, struct esr_rng *rng, float (*edited)[3],
-                                      float (*found)[3])
+ESR_HOT size_t esr_light_direct_point(const struct esr_direct_point_query *query,
+                                      struct esr_rng *rng, float (*edited)[3], float (*found)[3])
 {
+    const struct esr_light_shadows *sh = query->sh;
+    const struct esr_light_samples *ls = query->ls;
+    const struct esr_light_edit *edit = query->edit;
+    const int spp = query->spp, n_wo = query->n_wo;
+    const struct esr_material *mat = query->mat;
+    const struct esr_vec3 x = query->x, n = query->n, *wo = query->wo;
+    const float scale = query->scale;
     const float h = sh->voxel;
     const struct esr_vec3 o = esr_v3_add(x, esr_v3_scale(n, SHADOW_OFFSET_VOX * h));
     const float o3[3] = {o.x, o.y, o.z};
@@ -125,9 +127,10 @@ ESR_HOT int esr_lights_direct(const struct esr_light_shadows *sh, const struct e
         struct esr_rng rng = esr_rng_init(seed, p);
         for (size_t k = 0; k < K; k++) {
             float d[ESR_DIRECT_MAX_WO][3] = {{0}}, d_found[ESR_DIRECT_MAX_WO][3] = {{0}};
-            (void)esr_light_direct_point(sh, &ls[k], edits ? &edits[k] : NULL, spp, &mat,
-                                         esr_v3_at(pts->pos3, p), esr_v3_at(pts->nrm3, p), wo,
-                                         (int)W, 1.0f, &rng, d, out_found ? d_found : NULL);
+            const struct esr_direct_point_query q = {
+                sh, &ls[k], edits ? &edits[k] : NULL, spp, &mat, esr_v3_at(pts->pos3, p),
+                esr_v3_at(pts->nrm3, p), wo, (int)W, 1.0f};
+            (void)esr_light_direct_point(&q, &rng, d, out_found ? d_found : NULL);
             for (size_t w = 0; w < W; w++)
                 for (int c = 0; c < 3; c++) {
                     const size_t at = ((p * W + w) * ESR_MAX_LIGHTS + k) * 3 + (size_t)c;

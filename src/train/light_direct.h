@@ -62,11 +62,19 @@ void esr_light_shadows_free(struct esr_light_shadows *s);
  * shadow rays traced. The kernel of esr_lights_direct and of direct relighting
  * (edit/relight.h). The sums are float (esr_lights_direct adds each light's into its double
  * output). */
-size_t esr_light_direct_point(const struct esr_light_shadows *sh, const struct esr_light_samples *ls,
-                              const struct esr_light_edit *edit, int spp,
-                              const struct esr_material *mat, struct esr_vec3 x, struct esr_vec3 n,
-                              const struct esr_vec3 *wo, int n_wo, float scale,
-                              struct esr_rng *rng, float (*edited)[3], float (*found)[3]);
+struct esr_direct_point_query {
+    const struct esr_light_shadows *sh;
+    const struct esr_light_samples *ls; /* the light */
+    const struct esr_light_edit *edit;  /* its edit, or NULL: as found */
+    int spp;
+    const struct esr_material *mat;     /* at x */
+    struct esr_vec3 x, n;               /* the point and its unit normal */
+    const struct esr_vec3 *wo;          /* n_wo unit outgoing directions */
+    int n_wo;
+    float scale;                        /* what each sample's light is multiplied by */
+};
+size_t esr_light_direct_point(const struct esr_direct_point_query *q, struct esr_rng *rng,
+                              float (*edited)[3], float (*found)[3]);
 
 /* out[((p * n_wo + o) * ESR_MAX_LIGHTS + K) * 3 + c] = D_K (per channel) for the n_lights lights
  * whose surface samples ls[] are given, each sample's emission edited by edits[K] (NULL: as the
