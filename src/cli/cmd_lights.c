@@ -69,7 +69,7 @@ static int find_and_calibrate(struct esr_model *m, const char *data, int find)
     if (rc == ESR_OK && find && m->lights.n_left_out > 0)
         fprintf(stderr, "esr lights: " ESR_LIGHTS_LEFT_OUT_FMT "\n", m->lights.n_left_out, ESR_MAX_LIGHTS);
     if (rc == ESR_OK && m->lights.n > 0)
-        rc = esr_lights_calibrate(m, rs.orig3, rs.dir3, rs.n_off, ESR_LIGHTS_CALIB_POINTS,
+        rc = esr_lights_calibrate(m, rs.orig3, rs.dir3, rs.n_off, m->cfg.lights_calib_points,
                                   (uint64_t)m->cfg.seed, 1);
     for (int i = 0; rc == ESR_OK && i < m->lights.n; i++) {
         char line[320];
