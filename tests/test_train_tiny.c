@@ -771,7 +771,7 @@ static void test_geometry_from_lights_on_only(void **state)
 }
 
 /* The pdra stage, continuing the full run's lts checkpoint, ends by finding the lights and
- * storing them in its checkpoint; `esr lights` lists them and writes RUN/lights.json. */
+ * storing them in its checkpoint; `esr lights` lists them and writes them to --json. */
 /* dst: a copy of run's config.json, run.json and ckpt_pdra.bin, the checkpoint changed by
  * `change`. */
 static void copy_run_changed(const char *run, const char *dst, void (*change)(struct esr_model *))
@@ -843,7 +843,7 @@ static void test_pdra_finds_lights(void **state)
     snprintf(cmd, sizeof cmd, "lights %s --data /nonexistent", run);
     assert_int_equal(test_run_esr(cmd, out, sizeof out), 1);
     assert_non_null(strstr(out, "--data is read only with --recompute"));
-    snprintf(cmd, sizeof cmd, "lights %s", run);
+    snprintf(cmd, sizeof cmd, "lights %s --json %s/lights.json", run, run); /* listing alone writes nothing */
     assert_int_equal(test_run_esr(cmd, out, sizeof out), 0);
     snprintf(cmd, sizeof cmd, "%d light", m.lights.n);
     assert_non_null(strstr(out, cmd));

@@ -144,7 +144,7 @@ static void put_light_edits(FILE *out, const struct esr_report_spec *spec, int k
     report_dir(spec, dir, sizeof dir);
     /* the folders' names and edits are `esr demo`'s (cli/cmd_demo.c) */
     static const char *const what[] = {"off", "recoloured"};
-    static const char *const caption[] = {"off", "recoloured (hue 0.6, saturation 1)"};
+    static const char *const caption[] = {"off", "recoloured (the hue opposite its own, saturation 1)"};
     int shown = 0;
     for (int w = 0; w < 2; w++) {
         snprintf(path, sizeof path, "%sedits/light%d_%s/%s.png", dir, k, what[w], view);
