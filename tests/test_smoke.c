@@ -262,6 +262,12 @@ static void test_lights_picture(void **state)
     snprintf(args, sizeof args, "lights '%s' --picture '%s/missing/where.png'", run_dir, test_tmpdir);
     assert_int_equal(test_run_esr(args, out, sizeof out), 1);
     assert_non_null(strstr(out, "missing/where.png"));
+    /* a slip that would write over the checkpoint */
+    snprintf(args, sizeof args, "lights '%s' --json '%s/ckpt_pdra.bin'", run_dir, run_dir);
+    assert_int_equal(test_run_esr(args, out, sizeof out), 1);
+    assert_non_null(strstr(out, "ending in .json"));
+    dir_state(run_dir, after, sizeof after);
+    assert_string_equal(before, after);
 }
 
 /* The signal mask this process's child `pid` catches (/proc/PID/status SigCgt); 0 when unread. */

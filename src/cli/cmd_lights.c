@@ -33,7 +33,7 @@ const struct esr_command cmd_lights = {
     "lights",
     "list the lights a run found (id, place, area, colour as `esr edit` takes it, power) and where "
     "they are",
-    "usage: esr lights RUN [--recompute | --drop ID[,ID...]] [--json FILE] [--picture FILE.png]\n"
+    "usage: esr lights RUN [--recompute | --drop ID[,ID...]] [--json FILE.json] [--picture FILE.png]\n"
     "                  [--data DIR]\n"
     "\n"
     "Reads the lights stored in RUN's pdra checkpoint (found and calibrated when the pdra stage\n"
@@ -67,7 +67,8 @@ const struct esr_command cmd_lights = {
     "                such as a mirror's view of a lamp: it then follows the lights it reflects\n"
     "                in relights instead of glowing on), calibrate the others again without\n"
     "                them and store the result in the checkpoint; --recompute brings them back\n"
-    "  --json FILE   write the lights as JSON to FILE (as RUN/lights.json, above)\n"
+    "  --json FILE.json\n"
+    "                write the lights as JSON to FILE.json (as RUN/lights.json, above)\n"
     "  --picture FILE.png\n"
     "                write where each light is: the lights-on training photo that shows the most\n"
     "                lights' centroids, enlarged to at least 256 pixels wide, each light's id in a\n"
@@ -420,10 +421,10 @@ static int lights(const struct lights_args *a)
     return rc;
 }
 
-static int ends_with_png(const char *path)
+static int ends_with(const char *path, const char *ext)
 {
-    const size_t n = strlen(path);
-    return n > 4 && !strcasecmp(path + n - 4, ".png");
+    const size_t n = strlen(path), e = strlen(ext);
+    return n > e && !strcasecmp(path + n - e, ext);
 }
 
 static int run_lights(int argc, char **argv)
@@ -459,11 +460,13 @@ static int run_lights(int argc, char **argv)
     if (a.again && a.drop)
         return cli_fail(&cmd_lights, "--drop names lights as listed now, which --recompute finds "
                         "anew: drop them after a --recompute");
-    if (a.picture && !ends_with_png(a.picture))
+    /* names that say what they hold: a slip such as `--json RUN/ckpt_pdra.bin` is refused, not
+     * written over the checkpoint */
+    if (a.picture && !ends_with(a.picture, ".png"))
         return cli_fail(&cmd_lights, "--picture %s: the picture is a PNG; give a name ending in "
                         ".png", a.picture);
-    if (a.json && a.picture && !strcmp(a.json, a.picture))
-        return cli_fail(&cmd_lights, "--json and --picture name the same file '%s'", a.json);
+    if (a.json && !ends_with(a.json, ".json"))
+        return cli_fail(&cmd_lights, "--json %s: give a name ending in .json", a.json);
     /* a change of the lights finishes or leaves everything as it was (write_all) */
     struct sigaction sa, before_int, before_term;
     memset(&sa, 0, sizeof sa);
