@@ -229,15 +229,15 @@ static const struct opt opts[] = {
 #define N_OPTS (sizeof opts / sizeof opts[0])
 
 /* The smoke preset: fast with these changes. Every stage and every step of one (the mask, the
- * SDF's start, pdra's lights in the transport a quarter through, the lights found, calibrated and
- * colour-balanced at its end) runs, on grids sized to the images (res 0) with small networks and
+ * SDF's start, checkpoints within a stage, pdra's lights in the transport a quarter through, the
+ * lights found, calibrated and colour-balanced at its end) runs, on grids sized to the images (res 0) with small networks and
  * batches, a few iterations each: all five stages of a 32 px, 8-view dataset in seconds, the
  * checkpoints a few MB. What it trains is not meant to be looked at. */
 static const struct {
     const char *name;
     double value;
 } smoke_changes[] = {
-    {"batch_rays", 512}, {"log_every", 10}, {"tone_width", 8}, {"lts_points", 32},
+    {"batch_rays", 512}, {"log_every", 10}, {"save_every", 10}, {"tone_width", 8}, {"lts_points", 32},
     {"lts_dirs", 16}, {"field_width", 16}, {"field_depth", 1}, {"lights_calib_points", 250},
     {"alphamask.res", 0}, {"coarse.res", 0}, {"fine.res", 0}, {"lts.res", 0}, {"pdra.res", 0},
     {"alphamask.iters", 30}, {"coarse.iters", 30}, {"fine.iters", 20}, {"lts.iters", 10},
