@@ -26,6 +26,7 @@
 #include "io/image.h"
 #include "model/config.h"
 #include "model/model.h"
+#include "render/digit_font.h"
 #include "render/lights_picture.h"
 #include "test_support.h"
 
@@ -270,6 +271,43 @@ static void test_lights_picture(void **state)
     assert_string_equal(before, after);
 }
 
+/* The ids' font: each digit its own pattern, boxes sized as said, nothing drawn outside them. */
+static void test_digit_font(void **state)
+{
+    (void)state;
+    int w, h;
+    esr_digits_size(7, 2, &w, &h);
+    assert_int_equal(w, 10);
+    assert_int_equal(h, 14);
+    esr_digits_size(15, 3, &w, &h);
+    assert_int_equal(w, 27);
+    assert_int_equal(h, 21);
+    static const float fg[3] = {1, 1, 1}, bg[3] = {0, 0, 0};
+    char seen[10][16];
+    for (int d = 0; d < 10; d++) {
+        struct esr_image img;
+        assert_int_equal(esr_image_alloc(&img, 7, 9, 3), 0);
+        for (size_t i = 0; i < esr_image_count(&img); i++)
+            img.data[i] = 0.5f;
+        esr_digits_draw(&img, 1, 1, d, 1, fg, bg); /* a 5 x 7 box at (1, 1) */
+        int lit = 0;
+        for (int y = 0; y < 9; y++)
+            for (int x = 0; x < 7; x++) {
+                const float v = img.data[(y * 7 + x) * 3];
+                const int inside = x >= 1 && x < 6 && y >= 1 && y < 8;
+                assert_true(inside ? v == 0.0f || v == 1.0f : v == 0.5f);
+                if (x >= 2 && x < 5 && y >= 2 && y < 7) /* the glyph's 3 x 5 */
+                    seen[d][lit++] = v == 1.0f ? '#' : '.';
+            }
+        seen[d][lit] = '\0';
+        for (int e = 0; e < d; e++)
+            if (!strcmp(seen[d], seen[e]))
+                fail_msg("digits %d and %d look the same (%s)", e, d, seen[d]);
+        esr_image_free(&img);
+    }
+    assert_string_equal(seen[1], ".#.##..#..#.###"); /* a 1 reads as one */
+}
+
 /* The signal mask this process's child `pid` catches (/proc/PID/status SigCgt); 0 when unread. */
 static unsigned long long caught_signals(pid_t pid)
 {
@@ -355,6 +393,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_smoke_trains_every_stage),
         cmocka_unit_test(test_lights_table_has_hsv_and_writes_nothing),
+        cmocka_unit_test(test_digit_font),
         cmocka_unit_test(test_lights_picture),
         cmocka_unit_test(test_lights_recompute_interrupted),
     };
