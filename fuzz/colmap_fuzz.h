@@ -16,9 +16,9 @@
 #include <string.h>
 
 #include "fuzz.h"
-#include "io/colmap.h"
-#include "io/colmap_camera.h"
-#include "io/colmap_scene.h"
+#include "import/colmap.h"
+#include "import/colmap_camera.h"
+#include "import/colmap_scene.h"
 
 #define FUZZ_COLMAP_SEP "\n#--next-file--\n"
 

@@ -1,4 +1,4 @@
-/* COLMAP binary models (src/io/colmap_binary.c): cameras.bin, images.bin and points3D.bin in
+/* COLMAP binary models (src/import/colmap_binary.c): cameras.bin, images.bin and points3D.bin in
  * one input, split and checked as colmap_fuzz.h says. */
 #include "colmap_fuzz.h"
 

@@ -1,4 +1,4 @@
-/* COLMAP text models (src/io/colmap_text.c): cameras.txt, images.txt and points3D.txt in one
+/* COLMAP text models (src/import/colmap_text.c): cameras.txt, images.txt and points3D.txt in one
  * input, split and checked as colmap_fuzz.h says; fuzz/colmap.dict holds the format's words. */
 #include "colmap_fuzz.h"
 

@@ -1,7 +1,7 @@
 /* The small JSON files of a run folder and a dataset, each through the in-memory reader its
  * command uses: RUN/train_log.jsonl (src/eval/curve.c, the report's curves), a render stamp
  * render.json (src/render/view_frames.c, render again or not), RUN/run.json's dataset key
- * (src/eval/run_dir.c) and scene.json's tight box (src/io/colmap_align.c, `esr import colmap
+ * (src/eval/run_dir.c) and scene.json's tight box (src/import/colmap_align.c, `esr import colmap
  * --align-to`, a user's file).
  * Every input goes through all four rather than a first byte choosing one: the seeds stay the real
  * files as written, unprefixed, and any file a user puts in one place is tried in the others. */
@@ -11,7 +11,7 @@
 #include "eval/curve.h"
 #include "eval/run_dir.h"
 #include "fuzz.h"
-#include "io/colmap_align.h"
+#include "import/colmap_align.h"
 #include "render/view.h"
 
 /* An accepted curve: record numbers that rise from 0 and finite values. */

@@ -61,7 +61,8 @@ static void test_set(void **state)
     assert_float_equal(c.lambda_tau, 0.25f, 0);
     expect_fail(esr_config_set(&c, "fine.itres=200"), "unknown option 'fine.itres'");
     expect_fail(esr_config_set(&c, "fine.iters=2.5"), "must be an integer");
-    expect_fail(esr_config_set(&c, "fine.res=4"), "out of range [8, 512]");
+    expect_fail(esr_config_set(&c, "fine.res=600"), "out of range [0, 512]");
+    expect_fail(esr_config_set(&c, "fine.res=4"), "0 (from the images) or at least 8");
     /* a float option at its bound, as set and as validated from its stored float (0.01 reads back
      * as 0.0099999998) */
     assert_int_equal(esr_config_set(&c, "coarse.s_div=0.01"), 0);
@@ -172,6 +173,70 @@ static void test_presets_independent(void **state)
     assert_float_equal(p.smooth_sigma, 0.8f, 0);
     assert_float_equal(p.lambda_tau, 0.1f, 0);
     assert_float_equal(f.lambda_tau, 1.0f, 0);
+}
+
+/* The smoke preset is fast with its few changes (grids from the images, tiny iterations), named
+ * and stored like the others; res 0 resolves by the rule config.h states, and only where 0. */
+static void test_smoke_preset_and_grid_rule(void **state)
+{
+    (void)state;
+    enum esr_preset p = ESR_PRESET_FAST;
+    assert_int_equal(esr_preset_from_name("smoke", &p), 0);
+    assert_int_equal(p, ESR_PRESET_SMOKE);
+    assert_string_equal(esr_preset_name(ESR_PRESET_SMOKE), "smoke");
+    struct esr_train_config s, f;
+    esr_config_defaults(&s, ESR_PRESET_SMOKE);
+    esr_config_defaults(&f, ESR_PRESET_FAST);
+    assert_int_equal(s.preset, ESR_PRESET_SMOKE);
+    assert_int_equal(esr_config_validate(&s), 0);
+    assert_int_equal(s.fine.res, 0);
+    assert_int_equal(s.alphamask.res, 0);
+    assert_true(s.pdra.iters > 0 && s.pdra.iters < f.pdra.iters / 10);
+    assert_true(s.lights_calib_points < f.lights_calib_points);
+    assert_float_equal(s.pdra_lights_at, f.pdra_lights_at, 0); /* every step of pdra runs */
+    assert_int_equal(s.seed, f.seed);
+    assert_int_equal(f.lights_calib_points, 2000);
+
+    char said[512];
+    /* 32 px, 8 lights-off views: min(32, sqrt(8192 / 8) = 32) = 32, coarse 5/8 of it */
+    struct esr_train_config c = s;
+    assert_int_equal(esr_config_resolve_res(&c, 32, 32, 8 * 32 * 32, said, sizeof said), 5);
+    assert_int_equal(c.fine.res, 32);
+    assert_int_equal(c.lts.res, 32);
+    assert_int_equal(c.pdra.res, 32);
+    assert_int_equal(c.coarse.res, 20);
+    assert_int_equal(c.alphamask.res, 20);
+    assert_non_null(strstr(said, "fine.res 32"));
+    assert_int_equal(esr_config_validate(&c), 0);
+    /* 100 px, 50 views: the image side binds (sqrt(62500) = 250) */
+    c = s;
+    esr_config_resolve_res(&c, 100, 100, 50 * 100 * 100, said, sizeof said);
+    assert_int_equal(c.fine.res, 100);
+    assert_int_equal(c.coarse.res, 62);
+    /* 64 px, 2 views: the pixels bind (sqrt(1024) = 32), a multiple of 4 */
+    c = s;
+    esr_config_resolve_res(&c, 64, 48, 2 * 64 * 48, said, sizeof said);
+    assert_int_equal(c.fine.res, 24);
+    assert_int_equal(c.coarse.res, 16); /* the floor */
+    /* tiny and huge: clamped to [16, 256] */
+    c = s;
+    esr_config_resolve_res(&c, 8, 8, 64, said, sizeof said);
+    assert_int_equal(c.fine.res, 16);
+    c = s;
+    esr_config_resolve_res(&c, 4000, 3000, (size_t)200 * 4000 * 3000, said, sizeof said);
+    assert_int_equal(c.fine.res, 256);
+    assert_int_equal(c.coarse.res, 160);
+    /* a stage that names its res keeps it; nothing to resolve says nothing */
+    assert_int_equal(esr_config_set(&c, "fine.res=0"), 0);
+    assert_int_equal(esr_config_resolve_res(&c, 32, 32, 8192, said, sizeof said), 1);
+    assert_int_equal(c.fine.res, 32);
+    assert_int_equal(c.pdra.res, 256);
+    assert_int_equal(esr_config_resolve_res(&f, 32, 32, 8192, said, sizeof said), 0);
+    assert_int_equal(f.fine.res, 128);
+    assert_string_equal(said, "");
+    /* 1..7 is no grid: refused, 0 and 8 are fine */
+    expect_fail(esr_config_set(&c, "fine.res=7"), "at least 8");
+    assert_int_equal(esr_config_set(&c, "fine.res=8"), 0);
 }
 
 /* to_json -> from_json gives back the very same struct (no float drifts through the shortest
@@ -296,6 +361,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_presets),
         cmocka_unit_test(test_presets_independent),
+        cmocka_unit_test(test_smoke_preset_and_grid_rule),
         cmocka_unit_test(test_json_object_round_trip),
         cmocka_unit_test(test_json_object_missing_and_refused),
         cmocka_unit_test(test_set),

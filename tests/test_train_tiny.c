@@ -17,6 +17,7 @@
 
 #include <cjson/cJSON.h>
 
+#include "core/colour.h"
 #include "core/error.h"
 #include "io/file.h"
 #include "io/image.h"
@@ -812,7 +813,7 @@ static void test_geometry_from_lights_on_only(void **state)
 }
 
 /* The pdra stage, continuing the full run's lts checkpoint, ends by finding the lights and
- * storing them in its checkpoint; `esr lights` lists them and writes RUN/lights.json. */
+ * storing them in its checkpoint; `esr lights` lists them and writes them to --json. */
 /* dst: a copy of run's config.json, run.json and ckpt_pdra.bin, the checkpoint changed by
  * `change`. */
 static void copy_run_changed(const char *run, const char *dst, void (*change)(struct esr_model *))
@@ -884,7 +885,7 @@ static void test_pdra_finds_lights(void **state)
     snprintf(cmd, sizeof cmd, "lights %s --data /nonexistent", run);
     assert_int_equal(test_run_esr(cmd, out, sizeof out), 1);
     assert_non_null(strstr(out, "--data is read only with --recompute"));
-    snprintf(cmd, sizeof cmd, "lights %s", run);
+    snprintf(cmd, sizeof cmd, "lights %s --json %s/lights.json", run, run); /* listing alone writes nothing */
     assert_int_equal(test_run_esr(cmd, out, sizeof out), 0);
     snprintf(cmd, sizeof cmd, "%d light", m.lights.n);
     assert_non_null(strstr(out, cmd));
@@ -1188,7 +1189,8 @@ static void pdra_view_close(struct pdra_view *v)
 static void test_demo_steps_after_training(void **state)
 {
     (void)state;
-    char demo[4300], cmd[24576], out[16384];
+    char demo[4300], cmd[24576];
+    static char out[1 << 18];
     snprintf(demo, sizeof demo, "%s/demo", test_tmpdir);
     snprintf(cmd, sizeof cmd, "mkdir -p '%s/run' && cp '%s'/run_pdra/config.json "
              "'%s'/run_pdra/run.json '%s'/run_pdra/ckpt_*.bin '%s/run/'", demo, test_tmpdir,
@@ -1199,13 +1201,31 @@ static void test_demo_steps_after_training(void **state)
     if (rc != 0)
         fail_msg("esr %s: exit %d:\n%s", cmd, rc, out);
     assert_non_null(strstr(out, "demo finished"));
-    const char *made[] = {"run/lights.json", "run/eval/test_nv.json", "run/report.html",
-                          "mesh.ply", "info.json"};
+    const char *made[] = {"run/lights.json", "run/lights.png", "run/eval/test_nv.json",
+                          "run/report.html", "mesh.ply", "info.json"};
     for (size_t i = 0; i < sizeof made / sizeof made[0]; i++) {
         snprintf(cmd, sizeof cmd, "%s/%s", demo, made[i]);
         if (!esr_file_exists(cmd))
             fail_msg("esr demo did not write %s", cmd);
     }
+    /* each light recoloured to the hue opposite its own (a fixed 0.6 left a blue light blue) */
+    struct esr_model m;
+    snprintf(cmd, sizeof cmd, "%s/run/ckpt_pdra.bin", demo);
+    assert_int_equal(esr_model_load(&m, cmd), ESR_OK);
+    int recoloured = 0;
+    for (int k = 0; k < m.lights.n; k++) {
+        const float *rgb = m.lights.light[k].radiance;
+        if (!(rgb[0] > 0.0f || rgb[1] > 0.0f || rgb[2] > 0.0f))
+            continue;
+        float hsv[3];
+        esr_rgb_to_hsv(rgb, hsv);
+        snprintf(cmd, sizeof cmd, "--light %d --color %.3f,1 ", k, fmod((double)hsv[0] + 0.5, 1.0));
+        if (!strstr(out, cmd))
+            fail_msg("esr demo: no '%s' (light %d's hue %.3f) in its output", cmd, k, (double)hsv[0]);
+        recoloured++;
+    }
+    esr_model_free(&m);
+    assert_true(recoloured > 0);
     /* light 0 off and recoloured, as PNG and EXR */
     snprintf(cmd, sizeof cmd, "ls '%s'/run/edits/light0_off/*.png '%s'/run/edits/light0_off/*.exr "
              "'%s'/run/edits/light0_recoloured/*.png > /dev/null 2>&1", demo, demo, demo);

@@ -1,11 +1,13 @@
 /* esr demo: the main job end to end on the built-in default scene (or a given dataset), by
  * running the other subcommands in order: synth -> info -> train -> eval -> export. */
+#include <math.h>
 #include <stdio.h>
 #include <string.h>
 #include <sys/stat.h>
 #include <time.h>
 
 #include "cli/commands.h"
+#include "core/colour.h"
 #include "io/dataset.h"
 #include "model/model.h"
 #include "core/error.h"
@@ -24,8 +26,10 @@ const struct esr_command cmd_demo = {
     "  2. DIR/info.json   the dataset check and summary (`esr info`), DIR/contact_sheet.png\n"
     "  3. DIR/run         training, alphamask -> coarse -> fine -> lts -> pdra (`esr train\n"
     "                     --resume`: an interrupted demo continues where it stopped)\n"
-    "  4. DIR/run/lights.json  the lights found: id, place, area, emitted radiance (`esr lights`)\n"
-    "  5. DIR/run/edits   one edit per light on a test view: off, and recoloured blue\n"
+    "  4. DIR/run/lights.json  the lights found: id, place, area, emitted radiance, and\n"
+    "                     DIR/run/lights.png, where each is (`esr lights`)\n"
+    "  5. DIR/run/edits   one edit per light on a test view: off, and recoloured to the hue\n"
+    "                     opposite its own (H + 0.5, saturation 1)\n"
     "                     (`esr edit --method ratio`)\n"
     "  6. DIR/run/eval    PSNR/SSIM per view and lighting, emitter IoU and each light's emitted\n"
     "                     radiance against the truth, Chamfer distance to the ground-truth\n"
@@ -36,7 +40,7 @@ const struct esr_command cmd_demo = {
     "options:\n"
     "  --out DIR          output folder (default runs/demo; created if missing)\n"
     "  --data DATA        use this dataset instead of synthesising the default scene\n"
-    "  --preset NAME      training preset (fast, the default, or paper)\n"
+    "  --preset NAME      training preset (fast, the default, paper or smoke)\n"
     "  --set key=value    training option override (repeatable; see `esr train --help`)\n"
     "  -h, --help         this text\n",
     run_demo,
@@ -71,7 +75,9 @@ static int step(int number, const struct esr_command *cmd, int argc, char **argv
     return rc;
 }
 
-/* One edit per light of the run that emits (off, and recoloured blue; the ratio method) on the
+/* One edit per light of the run that emits (off, and recoloured to the hue opposite its own, so
+ * that the change shows whatever the light's colour: a fixed blue left a blue light as it was;
+ * the ratio method) on the
  * first lights-on test_nv view, into RUN/edits/light<K>_off and RUN/edits/light<K>_recoloured
  * (the report shows them). */
 static int demo_edits(const char *run, const char *data)
@@ -84,9 +90,13 @@ static int demo_edits(const char *run, const char *data)
         return cli_fail(&cmd_demo, "%s", esr_error_message());
     const int n = m.lights.n;
     int lit[ESR_MAX_LIGHTS]; /* a light calibrated to nothing (a highlight) is not worth an edit */
+    char colour[ESR_MAX_LIGHTS][32];
     for (int k = 0; k < n; k++) {
         const float *rad = m.lights.light[k].radiance;
         lit[k] = rad[0] > 0.0f || rad[1] > 0.0f || rad[2] > 0.0f;
+        float hsv[3];
+        esr_rgb_to_hsv(rad, hsv);
+        snprintf(colour[k], sizeof colour[k], "%.3f,1", fmod((double)hsv[0] + 0.5, 1.0));
     }
     esr_model_free(&m);
     if (esr_dataset_load(data, &ds) != ESR_OK)
@@ -106,7 +116,7 @@ static int demo_edits(const char *run, const char *data)
         snprintf(out_col, sizeof out_col, "%s/edits/light%d_recoloured", run, k);
         char *off[] = {"edit", (char *)run, "--light", id, "--intensity", "0", "--out", out_off,
                        "--frames", view, "--data", (char *)data, "--method", "ratio"};
-        char *col[] = {"edit", (char *)run, "--light", id, "--color", "0.6,1", "--out", out_col,
+        char *col[] = {"edit", (char *)run, "--light", id, "--color", colour[k], "--out", out_col,
                        "--frames", view, "--data", (char *)data, "--method", "ratio"};
         if (step(5, &cmd_edit, 14, off) || step(5, &cmd_edit, 14, col))
             return 1;
@@ -194,8 +204,11 @@ static int run_demo(int argc, char **argv)
     t_train = now_s() - t_train;
 
     snprintf(probe, sizeof probe, "%s/ckpt_pdra.bin", run);
-    char *lights[] = {"lights", run};
-    if (is_file(probe) && step(4, &cmd_lights, 2, lights))
+    char lights_json[4300], lights_png[4300];
+    snprintf(lights_json, sizeof lights_json, "%s/lights.json", run);
+    snprintf(lights_png, sizeof lights_png, "%s/lights.png", run);
+    char *lights[] = {"lights", run, "--json", lights_json, "--picture", lights_png};
+    if (is_file(probe) && step(4, &cmd_lights, 6, lights))
         return 1;
 
     if (is_file(probe) && demo_edits(run, data))
@@ -215,6 +228,7 @@ static int run_demo(int argc, char **argv)
     printf("  %s/eval/test_nv.json      PSNR / SSIM per view and lighting mode, emitter IoU, "
            "emitted radiance per light\n", run);
     printf("  %s/lights.json            the lights found (id, centroid, area, colour, strength)\n", run);
+    printf("  %s/lights.png             where each light is: its id on a training photo\n", run);
     snprintf(probe, sizeof probe, "%s/eval/geometry.json", run);
     if (is_file(probe))
         printf("  %s   Chamfer distance to the ground-truth surface\n", probe);

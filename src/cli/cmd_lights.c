@@ -1,18 +1,26 @@
-/* esr lights RUN: the lights the run found (ids, place, size, colour, strength) as a table and
- * RUN/lights.json. */
-#include <cjson/cJSON.h>
-#include <math.h>
+/* esr lights RUN: the lights the run found (ids, place, size, colour as `esr edit` takes it,
+ * strength) as a table; on request, or when --recompute or --drop changes them, RUN/lights.json
+ * and a picture of where each light is. */
+#include <errno.h>
+#include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h>
+#include <unistd.h>
 
 #include "cli/commands.h"
-#include "core/colour.h"
+#include "cli/lights_listing.h"
 #include "core/error.h"
 #include "eval/run_dir.h"
 #include "io/dataset.h"
+#include "io/dir.h"
+#include "io/file.h"
+#include "io/image.h"
 #include "io/json_file.h"
+#include "io/stale.h"
 #include "model/model.h"
+#include "render/lights_picture.h"
 #include "train/lights.h"
 #include "train/lights_fit.h"
 #include "train/rays.h"
@@ -21,21 +29,34 @@ static int run_lights(int argc, char **argv);
 
 const struct esr_command cmd_lights = {
     "lights",
-    "list the lights a run found (id, centroid, area, colour, emitted radiance and power)",
-    "usage: esr lights RUN [--recompute | --drop ID[,ID...]] [--data DIR]\n"
+    "list the lights a run found (id, place, area, colour as `esr edit` takes it, power) and where "
+    "they are",
+    "usage: esr lights RUN [--recompute | --drop ID[,ID...]] [--json FILE.json] [--picture FILE.png]\n"
+    "                  [--data DIR]\n"
     "\n"
     "Reads the lights stored in RUN's pdra checkpoint (found and calibrated when the pdra stage\n"
     "ended: the emitting surface split into connected lights, each light's strength fixed by the\n"
-    "light it casts on the rest of the scene), prints them and writes RUN/lights.json:\n"
+    "light it casts on the rest of the scene) and prints them: id (what `esr edit --light` takes),\n"
+    "centroid and area, emitted radiance R G B with its H S V (H and S as `esr edit --color H,S`\n"
+    "takes them), power and the strength calibration. Units: positions in the dataset's world\n"
+    "units; radiance linear RGB on the photos' scale (a pixel's sRGB value made linear: 1 is white\n"
+    "in a photo; the strength is calibrated from the light the lights cast in the lights-off\n"
+    "photos); power = luminance(R G B) x pi x area (a Lambertian emitter, one side), in radiance\n"
+    "units x world units^2. Listing writes nothing unless asked (--json, --picture);\n"
+    "--recompute and --drop, which change the lights, write the checkpoint, RUN/lights.json and\n"
+    "RUN/lights.png together, each aside first and then renamed: an error or an interruption\n"
+    "(Ctrl-C, SIGTERM) before they are all written leaves the three as they were.\n"
+    "\n"
+    "lights.json:\n"
     "  {\"lights\": [{\"id\", \"centroid\", \"area\", \"points\", \"unseen_points\" (of its surface\n"
     "               points, those whose emission no photo shows: no camera sees them, or only\n"
     "               lights-off or clipped photos do), \"rgb\" (emitted radiance, linear), \"hsv\" (of\n"
-    "               rgb: H, S in [0,1], V unbounded, linear), \"power\", \"field_rgb\",\n"
+    "               rgb: H, S in [0,1], V = max(rgb), linear), \"power\", \"field_rgb\",\n"
     "               \"strength_scale\", \"calibration_points\",\n"
     "               \"strength_fitted\" (false: too small to fit, the fitted lights' area-weighted mean scale)}...],\n"
-    "   \"emitter_k\", \"checkpoint\", \"colour_balance\" (the base colour's factor per channel, the\n"
-    "   environment map's divisor, set from the lights' silhouettes in the lights-on photos;\n"
-    "   1 1 1: none)}\n"
+    "   \"emitter_k\", \"checkpoint\", \"units\", \"colour_balance\" (the base colour's factor per\n"
+    "   channel, the environment map's divisor, set from the lights' silhouettes in the lights-on\n"
+    "   photos; 1 1 1: none)}\n"
     "\n"
     "options:\n"
     "  --recompute   find and calibrate the lights again and store them in the checkpoint (a\n"
@@ -44,24 +65,37 @@ const struct esr_command cmd_lights = {
     "                such as a mirror's view of a lamp: it then follows the lights it reflects\n"
     "                in relights instead of glowing on), calibrate the others again without\n"
     "                them and store the result in the checkpoint; --recompute brings them back\n"
-    "  --data DIR    with --recompute or --drop: the dataset whose training images they read\n"
-    "                (lights-off to calibrate, lights-on for the colour; default: the one RUN\n"
-    "                was trained on)\n"
+    "  --json FILE.json\n"
+    "                write the lights as JSON to FILE.json (as RUN/lights.json, above)\n"
+    "  --picture FILE.png\n"
+    "                write where each light is: the lights-on training photo that shows the most\n"
+    "                lights' centroids, enlarged to at least 256 pixels wide, each light's id in a\n"
+    "                black box beside a cross at its centroid (occlusion not tested: a light behind\n"
+    "                an object is marked where it would be seen)\n"
+    "  --data DIR    the dataset whose training images --recompute and --drop read (lights-off\n"
+    "                to calibrate, lights-on for the colour) and --picture shows (default: the\n"
+    "                one RUN was trained on)\n"
     "  -h, --help    this text\n",
     run_lights,
     0, /* view_loop */
 };
 
-/* Finds (find) and calibrates the lights of m from DATA's training rays (the lights-off ones
- * calibrate, the lights-on ones balance their colour). */
-static int find_and_calibrate(struct esr_model *m, const char *data, int find)
+/* The signal that interrupted a change of the lights (0: none). */
+static volatile sig_atomic_t interrupted;
+
+static void on_interrupt(int sig)
 {
-    struct esr_dataset ds;
-    ESR_TRY(esr_dataset_load(data, &ds));
+    interrupted = sig;
+}
+
+/* Finds (find) and calibrates the lights of m from the training rays of ds, loaded from DATA
+ * (the lights-off ones calibrate, the lights-on ones balance their colour). */
+static int find_and_calibrate(struct esr_model *m, const struct esr_dataset *ds, const char *data,
+                              int find)
+{
     struct esr_ray_set rs;
     memset(&rs, 0, sizeof rs);
-    int rc = esr_ray_set_build(&rs, &ds, ESR_PHASE_TRAIN);
-    esr_dataset_free(&ds);
+    int rc = esr_ray_set_build(&rs, ds, ESR_PHASE_TRAIN);
     if (rc == ESR_OK && rs.n_off == 0)
         rc = ESR_FAIL("dataset %s: no lights-off training images to calibrate with", data);
     if (rc == ESR_OK && find)
@@ -69,7 +103,7 @@ static int find_and_calibrate(struct esr_model *m, const char *data, int find)
     if (rc == ESR_OK && find && m->lights.n_left_out > 0)
         fprintf(stderr, "esr lights: " ESR_LIGHTS_LEFT_OUT_FMT "\n", m->lights.n_left_out, ESR_MAX_LIGHTS);
     if (rc == ESR_OK && m->lights.n > 0)
-        rc = esr_lights_calibrate(m, rs.orig3, rs.dir3, rs.n_off, ESR_LIGHTS_CALIB_POINTS,
+        rc = esr_lights_calibrate(m, rs.orig3, rs.dir3, rs.n_off, m->cfg.lights_calib_points,
                                   (uint64_t)m->cfg.seed, 1);
     for (int i = 0; rc == ESR_OK && i < m->lights.n; i++) {
         char line[320];
@@ -119,137 +153,237 @@ static int drop_lights(struct esr_model *m, const char *list)
     return ESR_OK;
 }
 
-static cJSON *lights_json(const struct esr_model *m, const char *ckpt, const long *unseen)
+/* One file the command writes: its bytes are made first (kind), then written aside to
+ * `aside` (a temporary name a later esr removes if this one is killed, io/stale.h) and renamed
+ * onto path once every file is aside. */
+enum out_kind { OUT_CKPT, OUT_JSON, OUT_PICTURE };
+struct out_file {
+    enum out_kind kind;
+    char path[4200], aside[4300];
+};
+
+static int add_out(struct out_file *o, int *n, enum out_kind kind, const char *path)
 {
-    cJSON *root = cJSON_CreateObject();
-    cJSON_AddStringToObject(root, "checkpoint", ckpt);
-    cJSON_AddNumberToObject(root, "emitter_k", m->cfg.emitter_k);
-    float balance[3];
-    esr_lights_balance_of(&m->lights, balance);
-    cJSON_AddItemToObject(root, "colour_balance", esr_json_float_array(balance, 3));
-    cJSON *arr = cJSON_AddArrayToObject(root, "lights");
-    for (int i = 0; i < m->lights.n; i++) {
-        const struct esr_light *l = &m->lights.light[i];
-        float hsv[3];
-        esr_rgb_to_hsv(l->radiance, hsv);
-        cJSON *o = cJSON_CreateObject();
-        cJSON_AddNumberToObject(o, "id", i);
-        cJSON_AddItemToObject(o, "centroid", esr_json_float_array(l->centroid, 3));
-        cJSON_AddNumberToObject(o, "area", l->area);
-        cJSON_AddNumberToObject(o, "points", (double)l->points);
-        cJSON_AddNumberToObject(o, "unseen_points", (double)unseen[i]);
-        cJSON_AddItemToObject(o, "rgb", esr_json_float_array(l->radiance, 3));
-        cJSON_AddItemToObject(o, "hsv", esr_json_float_array(hsv, 3));
-        cJSON_AddNumberToObject(o, "power", l->power);
-        cJSON_AddItemToObject(o, "field_rgb", esr_json_float_array(l->field_rgb, 3));
-        cJSON_AddItemToObject(o, "strength_scale", esr_json_float_array(l->scale, 3));
-        cJSON_AddNumberToObject(o, "calibration_points", l->calib_points);
-        cJSON_AddBoolToObject(o, "strength_fitted", esr_light_strength_fitted(&m->lights, i));
-        cJSON_AddItemToArray(arr, o);
-    }
-    return root;
+    for (int i = 0; i < *n; i++)
+        if (!strcmp(o[i].path, path))
+            return ESR_OK; /* --json RUN/lights.json with --recompute: once */
+    o[*n].kind = kind;
+    snprintf(o[*n].path, sizeof o[*n].path, "%s", path);
+    o[*n].aside[0] = '\0';
+    (*n)++;
+    return ESR_OK;
 }
 
-static int lights(const char *run, const char *data_override, int again, const char *drop)
+struct lights_args {
+    const char *run, *data, *drop, *json, *picture;
+    int again;
+};
+
+/* Writes file o aside. */
+static int write_aside(struct out_file *o, const struct esr_model *m, const char *ckpt,
+                       const long *unseen, const struct esr_image *picture)
 {
-    char ckpt[4200], data[4096], out[4200];
-    snprintf(ckpt, sizeof ckpt, "%s/ckpt_pdra.bin", run);
+    char prefix[4300];
+    snprintf(prefix, sizeof prefix, "%s.tmp-", o->path);
+    ESR_TRY(esr_stale_template(o->aside, sizeof o->aside, prefix));
+    const int fd = mkstemp(o->aside);
+    if (fd < 0) {
+        const int e = errno;
+        o->aside[0] = '\0';
+        return ESR_FAIL("cannot write '%s': %s", o->path, strerror(e));
+    }
+    close(fd);
+    switch (o->kind) {
+    case OUT_CKPT:
+        return esr_model_save(m, o->aside);
+    case OUT_JSON:
+        return esr_json_write_atomic(o->aside, esr_cli_lights_json(m, ckpt, unseen));
+    case OUT_PICTURE:
+        return esr_png_write(o->aside, picture, 8);
+    }
+    return ESR_OK;
+}
+
+/* Every file aside, then each renamed onto its path, with SIGINT and SIGTERM held off from the
+ * first write to the last rename: an interruption lands before (nothing written) or after (all
+ * written), never between. On a failure the files aside are removed and the paths keep what
+ * they held. */
+static int write_all(struct out_file *o, int n, const struct esr_model *m, const char *ckpt,
+                     const long *unseen, const struct esr_image *picture)
+{
+    sigset_t hold, before;
+    sigemptyset(&hold);
+    sigaddset(&hold, SIGINT);
+    sigaddset(&hold, SIGTERM);
+    sigprocmask(SIG_BLOCK, &hold, &before);
+    int rc = interrupted ? ESR_FAIL("interrupted: nothing written") : ESR_OK;
+    for (int i = 0; rc == ESR_OK && i < n; i++)
+        rc = write_aside(&o[i], m, ckpt, unseen, picture);
+    for (int i = 0; rc == ESR_OK && i < n; i++)
+        if (rename(o[i].aside, o[i].path) != 0) {
+            rc = ESR_FAIL("cannot rename '%s' to '%s': %s%s", o[i].aside, o[i].path,
+                          strerror(errno), i ? " (the files before it in this list were renamed)" : "");
+            break;
+        } else {
+            o[i].aside[0] = '\0';
+            fprintf(stderr, "wrote %s\n", o[i].path);
+        }
+    for (int i = 0; i < n; i++)
+        if (o[i].aside[0])
+            unlink(o[i].aside);
+    sigprocmask(SIG_SETMASK, &before, NULL);
+    return rc;
+}
+
+/* The picture of where the lights are, and what it says (frame, lights out of view). */
+static int make_picture(const struct esr_model *m, const struct esr_dataset *ds,
+                        struct esr_image *out)
+{
+    char frame[ESR_NAME_MAX];
+    int shown[ESR_MAX_LIGHTS];
+    ESR_TRY(esr_lights_picture(&m->lights, ds, out, frame, sizeof frame, shown));
+    fprintf(stderr, "esr lights: picture from training frame %s (%dx%d)", frame, out->width,
+            out->height);
+    int first = 1;
+    for (int i = 0; i < m->lights.n; i++)
+        if (!shown[i]) {
+            fprintf(stderr, "%s%d", first ? "; out of its view: light " : ", ", i);
+            first = 0;
+        }
+    fprintf(stderr, "\n");
+    return ESR_OK;
+}
+
+static int lights(const struct lights_args *a)
+{
+    const int change = a->again || a->drop;
+    char ckpt[4200], data[4096], path[4200];
+    snprintf(ckpt, sizeof ckpt, "%s/ckpt_pdra.bin", a->run);
+    struct out_file out[4];
+    int n_out = 0;
+    if (change) {
+        add_out(out, &n_out, OUT_CKPT, ckpt);
+        snprintf(path, sizeof path, "%s/lights.json", a->run);
+        add_out(out, &n_out, OUT_JSON, path);
+        snprintf(path, sizeof path, "%s/lights.png", a->run);
+        add_out(out, &n_out, OUT_PICTURE, path);
+    }
+    if (a->json)
+        add_out(out, &n_out, OUT_JSON, a->json);
+    if (a->picture)
+        add_out(out, &n_out, OUT_PICTURE, a->picture);
+    for (int i = 0; i < n_out; i++) /* a missing folder is found now, not after the work */
+        ESR_TRY(esr_file_check_writable(out[i].path));
+    int want_picture = 0;
+    for (int i = 0; i < n_out; i++)
+        want_picture |= out[i].kind == OUT_PICTURE;
     struct esr_model m;
-    ESR_TRY(esr_model_load_finished_pdra(&m, run));
+    ESR_TRY(esr_model_load_finished_pdra(&m, a->run));
+    int lock = -1, have_ds = 0;
+    struct esr_dataset ds;
     int rc = ESR_OK;
-    if (again || drop) {
-        rc = esr_run_data_dir(run, data_override, data, sizeof data);
-        if (rc == ESR_OK && drop)
-            rc = drop_lights(&m, drop);
-        if (rc == ESR_OK)
-            rc = find_and_calibrate(&m, data, again);
-        if (rc == ESR_OK)
-            rc = esr_model_save(&m, ckpt);
+    if (change) /* not beside a training of this run, nor another change of its lights */
+        rc = esr_dir_lock(a->run, "lights", &lock);
+    if (rc == ESR_OK && (change || want_picture))
+        rc = esr_run_data_dir(a->run, a->data, data, sizeof data);
+    if (rc == ESR_OK && (change || want_picture)) {
+        rc = esr_dataset_load(data, &ds);
+        have_ds = rc == ESR_OK;
     }
-    int borrowed = 0;
+    if (rc == ESR_OK && a->drop)
+        rc = drop_lights(&m, a->drop);
+    if (rc == ESR_OK && change)
+        rc = find_and_calibrate(&m, &ds, data, a->again);
+    struct esr_image picture;
+    memset(&picture, 0, sizeof picture);
+    if (rc == ESR_OK && want_picture)
+        rc = make_picture(&m, &ds, &picture);
+    long unseen[ESR_MAX_LIGHTS]; /* each light's points whose emission no photo shows */
     if (rc == ESR_OK) {
-        long unseen[ESR_MAX_LIGHTS]; /* each light's points whose emission no photo shows */
         esr_lights_unseen_points(&m.lights, unseen);
-        printf("%d light%s (emitter threshold k %.3g):\n", m.lights.n, m.lights.n == 1 ? "" : "s",
-               (double)m.cfg.emitter_k);
-        if (m.lights.n == 0)
-            printf("  the pdra stage found no emitters (RUN/log says why); --recompute searches "
-                   "again\n");
-        else
-            printf("  id  centroid                 area    emitted radiance (linear RGB)   power    "
-                   "strength scale\n");
-        for (int i = 0; i < m.lights.n; i++) {
-            const struct esr_light *l = &m.lights.light[i];
-            const int fitted = esr_light_strength_fitted(&m.lights, i);
-            double c[3]; /* no "-0.00" for a coordinate that rounds to zero from below */
-            for (int a = 0; a < 3; a++)
-                c[a] = fabs((double)l->centroid[a]) < 0.005 ? 0.0 : (double)l->centroid[a];
-            printf("  %2d  (%6.2f %6.2f %6.2f)  %6.3f  %8.3g %8.3g %8.3g  %8.3g  %.2f %.2f %.2f%s\n",
-                   i, c[0], c[1], c[2],
-                   (double)l->area, (double)l->radiance[0], (double)l->radiance[1],
-                   (double)l->radiance[2], (double)l->power, (double)l->scale[0],
-                   (double)l->scale[1], (double)l->scale[2], fitted ? "" : " *");
-            borrowed += !fitted;
-        }
-        int any_unseen = 0;
-        for (int i = 0; i < m.lights.n; i++)
-            if (unseen[i]) {
-                printf("  light %d: %ld of its %ld surface points unseen (no camera sees them, or "
-                       "only lights-off or clipped photos)\n", i, unseen[i], m.lights.light[i].points);
-                any_unseen = 1;
-            }
-        if (any_unseen)
-            printf("  (a light's unseen part, such as a lampshade's bottom, emits the light's mean\n"
-                   "  field)\n");
-        if (esr_lights_balanced(&m.lights)) {
-            float b[3];
-            esr_lights_balance_of(&m.lights, b);
-            printf("  colour from the lights' silhouettes: base colour x %.3f %.3f %.3f, environment "
-                   "map / the same\n", (double)b[0], (double)b[1], (double)b[2]);
-        }
-        if (borrowed)
-            printf("  * under %.0f%% of the lights' area: too small to fit from the light it casts; it\n"
-                   "    takes the fitted lights' area-weighted mean scale (a small lamp, or a mirror's reflection\n"
-                   "    of a light that the images cannot tell from one: `esr lights RUN --drop ID`\n"
-                   "    removes one you judge a reflection)\n",
-                   100.0 * ESR_LIGHTS_SMALL_SHARE);
-        snprintf(out, sizeof out, "%s/lights.json", run);
-        rc = esr_json_write_atomic(out, lights_json(&m, ckpt, unseen));
-        if (rc == ESR_OK)
-            fprintf(stderr, "wrote %s\n", out);
+        if (!interrupted)
+            esr_cli_lights_print(&m, unseen);
     }
+    if (rc == ESR_OK && n_out > 0)
+        rc = write_all(out, n_out, &m, ckpt, unseen, &picture);
+    esr_image_free(&picture);
+    if (have_ds)
+        esr_dataset_free(&ds);
+    esr_dir_unlock(lock);
     esr_model_free(&m);
     return rc;
+}
+
+static int ends_with(const char *path, const char *ext)
+{
+    const size_t n = strlen(path), e = strlen(ext);
+    return n > e && !strcasecmp(path + n - e, ext);
 }
 
 static int run_lights(int argc, char **argv)
 {
     if (cli_wants_help(&cmd_lights, argc, argv))
         return 0;
-    const char *run = NULL, *data = NULL, *drop = NULL;
-    int again = 0;
+    struct lights_args a;
+    memset(&a, 0, sizeof a);
     for (int i = 1; i < argc; i++) {
-        const char *a = argv[i];
-        if (!strcmp(a, "--recompute"))
-            again = 1;
-        else if (!strcmp(a, "--drop") && i + 1 < argc)
-            drop = argv[++i];
-        else if (!strcmp(a, "--data") && i + 1 < argc)
-            data = argv[++i];
-        else if (a[0] == '-' && a[1])
-            return cli_fail(&cmd_lights, "unknown option or missing value: '%s'", a);
-        else if (run)
-            return cli_fail(&cmd_lights, "more than one RUN given ('%s', '%s')", run, a);
+        const char *s = argv[i];
+        if (!strcmp(s, "--recompute"))
+            a.again = 1;
+        else if (!strcmp(s, "--drop") && i + 1 < argc)
+            a.drop = argv[++i];
+        else if (!strcmp(s, "--data") && i + 1 < argc)
+            a.data = argv[++i];
+        else if (!strcmp(s, "--json") && i + 1 < argc)
+            a.json = argv[++i];
+        else if (!strcmp(s, "--picture") && i + 1 < argc)
+            a.picture = argv[++i];
+        else if (s[0] == '-' && s[1])
+            return cli_fail(&cmd_lights, "unknown option or missing value: '%s'", s);
+        else if (a.run)
+            return cli_fail(&cmd_lights, "more than one RUN given ('%s', '%s')", a.run, s);
         else
-            run = a;
+            a.run = s;
     }
-    if (!run)
+    if (!a.run)
         return cli_fail(&cmd_lights, "missing RUN directory");
-    if (data && !again && !drop)
-        return cli_fail(&cmd_lights, "--data is read only with --recompute or --drop (the lights are "
-                        "stored in RUN's pdra checkpoint)");
-    if (again && drop)
+    if (a.data && !a.again && !a.drop && !a.picture)
+        return cli_fail(&cmd_lights, "--data is read only with --recompute, --drop or --picture "
+                        "(the lights are stored in RUN's pdra checkpoint)");
+    if (a.again && a.drop)
         return cli_fail(&cmd_lights, "--drop names lights as listed now, which --recompute finds "
                         "anew: drop them after a --recompute");
-    return lights(run, data, again, drop) == ESR_OK ? 0 : cli_fail_lib(&cmd_lights);
+    /* names that say what they hold: a slip such as `--json RUN/ckpt_pdra.bin` is refused, not
+     * written over the checkpoint */
+    if (a.picture && !ends_with(a.picture, ".png"))
+        return cli_fail(&cmd_lights, "--picture %s: the picture is a PNG; give a name ending in "
+                        ".png", a.picture);
+    if (a.json && !ends_with(a.json, ".json"))
+        return cli_fail(&cmd_lights, "--json %s: give a name ending in .json", a.json);
+    /* a change of the lights finishes or leaves everything as it was (write_all) */
+    struct sigaction sa, before_int, before_term;
+    memset(&sa, 0, sizeof sa);
+    sa.sa_handler = on_interrupt;
+    sigemptyset(&sa.sa_mask);
+    interrupted = 0;
+    const int change = a.again || a.drop;
+    if (change) {
+        sigaction(SIGINT, &sa, &before_int);
+        sigaction(SIGTERM, &sa, &before_term);
+    }
+    const int rc = lights(&a);
+    if (change) {
+        sigaction(SIGINT, &before_int, NULL);
+        sigaction(SIGTERM, &before_term, NULL);
+    }
+    if (interrupted) {
+        fprintf(stderr, "esr lights: interrupted (%s): %s\n",
+                interrupted == SIGINT ? "SIGINT" : "SIGTERM",
+                rc == ESR_OK ? "the lights had been written in full before it came"
+                             : "the checkpoint, lights.json and lights.png are as they were");
+        if (rc != ESR_OK)
+            esr_error_clear();
+        return 128 + interrupted;
+    }
+    return rc == ESR_OK ? 0 : cli_fail_lib(&cmd_lights);
 }

@@ -18,8 +18,9 @@ static int run_train(int argc, char **argv);
 const struct esr_command cmd_train = {
     "train",
     "train the model: geometry, radiance, then emission and materials (alphamask .. pdra)",
-    "usage: esr train DATA --out RUN [--until STAGE] [--resume | --force] [--preset fast|paper]\n"
-    "                 [--config FILE.json] [--set key=value ...] [--eval] [--allow-poor]\n"
+    "usage: esr train DATA --out RUN [--until STAGE] [--resume | --force]\n"
+    "                 [--preset fast|paper|smoke] [--config FILE.json] [--set key=value ...]\n"
+    "                 [--eval] [--allow-poor]\n"
     "\n"
     "Runs the stages alphamask -> coarse -> fine -> lts -> pdra on DATA's train frames (lights\n"
     "off and on): geometry and radiance, then emission, BRDF and environment (lts), then the\n"
@@ -45,7 +46,9 @@ const struct esr_command cmd_train = {
     "                       the stages still to train and is written to it (e.g. lts and pdra\n"
     "                       again from a copy's fine checkpoint)\n"
     "  --force              start over in a RUN that holds an earlier run (not with --resume)\n"
-    "  --preset NAME        defaults: fast (CPU, default) or paper (the authors' sizes)\n"
+    "  --preset NAME        defaults: fast (CPU, default), paper (the authors' sizes) or smoke\n"
+    "                       (every stage a few iterations on grids sized to the images: checks\n"
+    "                       an install in seconds on a small `esr synth --res 32` dataset)\n"
     "  --config FILE.json   options as JSON ({\"fine.iters\": 200} or {\"fine\": {\"iters\": 200}},\n"
     "                       optional \"preset\"); unknown keys or out-of-range values are refused\n"
     "  --set key=value      override one option (after --preset and --config; repeatable)\n"
@@ -208,7 +211,7 @@ static int run_train(int argc, char **argv)
     for (int i = 1; i < argc; i++)
         if (!strcmp(argv[i], "--preset")) {
             if (i + 1 >= argc)
-                return cli_fail(&cmd_train, "--preset needs a value (fast or paper)");
+                return cli_fail(&cmd_train, "--preset needs a value (fast, paper or smoke)");
             if (esr_preset_from_name(argv[++i], &preset) != ESR_OK)
                 return cli_fail_lib(&cmd_train);
             has_preset = 1;

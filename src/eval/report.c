@@ -144,7 +144,7 @@ static void put_light_edits(FILE *out, const struct esr_report_spec *spec, int k
     report_dir(spec, dir, sizeof dir);
     /* the folders' names and edits are `esr demo`'s (cli/cmd_demo.c) */
     static const char *const what[] = {"off", "recoloured"};
-    static const char *const caption[] = {"off", "recoloured (hue 0.6, saturation 1)"};
+    static const char *const caption[] = {"off", "recoloured (the hue opposite its own, saturation 1)"};
     int shown = 0;
     for (int w = 0; w < 2; w++) {
         snprintf(path, sizeof path, "%sedits/light%d_%s/%s.png", dir, k, what[w], view);
@@ -212,8 +212,10 @@ static void put_lights(FILE *out, const struct esr_report_spec *spec)
     fputs("</table>\n<p>Connected emitting surfaces; the unseen part (a lampshade's bottom: "
           "surface no camera sees, or that only lights-off or clipped photos show and whose "
           "light the photos ask for) emits the light's mean field; strength calibrated by the light each casts "
-          "on the non-emitting surfaces (<code>esr lights RUN</code> writes RUN/lights.json). "
-          "Centroid and area in scene units; radiance in the dataset's linear radiance units; "
+          "on the non-emitting surfaces (<code>esr lights RUN</code> lists them, with H, S, V as <code>esr edit --color</code> "
+          "takes them; <code>--picture FILE.png</code> shows where each is). "
+          "Centroid and area in scene units; radiance linear RGB on the photos' scale (a pixel's "
+          "sRGB value made linear: 1 = white); "
           "power = pi x area x the radiance's luminance (Lambertian, one side); strength scale = "
           "radiance / the emission field's mean, which clipped photos pin near 1.", out);
     if (esr_lights_balanced(L)) {

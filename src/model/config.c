@@ -15,12 +15,15 @@
 
 enum opt_type { OPT_INT, OPT_FLOAT };
 
+/* The presets with a column of their own in the table: fast and paper. */
+#define PRESET_COLUMNS 2
+
 struct opt {
     const char *name;
     enum opt_type type;
     size_t offset;                 /* into struct esr_train_config */
     double lo, hi;                 /* inclusive bounds */
-    double def[ESR_PRESET_COUNT];  /* fast, paper */
+    double def[PRESET_COLUMNS];    /* fast, paper (smoke is fast changed: smoke_changes) */
     const char *help;
 };
 
@@ -162,10 +165,15 @@ static const struct opt opts[] = {
      "lights-off correction) and the light-transport loss's secondary rays that end on a light "
      "see its calibrated emission instead of the radiance field there, which clipped photos keep "
      "near 1 (first-hit estimator; 0 = never, the seed's)"},
+    {"lights_calib_points", OPT_INT, OFF(lights_calib_points), 1, 100000, DEF(2000, 2000),
+     "pdra, `esr lights`: surface points away from the lights whose light calibrates the lights' "
+     "strength"},
     {"tv_every", OPT_INT, OFF(tv_every), 1, 1000, DEF(4, 1),
      "total-variation regularisers every N iterations (weight scaled by N)"},
     /* Stage options: one DEF(fast, paper) per stage, in the order alphamask, coarse, fine, lts, pdra. */
-    STAGE_OPT(res, OPT_INT, 8, 512, "grid lattice points per axis",
+    STAGE_OPT(res, OPT_INT, 0, 512,
+              "grid lattice points per axis (0 = from the training images' size and count, "
+              "logged; at least 8 otherwise)",
               DEF(80, 100), DEF(80, 96), DEF(128, 160), DEF(128, 160), DEF(128, 160)),
     STAGE_OPT(iters, OPT_INT, 0, 1000000, "iterations",
               DEF(500, 10000), DEF(1500, 10000), DEF(2000, 20000), DEF(1500, 40000), DEF(1000, 80000)),
@@ -221,7 +229,26 @@ static const struct opt opts[] = {
 };
 #define N_OPTS (sizeof opts / sizeof opts[0])
 
-static const char *preset_names[ESR_PRESET_COUNT] = {"fast", "paper"};
+/* The smoke preset: fast with these changes. Every stage and every step of one (the mask, the
+ * SDF's start, checkpoints within a stage, pdra's lights in the transport a quarter through, the
+ * lights found, calibrated and colour-balanced at its end) runs, on grids sized to the images (res 0) with small networks and
+ * batches, a few iterations each: all five stages of a 32 px, 8-view dataset in seconds, the
+ * checkpoints a few MB. What it trains is not meant to be looked at. */
+static const struct {
+    const char *name;
+    double value;
+} smoke_changes[] = {
+    {"batch_rays", 512}, {"log_every", 10}, {"save_every", 10}, {"tone_width", 8}, {"lts_points", 32},
+    {"lts_dirs", 16}, {"field_width", 16}, {"field_depth", 1}, {"lights_calib_points", 250},
+    {"alphamask.res", 0}, {"coarse.res", 0}, {"fine.res", 0}, {"lts.res", 0}, {"pdra.res", 0},
+    {"alphamask.iters", 30}, {"coarse.iters", 30}, {"fine.iters", 20}, {"lts.iters", 10},
+    {"pdra.iters", 12},
+    {"coarse.mlp_width", 16}, {"fine.mlp_width", 16}, {"lts.mlp_width", 16}, {"pdra.mlp_width", 16},
+    {"coarse.mlp_depth", 1}, {"fine.mlp_depth", 1}, {"lts.mlp_depth", 1}, {"pdra.mlp_depth", 1},
+};
+#define N_SMOKE_CHANGES (sizeof smoke_changes / sizeof smoke_changes[0])
+
+static const char *preset_names[ESR_PRESET_COUNT] = {"fast", "paper", "smoke"};
 
 const char *esr_preset_name(enum esr_preset p)
 {
@@ -235,7 +262,7 @@ int esr_preset_from_name(const char *name, enum esr_preset *out)
             *out = (enum esr_preset)i;
             return ESR_OK;
         }
-    return ESR_FAIL("unknown preset '%s' (valid: fast, paper)", name);
+    return ESR_FAIL("unknown preset '%s' (valid: fast, paper, smoke)", name);
 }
 
 static void opt_store(struct esr_train_config *c, const struct opt *o, double v)
@@ -263,20 +290,23 @@ static double opt_load(const struct esr_train_config *c, const struct opt *o)
     return f;
 }
 
-void esr_config_defaults(struct esr_train_config *c, enum esr_preset preset)
-{
-    memset(c, 0, sizeof(*c));
-    c->preset = preset;
-    for (size_t i = 0; i < N_OPTS; i++)
-        opt_store(c, &opts[i], opts[i].def[preset]);
-}
-
 static const struct opt *opt_find(const char *name)
 {
     for (size_t i = 0; i < N_OPTS; i++)
         if (!strcmp(opts[i].name, name))
             return &opts[i];
     return NULL;
+}
+
+void esr_config_defaults(struct esr_train_config *c, enum esr_preset preset)
+{
+    memset(c, 0, sizeof(*c));
+    c->preset = preset;
+    const int column = preset == ESR_PRESET_SMOKE ? ESR_PRESET_FAST : (int)preset;
+    for (size_t i = 0; i < N_OPTS; i++)
+        opt_store(c, &opts[i], opts[i].def[column]);
+    for (size_t i = 0; preset == ESR_PRESET_SMOKE && i < N_SMOKE_CHANGES; i++)
+        opt_store(c, opt_find(smoke_changes[i].name), smoke_changes[i].value);
 }
 
 /* Checks v against o's type and bounds; `where` prefixes the message. */
@@ -297,6 +327,10 @@ static int opt_check(const struct opt *o, double v, const char *where)
     if ((!strcmp(o->name, "smooth_ksize") || !strcmp(o->name, "normal_ksize")) && v != 0 &&
         ((int)v % 2) == 0)
         return ESR_FAIL("%s: option '%s' must be 0 or odd (got %g)", where, o->name, v);
+    const size_t len = strlen(o->name);
+    if (len > 4 && !strcmp(o->name + len - 4, ".res") && v > 0 && v < 8)
+        return ESR_FAIL("%s: option '%s' must be 0 (from the images) or at least 8 (got %g)", where,
+                        o->name, v);
     return ESR_OK;
 }
 
@@ -409,7 +443,7 @@ static int json_apply_object(struct esr_train_config *c, const cJSON *obj, const
     if (preset) {
         enum esr_preset p = ESR_PRESET_FAST; /* set by esr_preset_from_name on success */
         if (!cJSON_IsString(preset))
-            return ESR_FAIL("%s: 'preset' must be a string (fast or paper)", source);
+            return ESR_FAIL("%s: 'preset' must be a string (fast, paper or smoke)", source);
         ESR_TRY(esr_preset_from_name(preset->valuestring, &p));
         esr_config_defaults(&next, p);
     } else if (reset_without_preset) {
@@ -518,4 +552,12 @@ void esr_config_print_help(FILE *out)
         fprintf(out, "  %-24s %-5s %-18s %-9s %-9s %s\n", o->name,
                 o->type == OPT_INT ? "int" : "float", range, fast, paper, o->help);
     }
+    fprintf(out, "  preset smoke: fast with");
+    for (size_t i = 0; i < N_SMOKE_CHANGES; i++) {
+        char v[32];
+        help_number(opt_find(smoke_changes[i].name), smoke_changes[i].value, v, sizeof v);
+        fprintf(out, "%s%s %s %s", i ? "," : "", i && i % 6 == 0 ? "\n   " : "",
+                smoke_changes[i].name, v);
+    }
+    fprintf(out, "\n");
 }

@@ -1,7 +1,10 @@
 /* Training configuration: one table of options (name, type, bounds, default per preset, help),
  * from which defaults, validation, `--set key=value` parsing, JSON reading/writing and the help
  * text are all derived (redis-style table-driven config). Presets: "fast" (CPU default, sizes
- * tuned to train the lamp scene in minutes) and "paper" (the authors' sizes from METHOD.md). */
+ * tuned to train the lamp scene in minutes), "paper" (the authors' sizes from METHOD.md) and
+ * "smoke" (fast with a few changes, config.c's smoke_changes: every stage runs a few iterations
+ * on grids sized to the images, for checking an install and for the test suite; seconds on a
+ * small dataset, nothing worth rendering). */
 #ifndef ESR_MODEL_CONFIG_H
 #define ESR_MODEL_CONFIG_H
 
@@ -13,11 +16,12 @@
 extern "C" {
 #endif
 
-enum esr_preset { ESR_PRESET_FAST, ESR_PRESET_PAPER, ESR_PRESET_COUNT };
+enum esr_preset { ESR_PRESET_FAST, ESR_PRESET_PAPER, ESR_PRESET_SMOKE, ESR_PRESET_COUNT };
 
 /* Per-stage options shared by the stages (unused ones are ignored by a stage). */
 struct esr_stage_config {
-    int res;            /* grid lattice points per axis (density / SDF) */
+    int res;            /* grid lattice points per axis (density / SDF); 0 = from the images
+                           (esr_config_resolve_res), resolved before a run is written */
     int iters;          /* iterations of the stage */
     int feat_channels;  /* feature grid channels (coarse: colour; fine: per radiance branch) */
     int mlp_width;      /* hidden width of the colour / radiance MLPs */
@@ -91,12 +95,13 @@ struct esr_train_config {
     int pdra_split;         /* pdra: lts_split for the stage */
     float pdra_lights_at;   /* pdra: share of the stage after which the light transport sees the
                                lights at their calibrated strength (0: never) */
+    int lights_calib_points; /* surface points that calibrate the lights' strength */
     struct esr_stage_config alphamask, coarse, fine, lts, pdra;
 };
 
 /* Defaults of a preset. */
 void esr_config_defaults(struct esr_train_config *c, enum esr_preset preset);
-/* "fast" / "paper" -> preset; ESR_ERR naming the valid names otherwise. */
+/* "fast" / "paper" / "smoke" -> preset; ESR_ERR naming the valid names otherwise. */
 int esr_preset_from_name(const char *name, enum esr_preset *out);
 const char *esr_preset_name(enum esr_preset p);
 
@@ -123,9 +128,20 @@ cJSON *esr_config_to_json(const struct esr_train_config *c);
  * failure. */
 int esr_config_from_json(struct esr_train_config *c, const cJSON *obj, const char *source,
                          int *n_missing);
+/* The grid resolutions of the stages whose res is 0 ("from the images"), from the training
+ * images' size width x height and their pixel count `pixels` (lights-off training pixels, or
+ * all when there are none): the fine stages' R = min(the images' longer side, sqrt(pixels / 8))
+ * (a lattice point no finer than a pixel's footprint, the scene box filling about a view, and
+ * about 8 pixels to each lattice point of a surface, which holds about R^2 of them), rounded
+ * down to a multiple of 4 and clamped to [16, 256]; alphamask and coarse 5/8 of it (fast's
+ * 80 : 128), at least 16. A 32 px dataset with 8 views: 32 and 20; 100 px with 50: 100 and 62.
+ * Returns the number of stages resolved; says each in said [size] ("" when none). */
+int esr_config_resolve_res(struct esr_train_config *c, int width, int height, size_t pixels,
+                           char *said, size_t size);
 /* Checks every option against its bounds (after manual edits). */
 int esr_config_validate(const struct esr_train_config *c);
-/* Prints the option table (name, type, bounds, fast/paper defaults, help) for --help. */
+/* Prints the option table (name, type, bounds, fast/paper defaults, help) and the smoke
+ * preset's changes to fast, for --help. */
 void esr_config_print_help(FILE *out);
 
 #ifdef __cplusplus

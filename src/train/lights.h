@@ -66,8 +66,6 @@
 extern "C" {
 #endif
 
-/* Calibration points the trainer and `esr lights` use. */
-#define ESR_LIGHTS_CALIB_POINTS 2000
 
 /* Labels the emitting surface of m into lights (m->lights, replacing any), scales 1. Only the
  * outer surface counts: points that the free space seen along the cameras' rays (orig3/dir3

@@ -26,9 +26,13 @@
 /* points whose lights-on linear radiance exceeds this in a channel are clipped in the LDR images
  * (sRGB 0.9) and left out */
 #define CALIB_MAX_ON 0.79f
-/* camera rays traced per round of the search for calibration points, and rounds at most */
+/* camera rays traced per round of the search for calibration points, and rounds at most; nor
+ * more rounds than draw the rays given CALIB_MAX_DRAWS times over: drawn at random with
+ * replacement, more rounds find few new points (a small dataset whose undertrained field glows
+ * everywhere spent 64 rounds, 32x its rays, finding none) */
 #define CALIB_RAYS 8192
 #define CALIB_MAX_ROUNDS 64
+#define CALIB_MAX_DRAWS 4
 /* a calibration point: a ray's strongest sample of at least this weight (a surface) ... */
 #define CALIB_SURFACE_WEIGHT 0.3f
 /* ... whose emission stays below this share of k (not an emitter, nor its fringe) */
@@ -56,7 +60,9 @@ static int calib_points(const struct esr_model *m, const float *orig3, const flo
     *got = 0;
     /* rounds of CALIB_RAYS random rays (a fixed stride would alias with the image width) */
     struct esr_rng rng = esr_rng_init(seed, 0x11ad5);
-    for (int round = 0; rc == ESR_OK && *got < want && round < CALIB_MAX_ROUNDS; round++) {
+    const size_t draws = (CALIB_MAX_DRAWS * n + CALIB_RAYS - 1) / CALIB_RAYS;
+    const int rounds = draws < CALIB_MAX_ROUNDS ? (int)draws : CALIB_MAX_ROUNDS;
+    for (int round = 0; rc == ESR_OK && *got < want && round < rounds; round++) {
         const int nr = CALIB_RAYS;
         for (int i = 0; i < nr; i++) {
             const size_t r = (size_t)(esr_rng_u64(&rng) % n);

@@ -263,7 +263,7 @@ static int transport_lights(struct run *r, struct esr_model *m, struct esr_train
     int rc = ESR_OK;
     if (m->lights.n > 0)
         rc = esr_lights_calibrate(m, r->rays.orig3, r->rays.dir3, r->rays.n_off,
-                                  ESR_LIGHTS_CALIB_POINTS, (uint64_t)r->cfg.seed, 0);
+                                  m->cfg.lights_calib_points, (uint64_t)r->cfg.seed, 0);
     if (rc == ESR_OK && m->lights.n == 0)
         say(r, s, "light transport from iteration %ld: no light yet, so its secondary rays keep "
                   "seeing the radiance fields", m->step);
@@ -397,7 +397,7 @@ static int find_lights(struct run *r, struct esr_model *m, enum esr_stage s)
         return ESR_OK;
     }
     ESR_TRY(esr_lights_calibrate(m, r->rays.orig3, r->rays.dir3, r->rays.n_off,
-                                 ESR_LIGHTS_CALIB_POINTS, (uint64_t)r->cfg.seed, 1));
+                                 m->cfg.lights_calib_points, (uint64_t)r->cfg.seed, 1));
     for (int i = 0; i < m->lights.n; i++) {
         char rim[320];
         if (esr_lights_rim_text(&m->lights, i, rim, sizeof rim))
@@ -699,8 +699,8 @@ static int remove_earlier_run(struct run *r)
         if (esr_file_exists(path) && remove(path) != 0)
             return ESR_FAIL("cannot remove the earlier run's checkpoint %s: %s", path, strerror(errno));
     }
-    static const char *const derived[] = {"lights.json", "train_log.jsonl"};
-    for (int i = 0; i < 2; i++) {
+    static const char *const derived[] = {"lights.json", "lights.png", "train_log.jsonl"};
+    for (int i = 0; i < 3; i++) {
         snprintf(path, sizeof path, "%s/%s", r->o->run_dir, derived[i]);
         if (esr_file_exists(path) && remove(path) != 0)
             return ESR_FAIL("cannot remove the earlier run's %s: %s", path, strerror(errno));
@@ -739,13 +739,15 @@ static double psnr_floor(const struct esr_ray_set *rs)
 int esr_train_health_problems(const struct esr_train_health *h, char lines[][320], int max)
 {
     int n = 0;
-    if (h->trained && h->last_stage >= ESR_STAGE_COARSE && isfinite(h->last_psnr) &&
+    if (!h->short_by_design && h->trained && h->last_stage >= ESR_STAGE_COARSE && isfinite(h->last_psnr) &&
         h->last_psnr < h->psnr_floor && n < max)
         snprintf(lines[n++], 320, "stage %s ended at a training PSNR of %.1f dB, below this "
                  "dataset's floor of %.1f dB (a constant colour per lighting scores 3 dB less): "
                  "it did not converge (too few iterations, or a learning rate too high)",
                  esr_stage_name(h->last_stage), h->last_psnr, h->psnr_floor);
-    if (h->lights_listed > 0 && h->lights_found > 2 * h->lights_listed &&
+    if (h->short_by_design) {
+        /* a smoke run checks the install, not the reconstruction */
+    } else if (h->lights_listed > 0 && h->lights_found > 2 * h->lights_listed &&
         h->lights_found >= h->lights_listed + 3 && n < max)
         snprintf(lines[n++], 320, "%d lights found where the dataset describes %d: the emission "
                  "is fragmented (the emitter stages did not converge)", h->lights_found,
@@ -797,9 +799,16 @@ static int setup(struct run *r)
     int rc = esr_ray_set_build(&r->rays, &ds, ESR_PHASE_TRAIN);
     char root[sizeof ds.root];
     snprintf(root, sizeof root, "%s", ds.root);
+    const int width = ds.width, height = ds.height;
     esr_dataset_free(&ds);
     if (rc != ESR_OK)
         return rc;
+    /* grids sized to the images (res 0, the smoke preset's): numbers before config.json and the
+     * checkpoints record them */
+    char grids[512];
+    const int resolved = esr_config_resolve_res(&r->cfg, width, height,
+                                                r->rays.n_off ? r->rays.n_off : r->rays.n, grids,
+                                                sizeof grids);
     /* refused before the geometry stages spend minutes (the emitter stages would stop there),
      * and before anything in RUN changes */
     for (int s = 0; s <= (int)r->o->until; s++)
@@ -831,9 +840,10 @@ static int setup(struct run *r)
                                     "the start", r->o->run_dir);
     }
     r->health.psnr_floor = psnr_floor(&r->rays);
+    r->health.short_by_design = r->cfg.preset == ESR_PRESET_SMOKE;
     if (!r->o->resume)
         ESR_TRY(remove_earlier_run(r));
-    if (!stored || r->o->n_resume_set > 0)
+    if (!stored || r->o->n_resume_set > 0 || resolved)
         ESR_TRY(esr_config_write_json(&r->cfg, path));
     for (int i = 0; stored && i < r->o->n_resume_set; i++)
         say(r, ESR_STAGE_COUNT, "resume: %s (written to %s)", r->o->resume_set[i], path);
@@ -841,6 +851,8 @@ static int setup(struct run *r)
     snprintf(r->log_path, sizeof r->log_path, "%s/train_log.jsonl", r->o->run_dir);
     say(r, ESR_STAGE_COUNT, "dataset %s: %zu training rays (%zu lights-off)", root, r->rays.n,
         r->rays.n_off);
+    if (resolved)
+        say(r, ESR_STAGE_COUNT, "grids: %s", grids);
     if (r->cfg.background == ESR_BACKGROUND_AUTO) {
         r->cfg.background = r->rays.transparent ? ESR_BACKGROUND_WHITE : ESR_BACKGROUND_LEARNED;
         say(r, ESR_STAGE_COUNT, "background: %s", r->rays.transparent

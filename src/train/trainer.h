@@ -57,6 +57,8 @@ struct esr_train_health {
     int nan_recoveries;        /* non-finite losses or gradients recovered from */
     int lights_found, lights_left_out; /* pdra: lights, and emitting regions past ESR_MAX_LIGHTS */
     int lights_listed;         /* lights the dataset's frames describe (0: it does not say) */
+    int short_by_design;       /* the smoke preset: a few iterations, poor figures expected (only
+                                  non-finite recoveries are then a problem) */
 };
 
 struct esr_train_opts {
