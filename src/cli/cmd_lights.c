@@ -22,7 +22,6 @@
 #include "model/model.h"
 #include "render/lights_picture.h"
 #include "train/lights.h"
-#include "train/lights_fit.h"
 #include "train/rays.h"
 
 static int run_lights(int argc, char **argv);
@@ -89,7 +88,8 @@ static void on_interrupt(int sig)
 }
 
 /* Finds (find) and calibrates the lights of m from the training rays of ds, loaded from DATA
- * (the lights-off ones calibrate, the lights-on ones balance their colour). */
+ * (the lights-off ones calibrate, the lights-on ones balance their colour): the trainer's
+ * esr_lights_estimate, with its lines on the terminal. */
 static int find_and_calibrate(struct esr_model *m, const struct esr_dataset *ds, const char *data,
                               int find)
 {
@@ -98,28 +98,13 @@ static int find_and_calibrate(struct esr_model *m, const struct esr_dataset *ds,
     int rc = esr_ray_set_build(&rs, ds, ESR_PHASE_TRAIN);
     if (rc == ESR_OK && rs.n_off == 0)
         rc = ESR_FAIL("dataset %s: no lights-off training images to calibrate with", data);
-    if (rc == ESR_OK && find)
-        rc = esr_lights_find(m, &rs);
-    if (rc == ESR_OK && find && m->lights.n_left_out > 0)
-        fprintf(stderr, "esr lights: " ESR_LIGHTS_LEFT_OUT_FMT "\n", m->lights.n_left_out, ESR_MAX_LIGHTS);
-    if (rc == ESR_OK && m->lights.n > 0)
-        rc = esr_lights_calibrate(m, rs.orig3, rs.dir3, rs.n_off, m->cfg.lights_calib_points,
-                                  (uint64_t)m->cfg.seed, 1);
-    for (int i = 0; rc == ESR_OK && i < m->lights.n; i++) {
-        char line[320];
-        if (esr_lights_rim_text(&m->lights, i, line, sizeof line))
-            fprintf(stderr, "esr lights: %s\n", line);
-    }
-    if (rc == ESR_OK && esr_lights_uncalibrated(&m->lights))
-        fprintf(stderr, "esr lights: warning: " ESR_LIGHTS_UNCALIBRATED_TEXT "\n");
-    struct esr_lights_balance_info bal;
-    if (rc == ESR_OK && m->lights.n > 0)
-        rc = esr_lights_balance(m, &rs, &bal);
-    if (rc == ESR_OK && m->lights.n > 0) {
-        char line[256];
-        esr_lights_balance_text(m, &bal, line, sizeof line);
-        fprintf(stderr, "esr lights: %s\n", line);
-    }
+    const struct esr_lights_estimate_opts eo = {find, 1, 1, (uint64_t)m->cfg.seed};
+    struct esr_lights_report rep;
+    if (rc == ESR_OK)
+        rc = esr_lights_estimate(m, &rs, &eo, &rep);
+    for (int i = 0; rc == ESR_OK && i < rep.n; i++)
+        if (strncmp(rep.line[i], "  light ", 8)) /* the table below says each light */
+            fprintf(stderr, "esr lights: %s%s\n", rep.warning[i] ? "warning: " : "", rep.line[i]);
     esr_ray_set_free(&rs);
     return rc;
 }

@@ -58,6 +58,7 @@
 #define ESR_TRAIN_LIGHTS_H
 
 #include <stddef.h>
+#include <stdint.h>
 
 #include "model/model.h"
 #include "train/rays.h"
@@ -66,6 +67,28 @@
 extern "C" {
 #endif
 
+
+/* The lights, start to end: the one entry point training and `esr lights` call. */
+struct esr_lights_estimate_opts {
+    int find;         /* 1: find them anew (esr_lights_find); 0: keep m's lights (after --drop) */
+    int correct_base; /* as esr_lights_calibrate's */
+    int balance;      /* 1: settle the rims' report and the colour balance (esr_lights_balance);
+                         0: calibrate only (pdra's hand-over to its light transport) */
+    uint64_t seed;    /* the calibration's */
+};
+#define ESR_LIGHTS_REPORT_LINES (2 * ESR_MAX_LIGHTS + 8)
+/* What happened, as lines for a log or a terminal (warning[i]: line i is a warning). */
+struct esr_lights_report {
+    int n;
+    int warning[ESR_LIGHTS_REPORT_LINES];
+    char line[ESR_LIGHTS_REPORT_LINES][400];
+};
+/* Finds (o->find) the lights of m from the training rays rs, calibrates their strength
+ * (m->cfg.lights_calib_points lights-off rays), then (o->balance) says each decided rim and
+ * balances their colour by their silhouettes in the lights-on photos. Fails on a ray set without
+ * lights-off rays. */
+int esr_lights_estimate(struct esr_model *m, const struct esr_ray_set *rs,
+                        const struct esr_lights_estimate_opts *o, struct esr_lights_report *rep);
 
 /* Labels the emitting surface of m into lights (m->lights, replacing any), scales 1. Only the
  * outer surface counts: points that the free space seen along the cameras' rays (orig3/dir3

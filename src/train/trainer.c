@@ -259,11 +259,9 @@ static long transport_lights_step(const struct esr_model *m, enum esr_stage s,
 static int transport_lights(struct run *r, struct esr_model *m, struct esr_train_step *b,
                             enum esr_stage s)
 {
-    ESR_TRY(esr_lights_find(m, &r->rays));
-    int rc = ESR_OK;
-    if (m->lights.n > 0)
-        rc = esr_lights_calibrate(m, r->rays.orig3, r->rays.dir3, r->rays.n_off,
-                                  m->cfg.lights_calib_points, (uint64_t)r->cfg.seed, 0);
+    const struct esr_lights_estimate_opts eo = {1, 0, 0, (uint64_t)r->cfg.seed};
+    struct esr_lights_report rep;
+    int rc = esr_lights_estimate(m, &r->rays, &eo, &rep);
     if (rc == ESR_OK && m->lights.n == 0)
         say(r, s, "light transport from iteration %ld: no light yet, so its secondary rays keep "
                   "seeing the radiance fields", m->step);
@@ -384,51 +382,18 @@ static int build_mask(struct run *r, struct esr_model *m)
     return ESR_OK;
 }
 
-/* The lights of the emitter stage's model: found, calibrated on the lights-off training rays. */
+/* The lights of the emitter stage's model: found, calibrated on the lights-off training rays,
+ * their colour balanced (esr_lights_estimate). */
 static int find_lights(struct run *r, struct esr_model *m, enum esr_stage s)
 {
-    ESR_TRY(esr_lights_find(m, &r->rays));
-    if (m->lights.n_left_out > 0)
-        say(r, s, ESR_LIGHTS_LEFT_OUT_FMT, m->lights.n_left_out, ESR_MAX_LIGHTS);
-    if (m->lights.n == 0) { /* decided over the whole surface, not one batch's rays */
-        say(r, s, "no emitters found: no surface point the cameras see has emission above k = "
-                  "%.3g (the scene's lights are off or too dim to tell from reflection)",
-            (double)m->cfg.emitter_k);
-        return ESR_OK;
-    }
-    ESR_TRY(esr_lights_calibrate(m, r->rays.orig3, r->rays.dir3, r->rays.n_off,
-                                 m->cfg.lights_calib_points, (uint64_t)r->cfg.seed, 1));
-    for (int i = 0; i < m->lights.n; i++) {
-        char rim[320];
-        if (esr_lights_rim_text(&m->lights, i, rim, sizeof rim))
-            say(r, s, "%s", rim);
-    }
-    struct esr_lights_balance_info bal;
-    ESR_TRY(esr_lights_balance(m, &r->rays, &bal));
-    char line[256];
-    esr_lights_balance_text(m, &bal, line, sizeof line);
-    say(r, s, "%s", line);
-    say(r, s, "lights found: %d", m->lights.n);
+    const struct esr_lights_estimate_opts eo = {1, 1, 1, (uint64_t)r->cfg.seed};
+    struct esr_lights_report rep;
+    const int rc = esr_lights_estimate(m, &r->rays, &eo, &rep);
+    for (int i = 0; i < rep.n; i++)
+        say(r, s, "%s", rep.line[i]);
     r->health.lights_found = m->lights.n;
     r->health.lights_left_out = m->lights.n_left_out;
-    if (esr_lights_uncalibrated(&m->lights))
-        say(r, s, ESR_LIGHTS_UNCALIBRATED_TEXT);
-    for (int i = 0; i < m->lights.n; i++) {
-        const struct esr_light *l = &m->lights.light[i];
-        char from[96];
-        if (esr_light_strength_fitted(&m->lights, i))
-            snprintf(from, sizeof from, "fitted on %.0f points", (double)l->calib_points);
-        else
-            snprintf(from, sizeof from, "%s", ESR_LIGHT_BORROWED_TEXT);
-        say(r, s, "  light %d: at (%.2f, %.2f, %.2f), area %.3g, emitted radiance %.3g %.3g %.3g "
-                  "(field %.3g %.3g %.3g x strength %.3g %.3g %.3g, %s)",
-            i, (double)l->centroid[0], (double)l->centroid[1], (double)l->centroid[2],
-            (double)l->area, (double)l->radiance[0], (double)l->radiance[1],
-            (double)l->radiance[2], (double)l->field_rgb[0], (double)l->field_rgb[1],
-            (double)l->field_rgb[2], (double)l->scale[0], (double)l->scale[1],
-            (double)l->scale[2], from);
-    }
-    return ESR_OK;
+    return rc;
 }
 
 /* The stage's step workspace, refused when it does not fit beside the rays and the model. Its

@@ -1,0 +1,80 @@
+/* The one entry point to the lights (train/lights.h, esr_lights_estimate): find, calibrate,
+ * settle the rims, balance the colour, in that order, for the trainer (pdra's end and its
+ * mid-stage hand-over) and `esr lights --recompute` / `--drop` alike; what happened comes back
+ * as lines the caller prints or logs. */
+#include "train/lights.h"
+
+#include <stdarg.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "core/error.h"
+#include "train/lights_fit.h"
+
+static void add(struct esr_lights_report *rep, int warning, const char *fmt, ...)
+    __attribute__((format(printf, 3, 4)));
+
+static void add(struct esr_lights_report *rep, int warning, const char *fmt, ...)
+{
+    if (rep->n >= ESR_LIGHTS_REPORT_LINES)
+        return;
+    va_list args;
+    va_start(args, fmt);
+    vsnprintf(rep->line[rep->n], sizeof rep->line[0], fmt, args);
+    va_end(args);
+    rep->warning[rep->n++] = warning;
+}
+
+int esr_lights_estimate(struct esr_model *m, const struct esr_ray_set *rs,
+                        const struct esr_lights_estimate_opts *o, struct esr_lights_report *rep)
+{
+    memset(rep, 0, sizeof *rep);
+    if (rs->n_off == 0)
+        return ESR_FAIL("no lights-off training images to calibrate the lights with");
+    if (o->find) {
+        ESR_TRY(esr_lights_find(m, rs));
+        if (m->lights.n_left_out > 0)
+            add(rep, 0, ESR_LIGHTS_LEFT_OUT_FMT, m->lights.n_left_out, ESR_MAX_LIGHTS);
+        if (m->lights.n == 0) { /* decided over the whole surface, not one batch's rays */
+            add(rep, 0, "no emitters found: no surface point the cameras see has emission above "
+                        "k = %.3g (the scene's lights are off or too dim to tell from reflection)",
+                (double)m->cfg.emitter_k);
+            return ESR_OK;
+        }
+    }
+    if (m->lights.n == 0)
+        return ESR_OK;
+    ESR_TRY(esr_lights_calibrate(m, rs->orig3, rs->dir3, rs->n_off, m->cfg.lights_calib_points,
+                                 o->seed, o->correct_base));
+    if (!o->balance)
+        return ESR_OK; /* pdra's hand-over: the strengths the BRDF as it stands explains */
+    for (int i = 0; i < m->lights.n; i++) {
+        char rim[320];
+        if (esr_lights_rim_text(&m->lights, i, rim, sizeof rim))
+            add(rep, 0, "%s", rim);
+    }
+    struct esr_lights_balance_info bal;
+    ESR_TRY(esr_lights_balance(m, rs, &bal));
+    char line[256];
+    esr_lights_balance_text(m, &bal, line, sizeof line);
+    add(rep, 0, "%s", line);
+    add(rep, 0, "lights found: %d", m->lights.n);
+    if (esr_lights_uncalibrated(&m->lights))
+        add(rep, 1, ESR_LIGHTS_UNCALIBRATED_TEXT);
+    for (int i = 0; i < m->lights.n; i++) {
+        const struct esr_light *l = &m->lights.light[i];
+        char from[96];
+        if (esr_light_strength_fitted(&m->lights, i))
+            snprintf(from, sizeof from, "fitted on %.0f points", (double)l->calib_points);
+        else
+            snprintf(from, sizeof from, "%s", ESR_LIGHT_BORROWED_TEXT);
+        add(rep, 0, "  light %d: at (%.2f, %.2f, %.2f), area %.3g, emitted radiance %.3g %.3g %.3g "
+                    "(field %.3g %.3g %.3g x strength %.3g %.3g %.3g, %s)",
+            i, (double)l->centroid[0], (double)l->centroid[1], (double)l->centroid[2],
+            (double)l->area, (double)l->radiance[0], (double)l->radiance[1],
+            (double)l->radiance[2], (double)l->field_rgb[0], (double)l->field_rgb[1],
+            (double)l->field_rgb[2], (double)l->scale[0], (double)l->scale[1],
+            (double)l->scale[2], from);
+    }
+    return ESR_OK;
+}
