@@ -1,5 +1,7 @@
-/* Escaping text for the HTML reports (see html.h). */
+/* Writing into the HTML reports: escaped text, metric cells (see html.h). */
 #include "eval/html.h"
+
+#include <math.h>
 
 void esr_html_put_escaped(FILE *out, const char *text)
 {
@@ -12,4 +14,14 @@ void esr_html_put_escaped(FILE *out, const char *text)
         default: fputc(*p, out);
         }
     }
+}
+
+void esr_html_put_number(FILE *out, const char *fmt, double v)
+{
+    fputs("<td>", out);
+    if (isnan(v))
+        fputs("-", out);
+    else
+        fprintf(out, fmt, v);
+    fputs("</td>", out);
 }

@@ -63,15 +63,6 @@ int esr_materials_write_truth(const struct esr_dataset *ds, const struct esr_mat
     return ESR_OK;
 }
 
-static void put_number(FILE *out, const char *fmt, double v)
-{
-    fputs("<td>", out);
-    if (isnan(v))
-        fputs("-", out);
-    else
-        fprintf(out, fmt, v);
-    fputs("</td>", out);
-}
 
 static void put_thumb(FILE *out, const char *href, const char *name, const char *suffix)
 {
@@ -88,9 +79,9 @@ static void put_thumb(FILE *out, const char *href, const char *name, const char 
 static void put_split_row(FILE *out, const char *what, const struct esr_material_split_stats *s)
 {
     fprintf(out, "<tr><td>%s</td><td>%ld</td>", what, s->n);
-    put_number(out, "%.3f", s->roughness_mae);
-    put_number(out, "%.3f", s->metallic_mae);
-    put_number(out, "%.3f", s->mean_metallic);
+    esr_html_put_number(out, "%.3f", s->roughness_mae);
+    esr_html_put_number(out, "%.3f", s->metallic_mae);
+    esr_html_put_number(out, "%.3f", s->mean_metallic);
     fputs("</tr>\n", out);
 }
 
@@ -114,11 +105,11 @@ static void put_views(FILE *out, const struct esr_materials_result *r, const cha
             snprintf(suffix, sizeof suffix, "%s_true.png", maps[j]);
             put_thumb(out, gt_href, v->name, suffix);
         }
-        put_number(out, "%.2f", v->stats.base_color_psnr);
-        put_number(out, "%.2f", v->stats.base_color_psnr_gain);
-        put_number(out, "%.3f", v->stats.roughness_mae);
-        put_number(out, "%.3f", v->stats.metallic_mae);
-        put_number(out, "%.3f", v->stats.coverage);
+        esr_html_put_number(out, "%.2f", v->stats.base_color_psnr);
+        esr_html_put_number(out, "%.2f", v->stats.base_color_psnr_gain);
+        esr_html_put_number(out, "%.3f", v->stats.roughness_mae);
+        esr_html_put_number(out, "%.3f", v->stats.metallic_mae);
+        esr_html_put_number(out, "%.3f", v->stats.coverage);
         fputs("</tr>\n", out);
     }
     fputs("</table>\n", out);
@@ -140,12 +131,12 @@ void esr_materials_put_html(FILE *out, const struct esr_materials_result *r, con
     fprintf(out, "<table><tr><th>views</th><th>base colour PSNR (dB)</th><th>with gains</th><th>gains (R G B)</th>"
                  "<th>roughness MAE</th><th>metallic MAE</th><th>coverage</th></tr>\n<tr><td>%d</td>",
             r->n_views);
-    put_number(out, "%.2f", s->base_color_psnr);
-    put_number(out, "%.2f", s->base_color_psnr_gain);
+    esr_html_put_number(out, "%.2f", s->base_color_psnr);
+    esr_html_put_number(out, "%.2f", s->base_color_psnr_gain);
     fprintf(out, "<td>%.3f %.3f %.3f</td>", s->gain[0], s->gain[1], s->gain[2]);
-    put_number(out, "%.3f", s->roughness_mae);
-    put_number(out, "%.3f", s->metallic_mae);
-    put_number(out, "%.3f", s->coverage);
+    esr_html_put_number(out, "%.3f", s->roughness_mae);
+    esr_html_put_number(out, "%.3f", s->metallic_mae);
+    esr_html_put_number(out, "%.3f", s->coverage);
     fputs("</tr>\n</table>\n<table><tr><th>pixels</th><th>n</th><th>roughness MAE</th><th>metallic MAE</th>"
           "<th>mean predicted metallic</th></tr>\n",
           out);

@@ -15,24 +15,14 @@
 #include "render/view.h"
 #include "train/lights.h"
 
-/* A metric cell: "-" when the value is missing (NAN). */
-static void put_number(FILE *out, const char *fmt, double v)
-{
-    fputs("<td>", out);
-    if (isnan(v))
-        fputs("-", out);
-    else
-        fprintf(out, fmt, v);
-    fputs("</td>", out);
-}
 
 static void put_metric_cells(FILE *out, double psnr, double ssim, double psnr_lin, double ssim_lin, double hdr)
 {
-    put_number(out, "%.2f", psnr);
-    put_number(out, "%.4f", ssim);
-    put_number(out, "%.2f", psnr_lin);
-    put_number(out, "%.4f", ssim_lin);
-    put_number(out, "%.4g", hdr);
+    esr_html_put_number(out, "%.2f", psnr);
+    esr_html_put_number(out, "%.4f", ssim);
+    esr_html_put_number(out, "%.2f", psnr_lin);
+    esr_html_put_number(out, "%.4f", ssim_lin);
+    esr_html_put_number(out, "%.4g", hdr);
 }
 
 static const char *const metric_header =
@@ -68,14 +58,14 @@ static void put_emitters(FILE *out, const struct esr_eval_result *res)
     fputs("<h2>Emitters</h2>\n<table><tr><th>method</th><th>IoU</th><th>views</th></tr>\n", out);
     if (res->n_emitter_views > 0) {
         fputs("<tr><td>emission E above k (lts/pdra)</td>", out);
-        put_number(out, "%.3f", esr_iou_value(&res->emitter));
+        esr_html_put_number(out, "%.3f", esr_iou_value(&res->emitter));
         fprintf(out, "<td>%d</td></tr>\n", res->n_emitter_views);
     }
     if (res->emo_baseline.n_cameras > 0) {
         fprintf(out, "<tr><td>baseline: L_on - L_off above its best k (%.3g, chosen on these masks: "
                      "an oracle threshold)</td>",
                 res->emo_baseline.k);
-        put_number(out, "%.3f", res->emo_baseline.iou);
+        esr_html_put_number(out, "%.3f", res->emo_baseline.iou);
         fprintf(out, "<td>%d cameras</td></tr>\n", res->emo_baseline.n_cameras);
     }
     fputs("</table>\n", out);
@@ -89,8 +79,8 @@ static void put_emitters(FILE *out, const struct esr_eval_result *res)
         esr_html_put_escaped(out, r->name);
         fprintf(out, "</td><td>%.3g, %.3g, %.3g</td><td>%.3g, %.3g, %.3g</td>", r->mean[0],
                 r->mean[1], r->mean[2], r->truth[0], r->truth[1], r->truth[2]);
-        put_number(out, "%.1f%%", r->error_pct);
-        put_number(out, "%.0f%%", 100.0 * r->ratio);
+        esr_html_put_number(out, "%.1f%%", r->error_pct);
+        esr_html_put_number(out, "%.0f%%", 100.0 * r->ratio);
         fputs("</tr>\n", out);
     }
     fputs("</table>\n<p>Mean composited emission over each light's true mask (eroded by one "
@@ -111,7 +101,7 @@ static void put_split(FILE *out, const struct esr_light_split *sp)
         fprintf(out, "<tr><td>%d ", r->light);
         esr_html_put_escaped(out, r->name);
         fprintf(out, "</td><td>%d</td>", r->esr_light);
-        put_number(out, "%.3f", r->iou);
+        esr_html_put_number(out, "%.3f", r->iou);
         fputs("</tr>\n", out);
     }
     fprintf(out, "</table>\n<p>Each dataset light matched to the esr light of best IoU with its "
@@ -258,10 +248,10 @@ static void put_normals(FILE *out, const struct esr_eval_result *res)
     fprintf(out, "<table><tr><th>views</th><th>mean error (deg)</th><th>median (deg)</th><th>under %.0f deg</th>"
                  "<th>coverage</th></tr>\n<tr><td>%d</td>",
             ESR_NORMAL_GOOD_DEG, res->n_normal_views);
-    put_number(out, "%.2f", s->mean_deg);
-    put_number(out, "%.2f", s->median_deg);
-    put_number(out, "%.3f", s->frac_good);
-    put_number(out, "%.3f", s->coverage);
+    esr_html_put_number(out, "%.2f", s->mean_deg);
+    esr_html_put_number(out, "%.2f", s->median_deg);
+    esr_html_put_number(out, "%.3f", s->frac_good);
+    esr_html_put_number(out, "%.3f", s->coverage);
     fprintf(out, "</tr>\n</table>\n<p>Angle between the normalised composited normal of the render and the "
                  "ground-truth world-space normal, over the %ld pixels (of %ld where the ground truth has a surface) "
                  "whose rendered opacity is over %.1f; pixels of all views pooled.</p>\n",
@@ -333,7 +323,7 @@ static void put_views(FILE *out, const struct esr_report_spec *spec)
             }
         }
         put_metric_cells(out, v->psnr, v->ssim, v->psnr_linear, v->ssim_linear, v->hdr_mse);
-        put_number(out, "%.2f", v->has_normal_gt ? v->normal.mean_deg : NAN);
+        esr_html_put_number(out, "%.2f", v->has_normal_gt ? v->normal.mean_deg : NAN);
         fputs("</tr>\n", out);
     }
     fputs("</table>\n", out);
