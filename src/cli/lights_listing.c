@@ -1,5 +1,6 @@
 /* The lights' table and lights.json (lights_listing.h). */
 #include "cli/lights_listing.h"
+#include "cli/commands.h"
 
 #include <math.h>
 #include <stdio.h>
@@ -13,6 +14,10 @@ cJSON *esr_cli_lights_json(const struct esr_model *m, const char *ckpt, const lo
 {
     cJSON *root = cJSON_CreateObject();
     cJSON_AddStringToObject(root, "checkpoint", ckpt);
+    char fp[32]; /* the model whose lights these are, and the command that listed them */
+    snprintf(fp, sizeof fp, "%016llx", (unsigned long long)esr_model_fingerprint(m));
+    cJSON_AddStringToObject(root, "model_fingerprint", fp);
+    cJSON_AddItemToObject(root, "made_by", cli_record("lights", 0, NULL));
     cJSON_AddNumberToObject(root, "emitter_k", m->cfg.emitter_k);
     cJSON *units = cJSON_AddObjectToObject(root, "units");
     cJSON_AddStringToObject(units, "rgb", UNITS_RGB);
