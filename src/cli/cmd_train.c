@@ -304,8 +304,7 @@ static int run_train(int argc, char **argv)
         fprintf(stderr, "\n");
     char record[4200]; /* run.json says which command made the run (the trainer wrote it) */
     snprintf(record, sizeof record, "%s/run.json", o.run_dir);
-    if (esr_file_exists(record) && cli_record_into(record, "train", argc, argv) != ESR_OK &&
-        rc == ESR_OK)
+    if (health.started && cli_record_into(record, "train", argc, argv) != ESR_OK && rc == ESR_OK)
         rc = ESR_ERR;
     if (rc != ESR_OK && sink.log) /* the log a run leaves says why it stopped (a full disk...) */
         fprintf(sink.log, "esr train: error: %s\n", esr_error_message());

@@ -813,6 +813,7 @@ static int setup(struct run *r)
     for (int i = 0; stored && i < r->o->n_resume_set; i++)
         say(r, ESR_STAGE_COUNT, "resume: %s (written to %s)", r->o->resume_set[i], path);
     ESR_TRY(write_run_record(r));
+    r->health.started = 1;
     snprintf(r->log_path, sizeof r->log_path, "%s/train_log.jsonl", r->o->run_dir);
     say(r, ESR_STAGE_COUNT, "dataset %s: %zu training rays (%zu lights-off)", root, r->rays.n,
         r->rays.n_off);

@@ -48,6 +48,7 @@ typedef void (*esr_train_report_fn)(void *user, const struct esr_train_progress 
 /* How a run went, for the warning a failed run must end with (esr_train_health_problems): a
  * training can finish every iteration and still have learned nothing. */
 struct esr_train_health {
+    int started;               /* setup passed: RUN's config.json and run.json are this run's */
     enum esr_stage last_stage; /* the last stage this call trained or resumed */
     int trained;               /* iterations ran in this call (a run resumed as finished: 0) */
     double last_psnr;          /* the last stage's final window: batch PSNR (dB) of the colour */
