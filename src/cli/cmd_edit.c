@@ -415,10 +415,9 @@ static int edit(const struct edit_args *a)
         snprintf(parent, sizeof parent, ".");
     if (rc == ESR_OK)
         rc = check_replaceable(a->out);
-    if (rc == ESR_OK && (rc = esr_dir_prepare_output_made(parent, made, sizeof made)) != ESR_OK)
-        esr_error_append(" (the folder --out %s goes in)", a->out);
-    if (rc == ESR_OK)
-        rc = esr_staging_begin(a->out, 1, staging, sizeof staging);
+    if (rc == ESR_OK && ((rc = esr_dir_prepare_output_made(parent, made, sizeof made)) != ESR_OK ||
+                         (rc = esr_staging_begin(a->out, 1, staging, sizeof staging)) != ESR_OK))
+        esr_error_append(" (for --out %s)", a->out);
     if (rc == ESR_OK)
         rc = esr_editor_init(&ed, &m, &sel.ds, a->method, a->spp, &ft);
     if (rc == ESR_OK && a->method == ESR_EDIT_FINETUNE)
