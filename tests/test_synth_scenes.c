@@ -164,10 +164,82 @@ static void test_light_relations(void **state)
         assert_memory_not_equal(s.lights[k].rgb, s.lights[k - 1].rgb, sizeof s.lights[0].rgb);
 }
 
+/* Whether x is inside p by more than eps (written here from prim.h's parameters). */
+static int inside(const struct esr_synth_prim *p, float x, float y, float z, float eps)
+{
+    if (p->kind == ESR_SYNTH_SPHERE) {
+        const float dx = x - p->a.x, dy = y - p->a.y, dz = z - p->a.z, r = p->b.x - eps;
+        return r > 0.0f && dx * dx + dy * dy + dz * dz < r * r;
+    }
+    if (p->kind == ESR_SYNTH_BOX)
+        return x > p->a.x + eps && x < p->b.x - eps && y > p->a.y + eps && y < p->b.y - eps && z > p->a.z + eps &&
+               z < p->b.z - eps;
+    const float dx = x - p->a.x, dy = y - p->a.y, r = p->b.x - eps;
+    return r > 0.0f && dx * dx + dy * dy < r * r && z > p->a.z + eps && z < p->a.z + p->b.y - eps;
+}
+
+/* Axis-aligned bounds of p. */
+static void prim_box(const struct esr_synth_prim *p, float lo[3], float hi[3])
+{
+    const float a[3] = {p->a.x, p->a.y, p->a.z}, b[3] = {p->b.x, p->b.y, p->b.z};
+    for (int k = 0; k < 3; k++) {
+        if (p->kind == ESR_SYNTH_SPHERE)
+            lo[k] = a[k] - b[0], hi[k] = a[k] + b[0];
+        else if (p->kind == ESR_SYNTH_BOX)
+            lo[k] = a[k], hi[k] = b[k];
+        else
+            lo[k] = k < 2 ? a[k] - b[0] : a[2], hi[k] = k < 2 ? a[k] + b[0] : a[2] + b[1];
+    }
+}
+
+/* No two primitives of the new scenes overlap (gt/mesh.ply's shells would hold hidden surface,
+ * and a light inside another object would emit where no camera sees), and all lie in the
+ * [-1.5, 1.5]^3 box scene.json states: a 2 mm grid over each pair's common bounds. */
+static void test_no_overlap(void **state)
+{
+    (void)state;
+    const float step = 0.002f;
+    for (int i = 0; i < N_SCENES; i++) {
+        struct esr_synth_scene s;
+        assert_int_equal(esr_synth_scene_get(scenes[i].name, &s), 0);
+        for (int p = 0; p < s.n_prims; p++) {
+            float plo[3], phi[3];
+            prim_box(&s.prims[p], plo, phi);
+            for (int k = 0; k < 3; k++)
+                assert_true(plo[k] > -1.5f && phi[k] < 1.5f);
+            for (int q = p + 1; q < s.n_prims; q++) {
+                float qlo[3], qhi[3], lo[3], hi[3];
+                prim_box(&s.prims[q], qlo, qhi);
+                int empty = 0;
+                for (int k = 0; k < 3; k++) {
+                    lo[k] = fmaxf(plo[k], qlo[k]);
+                    hi[k] = fminf(phi[k], qhi[k]);
+                    empty |= hi[k] <= lo[k];
+                }
+                if (empty)
+                    continue;
+                const int n[3] = {(int)((hi[0] - lo[0]) / step) + 1, (int)((hi[1] - lo[1]) / step) + 1,
+                                  (int)((hi[2] - lo[2]) / step) + 1};
+                for (int a = 0; a <= n[0]; a++)
+                    for (int b = 0; b <= n[1]; b++)
+                        for (int c = 0; c <= n[2]; c++) {
+                            const float x = lo[0] + (hi[0] - lo[0]) * (float)a / (float)n[0];
+                            const float y = lo[1] + (hi[1] - lo[1]) * (float)b / (float)n[1];
+                            const float z = lo[2] + (hi[2] - lo[2]) * (float)c / (float)n[2];
+                            if (inside(&s.prims[p], x, y, z, 1e-4f) && inside(&s.prims[q], x, y, z, 1e-4f))
+                                fail_msg("%s: %s and %s overlap at (%.3f, %.3f, %.3f)", s.name, s.prims[p].name,
+                                         s.prims[q].name, x, y, z);
+                        }
+            }
+        }
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_listed), cmocka_unit_test(test_light_relations), cmocka_unit_test(test_bulbs),
+        cmocka_unit_test(test_listed), cmocka_unit_test(test_light_relations), cmocka_unit_test(test_no_overlap),
+        cmocka_unit_test(test_bulbs),
         cmocka_unit_test(test_vivid),  cmocka_unit_test(test_ratios),          cmocka_unit_test(test_shaded),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
