@@ -261,7 +261,9 @@ static void test_on_dataset(void **state)
     assert_non_null(strstr(text, "whole mask"));
     assert_non_null(strstr(text, "not seen"));
     assert_non_null(strstr(text, "3 lights found (renders) for 3 true"));
-    assert_non_null(strstr(text, "1 of them no true light"));
+    assert_non_null(strstr(text, "1 rendered light(s) follow no true light"));
+    assert_non_null(strstr(text, "light 1 (green_box_light): luminance x0.800 of the truth (x1.265 of the shared "
+                                 "scale), power x0.800; scored on its whole mask"));
     assert_non_null(strstr(text, "strength: shared scale 0.632, worst light 1 26.5% from it"));
     esr_dataset_free(&ds);
 }

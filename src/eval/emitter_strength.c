@@ -220,8 +220,8 @@ static void put_counts(FILE *out, const struct esr_emitter_strength *s, const ch
     else
         fprintf(out, "lights found unknown (no light ids rendered), %d true", s->lights_true);
     if (s->lights_wrong > 0)
-        fprintf(out, "%s%d of them no true light (a reflection or a fleck counted as a light)", sep,
-                s->lights_wrong);
+        fprintf(out, "%s%d rendered light(s) follow no true light (a reflection or a fleck counted as a light)",
+                sep, s->lights_wrong);
 }
 
 void esr_emitter_strength_put_html(FILE *out, const struct esr_emitter_radiance_result *rad,
@@ -271,9 +271,12 @@ void esr_emitter_strength_print(FILE *out, const struct esr_emitter_radiance_res
             fprintf(out, "light %d (%s): in no evaluated view\n", r->light, r->name);
             continue;
         }
-        fprintf(out, "light %d (%s): luminance x%.3f of the truth (x%.3f of the shared scale), power x%.3f%s\n",
-                r->light, r->name, r->lum_ratio, r->lum_ratio / s->shared_scale, r->power_ratio,
-                r->eroded ? "" : "; scored on its whole mask, too small to erode");
+        fprintf(out, "light %d (%s): luminance x%.3f of the truth", r->light, r->name, r->lum_ratio);
+        if (!isnan(s->shared_scale))
+            fprintf(out, " (x%.3f of the shared scale)", r->lum_ratio / s->shared_scale);
+        if (!isnan(r->power_ratio))
+            fprintf(out, ", power x%.3f", r->power_ratio);
+        fprintf(out, "%s\n", r->eroded ? "" : "; scored on its whole mask, too small to erode");
     }
     if (isnan(s->shared_scale))
         fputs("strength: no light found with a strength", out);
