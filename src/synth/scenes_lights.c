@@ -96,7 +96,7 @@ void esr_synth_build_shaded(struct esr_synth_scene *s)
     esr_synth_init_scene(s, "shaded", "a bulb half hidden in a square lampshade, a ball and a glossy box");
     s->res = 160;
     add_floor(s);
-    const float cx = -0.25f, cy = 0.2f, r = 0.14f, bz = 0.62f; /* the bulb */
+    const float cx = -0.25f, cy = 0.2f, r = 0.15f, bz = 0.6f; /* the bulb */
     const float in = 0.19f, th = 0.02f, z0 = 0.6f, z1 = 0.92f; /* the shade's inner half width, walls */
     esr_synth_add_prim(s, "lamp_foot", ESR_SYNTH_CYLINDER, esr_v3(cx, cy, 0), esr_v3(0.18f, 0.03f, 0), 0.3f, 0.3f,
                        0.32f, 0.3f, 1.0f);
