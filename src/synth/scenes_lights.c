@@ -90,11 +90,13 @@ void esr_synth_build_ratios(struct esr_synth_scene *s)
 
 /* A lamp whose bulb hangs in a square shade open at top and bottom (four thin walls): the side
  * views see the bulb's lower cap below the shade, the high views see its top through the
- * opening, and the shade's inside is lit by it. 160 px: at 100 the visible cap is too small. */
+ * opening, and the shade's inside is lit by it. 160 px: at 100 the visible cap is too small. The
+ * bulb's centre is at the shade's lower edge: half of it hangs below. */
 void esr_synth_build_shaded(struct esr_synth_scene *s)
 {
     esr_synth_init_scene(s, "shaded", "a bulb half hidden in a square lampshade, a ball and a glossy box");
     s->res = 160;
+    s->spp = 128; /* the shade's lit inside lights the floor through its opening: indirect light */
     add_floor(s);
     const float cx = -0.25f, cy = 0.2f, r = 0.15f, bz = 0.6f; /* the bulb */
     const float in = 0.19f, th = 0.02f, z0 = 0.6f, z1 = 0.92f; /* the shade's inner half width, walls */
