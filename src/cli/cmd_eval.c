@@ -51,7 +51,12 @@ const struct esr_command cmd_eval = {
     "at its best k on the same masks: an oracle threshold, what the emitter stages add is the\n"
     "difference), \"emitter_radiance\" (per dataset light with known radiance, the mean rendered\n"
     "emission over its mask against the truth: \"error_pct\" = |found - true| / |true| in RGB,\n"
-    "\"ratio\" = |found| / |true|) and \"light_split\" (per dataset light the esr light of best IoU).\n"
+    "\"ratio\" = |found| / |true|; a light too small for the eroded mask is scored on its whole\n"
+    "mask, \"eroded\": false; \"power\": its rendered emission's luminance summed over its pixels),\n"
+    "\"emitter_strength\" (\"shared_scale\": geometric mean over the lights of found / true\n"
+    "luminance, \"worst_relative\": the largest |ratio / shared_scale - 1|, \"lights_found\",\n"
+    "\"lights_true\"; eval/emitter_strength.h) and \"light_split\" (per dataset light the esr\n"
+    "light of best IoU).\n"
     "Edit phases (test_nvi, test_nvc, test_nvic) relight each frame as its lights[] say with\n"
     "--method (edit/relight.h; dataset lights mapped to esr's by the frames' per-light masks) into\n"
     "RUN/render/P_METHOD, and write RUN/eval/P_METHOD.json (PSNR, SSIM per view, mean, mean per\n"
@@ -216,6 +221,7 @@ static void print_emitters(const struct esr_eval_result *res)
                r->light, r->name, r->mean[0], r->mean[1], r->mean[2], r->truth[0], r->truth[1],
                r->truth[2], r->error_pct, 100.0 * r->ratio, r->pixels);
     }
+    esr_emitter_strength_print(stdout, &res->radiance, &res->strength);
     for (int k = 0; k < res->split.n; k++) {
         const struct esr_light_split_row *r = &res->split.rows[k];
         printf("light %d (%s) is esr light %d: IoU %.3f (%d views pooled)\n", r->light, r->name,
@@ -281,6 +287,19 @@ static int evaluate(const struct eval_args *a, const struct esr_run_selection *s
     ESR_TRY(esr_eval_check_truth(&sel->ds, sel->phase, sel->idx, sel->n));
     ESR_TRY(ensure_renders(a, sel, p->render));
     int status = esr_eval_phase(&sel->ds, sel->phase, sel->idx, sel->n, p->render, &res);
+    /* the lights the run found, for the report and the light count (a run without a pdra
+     * checkpoint has none: the count is then the renders' light ids, eval/emitter_strength.h) */
+    struct esr_model m;
+    memset(&m, 0, sizeof m);
+    char ckpt[ESR_PATH_MAX + 16];
+    snprintf(ckpt, sizeof ckpt, "%s/ckpt_pdra.bin", a->run);
+    const int has_pdra = esr_file_exists(ckpt);
+    if (status == ESR_OK && has_pdra)
+        status = esr_model_load(&m, ckpt);
+    if (status == ESR_OK && has_pdra) {
+        res.strength.lights_found = m.lights.n;
+        res.strength.found_from = "model";
+    }
     /* the scores, the geometry and the report are written aside and replace the earlier ones
      * together, once all three are complete */
     struct cli_aside aside = {0};
@@ -297,13 +316,6 @@ static int evaluate(const struct eval_args *a, const struct esr_run_selection *s
     int scored = 0;
     if (status == ESR_OK)
         status = score_geometry(a->run, &sel->ds, p, &aside, &geometry, &scored);
-    /* the lights the run found, for the report (a run without a pdra checkpoint has none) */
-    struct esr_model m;
-    memset(&m, 0, sizeof m);
-    char ckpt[ESR_PATH_MAX + 16];
-    snprintf(ckpt, sizeof ckpt, "%s/ckpt_pdra.bin", a->run);
-    if (status == ESR_OK && esr_file_exists(ckpt))
-        status = esr_model_load(&m, ckpt);
     if (status == ESR_OK) {
         struct esr_report_spec spec = {report_to, a->run,    &sel->ds, &res,     p->render_href,
                                        p->gt,     p->gt_href, p->log,   &m.lights,

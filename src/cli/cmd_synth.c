@@ -23,7 +23,7 @@ const struct esr_command cmd_synth = {
     "\n"
     "options:\n"
     "  --scene NAME   built-in scene (default: default); `--scene list` lists them\n"
-    "  --res N        image width = height in pixels, 8..2048 (default: the scene's, 100)\n"
+    "  --res N        image width = height in pixels, 8..2048 (default: the scene's, 100 or 160)\n"
     "  --spp N        samples per pixel, 1..65536 (default: the scene's)\n"
     "  --train N      train views per lighting condition, 1..500 (default: the scene's, 50)\n"
     "  --test N       test cameras, 1..500 (default: the scene's, 10)\n"
@@ -43,7 +43,8 @@ static void list_scenes(FILE *out)
     fprintf(out, "built-in scenes:\n");
     for (int i = 0; i < esr_synth_scene_count(); i++)
         if (esr_synth_scene_get(esr_synth_scene_name(i), &s) == 0)
-            fprintf(out, "  %-8s %d lights, %dx%d, %d spp: %s\n", s.name, s.n_lights, s.res, s.res, s.spp, s.summary);
+            fprintf(out, "  %-8s %d light%s, %dx%d, %d spp: %s\n", s.name, s.n_lights, s.n_lights == 1 ? "" : "s",
+                    s.res, s.res, s.spp, s.summary);
 }
 
 /* Parses a whole-string integer in [lo, hi]. */

@@ -6,6 +6,7 @@
 #include <string.h>
 
 #include "core/error.h"
+#include "eval/emitter_strength.h"
 #include "io/file.h"
 #include "render/view.h"
 
@@ -23,9 +24,15 @@ static int inside_eroded(const struct esr_image *mask, int x, int y)
     return 1;
 }
 
-/* Adds light K's pixels of one frame to sum[3] / *count. */
+/* Sums over a light's mask: the eroded mask's and the whole mask's. */
+struct mask_sums {
+    double eroded[3], whole[3];
+    long n_eroded, n_whole;
+};
+
+/* Adds light K's pixels of one frame to *s. */
 static int add_frame(const struct esr_dataset *ds, const struct esr_frame *f, int light,
-                     const struct esr_image *emission, double sum[3], long *count)
+                     const struct esr_image *emission, struct mask_sums *s)
 {
     char path[ESR_PATH_MAX * 2];
     esr_frame_light_mask_path(ds, f, light, path, sizeof path);
@@ -39,13 +46,17 @@ static int add_frame(const struct esr_dataset *ds, const struct esr_frame *f, in
                       mask.height, emission->width, emission->height);
     for (int y = 0; rc == ESR_OK && y < mask.height; y++)
         for (int x = 0; x < mask.width; x++) {
-            if (!inside_eroded(&mask, x, y))
+            const size_t p = (size_t)y * (size_t)mask.width + (size_t)x;
+            if (mask.data[p * (size_t)mask.channels] <= 0.5f)
                 continue;
-            const float *e = emission->data + ((size_t)y * (size_t)emission->width + (size_t)x) *
-                                                  (size_t)emission->channels;
-            for (int c = 0; c < 3; c++)
-                sum[c] += e[c];
-            (*count)++;
+            const float *e = emission->data + p * (size_t)emission->channels;
+            const int in = inside_eroded(&mask, x, y);
+            for (int c = 0; c < 3; c++) {
+                s->whole[c] += e[c];
+                s->eroded[c] += in ? e[c] : 0.0;
+            }
+            s->n_whole++;
+            s->n_eroded += in;
         }
     esr_image_free(&mask);
     return rc;
@@ -58,10 +69,8 @@ int esr_emitter_radiance_eval(const struct esr_dataset *ds, enum esr_phase_id ph
     const int lights = ds->n_lights < ds->n_true_lights ? ds->n_lights : ds->n_true_lights;
     if (lights <= 0)
         return ESR_OK;
-    double sum[ESR_MAX_TRUE_LIGHTS][3];
-    long count[ESR_MAX_TRUE_LIGHTS];
-    memset(sum, 0, sizeof sum);
-    memset(count, 0, sizeof count);
+    struct mask_sums sums[ESR_MAX_TRUE_LIGHTS];
+    memset(sums, 0, sizeof sums);
     const struct esr_phase *ph = &ds->phases[phase];
     int rc = ESR_OK;
     for (int i = 0; i < n && rc == ESR_OK; i++) {
@@ -73,19 +82,26 @@ int esr_emitter_radiance_eval(const struct esr_dataset *ds, enum esr_phase_id ph
         struct esr_image em = {0};
         rc = esr_exr_read(path, &em);
         for (int k = 0; k < lights && rc == ESR_OK; k++)
-            rc = add_frame(ds, f, k, &em, sum[k], &count[k]);
+            rc = add_frame(ds, f, k, &em, &sums[k]);
         esr_image_free(&em);
     }
-    for (int k = 0; k < lights && rc == ESR_OK; k++) {
-        if (count[k] == 0)
-            continue;
+    long seen = 0; /* mask pixels of any light in the views with an emission image (0: not scored) */
+    for (int k = 0; k < lights; k++)
+        seen += sums[k].n_whole;
+    for (int k = 0; k < lights && rc == ESR_OK && seen > 0; k++) {
+        const struct mask_sums *s = &sums[k];
         struct esr_emitter_radiance *r = &out->lights[out->n++];
         r->light = k;
         snprintf(r->name, sizeof r->name, "%s", ds->true_lights[k].name);
-        r->pixels = count[k];
+        /* a light too small for the eroded mask keeps its place, scored on its whole mask */
+        r->eroded = s->n_eroded > 0;
+        r->pixels = r->eroded ? s->n_eroded : s->n_whole;
+        r->mask_pixels = s->n_whole;
+        r->power = r->truth_power = r->power_ratio = NAN; /* eval/emitter_strength.c's */
         double d2 = 0.0, t2 = 0.0, m2 = 0.0;
         for (int c = 0; c < 3; c++) {
-            r->mean[c] = sum[k][c] / (double)count[k];
+            const double sum = r->eroded ? s->eroded[c] : s->whole[c];
+            r->mean[c] = r->pixels > 0 ? sum / (double)r->pixels : NAN;
             r->truth[c] = ds->true_lights[k].radiance[c];
             d2 += (r->mean[c] - r->truth[c]) * (r->mean[c] - r->truth[c]);
             t2 += r->truth[c] * r->truth[c];
@@ -93,6 +109,7 @@ int esr_emitter_radiance_eval(const struct esr_dataset *ds, enum esr_phase_id ph
         }
         r->error_pct = t2 > 0.0 ? 100.0 * sqrt(d2 / t2) : NAN;
         r->ratio = t2 > 0.0 ? sqrt(m2 / t2) : NAN;
+        r->lum_ratio = esr_emitter_luminance_ratio(r->mean, r->truth);
     }
     return rc;
 }

@@ -5,7 +5,10 @@
  * eroded by one pixel first: a boundary pixel's composite mixes the emitter with what is beside
  * it (the true mask is a first-hit mask of the pixel centre).
  *   error_pct = 100 |mean - truth| / |truth|   (RGB vectors)
- *   ratio     = |mean| / |truth|               (how much of the light's strength was found) */
+ *   ratio     = |mean| / |truth|               (how much of the light's strength was found)
+ * No light is left out: one whose eroded mask is empty in every view (a light a few pixels
+ * across) is scored on its whole mask and flagged (eroded = 0); one no evaluated view shows has
+ * pixels 0 and NAN scores. eval/emitter_strength.h adds the luminance ratio and the power. */
 #ifndef ESR_EVAL_EMITTER_RADIANCE_H
 #define ESR_EVAL_EMITTER_RADIANCE_H
 
@@ -14,13 +17,18 @@
 struct esr_emitter_radiance {
     int light;
     char name[64];
-    long pixels;           /* mask pixels counted (after erosion) */
+    long pixels;           /* mask pixels counted (after erosion when eroded, else the whole mask) */
+    int eroded;            /* 1: scored on the eroded mask; 0: that was empty, on the whole mask */
+    long mask_pixels;      /* the whole mask's pixels over the views */
     double mean[3], truth[3];
     double error_pct, ratio;
+    double lum_ratio;      /* luminance of mean over that of truth (eval/emitter_strength.h) */
+    double power, truth_power, power_ratio; /* image-space power, found and true (NAN: not scored) */
 };
 
 struct esr_emitter_radiance_result {
-    int n;                 /* lights scored (0: no truth, no masks or no emission images) */
+    int n;                 /* lights scored: every true light once an emission image is read (0: no
+                              truth or no emission images) */
     struct esr_emitter_radiance lights[ESR_MAX_TRUE_LIGHTS];
 };
 

@@ -261,6 +261,9 @@ int esr_eval_phase(const struct esr_dataset *ds, enum esr_phase_id phase, const 
         status = esr_light_split_eval(ds, phase, idx, res->n_views, render_dir, &res->split);
     if (status == ESR_OK)
         status = esr_materials_eval(ds, phase, idx, res->n_views, render_dir, &res->materials);
+    if (status == ESR_OK)
+        status = esr_emitter_strength_eval(ds, phase, idx, res->n_views, render_dir, &res->split,
+                                           &res->radiance, &res->strength);
     ESR_TRY(status);
     res->all = mean_of(res, -1);
     for (int mode = 0; mode < ESR_LIGHT_MODE_COUNT; mode++)

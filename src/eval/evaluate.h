@@ -13,6 +13,7 @@
 #define ESR_EVAL_EVALUATE_H
 
 #include "eval/emitter_radiance.h"
+#include "eval/emitter_strength.h"
 #include "eval/emo_baseline.h"
 #include "eval/light_split.h"
 #include "eval/materials.h"
@@ -57,6 +58,7 @@ struct esr_eval_result {
     struct esr_emitter_radiance_result radiance; /* per light vs scene.json (n 0: not scored) */
     struct esr_light_split split;              /* esr's lights vs per-light masks (views 0: none) */
     struct esr_materials_result materials;     /* material maps vs truth (has_truth 0: none) */
+    struct esr_emitter_strength strength;      /* the lights' strengths summarised (with radiance) */
 };
 
 /* Evaluates the frames idx[0..n) of `phase` (esr_select_frames) against the images in
@@ -87,7 +89,10 @@ int esr_eval_check_truth(const struct esr_dataset *ds, enum esr_phase_id phase, 
  *    "emitter_views": views counted,
  *    "emitter_iou_emo_threshold": {"iou", "k", "cameras"}: the thresholded-L_emo baseline,
  *    "emitter_radiance": [{"light", "name", "pixels", "mean_rgb", "truth_rgb", "error_pct",
- *                          "ratio"}...] (eval/emitter_radiance.h; when scored),
+ *                          "ratio", "eroded", "mask_pixels", "luminance_ratio", "power",
+ *                          "truth_power", "power_ratio"}...] (eval/emitter_radiance.h; when scored),
+ *    "emitter_strength": {"shared_scale", "worst_relative", ...} (eval/emitter_strength.h; with
+ *                        emitter_radiance),
  *    "hdr_mse_off", "hdr_mse_on": by_mode's hdr_mse of those modes (when they have views),
  *    "light_split": {"views", "mean_iou", "lights": [{"light", "name", "esr_light", "iou",
  *                    "true_pixels"}...]} (eval/light_split.h; when scored),

@@ -111,8 +111,10 @@ static cJSON *result_json(const struct esr_dataset *ds, const struct esr_eval_re
             cJSON_AddItemToObject(o, "truth_rgb", cJSON_CreateDoubleArray(r->truth, 3));
             esr_json_add_number_or_null(o, "error_pct", r->error_pct);
             esr_json_add_number_or_null(o, "ratio", r->ratio);
+            esr_emitter_strength_add_light_json(o, r);
             cJSON_AddItemToArray(arr, o);
         }
+        esr_emitter_strength_add_json(root, &res->strength);
     }
     if (res->split.views > 0) {
         cJSON *sp = cJSON_AddObjectToObject(root, "light_split");

@@ -88,6 +88,7 @@ static void put_emitters(FILE *out, const struct esr_eval_result *res)
           "the calibrated radiance of the light in \"Lights found\", which is that light's own "
           "value: the mean here also holds pixels whose emission is composited with its edge or "
           "comes from another light.</p>\n", out);
+    esr_emitter_strength_put_html(out, &res->radiance, &res->strength);
 }
 
 /* esr's light split against the dataset's per-light masks (when scored). */

@@ -4,6 +4,7 @@
 #include <string.h>
 
 #include "core/error.h"
+#include "synth/scene_build.h"
 
 static struct esr_synth_prim *add_prim(struct esr_synth_scene *s, const char *name, enum esr_synth_prim_kind kind,
                                        struct esr_vec3 a, struct esr_vec3 b, float r, float g, float bl,
@@ -61,6 +62,31 @@ static void init_scene(struct esr_synth_scene *s, const char *name, const char *
     s->spp = 96;
     s->n_train = 50;
     s->n_test = 10;
+}
+
+/* The helpers under the names scene_build.h gives them (scenes_lights.c builds with them). */
+struct esr_synth_prim *esr_synth_add_prim(struct esr_synth_scene *s, const char *name, enum esr_synth_prim_kind kind,
+                                          struct esr_vec3 a, struct esr_vec3 b, float r, float g, float bl,
+                                          float roughness, float metallic)
+{
+    return add_prim(s, name, kind, a, b, r, g, bl, roughness, metallic);
+}
+
+void esr_synth_set_texture(struct esr_synth_prim *p, enum esr_synth_texture tex, float r, float g, float b,
+                           float period)
+{
+    set_texture(p, tex, r, g, b, period);
+}
+
+void esr_synth_add_light(struct esr_synth_scene *s, struct esr_synth_prim *p, float r, float g, float b,
+                         float strength)
+{
+    add_light(s, p, r, g, b, strength);
+}
+
+void esr_synth_init_scene(struct esr_synth_scene *s, const char *name, const char *summary)
+{
+    init_scene(s, name, summary);
 }
 
 /* A checkered floor slab, a warm lamp (pole + emissive shade), a small blue emissive orb and a few
@@ -146,6 +172,10 @@ static const struct {
     {"default", build_default},
     {"glossy", build_glossy},
     {"capture", build_capture},
+    {"bulbs", esr_synth_build_bulbs},
+    {"vivid", esr_synth_build_vivid},
+    {"ratios", esr_synth_build_ratios},
+    {"shaded", esr_synth_build_shaded},
 };
 #define N_SCENES (int)(sizeof scenes / sizeof scenes[0])
 

@@ -6,8 +6,8 @@
 #include "core/mesh.h"
 #include "synth/prim.h"
 
-#define ESR_SYNTH_MAX_PRIMS 16
-#define ESR_SYNTH_MAX_LIGHTS 4
+#define ESR_SYNTH_MAX_PRIMS 24
+#define ESR_SYNTH_MAX_LIGHTS 8
 
 struct esr_synth_light {
     const char *name;
