@@ -201,17 +201,6 @@ void esr_emitter_strength_add_light_json(cJSON *obj, const struct esr_emitter_ra
     esr_json_add_number_or_null(obj, "power_ratio", r->power_ratio);
 }
 
-/* A number cell, "-" for NAN. */
-static void put_cell(FILE *out, const char *fmt, double v)
-{
-    fputs("<td>", out);
-    if (isnan(v))
-        fputs("-", out);
-    else
-        fprintf(out, fmt, v);
-    fputs("</td>", out);
-}
-
 /* "found N of T" with what is known. */
 static void put_counts(FILE *out, const struct esr_emitter_strength *s, const char *sep)
 {
@@ -238,9 +227,9 @@ void esr_emitter_strength_put_html(FILE *out, const struct esr_emitter_radiance_
         esr_html_put_escaped(out, r->name);
         fprintf(out, "</td><td>%ld%s</td>", r->pixels,
                 r->pixels == 0 ? " (not seen)" : r->eroded ? "" : " (whole mask: too small to erode)");
-        put_cell(out, "%.3f", r->lum_ratio);
-        put_cell(out, "%.3f", r->lum_ratio / s->shared_scale);
-        put_cell(out, "%.3f", r->power_ratio);
+        esr_html_put_number(out, "%.3f", r->lum_ratio);
+        esr_html_put_number(out, "%.3f", r->lum_ratio / s->shared_scale);
+        esr_html_put_number(out, "%.3f", r->power_ratio);
         fputs("</tr>\n", out);
     }
     fputs("</table>\n<p>Strength: ", out);
