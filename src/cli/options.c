@@ -68,7 +68,9 @@ int cli_option_known(const struct esr_command *cmd, const char *name)
     return known(&k, name);
 }
 
-static char **normalised; /* kept for the process: the command's argv */
+static char **volatile normalised; /* kept for the process: the command's argv (volatile: a
+                                     store never read back would be dropped, and LeakSanitizer
+                                     would then call the argv a leak) */
 static int typed_argc;    /* and what was typed, for the records of what made an output */
 static char **typed_argv;
 
