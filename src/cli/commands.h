@@ -27,8 +27,6 @@ int cli_normalise_args(const struct esr_command *cmd, int *argc, char ***argv);
 /* The command's arguments as typed, before cli_normalise_args (argv[0] the command's name);
  * 0 before it ran. */
 int cli_typed_args(char ***argv);
-/* 1 when cmd's usage text names the option (e.g. "--orbit"). */
-int cli_option_known(const struct esr_command *cmd, const char *name);
 /* Parses a whole-string decimal integer in [lo, hi] (lo, hi within int); 0 on success, -1 else. */
 int cli_parse_int(const char *text, long lo, long hi, int *out);
 /* A decimal number in [lo, hi] (no leading space or '+', no hexadecimal, inf or nan): 0 on
@@ -70,7 +68,8 @@ void cli_aside_discard(struct cli_aside *s);
 int cli_output_file(const char *option, const char *path, const char *ext, char *made, size_t n);
 
 /* The record of what made an output (cli/record.c): {"command": "esr NAME ARGS", "argv": [...],
- * "esr": version, "commit", "time": ISO 8601 UTC}; the caller owns it. */
+ * "esr": version, "commit", "time": ISO 8601 UTC}; the caller owns it. ARGS are the arguments as
+ * typed when NAME is the command typed, else argv's (a step of `esr demo`). */
 struct cJSON *cli_record(const char *cmd_name, int argc, char **argv);
 /* Sets that record as "made_by" in the JSON object at path (rewritten atomically). */
 int cli_record_into(const char *path, const char *cmd_name, int argc, char **argv);

@@ -17,7 +17,7 @@ cJSON *esr_cli_lights_json(const struct esr_model *m, const char *ckpt, const lo
     char fp[32]; /* the model whose lights these are, and the command that listed them */
     snprintf(fp, sizeof fp, "%016llx", (unsigned long long)esr_model_fingerprint(m));
     cJSON_AddStringToObject(root, "model_fingerprint", fp);
-    cJSON_AddItemToObject(root, "made_by", cli_record("lights", 0, NULL));
+    cJSON_AddItemToObject(root, "made_by", cli_record("lights", 0, NULL) /* as typed; in esr demo, the name */);
     cJSON_AddNumberToObject(root, "emitter_k", m->cfg.emitter_k);
     cJSON *units = cJSON_AddObjectToObject(root, "units");
     cJSON_AddStringToObject(units, "rgb", UNITS_RGB);

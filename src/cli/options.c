@@ -61,13 +61,6 @@ static int other_spelling(const char *name, char *out, size_t n)
     return uk || us;
 }
 
-int cli_option_known(const struct esr_command *cmd, const char *name)
-{
-    struct names k;
-    usage_options(cmd->usage, &k);
-    return known(&k, name);
-}
-
 static char **volatile normalised; /* kept for the process: the command's argv (volatile: a
                                      store never read back would be dropped, and LeakSanitizer
                                      would then call the argv a leak) */

@@ -19,7 +19,9 @@ cJSON *cli_record(const char *cmd_name, int argc, char **argv)
 {
     char **typed;
     const int n_typed = cli_typed_args(&typed);
-    if (n_typed > 0) { /* what the user typed (--name=value kept), not its normalised form */
+    /* what the user typed (--name=value kept) when this is the command typed; a step of
+     * `esr demo` records the arguments the demo gave it */
+    if (n_typed > 0 && !strcmp(typed[0], cmd_name)) {
         argc = n_typed;
         argv = typed;
     }
