@@ -403,16 +403,7 @@ static int edit(const struct edit_args *a)
     /* the views go into a staging folder beside --out, which replaces it only once every view
      * and edit.json are written: a failed or interrupted edit leaves --out as it was */
     char parent[4200], made[4200] = "", staging[4200] = "";
-    snprintf(parent, sizeof parent, "%s", a->out);
-    char *slash = strrchr(parent, '/');
-    while (slash && slash > parent && slash[1] == '\0') { /* "dir/" */
-        *slash = '\0';
-        slash = strrchr(parent, '/');
-    }
-    if (slash)
-        *(slash == parent ? slash + 1 : slash) = '\0';
-    else
-        snprintf(parent, sizeof parent, ".");
+    cli_parent_dir(a->out, parent, sizeof parent);
     if (rc == ESR_OK)
         rc = check_replaceable(a->out);
     if (rc == ESR_OK && ((rc = esr_dir_prepare_output_made(parent, made, sizeof made)) != ESR_OK ||

@@ -323,8 +323,6 @@ static int evaluate(const struct eval_args *a, const struct esr_run_selection *s
         status = esr_report_write(&spec);
     }
     esr_model_free(&m);
-    if (status == ESR_OK && cli_interrupted())
-        status = ESR_FAIL("interrupted: the earlier scores and report are as they were");
     if (status == ESR_OK)
         status = cli_aside_commit(&aside);
     else

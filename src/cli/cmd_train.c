@@ -316,14 +316,14 @@ static int run_train(int argc, char **argv)
         return cli_fail_lib(&cmd_train);
     char problems[4][320];
     const int n_problems = esr_train_health_problems(&health, problems, 4);
+    FILE *log = n_problems ? fopen(log_path, "a") : NULL; /* RUN/log says it too */
     for (int i = 0; i < n_problems; i++) {
         fprintf(stderr, "esr train: warning: %s\n", problems[i]);
-        FILE *log = fopen(log_path, "a");
-        if (log) {
+        if (log)
             fprintf(log, "esr train: warning: %s\n", problems[i]);
-            fclose(log);
-        }
     }
+    if (log)
+        fclose(log);
     if (n_problems && !allow_poor)
         fprintf(stderr, "esr train: the run finished, but its figures say it failed (exit status "
                         "2; --allow-poor accepts it)\n");

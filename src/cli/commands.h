@@ -66,6 +66,9 @@ void cli_aside_discard(struct cli_aside *s);
  * (".ply", ".glb", ".json", ".png"; case aside) or when it names a folder; its missing folders
  * are made now, before any work (made: the outermost one made, for esr_dir_remove_made). */
 int cli_output_file(const char *option, const char *path, const char *ext, char *made, size_t n);
+/* The folder path lies in (trailing slashes of path aside): "." for a bare name, "/" for a name
+ * under the root. */
+void cli_parent_dir(const char *path, char *out, size_t n);
 
 /* The record of what made an output (cli/record.c): {"command": "esr NAME ARGS", "argv": [...],
  * "esr": version, "commit", "time": ISO 8601 UTC}; the caller owns it. ARGS are the arguments as

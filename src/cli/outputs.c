@@ -17,6 +17,20 @@ static int ends_with(const char *path, const char *ext)
     return n > e && !strcasecmp(path + n - e, ext);
 }
 
+void cli_parent_dir(const char *path, char *out, size_t n)
+{
+    snprintf(out, n, "%s", path);
+    char *slash = strrchr(out, '/');
+    while (slash && slash > out && slash[1] == '\0') { /* "dir/" names dir */
+        *slash = '\0';
+        slash = strrchr(out, '/');
+    }
+    if (slash)
+        *(slash == out ? slash + 1 : slash) = '\0';
+    else
+        snprintf(out, n, ".");
+}
+
 int cli_output_file(const char *option, const char *path, const char *ext, char *made, size_t n)
 {
     if (made && n)
@@ -35,11 +49,9 @@ int cli_output_file(const char *option, const char *path, const char *ext, char 
     struct stat st;
     if (stat(path, &st) == 0 && S_ISDIR(st.st_mode))
         return ESR_FAIL("%s %s is a folder: name the file to write", option, path);
+    if (!strchr(path, '/'))
+        return ESR_OK; /* the working directory */
     char dir[4200];
-    snprintf(dir, sizeof dir, "%s", path);
-    char *slash = strrchr(dir, '/');
-    if (!slash)
-        return ESR_OK;
-    *(slash == dir ? slash + 1 : slash) = '\0';
+    cli_parent_dir(path, dir, sizeof dir);
     return esr_dir_create_made(dir, made, n);
 }

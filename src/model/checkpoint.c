@@ -445,15 +445,24 @@ int esr_model_load_buffer(struct esr_model *m, const void *data, size_t size, co
 /* A file named ckpt_<stage>.bin must hold that stage's model: one copied or renamed over it
  * would be resumed, rendered or listed as the stage it is not (a finished coarse model as
  * ckpt_fine.bin: the fine stage never trained). Frees m when it fails. */
-static int check_named_stage(struct esr_model *m, const char *file)
+/* The stage a file named ckpt_<stage>.bin is named for, or -1. */
+static int named_stage(const char *file)
 {
     const char *base = strrchr(file, '/');
     base = base ? base + 1 : file;
     for (int s = 0; s < ESR_STAGE_COUNT; s++) {
         char name[64];
         snprintf(name, sizeof name, "ckpt_%s.bin", esr_stage_name((enum esr_stage)s));
-        if (strcmp(base, name) != 0 || m->stage == s)
-            continue;
+        if (!strcmp(base, name))
+            return s;
+    }
+    return -1;
+}
+
+static int check_named_stage(struct esr_model *m, const char *file)
+{
+    const int s = named_stage(file);
+    if (s >= 0 && m->stage != s) {
         const int held = m->stage;
         esr_model_free(m);
         return ESR_FAIL("checkpoint %s is named for the %s stage but holds a %s-stage model (a "
@@ -469,26 +478,22 @@ static int check_named_stage(struct esr_model *m, const char *file)
  * from the earlier stages' checkpoints, which are kept. */
 static void advise_damaged(const char *file)
 {
-    const char *base = strrchr(file, '/');
-    const size_t dir_len = base ? (size_t)(base - file) : 1;
-    const char *dir = base ? file : ".";
-    base = base ? base + 1 : file;
-    for (int s = 0; s < ESR_STAGE_COUNT; s++) {
-        char name[64], rm[1024] = "";
-        snprintf(name, sizeof name, "ckpt_%s.bin", esr_stage_name((enum esr_stage)s));
-        if (strcmp(base, name) != 0)
-            continue;
-        for (int t = s; t < ESR_STAGE_COUNT; t++) {
-            const size_t len = strlen(rm);
-            snprintf(rm + len, sizeof rm - len, " %.*s/ckpt_%s.bin", (int)dir_len, dir,
-                     esr_stage_name((enum esr_stage)t));
-        }
-        esr_error_append(". To recover: rm -f%s, then `esr train DATA --out %.*s --resume` trains "
-                         "the %s stage%s again from the earlier stages' checkpoints (kept)",
-                         rm, (int)dir_len, dir, esr_stage_name((enum esr_stage)s),
-                         s + 1 < ESR_STAGE_COUNT ? " and those after it" : "");
+    const int s = named_stage(file);
+    if (s < 0)
         return;
+    const char *slash = strrchr(file, '/');
+    const int dir_len = slash ? (int)(slash - file) : 1;
+    const char *dir = slash ? file : ".";
+    char rm[1024] = "";
+    for (int t = s; t < ESR_STAGE_COUNT; t++) {
+        const size_t len = strlen(rm);
+        snprintf(rm + len, sizeof rm - len, " %.*s/ckpt_%s.bin", dir_len, dir,
+                 esr_stage_name((enum esr_stage)t));
     }
+    esr_error_append(". To recover: rm -f%s, then `esr train DATA --out %.*s --resume` trains "
+                     "the %s stage%s again from the earlier stages' checkpoints (kept)",
+                     rm, dir_len, dir, esr_stage_name((enum esr_stage)s),
+                     s + 1 < ESR_STAGE_COUNT ? " and those after it" : "");
 }
 
 int esr_model_load(struct esr_model *m, const char *path)

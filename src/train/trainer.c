@@ -297,7 +297,6 @@ static int recover(struct run *r, struct esr_model *m, enum esr_stage s, long it
     char path[4200];
     ckpt_path(r, s, path, sizeof path);
     r->nan_failures++;
-    r->health.nan_recoveries = r->nan_failures;
     if (r->nan_failures >= MAX_NAN_FAILURES)
         return ESR_FAIL("train: non-finite loss or gradient in stage %s at iteration %ld, "
                         "failure %d of %d: stopping; the last good checkpoint %s is intact",
@@ -704,23 +703,23 @@ static double psnr_floor(const struct esr_ray_set *rs)
 int esr_train_health_problems(const struct esr_train_health *h, char lines[][320], int max)
 {
     int n = 0;
-    if (!h->short_by_design && h->trained && h->last_stage >= ESR_STAGE_COARSE && isfinite(h->last_psnr) &&
-        h->last_psnr < h->psnr_floor && n < max)
-        snprintf(lines[n++], 320, "stage %s ended at a training PSNR of %.1f dB, below this "
-                 "dataset's floor of %.1f dB (a constant colour per lighting scores 3 dB less): "
-                 "it did not converge (too few iterations, or a learning rate too high)",
-                 esr_stage_name(h->last_stage), h->last_psnr, h->psnr_floor);
-    if (h->short_by_design) {
-        /* a smoke run checks the install, not the reconstruction */
-    } else if (h->lights_listed > 0 && h->lights_found > 2 * h->lights_listed &&
-        h->lights_found >= h->lights_listed + 3 && n < max)
-        snprintf(lines[n++], 320, "%d lights found where the dataset describes %d: the emission "
-                 "is fragmented (the emitter stages did not converge)", h->lights_found,
-                 h->lights_listed);
-    else if (h->lights_left_out > 0 && n < max)
-        snprintf(lines[n++], 320, "%d lights found and %d more emitting regions left out: the "
-                 "emission is fragmented (the emitter stages did not converge)", h->lights_found,
-                 h->lights_left_out);
+    if (!h->short_by_design) { /* a smoke run checks the install, not the reconstruction */
+        if (h->trained && h->last_stage >= ESR_STAGE_COARSE && isfinite(h->last_psnr) &&
+            h->last_psnr < h->psnr_floor && n < max)
+            snprintf(lines[n++], 320, "stage %s ended at a training PSNR of %.1f dB, below this "
+                     "dataset's floor of %.1f dB (a constant colour per lighting scores 3 dB "
+                     "less): it did not converge (too few iterations, or a learning rate too high)",
+                     esr_stage_name(h->last_stage), h->last_psnr, h->psnr_floor);
+        if (h->lights_listed > 0 && h->lights_found > 2 * h->lights_listed &&
+            h->lights_found >= h->lights_listed + 3 && n < max)
+            snprintf(lines[n++], 320, "%d lights found where the dataset describes %d: the "
+                     "emission is fragmented (the emitter stages did not converge)",
+                     h->lights_found, h->lights_listed);
+        else if (h->lights_left_out > 0 && n < max)
+            snprintf(lines[n++], 320, "%d lights found and %d more emitting regions left out: "
+                     "the emission is fragmented (the emitter stages did not converge)",
+                     h->lights_found, h->lights_left_out);
+    }
     if (h->nan_recoveries > 0 && n < max)
         snprintf(lines[n++], 320, "%d non-finite loss%s or gradients recovered from (learning "
                  "rate halved each time): check the run's figures", h->nan_recoveries,
@@ -868,6 +867,7 @@ int esr_train_run(const struct esr_train_opts *o)
         esr_model_free(&prev);
     esr_ray_set_free(&r.rays);
     esr_dir_unlock(r.lock_fd);
+    r.health.nan_recoveries = r.nan_failures;
     if (o->health)
         *o->health = r.health;
     return rc;
