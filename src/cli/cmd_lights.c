@@ -1,12 +1,10 @@
 /* esr lights RUN: the lights the run found (ids, place, size, colour as `esr edit` takes it,
  * strength) as a table; on request, or when --recompute or --drop changes them, RUN/lights.json
  * and a picture of where each light is. */
-#include <errno.h>
 #include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <strings.h>
 #include <unistd.h>
 
 #include "cli/commands.h"
@@ -18,7 +16,6 @@
 #include "io/file.h"
 #include "io/image.h"
 #include "io/json_file.h"
-#include "io/stale.h"
 #include "model/model.h"
 #include "render/lights_picture.h"
 #include "train/lights.h"
@@ -79,14 +76,6 @@ const struct esr_command cmd_lights = {
     0, /* view_loop */
 };
 
-/* The signal that interrupted a change of the lights (0: none). */
-static volatile sig_atomic_t interrupted;
-
-static void on_interrupt(int sig)
-{
-    interrupted = sig;
-}
-
 /* Finds (find) and calibrates the lights of m from the training rays of ds, loaded from DATA
  * (the lights-off ones calibrate, the lights-on ones balance their colour): the trainer's
  * esr_lights_estimate, with its lines on the terminal. */
@@ -138,13 +127,13 @@ static int drop_lights(struct esr_model *m, const char *list)
     return ESR_OK;
 }
 
-/* One file the command writes: its bytes are made first (kind), then written aside to
- * `aside` (a temporary name a later esr removes if this one is killed, io/stale.h) and renamed
- * onto path once every file is aside. */
+/* One file the command writes: its bytes are made first (kind), then written aside (cli_aside:
+ * a temporary name a later esr removes if this one is killed, io/stale.h) and moved onto path
+ * once every file is aside. */
 enum out_kind { OUT_CKPT, OUT_JSON, OUT_PICTURE };
 struct out_file {
     enum out_kind kind;
-    char path[4200], aside[4300];
+    char path[4200];
 };
 
 static int add_out(struct out_file *o, int *n, enum out_kind kind, const char *path)
@@ -154,7 +143,6 @@ static int add_out(struct out_file *o, int *n, enum out_kind kind, const char *p
             return ESR_OK; /* --json RUN/lights.json with --recompute: once */
     o[*n].kind = kind;
     snprintf(o[*n].path, sizeof o[*n].path, "%s", path);
-    o[*n].aside[0] = '\0';
     (*n)++;
     return ESR_OK;
 }
@@ -164,60 +152,44 @@ struct lights_args {
     int again;
 };
 
-/* Writes file o aside. */
-static int write_aside(struct out_file *o, const struct esr_model *m, const char *ckpt,
-                       const long *unseen, const struct esr_image *picture)
+/* Writes file o's bytes to `to`. */
+static int write_one(const struct out_file *o, const char *to, const struct esr_model *m,
+                     const char *ckpt, const long *unseen, const struct esr_image *picture)
 {
-    char prefix[4300];
-    snprintf(prefix, sizeof prefix, "%s.tmp-", o->path);
-    ESR_TRY(esr_stale_template(o->aside, sizeof o->aside, prefix));
-    const int fd = mkstemp(o->aside);
-    if (fd < 0) {
-        const int e = errno;
-        o->aside[0] = '\0';
-        return ESR_FAIL("cannot write '%s': %s", o->path, strerror(e));
-    }
-    close(fd);
     switch (o->kind) {
     case OUT_CKPT:
-        return esr_model_save(m, o->aside);
+        return esr_model_save(m, to);
     case OUT_JSON:
-        return esr_json_write_atomic(o->aside, esr_cli_lights_json(m, ckpt, unseen));
+        return esr_json_write_atomic(to, esr_cli_lights_json(m, ckpt, unseen));
     case OUT_PICTURE:
-        return esr_png_write(o->aside, picture, 8);
+        return esr_png_write(to, picture, 8);
     }
     return ESR_OK;
 }
 
-/* Every file aside, then each renamed onto its path, with SIGINT and SIGTERM held off from the
- * first write to the last rename: an interruption lands before (nothing written) or after (all
- * written), never between. On a failure the files aside are removed and the paths keep what
- * they held. */
+/* Every file aside, then all moved onto their paths together (cli_aside_commit, signals held
+ * off): an interruption before the move (the flag, cli_interrupted) leaves every path as it
+ * was, one after it finds them all written. On a failure the files aside are removed. */
 static int write_all(struct out_file *o, int n, const struct esr_model *m, const char *ckpt,
                      const long *unseen, const struct esr_image *picture)
 {
-    sigset_t hold, before;
-    sigemptyset(&hold);
-    sigaddset(&hold, SIGINT);
-    sigaddset(&hold, SIGTERM);
-    sigprocmask(SIG_BLOCK, &hold, &before);
-    int rc = interrupted ? ESR_FAIL("interrupted: nothing written") : ESR_OK;
-    for (int i = 0; rc == ESR_OK && i < n; i++)
-        rc = write_aside(&o[i], m, ckpt, unseen, picture);
-    for (int i = 0; rc == ESR_OK && i < n; i++)
-        if (rename(o[i].aside, o[i].path) != 0) {
-            rc = ESR_FAIL("cannot rename '%s' to '%s': %s%s", o[i].aside, o[i].path,
-                          strerror(errno), i ? " (the files before it in this list were renamed)" : "");
-            break;
-        } else {
-            o[i].aside[0] = '\0';
-            fprintf(stderr, "wrote %s\n", o[i].path);
-        }
+    struct cli_aside aside = {0};
+    int rc = ESR_OK;
+    for (int i = 0; rc == ESR_OK && i < n; i++) {
+        const char *to = cli_aside_add(&aside, o[i].path);
+        rc = to ? write_one(&o[i], to, m, ckpt, unseen, picture)
+                : ESR_FAIL("cannot write '%s': path too long", o[i].path);
+    }
+    if (rc == ESR_OK && cli_interrupted())
+        rc = ESR_FAIL("interrupted: nothing written");
+    if (rc != ESR_OK) {
+        cli_aside_discard(&aside);
+        return rc;
+    }
+    ESR_TRY(cli_aside_commit(&aside));
     for (int i = 0; i < n; i++)
-        if (o[i].aside[0])
-            unlink(o[i].aside);
-    sigprocmask(SIG_SETMASK, &before, NULL);
-    return rc;
+        fprintf(stderr, "wrote %s\n", o[i].path);
+    return ESR_OK;
 }
 
 /* The picture of where the lights are, and what it says (frame, lights out of view). */
@@ -286,7 +258,7 @@ static int lights(const struct lights_args *a)
     long unseen[ESR_MAX_LIGHTS]; /* each light's points whose emission no photo shows */
     if (rc == ESR_OK) {
         esr_lights_unseen_points(&m.lights, unseen);
-        if (!interrupted)
+        if (!cli_interrupted())
             esr_cli_lights_print(&m, unseen);
     }
     if (rc == ESR_OK && n_out > 0)
@@ -297,12 +269,6 @@ static int lights(const struct lights_args *a)
     esr_dir_unlock(lock);
     esr_model_free(&m);
     return rc;
-}
-
-static int ends_with(const char *path, const char *ext)
-{
-    const size_t n = strlen(path), e = strlen(ext);
-    return n > e && !strcasecmp(path + n - e, ext);
 }
 
 static int run_lights(int argc, char **argv)
@@ -340,27 +306,16 @@ static int run_lights(int argc, char **argv)
                         "anew: drop them after a --recompute");
     /* names that say what they hold: a slip such as `--json RUN/ckpt_pdra.bin` is refused, not
      * written over the checkpoint */
-    if (a.picture && !ends_with(a.picture, ".png"))
+    if (a.picture && !cli_ends_with(a.picture, ".png"))
         return cli_fail(&cmd_lights, "--picture %s: the picture is a PNG; give a name ending in "
                         ".png", a.picture);
-    if (a.json && !ends_with(a.json, ".json"))
+    if (a.json && !cli_ends_with(a.json, ".json"))
         return cli_fail(&cmd_lights, "--json %s: give a name ending in .json", a.json);
     /* a change of the lights finishes or leaves everything as it was (write_all) */
-    struct sigaction sa, before_int, before_term;
-    memset(&sa, 0, sizeof sa);
-    sa.sa_handler = on_interrupt;
-    sigemptyset(&sa.sa_mask);
-    interrupted = 0;
-    const int change = a.again || a.drop;
-    if (change) {
-        sigaction(SIGINT, &sa, &before_int);
-        sigaction(SIGTERM, &sa, &before_term);
-    }
+    if (a.again || a.drop)
+        cli_catch_interrupt(&cmd_lights, 0);
     const int rc = lights(&a);
-    if (change) {
-        sigaction(SIGINT, &before_int, NULL);
-        sigaction(SIGTERM, &before_term, NULL);
-    }
+    const int interrupted = cli_interrupted();
     if (interrupted) {
         fprintf(stderr, "esr lights: interrupted (%s): %s\n",
                 interrupted == SIGINT ? "SIGINT" : "SIGTERM",

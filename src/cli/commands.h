@@ -66,6 +66,8 @@ void cli_aside_discard(struct cli_aside *s);
  * (".ply", ".glb", ".json", ".png"; case aside) or when it names a folder; its missing folders
  * are made now, before any work (made: the outermost one made, for esr_dir_remove_made). */
 int cli_output_file(const char *option, const char *path, const char *ext, char *made, size_t n);
+/* 1 when path ends in ext (".png"), case aside, and has a name before it. */
+int cli_ends_with(const char *path, const char *ext);
 /* The folder path lies in (trailing slashes of path aside): "." for a bare name, "/" for a name
  * under the root. */
 void cli_parent_dir(const char *path, char *out, size_t n);

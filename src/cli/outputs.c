@@ -11,7 +11,7 @@
 #include "core/error.h"
 #include "io/dir.h"
 
-static int ends_with(const char *path, const char *ext)
+int cli_ends_with(const char *path, const char *ext)
 {
     const size_t n = strlen(path), e = strlen(ext);
     return n > e && !strcasecmp(path + n - e, ext);
@@ -35,8 +35,8 @@ int cli_output_file(const char *option, const char *path, const char *ext, char 
 {
     if (made && n)
         made[0] = '\0';
-    if (!ends_with(path, ext)) {
-        if (!strcmp(ext, ".glb") && ends_with(path, ".gltf"))
+    if (!cli_ends_with(path, ext)) {
+        if (!strcmp(ext, ".glb") && cli_ends_with(path, ".gltf"))
             return ESR_FAIL("%s %s: esr writes binary glTF, which viewers read from a .glb file "
                             "(a .gltf file is read as JSON): name it .glb", option, path);
         const char *dot = strrchr(path, '.'), *slash = strrchr(path, '/');
