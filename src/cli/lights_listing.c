@@ -23,6 +23,7 @@ cJSON *esr_cli_lights_json(const struct esr_model *m, const char *ckpt, const lo
     cJSON_AddStringToObject(units, "rgb", UNITS_RGB);
     cJSON_AddStringToObject(units, "power", UNITS_POWER);
     cJSON_AddStringToObject(units, "area", UNITS_AREA);
+    cJSON_AddStringToObject(root, "strength_assumption", STRENGTH_ASSUMPTION);
     float balance[3];
     esr_lights_balance_of(&m->lights, balance);
     cJSON_AddItemToObject(root, "colour_balance", esr_json_float_array(balance, 3));
@@ -44,6 +45,14 @@ cJSON *esr_cli_lights_json(const struct esr_model *m, const char *ckpt, const lo
         cJSON_AddItemToObject(o, "strength_scale", esr_json_float_array(l->scale, 3));
         cJSON_AddNumberToObject(o, "calibration_points", l->calib_points);
         cJSON_AddBoolToObject(o, "strength_fitted", esr_light_strength_fitted(&m->lights, i));
+        if (l->solved) { /* what the photos say of it (train/lights_solve.h) */
+            cJSON_AddNumberToObject(o, "strength_uncertainty", l->strength_err);
+            cJSON_AddBoolToObject(o, "strength_lower_bound_only", l->bound_only);
+            cJSON *ins = cJSON_AddArrayToObject(o, "inseparable_from");
+            for (int j = 0; j < m->lights.n; j++)
+                if (l->inseparable >> j & 1u)
+                    cJSON_AddItemToArray(ins, cJSON_CreateNumber(j));
+        }
         cJSON_AddItemToArray(arr, o);
     }
     return root;
@@ -105,6 +114,23 @@ void esr_cli_lights_print(const struct esr_model *m, const long *unseen)
         esr_lights_balance_of(L, b);
         printf("  colour from the lights' silhouettes: base colour x %.3f %.3f %.3f, environment "
                "map / the same\n", (double)b[0], (double)b[1], (double)b[2]);
+    }
+    int solved = 0;
+    for (int i = 0; i < L->n; i++)
+        solved += L->light[i].solved;
+    if (solved) {
+        printf("  strengths solved from the lights-on photos, relative uncertainty:");
+        for (int i = 0; i < L->n; i++)
+            if (L->light[i].solved)
+                printf(" %d: +-%.0f%%%s", i, 100.0 * (double)L->light[i].strength_err,
+                       L->light[i].bound_only ? " (a lower bound only)" : "");
+        printf("\n");
+        for (int i = 0; i < L->n; i++)
+            for (int j = i + 1; j < L->n; j++)
+                if (L->light[i].inseparable >> j & 1u)
+                    printf("  lights %d and %d light the same pixels alike: the photos fix only "
+                           "their sum\n", i, j);
+        printf("  (%s)\n", STRENGTH_ASSUMPTION);
     }
     if (borrowed)
         printf("  * under %.0f%% of the lights' area: too small to fit from the light it casts; it\n"

@@ -100,6 +100,10 @@ static cJSON *header_json(const struct esr_model *m)
             cJSON_AddItemToObject(e, "radiance", esr_json_float_array(l->radiance, 3));
             cJSON_AddNumberToObject(e, "power", l->power);
             cJSON_AddNumberToObject(e, "calib_points", l->calib_points);
+            cJSON_AddNumberToObject(e, "strength_err", l->strength_err);
+            cJSON_AddNumberToObject(e, "inseparable", (double)l->inseparable);
+            cJSON_AddNumberToObject(e, "bound_only", l->bound_only);
+            cJSON_AddNumberToObject(e, "solved", l->solved);
             cJSON_AddItemToArray(t, e);
         }
         if (esr_lights_balanced(&m->lights))
@@ -340,6 +344,19 @@ static int read_lights(struct esr_model *m, const cJSON *h, struct rbuf *b)
                 return ESR_FAIL("checkpoint %s: light %d has no '%s'", b->path, i, keys[j]);
             *vals[j] = (float)v->valuedouble;
         }
+        /* what the strength solve said (absent in older checkpoints: not solved) */
+        const cJSON *err = cJSON_GetObjectItemCaseSensitive(e, "strength_err");
+        const cJSON *ins = cJSON_GetObjectItemCaseSensitive(e, "inseparable");
+        const cJSON *bo = cJSON_GetObjectItemCaseSensitive(e, "bound_only");
+        l->strength_err = cJSON_IsNumber(err) && isfinite(err->valuedouble) && err->valuedouble >= 0
+                              ? (float)err->valuedouble
+                              : 0.0f;
+        l->inseparable = cJSON_IsNumber(ins) && ins->valuedouble >= 0 && ins->valuedouble < 65536
+                             ? (uint32_t)ins->valuedouble & ((1u << n) - 1u)
+                             : 0u;
+        l->bound_only = cJSON_IsNumber(bo) && bo->valuedouble == 1;
+        const cJSON *sv = cJSON_GetObjectItemCaseSensitive(e, "solved");
+        l->solved = cJSON_IsNumber(sv) && sv->valuedouble == 1;
     }
     if (cJSON_GetObjectItemCaseSensitive(k, "balance")) { /* absent: none (older runs too) */
         ESR_TRY(json_floats(k, "balance", L->balance, 3, b->path));

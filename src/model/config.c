@@ -168,6 +168,18 @@ static const struct opt opts[] = {
     {"lights_calib_points", OPT_INT, OFF(lights_calib_points), 1, 100000, DEF(2000, 2000),
      "pdra, `esr lights`: surface points away from the lights whose light calibrates the lights' "
      "strength"},
+    {"lights_solve", OPT_INT, OFF(lights_solve), 0, 1, DEF(1, 1),
+     "pdra's end, `esr lights`: 1 = each light's strength solved from the lights-on training "
+     "pixels (photo = lights-off radiance + sum of strength x the light's direct transport; "
+     "non-negative, robust, clipped pixels as lower bounds), 0 = the calibration's from the "
+     "lights-off surface points (ablation)"},
+    {"lights_solve_rays", OPT_INT, OFF(lights_solve_rays), 256, 4194304, DEF(65536, 65536),
+     "lights-on training pixels the strengths are solved from (all when fewer; stratified)"},
+    {"lights_solve_spp", OPT_INT, OFF(lights_solve_spp), 1, 1024, DEF(16, 16),
+     "area samples per light and pixel in that solve"},
+    {"lights_balance", OPT_INT, OFF(lights_balance), 0, 1, DEF(1, 1),
+     "1 = the lights' colour balanced by their silhouettes in the lights-on photos (base colour "
+     "x b, environment / b), 0 = none (ablation)"},
     {"tv_every", OPT_INT, OFF(tv_every), 1, 1000, DEF(4, 1),
      "total-variation regularisers every N iterations (weight scaled by N)"},
     /* Stage options: one DEF(fast, paper) per stage, in the order alphamask, coarse, fine, lts, pdra. */
@@ -240,6 +252,7 @@ static const struct {
 } smoke_changes[] = {
     {"batch_rays", 512}, {"log_every", 10}, {"save_every", 10}, {"tone_width", 8}, {"lts_points", 32},
     {"lts_dirs", 16}, {"field_width", 16}, {"field_depth", 1}, {"lights_calib_points", 250},
+    {"lights_solve_rays", 2048}, {"lights_solve_spp", 4},
     {"alphamask.res", 0}, {"coarse.res", 0}, {"fine.res", 0}, {"lts.res", 0}, {"pdra.res", 0},
     {"alphamask.iters", 30}, {"coarse.iters", 30}, {"fine.iters", 20}, {"lts.iters", 10},
     {"pdra.iters", 12},

@@ -96,6 +96,11 @@ struct esr_train_config {
     float pdra_lights_at;   /* pdra: share of the stage after which the light transport sees the
                                lights at their calibrated strength (0: never) */
     int lights_calib_points; /* surface points that calibrate the lights' strength */
+    int lights_solve;        /* 1: the strengths solved from the lights-on pixels
+                                (train/lights_solve.h); 0: the calibration's (ablation) */
+    int lights_solve_rays;   /* lights-on training pixels that solve them */
+    int lights_solve_spp;    /* area samples per light and pixel there */
+    int lights_balance;      /* 1: the silhouette colour balance (train/lights.h); 0: none */
     struct esr_stage_config alphamask, coarse, fine, lts, pdra;
 };
 

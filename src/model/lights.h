@@ -53,7 +53,15 @@ struct esr_light {
     float radiance[3];    /* emitted radiance found: scale x field_rgb (linear RGB) */
     float power;          /* emitted power, luminance x pi x area (Lambertian, one side; W-like
                              units of the dataset's radiance) */
-    float calib_points;   /* non-emitting surface points whose lighting fixed the scale */
+    float calib_points;   /* non-emitting surface points (or, solved from the lights-on
+                             pixels, pixels) whose lighting fixed the scale */
+    /* what the photos say of the strength (train/lights_solve.h; 0 when not solved there): */
+    float strength_err;   /* its relative standard error (mean over the channels) */
+    uint32_t inseparable; /* bit j: the photos cannot tell this light's strength from light j's
+                             (their estimates are nearly opposite: only their sum is known) */
+    int bound_only;       /* 1: no unclipped pixel constrains it; its strength is the lower bound
+                             the clipped ones give */
+    int solved;           /* 1: its strength was solved there (every light is; 0: calibrated) */
 };
 
 struct esr_lights {

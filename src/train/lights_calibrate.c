@@ -291,6 +291,7 @@ int esr_lights_calibrate(struct esr_model *m, const float *orig3, const float *d
         struct esr_light *lt = &m->lights.light[a];
         esr_light_update_radiance(lt);
         /* a light too small to fit took the others' scale: no point of its own fixed it */
+        lt->solved = 0, lt->bound_only = 0, lt->inseparable = 0, lt->strength_err = 0.0f;
         lt->calib_points = esr_light_strength_fitted(&m->lights, a) ? (float)seen[a] : 0.0f;
     }
     for (int a = 0; a < K; a++) {
@@ -339,7 +340,7 @@ int esr_lights_uncalibrated(const struct esr_lights *L)
 
 int esr_light_strength_fitted(const struct esr_lights *L, int id)
 {
-    return id >= 0 && id < L->n && is_fitted(L, id, lights_area(L));
+    return id >= 0 && id < L->n && (L->light[id].solved || is_fitted(L, id, lights_area(L)));
 }
 
 void esr_lights_fit_columns(const struct esr_lights *L, const int *fit, int nf, const double *a,

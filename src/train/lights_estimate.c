@@ -10,6 +10,7 @@
 
 #include "core/error.h"
 #include "train/lights_fit.h"
+#include "train/lights_solve.h"
 
 static void add(struct esr_lights_report *rep, int warning, const char *fmt, ...)
     __attribute__((format(printf, 3, 4)));
@@ -23,6 +24,26 @@ static void add(struct esr_lights_report *rep, int warning, const char *fmt, ...
     vsnprintf(rep->line[rep->n], sizeof rep->line[0], fmt, args);
     va_end(args);
     rep->warning[rep->n++] = warning;
+}
+
+/* Says which lights the solve could not tell apart, and which only a bound fixes. */
+static void report_solve(const struct esr_model *m, struct esr_lights_report *rep)
+{
+    for (int k = 0; k < m->lights.n; k++) {
+        const struct esr_light *l = &m->lights.light[k];
+        if (l->bound_only)
+            add(rep, 1, "light %d: no unclipped pixel shows its light; its strength is the lower "
+                        "bound its clipped pixels give", k);
+        if (!l->inseparable)
+            continue;
+        char ids[128] = "";
+        size_t at = 0;
+        for (int j = 0; j < m->lights.n && at < sizeof ids - 8; j++)
+            if (l->inseparable >> j & 1u)
+                at += (size_t)snprintf(ids + at, sizeof ids - at, "%s%d", at ? ", " : "", j);
+        add(rep, 1, "light %d: the photos fix only its strength plus that of light(s) %s (they light "
+                    "the same pixels alike); each one's share is a guess", k, ids);
+    }
 }
 
 int esr_lights_estimate(struct esr_model *m, const struct esr_ray_set *rs,
@@ -53,18 +74,31 @@ int esr_lights_estimate(struct esr_model *m, const struct esr_ray_set *rs,
         if (esr_lights_rim_text(&m->lights, i, rim, sizeof rim))
             add(rep, 0, "%s", rim);
     }
-    struct esr_lights_balance_info bal;
-    ESR_TRY(esr_lights_balance(m, rs, &bal));
-    char line[256];
-    esr_lights_balance_text(m, &bal, line, sizeof line);
-    add(rep, 0, "%s", line);
+    if (m->cfg.lights_balance) {
+        struct esr_lights_balance_info bal;
+        ESR_TRY(esr_lights_balance(m, rs, &bal));
+        char line[256];
+        esr_lights_balance_text(m, &bal, line, sizeof line);
+        add(rep, 0, "%s", line);
+    }
+    if (m->cfg.lights_solve && rs->n > rs->n_off) {
+        struct esr_lights_solve_info si;
+        ESR_TRY(esr_lights_solve(m, rs, o->seed, &si));
+        add(rep, 0, "strengths solved from %ld lights-on pixels (%ld exact channel rows, %ld "
+                    "clipped as lower bounds; residual scale %.3g %.3g %.3g) in %.1f s",
+            si.rays, si.rows, si.bound_rows, si.sigma[0], si.sigma[1], si.sigma[2], si.seconds);
+        report_solve(m, rep);
+    }
     add(rep, 0, "lights found: %d", m->lights.n);
     if (esr_lights_uncalibrated(&m->lights))
         add(rep, 1, ESR_LIGHTS_UNCALIBRATED_TEXT);
     for (int i = 0; i < m->lights.n; i++) {
         const struct esr_light *l = &m->lights.light[i];
         char from[96];
-        if (esr_light_strength_fitted(&m->lights, i))
+        if (m->cfg.lights_solve && rs->n > rs->n_off)
+            snprintf(from, sizeof from, "solved on %.0f pixel rows, +-%.0f%%%s", (double)l->calib_points,
+                     100.0 * (double)l->strength_err, l->bound_only ? ", a lower bound only" : "");
+        else if (esr_light_strength_fitted(&m->lights, i))
             snprintf(from, sizeof from, "fitted on %.0f points", (double)l->calib_points);
         else
             snprintf(from, sizeof from, "%s", ESR_LIGHT_BORROWED_TEXT);

@@ -1,0 +1,253 @@
+/* The lights' strengths solved from the lights-on photos (see lights_solve.h): the rows. */
+#include "train/lights_solve.h"
+
+#include <math.h>
+#include <omp.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "core/brdf.h"
+#include "core/colour.h"
+#include "core/error.h"
+#include "core/rng.h"
+#include "core/simd.h"
+#include "core/vec3.h"
+#include "fields/grid.h"
+#include "model/material_fields.h"
+#include "model/render_sdf.h"
+#include "train/light_direct.h"
+#include "train/light_surface.h"
+
+/* rays rendered per batch */
+#define SOLVE_CHUNK 8192
+/* a ray with a surface: opacity at least this (the rest is background in the pixel) */
+#define SOLVE_OPACITY 0.95f
+/* a ray sees two surfaces (its pixel a silhouette) when this much opacity lies this many voxels
+ * behind its first surface (as edit/relight.c's layers) */
+#define SOLVE_LAYER_OPACITY 0.05f
+#define SOLVE_LAYER_GAP_VOX 2.0f
+/* a light reaches a row when its column there is at least this (linear) */
+#define SOLVE_REACH 1e-3f
+
+/* What the rows of one batch need from the render. */
+struct solve_batch {
+    float *o3, *d3, *lin3, *emit3, *opac, *depth, *mat5, *fopac, *fdepth, *fmat5, *x3, *nrm3;
+    int32_t *ids;
+};
+
+static void batch_free(struct solve_batch *b)
+{
+    free(b->o3), free(b->d3), free(b->lin3), free(b->emit3), free(b->opac), free(b->depth);
+    free(b->mat5), free(b->fopac), free(b->fdepth), free(b->fmat5), free(b->x3), free(b->nrm3);
+    free(b->ids);
+}
+
+static int batch_alloc(struct solve_batch *b)
+{
+    const size_t n = SOLVE_CHUNK;
+    memset(b, 0, sizeof *b);
+    b->o3 = malloc(n * 3 * sizeof(float)), b->d3 = malloc(n * 3 * sizeof(float));
+    b->lin3 = malloc(n * 3 * sizeof(float)), b->emit3 = malloc(n * 3 * sizeof(float));
+    b->opac = malloc(n * sizeof(float)), b->depth = malloc(n * sizeof(float));
+    b->mat5 = malloc(n * ESR_BRDF_CHANNELS * sizeof(float));
+    b->fopac = malloc(n * sizeof(float)), b->fdepth = malloc(n * sizeof(float));
+    b->fmat5 = malloc(n * ESR_BRDF_CHANNELS * sizeof(float));
+    b->x3 = malloc(n * 3 * sizeof(float)), b->nrm3 = malloc(n * 3 * sizeof(float));
+    b->ids = malloc(n * sizeof(int32_t));
+    if (b->o3 && b->d3 && b->lin3 && b->emit3 && b->opac && b->depth && b->mat5 && b->fopac &&
+        b->fdepth && b->fmat5 && b->x3 && b->nrm3 && b->ids)
+        return ESR_OK;
+    batch_free(b);
+    return ESR_FAIL("lights: out of memory for the strength solve's rays");
+}
+
+/* Whether ray p has one surface, opaque: no silhouette against what lies behind it. */
+static int single_surface(const struct solve_batch *b, size_t p, float voxel)
+{
+    const float a = b->opac[p], a1 = b->fopac[p], a2 = a - a1;
+    if (a < SOLVE_OPACITY)
+        return 0;
+    const float d1 = b->fdepth[p], d2 = a2 > 0.0f ? (b->depth[p] * a - d1 * a1) / a2 : 0.0f;
+    return !(a1 > 0.0f && a2 > SOLVE_LAYER_OPACITY && d2 - d1 > SOLVE_LAYER_GAP_VOX * voxel);
+}
+
+/* The lights-on rays to solve from: want of them, one drawn at random in each of want equal
+ * strata of the set's order (images, rows), or all when there are fewer. */
+static size_t pick_ray(size_t n_on, size_t want, size_t i, struct esr_rng *rng)
+{
+    if (n_on <= want)
+        return i;
+    const size_t lo = i * n_on / want, hi = (i + 1) * n_on / want;
+    return lo + (size_t)(esr_rng_u64(rng) % (hi > lo ? hi - lo : 1));
+}
+
+/* Builds batch b's rows (first row `row`): columns a [(row * 3 + c) * K + k], targets y and
+ * kinds, each weighted by esr_image_error_scale at the photo's value. */
+ESR_HOT static void batch_rows(const struct esr_model *m, const struct esr_light_samples *ls,
+                               const struct esr_light_shadows *sh, const struct solve_batch *b,
+                               const float *rgb3, size_t nb, size_t row, int spp, uint64_t seed,
+                               float *a, float *y, uint8_t *kind)
+{
+    const int K = m->lights.n;
+#pragma omp parallel for schedule(dynamic, 16)
+    for (size_t p = 0; p < nb; p++) {
+        const size_t i = row + p;
+        uint8_t *ki = kind + i * 3;
+        memset(ki, 0, 3);
+        struct esr_vec3 n = esr_v3_at(b->nrm3, p);
+        if (!single_surface(b, p, sh->voxel) || esr_v3_length(n) < 1e-6f)
+            continue;
+        n = esr_v3_normalize(n);
+        const float op = b->opac[p];
+        const struct esr_vec3 x = esr_v3_at(b->x3, p), wo = esr_v3_scale(esr_v3_at(b->d3, p), -1.0f);
+        const struct esr_material mat = esr_material_of_row(b->mat5 + p * ESR_BRDF_CHANNELS, op);
+        struct esr_rng rng = esr_rng_init(seed, i);
+        float col[ESR_MAX_LIGHTS][3];
+        memset(col, 0, sizeof col);
+        for (int k = 0; k < K; k++) {
+            if (ls[k].n == 0 || ls[k].max_emit <= 0.0f)
+                continue;
+            const struct esr_direct_point_query q = {sh, &ls[k], NULL, spp, &mat, x, n, &wo, 1, op};
+            (void)esr_light_direct_point(&q, &rng, &col[k], NULL);
+        }
+        const int id = b->ids[p];
+        if (id >= 0 && id < K) /* the light as the pixel sees it (at scale 1) */
+            for (int c = 0; c < 3; c++)
+                col[id][c] += b->emit3[p * 3 + c];
+        for (int c = 0; c < 3; c++) {
+            const float photo = rgb3[p * 3 + c], lin = esr_linear_from_srgb(photo);
+            const int exact = lin < ESR_SOLVE_EXACT, bound = lin >= ESR_SOLVE_CLIPPED;
+            if (!exact && !bound)
+                continue;
+            const float w = esr_image_error_scale(exact ? lin : 1.0f);
+            ki[c] = exact ? 1 : 2;
+            y[i * 3 + (size_t)c] = w * ((exact ? lin : 1.0f) - b->lin3[p * 3 + c]);
+            for (int k = 0; k < K; k++)
+                a[(i * 3 + (size_t)c) * (size_t)K + (size_t)k] = w * col[k][c];
+        }
+    }
+}
+
+/* Renders the rays of batch b (nb of them, lights off, every light's field at scale 1) and the
+ * surface points' normals. */
+static int batch_render(const struct esr_model *m, const float *normal_sdf, struct solve_batch *b,
+                        size_t nb)
+{
+    const struct esr_render_out o = {.linear = b->lin3, .depth = b->depth, .opacity = b->opac,
+                                     .emitted_lights = b->emit3, .material = b->mat5,
+                                     .light_id = b->ids, .front_opacity = b->fopac,
+                                     .front_depth = b->fdepth, .front_material = b->fmat5};
+    ESR_TRY(esr_model_render_rays(m, b->o3, b->d3, nb, 0, &o));
+    for (size_t p = 0; p < nb; p++)
+        for (int c = 0; c < 3; c++)
+            b->x3[p * 3 + c] = b->o3[p * 3 + c] + b->d3[p * 3 + c] * b->depth[p];
+    esr_grid_sample_dpoint(esr_model_grid(m, ESR_COMP_SDF), normal_sdf, 0, b->x3, nb, b->nrm3);
+    return ESR_OK;
+}
+
+/* Writes the fit into m's lights: scales, radiance, the rows that fixed each, the relative
+ * error and which lights only the sum of is known. */
+static void store(struct esr_model *m, double s[3][ESR_MAX_LIGHTS], const double *cov,
+                  const struct esr_lights_solve_info *info)
+{
+    struct esr_lights *L = &m->lights;
+    const int K = L->n;
+    for (int k = 0; k < K; k++) {
+        struct esr_light *l = &L->light[k];
+        double err = 0.0;
+        int used = 0;
+        l->inseparable = 0;
+        for (int c = 0; c < 3; c++) {
+            const double *cv = cov + (size_t)c * ESR_MAX_LIGHTS * ESR_MAX_LIGHTS;
+            l->scale[c] = (float)s[c][k];
+            if (s[c][k] > 0.0) {
+                err += sqrt(fmax(cv[k * K + k], 0.0)) / s[c][k];
+                used++;
+            }
+            for (int j = 0; j < K; j++) {
+                const double d = cv[k * K + k] * cv[j * K + j];
+                if (j != k && d > 0.0 && cv[k * K + j] / sqrt(d) < -ESR_SOLVE_INSEPARABLE)
+                    l->inseparable |= 1u << j;
+            }
+        }
+        l->strength_err = used ? (float)(err / used) : 0.0f;
+        l->bound_only = info->light_rows[k] < ESR_SOLVE_MIN_ROWS;
+        l->calib_points = (float)info->light_rows[k];
+        l->solved = 1;
+        esr_light_update_radiance(l);
+    }
+}
+
+int esr_lights_solve(struct esr_model *m, const struct esr_ray_set *rs, uint64_t seed,
+                     struct esr_lights_solve_info *info)
+{
+    memset(info, 0, sizeof *info);
+    struct esr_lights *L = &m->lights;
+    const int K = L->n;
+    const size_t n_on = rs->n - rs->n_off;
+    if (K == 0 || n_on == 0)
+        return ESR_OK;
+    const double t0 = omp_get_wtime();
+    const size_t want = (size_t)m->cfg.lights_solve_rays, n = n_on < want ? n_on : want;
+    struct esr_light keep[ESR_MAX_LIGHTS];
+    memcpy(keep, L->light, sizeof keep);
+    double s[3][ESR_MAX_LIGHTS];
+    for (int k = 0; k < K; k++) /* the samples carry the field at scale 1; the fit starts here */
+        for (int c = 0; c < 3; c++)
+            s[c][k] = L->light[k].scale[c], L->light[k].scale[c] = 1.0f;
+    struct esr_light_samples ls[ESR_MAX_LIGHTS];
+    memset(ls, 0, sizeof ls);
+    struct esr_light_shadows sh;
+    memset(&sh, 0, sizeof sh);
+    struct solve_batch b;
+    memset(&b, 0, sizeof b);
+    float *normal_sdf = NULL, *a = malloc(n * 3 * (size_t)K * sizeof(float));
+    float *y = malloc(n * 3 * sizeof(float)), *rgb = malloc(SOLVE_CHUNK * 3 * sizeof(float));
+    uint8_t *kind = malloc(n * 3);
+    double *cov = malloc(3 * ESR_MAX_LIGHTS * ESR_MAX_LIGHTS * sizeof(double));
+    int rc = a && y && rgb && kind && cov ? ESR_OK : ESR_FAIL("lights: out of memory for the strength solve");
+    for (int k = 0; rc == ESR_OK && k < K; k++)
+        rc = esr_light_samples_get(m, k, &ls[k]);
+    if (rc == ESR_OK)
+        rc = esr_light_shadows_init(&sh, m);
+    if (rc == ESR_OK)
+        rc = esr_model_normal_sdf(m, &normal_sdf);
+    if (rc == ESR_OK)
+        rc = batch_alloc(&b);
+    const float *nsdf = normal_sdf ? normal_sdf : esr_model_values(m, ESR_COMP_SDF);
+    struct esr_rng pick = esr_rng_init(seed, 0x501e);
+    const float *o_on = rs->orig3 + rs->n_off * 3, *d_on = rs->dir3 + rs->n_off * 3;
+    const float *c_on = rs->rgb3 + rs->n_off * 3;
+    for (size_t r0 = 0; rc == ESR_OK && r0 < n; r0 += SOLVE_CHUNK) {
+        const size_t nb = n - r0 < SOLVE_CHUNK ? n - r0 : SOLVE_CHUNK;
+        for (size_t p = 0; p < nb; p++) {
+            const size_t r = pick_ray(n_on, n, r0 + p, &pick);
+            memcpy(b.o3 + p * 3, o_on + r * 3, 3 * sizeof(float));
+            memcpy(b.d3 + p * 3, d_on + r * 3, 3 * sizeof(float));
+            memcpy(rgb + p * 3, c_on + r * 3, 3 * sizeof(float));
+        }
+        rc = batch_render(m, nsdf, &b, nb);
+        if (rc == ESR_OK)
+            batch_rows(m, ls, &sh, &b, rgb, nb, r0, m->cfg.lights_solve_spp, seed, a, y, kind);
+    }
+    info->rays = (long)n;
+    for (size_t i = 0; rc == ESR_OK && i < n * 3; i++) {
+        info->rows += kind[i] == 1;
+        info->bound_rows += kind[i] == 2;
+        for (int k = 0; kind[i] == 1 && k < K; k++)
+            info->light_rows[k] += a[i * (size_t)K + (size_t)k] >= SOLVE_REACH;
+    }
+    if (rc == ESR_OK && esr_lights_solve_fit(K, n, a, y, kind, s, cov, info->sigma) != 0)
+        rc = ESR_FAIL("lights: out of memory for the strength solve");
+    if (rc == ESR_OK)
+        store(m, s, cov, info);
+    else
+        memcpy(L->light, keep, sizeof keep);
+    for (int k = 0; k < K; k++)
+        esr_light_samples_free(&ls[k]);
+    esr_light_shadows_free(&sh);
+    batch_free(&b);
+    free(normal_sdf), free(a), free(y), free(rgb), free(kind), free(cov);
+    info->seconds = omp_get_wtime() - t0;
+    return rc;
+}
