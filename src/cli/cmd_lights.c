@@ -27,8 +27,8 @@ const struct esr_command cmd_lights = {
     "lights",
     "list the lights a run found (id, place, area, colour as `esr edit` takes it, power) and where "
     "they are",
-    "usage: esr lights RUN [--recompute | --drop ID[,ID...]] [--json FILE.json] [--picture FILE.png]\n"
-    "                  [--data DIR]\n"
+    "usage: esr lights RUN [--recompute | --drop ID[,ID...]] [--set key=value ...]\n"
+    "                  [--json FILE.json] [--picture FILE.png] [--data DIR]\n"
     "\n"
     "Reads the lights stored in RUN's pdra checkpoint (found and calibrated when the pdra stage\n"
     "ended: the emitting surface split into connected lights, each light's strength fixed by the\n"
@@ -68,6 +68,10 @@ const struct esr_command cmd_lights = {
     "                lights' centroids, enlarged to at least 256 pixels wide, each light's id in a\n"
     "                black box beside a cross at its centroid (occlusion not tested: a light behind\n"
     "                an object is marked where it would be seen)\n"
+    "  --set key=value\n"
+    "                with --recompute or --drop: one of the lights' options (lights_solve,\n"
+    "                lights_solve_rays, lights_solve_spp, lights_balance, lights_calib_points,\n"
+    "                emitter_k; `esr train --help` lists them), kept in the checkpoint\n"
     "  --data DIR    the dataset whose training images --recompute and --drop read (lights-off\n"
     "                to calibrate, lights-on for the colour) and --picture shows (default: the\n"
     "                one RUN was trained on)\n"
@@ -147,9 +151,12 @@ static int add_out(struct out_file *o, int *n, enum out_kind kind, const char *p
     return ESR_OK;
 }
 
+#define LIGHTS_MAX_SETS 16
 struct lights_args {
     const char *run, *data, *drop, *json, *picture;
     int again;
+    const char *set[LIGHTS_MAX_SETS]; /* --set key=value: the lights' options */
+    int n_set;
 };
 
 /* Writes file o's bytes to `to`. */
@@ -239,6 +246,8 @@ static int lights(const struct lights_args *a)
     int lock = -1, have_ds = 0;
     struct esr_dataset ds;
     int rc = ESR_OK;
+    for (int i = 0; rc == ESR_OK && i < a->n_set; i++) /* kept in the checkpoint written */
+        rc = esr_config_set(&m.cfg, a->set[i]);
     if (change) /* not beside a training of this run, nor another change of its lights */
         rc = esr_dir_lock(a->run, "lights", &lock);
     if (rc == ESR_OK && (change || want_picture))
@@ -289,7 +298,15 @@ static int run_lights(int argc, char **argv)
             a.json = argv[++i];
         else if (!strcmp(s, "--picture") && i + 1 < argc)
             a.picture = argv[++i];
-        else if (s[0] == '-' && s[1])
+        else if (!strcmp(s, "--set") && i + 1 < argc) {
+            if (a.n_set == LIGHTS_MAX_SETS)
+                return cli_fail(&cmd_lights, "more than %d --set options", LIGHTS_MAX_SETS);
+            if (strncmp(argv[i + 1], "lights_", 7) && strncmp(argv[i + 1], "emitter_k=", 10))
+                return cli_fail(&cmd_lights, "--set %s: only the lights' options (lights_..., "
+                                "emitter_k) change here; the others are the training's",
+                                argv[i + 1]);
+            a.set[a.n_set++] = argv[++i];
+        } else if (s[0] == '-' && s[1])
             return cli_fail(&cmd_lights, "unknown option or missing value: '%s'", s);
         else if (a.run)
             return cli_fail(&cmd_lights, "more than one RUN given ('%s', '%s')", a.run, s);
@@ -301,6 +318,9 @@ static int run_lights(int argc, char **argv)
     if (a.data && !a.again && !a.drop && !a.picture)
         return cli_fail(&cmd_lights, "--data is read only with --recompute, --drop or --picture "
                         "(the lights are stored in RUN's pdra checkpoint)");
+    if (a.n_set && !a.again && !a.drop)
+        return cli_fail(&cmd_lights, "--set changes how the lights are found and calibrated: give "
+                        "it with --recompute or --drop");
     if (a.again && a.drop)
         return cli_fail(&cmd_lights, "--drop names lights as listed now, which --recompute finds "
                         "anew: drop them after a --recompute");

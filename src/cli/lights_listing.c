@@ -119,10 +119,10 @@ void esr_cli_lights_print(const struct esr_model *m, const long *unseen)
     for (int i = 0; i < L->n; i++)
         solved += L->light[i].solved;
     if (solved) {
-        printf("  strengths solved from the lights-on photos, relative uncertainty:");
+        printf("  strengths solved from the lights-on photos, statistical uncertainty (the model taken as right):");
         for (int i = 0; i < L->n; i++)
             if (L->light[i].solved)
-                printf(" %d: +-%.0f%%%s", i, 100.0 * (double)L->light[i].strength_err,
+                printf(" %d: +-%.1f%%%s", i, 100.0 * (double)L->light[i].strength_err,
                        L->light[i].bound_only ? " (a lower bound only)" : "");
         printf("\n");
         for (int i = 0; i < L->n; i++)

@@ -175,8 +175,16 @@ static const struct opt opts[] = {
      "lights-off surface points (ablation)"},
     {"lights_solve_rays", OPT_INT, OFF(lights_solve_rays), 256, 4194304, DEF(65536, 65536),
      "lights-on training pixels the strengths are solved from (all when fewer; stratified)"},
-    {"lights_solve_spp", OPT_INT, OFF(lights_solve_spp), 1, 1024, DEF(16, 16),
-     "area samples per light and pixel in that solve"},
+    {"lights_solve_spp", OPT_INT, OFF(lights_solve_spp), 2, 1024, DEF(64, 64),
+     "area samples per light and pixel in that solve (two independent halves)"},
+    {"lights_solve_seen", OPT_INT, OFF(lights_solve_seen), 0, 1, DEF(0, 0),
+     "in that solve, 1 = unclipped pixels that see a light count as exact rows (its reconstructed "
+     "edge, a voxel wide, puts emitter where the photo shows none), 0 = a light's own pixels "
+     "only bound it from below where clipped"},
+    {"lights_solve_drop", OPT_INT, OFF(lights_solve_drop), 0, 1, DEF(1, 1),
+     "1 = a light whose solved strength is within 3 standard errors of 0 (the photos do not show "
+     "it emitting: a reflection of a light, a fleck) is dropped and the others solved again; 0 = "
+     "kept (ablation)"},
     {"lights_balance", OPT_INT, OFF(lights_balance), 0, 1, DEF(1, 1),
      "1 = the lights' colour balanced by their silhouettes in the lights-on photos (base colour "
      "x b, environment / b), 0 = none (ablation)"},

@@ -84,6 +84,25 @@ int esr_lights_estimate(struct esr_model *m, const struct esr_ray_set *rs,
     if (m->cfg.lights_solve && rs->n > rs->n_off) {
         struct esr_lights_solve_info si;
         ESR_TRY(esr_lights_solve(m, rs, o->seed, &si));
+        /* a light the photos do not show emitting (its strength within 3 standard errors of 0:
+         * a reflection the emission field took for a light, a fleck) is no light; the others are
+         * solved again without it */
+        int dropped = 0;
+        for (int k = m->lights.n - 1; m->cfg.lights_solve_drop && k >= 0 && m->lights.n > 1; k--) {
+            const struct esr_light *l = &m->lights.light[k];
+            if (l->bound_only || !(l->strength_err > ESR_SOLVE_MAX_ERR))
+                continue;
+            add(rep, 0, "light %d (area %.3g, at %.2f %.2f %.2f) dropped: the photos do not show it "
+                        "emitting (strength %.3g %.3g %.3g +-%.0f%%: within 3 standard errors of "
+                        "none; a reflection of a light, or a fleck)",
+                k, (double)l->area, (double)l->centroid[0], (double)l->centroid[1],
+                (double)l->centroid[2], (double)l->radiance[0], (double)l->radiance[1],
+                (double)l->radiance[2], 100.0 * (double)l->strength_err);
+            ESR_TRY(esr_lights_drop(&m->lights, k));
+            dropped++;
+        }
+        if (dropped)
+            ESR_TRY(esr_lights_solve(m, rs, o->seed, &si));
         add(rep, 0, "strengths solved from %ld lights-on pixels (%ld exact channel rows, %ld "
                     "clipped as lower bounds; residual scale %.3g %.3g %.3g) in %.1f s",
             si.rays, si.rows, si.bound_rows, si.sigma[0], si.sigma[1], si.sigma[2], si.seconds);
@@ -96,7 +115,7 @@ int esr_lights_estimate(struct esr_model *m, const struct esr_ray_set *rs,
         const struct esr_light *l = &m->lights.light[i];
         char from[96];
         if (m->cfg.lights_solve && rs->n > rs->n_off)
-            snprintf(from, sizeof from, "solved on %.0f pixel rows, +-%.0f%%%s", (double)l->calib_points,
+            snprintf(from, sizeof from, "solved on %.0f pixel rows, +-%.1f%%%s", (double)l->calib_points,
                      100.0 * (double)l->strength_err, l->bound_only ? ", a lower bound only" : "");
         else if (esr_light_strength_fitted(&m->lights, i))
             snprintf(from, sizeof from, "fitted on %.0f points", (double)l->calib_points);

@@ -81,14 +81,15 @@ static size_t pick_ray(size_t n_on, size_t want, size_t i, struct esr_rng *rng)
     return lo + (size_t)(esr_rng_u64(rng) % (hi > lo ? hi - lo : 1));
 }
 
-/* Builds batch b's rows (first row `row`): columns a [(row * 3 + c) * K + k], targets y and
- * kinds, each weighted by esr_image_error_scale at the photo's value. */
+/* Builds batch b's rows (first row `row`): columns a and a2 [(row * 3 + c) * K + k] (each from
+ * half of the spp light samples), targets y and kinds, each weighted by esr_image_error_scale at
+ * the photo's value. */
 ESR_HOT static void batch_rows(const struct esr_model *m, const struct esr_light_samples *ls,
                                const struct esr_light_shadows *sh, const struct solve_batch *b,
                                const float *rgb3, size_t nb, size_t row, int spp, uint64_t seed,
-                               float *a, float *y, uint8_t *kind)
+                               float *a, float *a2, float *y, uint8_t *kind)
 {
-    const int K = m->lights.n;
+    const int K = m->lights.n, seen_exact = m->cfg.lights_solve_seen;
 #pragma omp parallel for schedule(dynamic, 16)
     for (size_t p = 0; p < nb; p++) {
         const size_t i = row + p;
@@ -101,29 +102,39 @@ ESR_HOT static void batch_rows(const struct esr_model *m, const struct esr_light
         const float op = b->opac[p];
         const struct esr_vec3 x = esr_v3_at(b->x3, p), wo = esr_v3_scale(esr_v3_at(b->d3, p), -1.0f);
         const struct esr_material mat = esr_material_of_row(b->mat5 + p * ESR_BRDF_CHANNELS, op);
-        struct esr_rng rng = esr_rng_init(seed, i);
-        float col[ESR_MAX_LIGHTS][3];
+        /* two independent halves of the samples (esr_lights_solve_fit says why) */
+        struct esr_rng rng = esr_rng_init(seed, i), rng2 = esr_rng_init(~seed, i);
+        float col[ESR_MAX_LIGHTS][3], col2[ESR_MAX_LIGHTS][3];
         memset(col, 0, sizeof col);
+        memset(col2, 0, sizeof col2);
+        const int half = spp > 1 ? spp / 2 : 1;
         for (int k = 0; k < K; k++) {
             if (ls[k].n == 0 || ls[k].max_emit <= 0.0f)
                 continue;
-            const struct esr_direct_point_query q = {sh, &ls[k], NULL, spp, &mat, x, n, &wo, 1, op};
+            const struct esr_direct_point_query q = {sh, &ls[k], NULL, half, &mat, x, n, &wo, 1, op};
             (void)esr_light_direct_point(&q, &rng, &col[k], NULL);
+            (void)esr_light_direct_point(&q, &rng2, &col2[k], NULL);
         }
         const int id = b->ids[p];
-        if (id >= 0 && id < K) /* the light as the pixel sees it (at scale 1) */
-            for (int c = 0; c < 3; c++)
+        const int on_light = id >= 0 && id < K;
+        if (on_light) /* the light as the pixel sees it (at scale 1) */
+            for (int c = 0; c < 3; c++) {
                 col[id][c] += b->emit3[p * 3 + c];
+                col2[id][c] += b->emit3[p * 3 + c];
+            }
         for (int c = 0; c < 3; c++) {
             const float photo = rgb3[p * 3 + c], lin = esr_linear_from_srgb(photo);
-            const int exact = lin < ESR_SOLVE_EXACT, bound = lin >= ESR_SOLVE_CLIPPED;
+            const int exact = lin < ESR_SOLVE_EXACT && (!on_light || seen_exact),
+                      bound = lin >= ESR_SOLVE_CLIPPED;
             if (!exact && !bound)
                 continue;
             const float w = esr_image_error_scale(exact ? lin : 1.0f);
             ki[c] = exact ? 1 : 2;
             y[i * 3 + (size_t)c] = w * ((exact ? lin : 1.0f) - b->lin3[p * 3 + c]);
-            for (int k = 0; k < K; k++)
+            for (int k = 0; k < K; k++) {
                 a[(i * 3 + (size_t)c) * (size_t)K + (size_t)k] = w * col[k][c];
+                a2[(i * 3 + (size_t)c) * (size_t)K + (size_t)k] = w * col2[k][c];
+            }
         }
     }
 }
@@ -202,10 +213,11 @@ int esr_lights_solve(struct esr_model *m, const struct esr_ray_set *rs, uint64_t
     struct solve_batch b;
     memset(&b, 0, sizeof b);
     float *normal_sdf = NULL, *a = malloc(n * 3 * (size_t)K * sizeof(float));
+    float *a2 = malloc(n * 3 * (size_t)K * sizeof(float));
     float *y = malloc(n * 3 * sizeof(float)), *rgb = malloc(SOLVE_CHUNK * 3 * sizeof(float));
     uint8_t *kind = malloc(n * 3);
     double *cov = malloc(3 * ESR_MAX_LIGHTS * ESR_MAX_LIGHTS * sizeof(double));
-    int rc = a && y && rgb && kind && cov ? ESR_OK : ESR_FAIL("lights: out of memory for the strength solve");
+    int rc = a && a2 && y && rgb && kind && cov ? ESR_OK : ESR_FAIL("lights: out of memory for the strength solve");
     for (int k = 0; rc == ESR_OK && k < K; k++)
         rc = esr_light_samples_get(m, k, &ls[k]);
     if (rc == ESR_OK)
@@ -228,7 +240,7 @@ int esr_lights_solve(struct esr_model *m, const struct esr_ray_set *rs, uint64_t
         }
         rc = batch_render(m, nsdf, &b, nb);
         if (rc == ESR_OK)
-            batch_rows(m, ls, &sh, &b, rgb, nb, r0, m->cfg.lights_solve_spp, seed, a, y, kind);
+            batch_rows(m, ls, &sh, &b, rgb, nb, r0, m->cfg.lights_solve_spp, seed, a, a2, y, kind);
     }
     info->rays = (long)n;
     for (size_t i = 0; rc == ESR_OK && i < n * 3; i++) {
@@ -237,7 +249,7 @@ int esr_lights_solve(struct esr_model *m, const struct esr_ray_set *rs, uint64_t
         for (int k = 0; kind[i] == 1 && k < K; k++)
             info->light_rows[k] += a[i * (size_t)K + (size_t)k] >= SOLVE_REACH;
     }
-    if (rc == ESR_OK && esr_lights_solve_fit(K, n, a, y, kind, s, cov, info->sigma) != 0)
+    if (rc == ESR_OK && esr_lights_solve_fit(K, n, a, a2, y, kind, s, cov, info->sigma) != 0)
         rc = ESR_FAIL("lights: out of memory for the strength solve");
     if (rc == ESR_OK)
         store(m, s, cov, info);
@@ -247,7 +259,7 @@ int esr_lights_solve(struct esr_model *m, const struct esr_ray_set *rs, uint64_t
         esr_light_samples_free(&ls[k]);
     esr_light_shadows_free(&sh);
     batch_free(&b);
-    free(normal_sdf), free(a), free(y), free(rgb), free(kind), free(cov);
+    free(normal_sdf), free(a), free(a2), free(y), free(rgb), free(kind), free(cov);
     info->seconds = omp_get_wtime() - t0;
     return rc;
 }

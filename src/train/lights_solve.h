@@ -47,6 +47,9 @@ extern "C" {
 #define ESR_SOLVE_CLIPPED 0.99f
 /* two lights' estimates correlated below -this are told apart only in their sum */
 #define ESR_SOLVE_INSEPARABLE 0.9
+/* a light whose strength's relative standard error exceeds this (its strength within 3 of them
+ * of 0) is not shown emitting by the photos: esr_lights_estimate drops it (lights_solve_drop) */
+#define ESR_SOLVE_MAX_ERR (1.0 / 3.0)
 /* a light with fewer exact rows than this that its transport reaches is bound_only */
 #define ESR_SOLVE_MIN_ROWS 20
 
@@ -66,11 +69,16 @@ int esr_lights_solve(struct esr_model *m, const struct esr_ray_set *rs, uint64_t
 
 /* The solve's fit on rows made up for the purpose (tests) and on the rendered ones: per channel
  * c, rows i of columns a[(i * 3 + c) * K + k] (weighted), targets y[i * 3 + c] (weighted) and
- * kind[i * 3 + c] (0: left out, 1: exact, 2: lower bound y <= fit); s[c][k] starts the fit and
- * receives it; cov[c][k * K + j] (or NULL) the estimates' covariance. Returns 0, -1 when out of
- * memory. */
-int esr_lights_solve_fit(int K, size_t n, const float *a, const float *y, const uint8_t *kind,
-                         double s[3][ESR_MAX_LIGHTS], double *cov, double sigma[3]);
+ * kind[i * 3 + c] (0: left out, 1: exact, 2: lower bound y <= fit); a2 (or NULL) a second,
+ * independent estimate of the same columns: the normal equations then take a^T a2 (symmetrised)
+ * for a^T a, so that the columns' sampling noise does not bias the scales towards 0 (errors in
+ * the variables), and the fit the mean of the two. s[c][k] starts the fit (a light no row reaches
+ * keeps it) and receives it; cov [3 * ESR_MAX_LIGHTS^2] (or NULL) the estimates' covariance,
+ * channel c's entry (k, j) at c * ESR_MAX_LIGHTS^2 + k * K + j; sigma [3] the residuals' robust
+ * scale. Returns 0, -1 when out of memory. */
+int esr_lights_solve_fit(int K, size_t n, const float *a, const float *a2, const float *y,
+                         const uint8_t *kind, double s[3][ESR_MAX_LIGHTS], double *cov,
+                         double sigma[3]);
 
 #ifdef __cplusplus
 }

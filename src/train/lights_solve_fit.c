@@ -53,23 +53,26 @@ static int invert(int K, const double *g, double *inv)
     return 0;
 }
 
-/* Row i's residual in channel c at s, and whether it counts (a lower bound only while the fit
+/* Row i's residual in channel c at s (columns: a, or the mean of a and a2), and whether it counts (a lower bound only while the fit
  * is below it). */
-static int residual(int K, const float *a, const float *y, const uint8_t *kind, size_t i, int c,
-                    const double *s, double *r)
+static int residual(int K, const float *a, const float *a2, const float *y, const uint8_t *kind,
+                    size_t i, int c, const double *s, double *r)
 {
     const size_t at = i * 3 + (size_t)c;
     if (kind[at] == 0)
         return 0;
     double fit = 0.0;
-    for (int k = 0; k < K; k++)
-        fit += (double)a[at * (size_t)K + (size_t)k] * s[k];
+    for (int k = 0; k < K; k++) {
+        const size_t j = at * (size_t)K + (size_t)k;
+        fit += (a2 ? 0.5 * ((double)a[j] + (double)a2[j]) : (double)a[j]) * s[k];
+    }
     *r = (double)y[at] - fit;
     return kind[at] == 1 || *r > 0.0;
 }
 
-int esr_lights_solve_fit(int K, size_t n, const float *a, const float *y, const uint8_t *kind,
-                         double s[3][ESR_MAX_LIGHTS], double *cov, double sigma[3])
+int esr_lights_solve_fit(int K, size_t n, const float *a, const float *a2, const float *y,
+                         const uint8_t *kind, double s[3][ESR_MAX_LIGHTS], double *cov,
+                         double sigma[3])
 {
     double *absr = malloc((n ? n : 1) * sizeof(double));
     if (!absr)
@@ -87,16 +90,19 @@ int esr_lights_solve_fit(int K, size_t n, const float *a, const float *y, const 
             memset(G, 0, sizeof G);
             for (size_t i = 0; i < n; i++) {
                 double r;
-                if (!residual(K, a, y, kind, i, c, s[c], &r))
+                if (!residual(K, a, a2, y, kind, i, c, s[c], &r))
                     continue;
                 const double w = scale > 0.0 && fabs(r) > HUBER_K * scale ? HUBER_K * scale / fabs(r) : 1.0;
                 const float *ai = a + (i * 3 + (size_t)c) * (size_t)K;
+                const float *bi = a2 ? a2 + (i * 3 + (size_t)c) * (size_t)K : ai;
                 const double yi = y[i * 3 + (size_t)c];
                 for (int k = 0; k < K; k++) {
-                    const double ak = ai[k] * u[k];
-                    rhs[k] += w * ak * yi;
+                    const double ak = ai[k] * u[k], bk = bi[k] * u[k];
+                    rhs[k] += w * 0.5 * (ak + bk) * yi;
+                    /* two independent estimates: E[a_k b_j] = E[a_k] E[b_j], no noise variance
+                     * on the diagonal to bias a noisy light's scale towards 0 */
                     for (int j = 0; j <= k; j++)
-                        G[k * K + j] += w * ak * ai[j] * u[j];
+                        G[k * K + j] += w * 0.5 * (ak * bi[j] + bk * ai[j]) * u[j];
                 }
             }
             for (int k = 0; k < K; k++)
@@ -108,7 +114,7 @@ int esr_lights_solve_fit(int K, size_t n, const float *a, const float *y, const 
             size_t m = 0;
             for (size_t i = 0; i < n; i++) {
                 double r;
-                if (kind[i * 3 + (size_t)c] == 1 && residual(K, a, y, kind, i, c, s[c], &r))
+                if (kind[i * 3 + (size_t)c] == 1 && residual(K, a, a2, y, kind, i, c, s[c], &r))
                     absr[m++] = fabs(r);
             }
             scale = m ? 1.4826 * esr_median_doubles(absr, m) : 0.0;
