@@ -28,6 +28,12 @@
 #include "model/model.h"
 #include "render/digit_font.h"
 #include "render/lights_picture.h"
+#include "core/colour.h"
+#include "core/error.h"
+#include "edit/relight.h"
+#include "io/dataset.h"
+#include "train/lights_solve.h"
+#include "train/rays.h"
 #include "test_support.h"
 
 static char data_dir[4200], run_dir[4200];
@@ -385,6 +391,88 @@ static void test_lights_recompute_interrupted(void **state)
     assert_int_equal(test_run_esr(args, out, sizeof out), 0);
 }
 
+/* The strength solve inverts the direct relight: photos made by `esr edit --method direct`'s
+ * renderer (edit/relight.c: its own layers, denoiser and light samples) from the trained model
+ * with its lights at chosen strengths give those strengths back (train/lights_solve.h). The model
+ * is the smoke run's (what it learned does not matter: the photos are its own); its lights light
+ * little, so the strengths are mostly read off their own pixels (lights_solve_seen 1). And no
+ * strength the run itself solved is absurd (an undertrained field lights almost nothing, which
+ * the clipped pixels could lift without end). */
+static void test_lights_solve_inverts_direct_relight(void **state)
+{
+    (void)state;
+    struct esr_model m;
+    assert_int_equal(esr_model_load_finished_pdra(&m, run_dir), ESR_OK);
+    struct esr_dataset ds;
+    assert_int_equal(esr_dataset_load(data_dir, &ds), ESR_OK);
+    const int K = m.lights.n;
+    assert_true(K >= 1);
+    for (int k = 0; k < K; k++)
+        for (int c = 0; c < 3; c++)
+            assert_true(m.lights.light[k].radiance[c] >= 0.0f &&
+                        m.lights.light[k].radiance[c] <= ESR_SOLVE_MAX_RADIANCE * 1.001f);
+    float truth[ESR_MAX_LIGHTS][3];
+    for (int k = 0; k < K; k++)
+        for (int c = 0; c < 3; c++) { /* dim enough that few pixels clip */
+            truth[k][c] = 0.3f + 0.2f * (float)((k + c) % 3) + 0.1f * (float)k;
+            m.lights.light[k].scale[c] = truth[k][c];
+        }
+    const struct esr_phase *ph = &ds.phases[ESR_PHASE_TRAIN];
+    size_t n = 0;
+    for (int f = 0; f < ph->n_frames; f++)
+        n += ph->frames[f].lights_on ? (size_t)ph->frames[f].camera.width * (size_t)ph->frames[f].camera.height : 0;
+    struct esr_ray_set rs = {n, 0, malloc(n * 3 * sizeof(float)), malloc(n * 3 * sizeof(float)),
+                             malloc(n * 3 * sizeof(float)), 0};
+    assert_true(n > 0 && rs.orig3 && rs.dir3 && rs.rgb3);
+    struct esr_relight r;
+    assert_int_equal(esr_relight_init(&r, &m, 64, ESR_RELIGHT_DIRECT), ESR_OK);
+    struct esr_light_edit edits[ESR_MAX_LIGHTS];
+    for (int k = 0; k < K; k++)
+        edits[k] = (struct esr_light_edit){1.0f, 0, 0.0f, 0.0f};
+    size_t at = 0;
+    for (int f = 0; f < ph->n_frames; f++) {
+        const struct esr_camera *cam = &ph->frames[f].camera;
+        if (!ph->frames[f].lights_on)
+            continue;
+        struct esr_image img;
+        assert_int_equal(esr_relight_view(&r, &m, edits, cam, 7 + (uint64_t)f, &img, NULL), ESR_OK);
+        const size_t np = (size_t)cam->width * (size_t)cam->height;
+        esr_camera_pixel_rays(cam, rs.orig3 + at * 3, rs.dir3 + at * 3);
+        for (size_t i = 0; i < np * 3; i++) /* a photo: sRGB, clipped */
+            rs.rgb3[at * 3 + i] = esr_srgb_from_linear(esr_clamp01(img.data[i]));
+        at += np;
+        esr_image_free(&img);
+    }
+    esr_relight_free(&r);
+    for (int k = 0; k < K; k++)
+        for (int c = 0; c < 3; c++)
+            m.lights.light[k].scale[c] = 1.0f; /* the solve starts from the field */
+    m.cfg.lights_solve_dirs = 0; /* the photos are the model's own: no base colour to correct */
+    m.cfg.lights_solve_seen = 1; /* nor an edge to distrust: the lights' own pixels count */
+    m.cfg.lights_solve_rays = 1 << 20;
+    struct esr_lights_solve_info info;
+    assert_int_equal(esr_lights_solve(&m, &rs, 3, &info), ESR_OK);
+    int checked = 0;
+    for (int k = 0; k < K; k++) {
+        print_message("light %d: %ld rows, scale %g %g %g\n", k, info.light_rows[k],
+                      (double)m.lights.light[k].scale[0], (double)m.lights.light[k].scale[1],
+                      (double)m.lights.light[k].scale[2]);
+        if (info.light_rows[k] < 300) /* a light too few pixels see says little */
+            continue;
+        for (int c = 0; c < 3; c++) {
+            const double got = m.lights.light[k].scale[c];
+            print_message("light %d channel %d: %.3f for %.3f (%ld rows)\n", k, c, got,
+                          (double)truth[k][c], info.light_rows[k]);
+            assert_true(fabs(got / truth[k][c] - 1.0) < 0.05);
+        }
+        checked++;
+    }
+    assert_true(checked >= 1);
+    free(rs.orig3), free(rs.dir3), free(rs.rgb3);
+    esr_dataset_free(&ds);
+    esr_model_free(&m);
+}
+
 int main(void)
 {
     /* OpenMP's workers spin at each barrier by default: with other jobs on the cores (ctest -j)
@@ -396,6 +484,7 @@ int main(void)
         cmocka_unit_test(test_digit_font),
         cmocka_unit_test(test_lights_picture),
         cmocka_unit_test(test_lights_recompute_interrupted),
+        cmocka_unit_test(test_lights_solve_inverts_direct_relight),
     };
     return cmocka_run_group_tests(tests, setup, test_teardown_tmpdir);
 }

@@ -181,6 +181,10 @@ static const struct opt opts[] = {
      "in that solve, 1 = unclipped pixels that see a light count as exact rows (its reconstructed "
      "edge, a voxel wide, puts emitter where the photo shows none), 0 = a light's own pixels "
      "only bound it from below where clipped"},
+    {"lights_solve_dirs", OPT_INT, OFF(lights_solve_dirs), 0, 256, DEF(32, 32),
+     "in that solve, directions of each pixel's lights-off correction of its base colour (L_off / "
+     "the model's estimate of it, over its median: base colour next to a light absorbs some of "
+     "its clipped light); 0 = none (ablation)"},
     {"lights_solve_drop", OPT_INT, OFF(lights_solve_drop), 0, 1, DEF(1, 1),
      "1 = a light whose solved strength is within 3 standard errors of 0 (the photos do not show "
      "it emitting: a reflection of a light, a fleck) is dropped and the others solved again; 0 = "

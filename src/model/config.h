@@ -102,6 +102,7 @@ struct esr_train_config {
     int lights_solve_spp;    /* area samples per light and pixel there */
     int lights_solve_seen;   /* 1: unclipped pixels that see a light are exact rows there; 0:
                                 a light's own pixels bound it from below only */
+    int lights_solve_dirs;   /* directions of its lights-off correction (0: none) */
     int lights_solve_drop;   /* 1: lights the solve does not see emitting are dropped */
     int lights_balance;      /* 1: the silhouette colour balance (train/lights.h); 0: none */
     struct esr_stage_config alphamask, coarse, fine, lts, pdra;

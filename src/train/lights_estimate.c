@@ -104,8 +104,10 @@ int esr_lights_estimate(struct esr_model *m, const struct esr_ray_set *rs,
         if (dropped)
             ESR_TRY(esr_lights_solve(m, rs, o->seed, &si));
         add(rep, 0, "strengths solved from %ld lights-on pixels (%ld exact channel rows, %ld "
-                    "clipped as lower bounds; residual scale %.3g %.3g %.3g) in %.1f s",
-            si.rays, si.rows, si.bound_rows, si.sigma[0], si.sigma[1], si.sigma[2], si.seconds);
+                    "clipped as lower bounds; residual scale %.3g %.3g %.3g; lights-off "
+                    "correction's median %.3g %.3g %.3g) in %.1f s",
+            si.rays, si.rows, si.bound_rows, si.sigma[0], si.sigma[1], si.sigma[2],
+            (double)si.correction[0], (double)si.correction[1], (double)si.correction[2], si.seconds);
         report_solve(m, rep);
     }
     add(rep, 0, "lights found: %d", m->lights.n);

@@ -9,6 +9,7 @@
 #include "core/brdf.h"
 #include "core/colour.h"
 #include "core/error.h"
+#include "core/order.h"
 #include "core/rng.h"
 #include "core/simd.h"
 #include "core/vec3.h"
@@ -17,6 +18,7 @@
 #include "model/render_sdf.h"
 #include "train/light_direct.h"
 #include "train/light_surface.h"
+#include "train/lts.h"
 
 /* rays rendered per batch */
 #define SOLVE_CHUNK 8192
@@ -26,6 +28,10 @@
  * behind its first surface (as edit/relight.c's layers) */
 #define SOLVE_LAYER_OPACITY 0.05f
 #define SOLVE_LAYER_GAP_VOX 2.0f
+/* points per call of the lights-off correction's light transport */
+#define SOLVE_LTS_CHUNK 1024
+/* the lights-off correction L_off / L^_off is clamped to [1 / this, this] */
+#define SOLVE_MAX_CORRECTION 4.0f
 /* a light reaches a row when its column there is at least this (linear) */
 #define SOLVE_REACH 1e-3f
 
@@ -139,6 +145,50 @@ ESR_HOT static void batch_rows(const struct esr_model *m, const struct esr_light
     }
 }
 
+/* The lights-off correction of each surface ray of batch b: r = L_off / L^_off per channel, the
+ * lights-off radiance field over the model's own estimate of it from its BRDF and what reaches
+ * the point (the LTS, first hit, `dirs` directions), clamped (1 where there is no surface). Base
+ * colour next to a light absorbs some of the light its clipped photos show; the lights-off photos
+ * did not see that light, so where the estimate exceeds the field the base colour is too high by
+ * as much, and the light it reflects with it. */
+static int batch_correction(struct esr_model *m, struct esr_lts *l, const struct solve_batch *b,
+                            size_t nb, float voxel, uint64_t seed, float *r3)
+{
+    const float *sdf = esr_model_values(m, ESR_COMP_SDF);
+    float *pos = malloc(SOLVE_LTS_CHUNK * 3 * sizeof(float)), *dir = malloc(SOLVE_LTS_CHUNK * 3 * sizeof(float));
+    size_t *which = malloc(SOLVE_LTS_CHUNK * sizeof(size_t));
+    int rc = pos && dir && which ? ESR_OK : ESR_FAIL("lights: out of memory for the lights-off correction");
+    for (size_t p = 0; p < nb * 3; p++)
+        r3[p] = 1.0f;
+    for (size_t p0 = 0; rc == ESR_OK && p0 < nb;) {
+        size_t P = 0;
+        for (; p0 < nb && P < SOLVE_LTS_CHUNK; p0++)
+            if (single_surface(b, p0, voxel)) {
+                memcpy(pos + P * 3, b->x3 + p0 * 3, 3 * sizeof(float));
+                memcpy(dir + P * 3, b->d3 + p0 * 3, 3 * sizeof(float));
+                which[P++] = p0;
+            }
+        if (P == 0)
+            continue;
+        struct esr_march pts; /* the points as a kept list: the LTS takes each once */
+        memset(&pts, 0, sizeof pts);
+        pts.n_kept = P;
+        pts.kpos3 = pos;
+        pts.kdir3 = dir;
+        struct esr_lts_stats st;
+        rc = esr_lts_run(l, m, sdf, NULL, NULL, &pts, NULL, seed + p0, &st);
+        for (size_t q = 0; rc == ESR_OK && q < P; q++)
+            for (int c = 0; c < 3; c++) {
+                const float off = l->pf.lin3[(q * 4) * 3 + (size_t)c], hat = l->hat3[(q * 2) * 6 + (size_t)c];
+                const float v = hat > 1e-6f && isfinite(hat) ? off / hat : 1.0f;
+                r3[which[q] * 3 + (size_t)c] =
+                    fminf(fmaxf(v, 1.0f / SOLVE_MAX_CORRECTION), SOLVE_MAX_CORRECTION);
+            }
+    }
+    free(pos), free(dir), free(which);
+    return rc;
+}
+
 /* Renders the rays of batch b (nb of them, lights off, every light's field at scale 1) and the
  * surface points' normals. */
 static int batch_render(const struct esr_model *m, const float *normal_sdf, struct solve_batch *b,
@@ -154,6 +204,32 @@ static int batch_render(const struct esr_model *m, const float *normal_sdf, stru
             b->x3[p * 3 + c] = b->o3[p * 3 + c] + b->d3[p * 3 + c] * b->depth[p];
     esr_grid_sample_dpoint(esr_model_grid(m, ESR_COMP_SDF), normal_sdf, 0, b->x3, nb, b->nrm3);
     return ESR_OK;
+}
+
+/* Multiplies the light columns of the rows that see no light (ids [n]) by their lights-off
+ * correction (rr [n*3]) over its median per channel (written to median): the base colour's error
+ * from place to place, not the one scale the photos cannot fix. */
+static void correct_rows(int K, size_t n, const uint8_t *kind, const float *rr, const int32_t *ids,
+                         float *a, float *a2, float median[3])
+{
+    double *v = malloc((n ? n : 1) * sizeof(double));
+    for (int c = 0; c < 3; c++) {
+        size_t m = 0;
+        for (size_t i = 0; v && i < n; i++)
+            if (kind[i * 3 + (size_t)c] && ids[i] < 0)
+                v[m++] = rr[i * 3 + (size_t)c];
+        median[c] = m && v ? (float)esr_median_doubles(v, m) : 1.0f;
+        for (size_t i = 0; i < n; i++) {
+            if (ids[i] >= 0 || !kind[i * 3 + (size_t)c])
+                continue;
+            const float f = rr[i * 3 + (size_t)c] / median[c];
+            for (int k = 0; k < K; k++) {
+                a[(i * 3 + (size_t)c) * (size_t)K + (size_t)k] *= f;
+                a2[(i * 3 + (size_t)c) * (size_t)K + (size_t)k] *= f;
+            }
+        }
+    }
+    free(v);
 }
 
 /* Writes the fit into m's lights: scales, radiance, the rows that fixed each, the relative
@@ -183,6 +259,11 @@ static void store(struct esr_model *m, double s[3][ESR_MAX_LIGHTS], const double
         }
         l->strength_err = used ? (float)(err / used) : 0.0f;
         l->bound_only = info->light_rows[k] < ESR_SOLVE_MIN_ROWS;
+        for (int c = 0; c < 3; c++)
+            if (!(l->scale[c] * l->field_rgb[c] <= ESR_SOLVE_MAX_RADIANCE)) {
+                l->scale[c] = l->field_rgb[c] > 0.0f ? ESR_SOLVE_MAX_RADIANCE / l->field_rgb[c] : 1.0f;
+                l->bound_only = 1;
+            }
         l->calib_points = (float)info->light_rows[k];
         l->solved = 1;
         esr_light_update_radiance(l);
@@ -199,6 +280,7 @@ int esr_lights_solve(struct esr_model *m, const struct esr_ray_set *rs, uint64_t
     if (K == 0 || n_on == 0)
         return ESR_OK;
     const double t0 = omp_get_wtime();
+    info->correction[0] = info->correction[1] = info->correction[2] = 1.0f;
     const size_t want = (size_t)m->cfg.lights_solve_rays, n = n_on < want ? n_on : want;
     struct esr_light keep[ESR_MAX_LIGHTS];
     memcpy(keep, L->light, sizeof keep);
@@ -226,6 +308,18 @@ int esr_lights_solve(struct esr_model *m, const struct esr_ray_set *rs, uint64_t
         rc = esr_model_normal_sdf(m, &normal_sdf);
     if (rc == ESR_OK)
         rc = batch_alloc(&b);
+    /* the lights-off correction's light transport (lights_solve_dirs 0: none) */
+    const int dirs = m->cfg.lights_solve_dirs;
+    float *rr = dirs > 0 ? malloc(n * 3 * sizeof(float)) : NULL;
+    int32_t *b_ids_all = malloc(n * sizeof(int32_t));
+    struct esr_lts lts;
+    memset(&lts, 0, sizeof lts);
+    const long keep_step = m->step;
+    m->step = 1; /* off the normal SDF's refresh period: computed once; restored below */
+    if (rc == ESR_OK && (!b_ids_all || (dirs > 0 && !rr)))
+        rc = ESR_FAIL("lights: out of memory for the strength solve");
+    if (rc == ESR_OK && dirs > 0)
+        rc = esr_lts_init_sized(&lts, m, SOLVE_LTS_CHUNK, dirs, ESR_LTS_FIRST_HIT);
     const float *nsdf = normal_sdf ? normal_sdf : esr_model_values(m, ESR_COMP_SDF);
     struct esr_rng pick = esr_rng_init(seed, 0x501e);
     const float *o_on = rs->orig3 + rs->n_off * 3, *d_on = rs->dir3 + rs->n_off * 3;
@@ -239,9 +333,15 @@ int esr_lights_solve(struct esr_model *m, const struct esr_ray_set *rs, uint64_t
             memcpy(rgb + p * 3, c_on + r * 3, 3 * sizeof(float));
         }
         rc = batch_render(m, nsdf, &b, nb);
+        if (rc == ESR_OK && rr)
+            rc = batch_correction(m, &lts, &b, nb, sh.voxel, seed + r0, rr + r0 * 3);
+        for (size_t p = 0; rc == ESR_OK && p < nb; p++)
+            b_ids_all[r0 + p] = b.ids[p];
         if (rc == ESR_OK)
             batch_rows(m, ls, &sh, &b, rgb, nb, r0, m->cfg.lights_solve_spp, seed, a, a2, y, kind);
     }
+    if (rc == ESR_OK && rr) /* each row's correction over its median: the shape of the error */
+        correct_rows(K, n, kind, rr, b_ids_all, a, a2, info->correction);
     info->rays = (long)n;
     for (size_t i = 0; rc == ESR_OK && i < n * 3; i++) {
         info->rows += kind[i] == 1;
@@ -255,6 +355,9 @@ int esr_lights_solve(struct esr_model *m, const struct esr_ray_set *rs, uint64_t
         store(m, s, cov, info);
     else
         memcpy(L->light, keep, sizeof keep);
+    m->step = keep_step;
+    esr_lts_free(&lts);
+    free(rr), free(b_ids_all);
     for (int k = 0; k < K; k++)
         esr_light_samples_free(&ls[k]);
     esr_light_shadows_free(&sh);

@@ -51,13 +51,18 @@ extern "C" {
  * of 0) is not shown emitting by the photos: esr_lights_estimate drops it (lights_solve_drop) */
 #define ESR_SOLVE_MAX_ERR (1.0 / 3.0)
 /* a light with fewer exact rows than this that its transport reaches is bound_only */
-#define ESR_SOLVE_MIN_ROWS 20
+#define ESR_SOLVE_MIN_ROWS 100
+/* no light's solved radiance exceeds this in a channel (photo units: 1 = white); a light the
+ * clipped rows lift there through a transport of almost nothing is held at it and marked
+ * bound_only (an undertrained model's field that lights no pixel) */
+#define ESR_SOLVE_MAX_RADIANCE 1e4f
 
 struct esr_lights_solve_info {
     long rays;                  /* rays rendered */
     long rows, bound_rows;      /* exact rows and lower-bound rows (pixel channels) */
     long light_rows[ESR_MAX_LIGHTS]; /* exact rows light K's transport or emission reaches */
     double sigma[3];            /* the residuals' robust scale per channel */
+    float correction[3];        /* the lights-off correction's median (1: none) */
     double seconds;
 };
 
