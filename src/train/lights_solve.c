@@ -132,7 +132,10 @@ ESR_HOT static void batch_rows(const struct esr_model *m, const struct esr_light
             const float photo = rgb3[p * 3 + c], lin = esr_linear_from_srgb(photo);
             const int exact = lin < ESR_SOLVE_EXACT && (!on_light || seen_exact),
                       bound = lin >= ESR_SOLVE_CLIPPED;
-            if (!exact && !bound)
+            int finite = isfinite(b->lin3[p * 3 + c]);
+            for (int k = 0; k < K; k++)
+                finite &= isfinite(col[k][c]) && isfinite(col2[k][c]);
+            if ((!exact && !bound) || !finite) /* a NaN in the model's render is no evidence */
                 continue;
             const float w = esr_image_error_scale(exact ? lin : 1.0f);
             ki[c] = exact ? 1 : 2;
@@ -232,10 +235,11 @@ static void correct_rows(int K, size_t n, const uint8_t *kind, const float *rr, 
     free(v);
 }
 
-/* Writes the fit into m's lights: scales, radiance, the rows that fixed each, the relative
- * error and which lights only the sum of is known. */
+/* Writes the fit into m's lights: scales (a non-finite one, which only a NaN in the rows could
+ * make, keeps the first estimate's from `first`), radiance, the rows that fixed each, the
+ * relative error and which lights only the sum of is known. */
 static void store(struct esr_model *m, double s[3][ESR_MAX_LIGHTS], const double *cov,
-                  const struct esr_lights_solve_info *info)
+                  const struct esr_lights_solve_info *info, const struct esr_light *first)
 {
     struct esr_lights *L = &m->lights;
     const int K = L->n;
@@ -246,6 +250,8 @@ static void store(struct esr_model *m, double s[3][ESR_MAX_LIGHTS], const double
         l->inseparable = 0;
         for (int c = 0; c < 3; c++) {
             const double *cv = cov + (size_t)c * ESR_MAX_LIGHTS * ESR_MAX_LIGHTS;
+            if (!isfinite(s[c][k]) || s[c][k] < 0.0) /* never written: the first estimate stays */
+                s[c][k] = first[k].scale[c];
             l->scale[c] = (float)s[c][k];
             if (s[c][k] > 0.0) {
                 err += sqrt(fmax(cv[k * K + k], 0.0)) / s[c][k];
@@ -352,7 +358,7 @@ int esr_lights_solve(struct esr_model *m, const struct esr_ray_set *rs, uint64_t
     if (rc == ESR_OK && esr_lights_solve_fit(K, n, a, a2, y, kind, s, cov, info->sigma) != 0)
         rc = ESR_FAIL("lights: out of memory for the strength solve");
     if (rc == ESR_OK)
-        store(m, s, cov, info);
+        store(m, s, cov, info, keep);
     else
         memcpy(L->light, keep, sizeof keep);
     m->step = keep_step;
