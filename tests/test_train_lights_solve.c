@@ -59,6 +59,14 @@ static void make(struct rows *r, double noise, double outliers, double clip, int
         }
 }
 
+/* The fit on the first n rows of r, columns a and (or NULL) a second estimate a2. */
+static int fit(size_t n, float *a, float *a2, struct rows *r, double s[3][ESR_MAX_LIGHTS],
+               double *cov, double sigma[3])
+{
+    const struct esr_solve_rows rw = {K, n, a, a2, r->y, r->kind};
+    return esr_lights_solve_fit(&rw, s, cov, sigma);
+}
+
 static void start(double s[3][ESR_MAX_LIGHTS])
 {
     for (int c = 0; c < 3; c++)
@@ -75,7 +83,7 @@ static void gives_back_strengths_despite_outliers(void **state)
     double s[3][ESR_MAX_LIGHTS], sigma[3];
     double *cov = malloc(3 * ESR_MAX_LIGHTS * ESR_MAX_LIGHTS * sizeof(double));
     start(s);
-    assert_int_equal(esr_lights_solve_fit(K, ROWS, r->a, NULL, r->y, r->kind, s, cov, sigma), 0);
+    assert_int_equal(fit((size_t)ROWS, r->a, NULL, r, s, cov, sigma), 0);
     for (int c = 0; c < 3; c++) {
         assert_true(sigma[c] > 0.0015 && sigma[c] < 0.003); /* the noise's, not the outliers' */
         for (int k = 0; k < K; k++) {
@@ -110,7 +118,7 @@ static void clipped_rows_bound_from_below(void **state)
     assert_true(bounds > ROWS / 4);
     double s[3][ESR_MAX_LIGHTS], sigma[3];
     start(s);
-    assert_int_equal(esr_lights_solve_fit(K, ROWS, r->a, NULL, r->y, r->kind, s, NULL, sigma), 0);
+    assert_int_equal(fit((size_t)ROWS, r->a, NULL, r, s, NULL, sigma), 0);
     for (int c = 0; c < 3; c++)
         for (int k = 0; k < K; k++)
             assert_true(fabs(s[c][k] / truth[c][k] - 1.0) < 0.05);
@@ -121,7 +129,7 @@ static void clipped_rows_bound_from_below(void **state)
         if (r->a[i * K + 2] > 0.0f) /* brighter: clipped; dimmer: too close to the clip to keep */
             r->kind[i] = r->y[i] > 0.05f ? 2 : 0, r->y[i] = 0.05f;
     start(s);
-    assert_int_equal(esr_lights_solve_fit(K, ROWS, r->a, NULL, r->y, r->kind, s, NULL, sigma), 0);
+    assert_int_equal(fit((size_t)ROWS, r->a, NULL, r, s, NULL, sigma), 0);
     for (int c = 0; c < 3; c++) {
         assert_true(s[c][2] > 1.5 && s[c][2] < 1.05 * truth[c][2]);
         long below = 0, bound = 0;
@@ -141,7 +149,7 @@ static void clipped_rows_bound_from_below(void **state)
         if (r->kind[i] == 2)
             r->kind[i] = 0;
     start(s);
-    assert_int_equal(esr_lights_solve_fit(K, ROWS, r->a, NULL, r->y, r->kind, s, NULL, sigma), 0);
+    assert_int_equal(fit((size_t)ROWS, r->a, NULL, r, s, NULL, sigma), 0);
     for (int c = 0; c < 3; c++)
         assert_true(fabs(s[c][2] - 1.0) < 0.05);
     free(r);
@@ -156,7 +164,7 @@ static void proportional_lights_are_anticorrelated(void **state)
     double s[3][ESR_MAX_LIGHTS], sigma[3];
     double *cov = malloc(3 * ESR_MAX_LIGHTS * ESR_MAX_LIGHTS * sizeof(double));
     start(s);
-    assert_int_equal(esr_lights_solve_fit(K, ROWS, r->a, NULL, r->y, r->kind, s, cov, sigma), 0);
+    assert_int_equal(fit((size_t)ROWS, r->a, NULL, r, s, cov, sigma), 0);
     for (int c = 0; c < 3; c++) {
         /* only s0 + 0.5 s1 is fixed: that comes back, and the two estimates are opposite */
         assert_true(fabs(s[c][0] + 0.5 * s[c][1] - (truth[c][0] + 0.5 * truth[c][1])) <
@@ -182,8 +190,8 @@ static void nothing_reaches_a_light(void **state)
     start(s);
     for (int c = 0; c < 3; c++)
         s[c][1] = 4.0; /* where it starts, it stays: no row says otherwise */
-    assert_int_equal(esr_lights_solve_fit(K, 0, r->a, NULL, r->y, r->kind, s, NULL, sigma), 0);
-    assert_int_equal(esr_lights_solve_fit(K, ROWS, r->a, NULL, r->y, r->kind, s, NULL, sigma), 0);
+    assert_int_equal(fit((size_t)0, r->a, NULL, r, s, NULL, sigma), 0);
+    assert_int_equal(fit((size_t)ROWS, r->a, NULL, r, s, NULL, sigma), 0);
     for (int c = 0; c < 3; c++) {
         assert_true(isfinite(s[c][0]) && s[c][0] >= 0.0);
         assert_true(fabs(s[c][1] - 4.0) < 1e-6);
@@ -210,8 +218,8 @@ static void noisy_columns_unbiased_with_two_halves(void **state)
     double s[3][ESR_MAX_LIGHTS], sp[3][ESR_MAX_LIGHTS], sigma[3];
     start(s);
     start(sp);
-    assert_int_equal(esr_lights_solve_fit(K, ROWS, r->a, r2->a, r->y, r->kind, s, NULL, sigma), 0);
-    assert_int_equal(esr_lights_solve_fit(K, ROWS, r->a, NULL, r->y, r->kind, sp, NULL, sigma), 0);
+    assert_int_equal(fit((size_t)ROWS, r->a, r2->a, r, s, NULL, sigma), 0);
+    assert_int_equal(fit((size_t)ROWS, r->a, NULL, r, sp, NULL, sigma), 0);
     double worst = 0.0, worst_plain = 0.0;
     for (int c = 0; c < 3; c++) {
         for (int k = 0; k < K; k++) {

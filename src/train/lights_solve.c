@@ -90,11 +90,25 @@ static size_t pick_ray(size_t n_on, size_t want, size_t i, struct esr_rng *rng)
 /* Builds batch b's rows (first row `row`): columns a and a2 [(row * 3 + c) * K + k] (each from
  * half of the spp light samples), targets y and kinds, each weighted by esr_image_error_scale at
  * the photo's value. */
-ESR_HOT static void batch_rows(const struct esr_model *m, const struct esr_light_samples *ls,
-                               const struct esr_light_shadows *sh, const struct solve_batch *b,
-                               const float *rgb3, size_t nb, size_t row, int spp, uint64_t seed,
-                               float *a, float *a2, float *y, uint8_t *kind)
+struct solve_ctx {
+    const struct esr_model *m;
+    const struct esr_light_samples *ls; /* each light's samples at scale 1 */
+    const struct esr_light_shadows *sh;
+    int spp;
+    uint64_t seed;
+};
+
+ESR_HOT static void batch_rows(const struct solve_ctx *ctx, const struct solve_batch *b,
+                               const float *rgb3, size_t nb, size_t row,
+                               const struct esr_solve_rows *rows)
 {
+    const struct esr_model *m = ctx->m;
+    const struct esr_light_samples *ls = ctx->ls;
+    const struct esr_light_shadows *sh = ctx->sh;
+    const int spp = ctx->spp;
+    const uint64_t seed = ctx->seed;
+    float *a = rows->a, *a2 = rows->a2, *y = rows->y;
+    uint8_t *kind = rows->kind;
     const int K = m->lights.n, seen_exact = m->cfg.lights_solve_seen;
 #pragma omp parallel for schedule(dynamic, 16)
     for (size_t p = 0; p < nb; p++) {
@@ -328,6 +342,8 @@ int esr_lights_solve(struct esr_model *m, const struct esr_ray_set *rs, uint64_t
         rc = esr_lts_init_sized(&lts, m, SOLVE_LTS_CHUNK, dirs, ESR_LTS_FIRST_HIT);
     const float *nsdf = normal_sdf ? normal_sdf : esr_model_values(m, ESR_COMP_SDF);
     struct esr_rng pick = esr_rng_init(seed, 0x501e);
+    const struct solve_ctx ctx = {m, ls, &sh, m->cfg.lights_solve_spp, seed};
+    const struct esr_solve_rows rows = {K, n, a, a2, y, kind};
     const float *o_on = rs->orig3 + rs->n_off * 3, *d_on = rs->dir3 + rs->n_off * 3;
     const float *c_on = rs->rgb3 + rs->n_off * 3;
     for (size_t r0 = 0; rc == ESR_OK && r0 < n; r0 += SOLVE_CHUNK) {
@@ -344,7 +360,7 @@ int esr_lights_solve(struct esr_model *m, const struct esr_ray_set *rs, uint64_t
         for (size_t p = 0; rc == ESR_OK && p < nb; p++)
             b_ids_all[r0 + p] = b.ids[p];
         if (rc == ESR_OK)
-            batch_rows(m, ls, &sh, &b, rgb, nb, r0, m->cfg.lights_solve_spp, seed, a, a2, y, kind);
+            batch_rows(&ctx, &b, rgb, nb, r0, &rows);
     }
     if (rc == ESR_OK && rr) /* each row's correction over its median: the shape of the error */
         correct_rows(K, n, kind, rr, b_ids_all, a, a2, info->correction);
@@ -355,7 +371,7 @@ int esr_lights_solve(struct esr_model *m, const struct esr_ray_set *rs, uint64_t
         for (int k = 0; kind[i] == 1 && k < K; k++)
             info->light_rows[k] += a[i * (size_t)K + (size_t)k] >= SOLVE_REACH;
     }
-    if (rc == ESR_OK && esr_lights_solve_fit(K, n, a, a2, y, kind, s, cov, info->sigma) != 0)
+    if (rc == ESR_OK && esr_lights_solve_fit(&rows, s, cov, info->sigma) != 0)
         rc = ESR_FAIL("lights: out of memory for the strength solve");
     if (rc == ESR_OK)
         store(m, s, cov, info, keep);

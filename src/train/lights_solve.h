@@ -72,18 +72,23 @@ struct esr_lights_solve_info {
 int esr_lights_solve(struct esr_model *m, const struct esr_ray_set *rs, uint64_t seed,
                      struct esr_lights_solve_info *info);
 
-/* The solve's fit on rows made up for the purpose (tests) and on the rendered ones: per channel
- * c, rows i of columns a[(i * 3 + c) * K + k] (weighted), targets y[i * 3 + c] (weighted) and
- * kind[i * 3 + c] (0: left out, 1: exact, 2: lower bound y <= fit); a2 (or NULL) a second,
- * independent estimate of the same columns: the normal equations then take a^T a2 (symmetrised)
- * for a^T a, so that the columns' sampling noise does not bias the scales towards 0 (errors in
- * the variables), and the fit the mean of the two. s[c][k] starts the fit (a light no row reaches
- * keeps it) and receives it; cov [3 * ESR_MAX_LIGHTS^2] (or NULL) the estimates' covariance,
- * channel c's entry (k, j) at c * ESR_MAX_LIGHTS^2 + k * K + j; sigma [3] the residuals' robust
- * scale. Returns 0, -1 when out of memory. */
-int esr_lights_solve_fit(int K, size_t n, const float *a, const float *a2, const float *y,
-                         const uint8_t *kind, double s[3][ESR_MAX_LIGHTS], double *cov,
-                         double sigma[3]);
+/* The solve's rows: per channel c, row i's columns a[(i * 3 + c) * K + k] (weighted), target
+ * y[i * 3 + c] (weighted) and kind[i * 3 + c] (0: left out, 1: exact, 2: lower bound y <= fit);
+ * a2 (or NULL) a second, independent estimate of the same columns: the normal equations then take
+ * a^T a2 (symmetrised) for a^T a, so that the columns' sampling noise does not bias the scales
+ * towards 0 (errors in the variables), and the fit the mean of the two. */
+struct esr_solve_rows {
+    int K;
+    size_t n;
+    float *a, *a2, *y;
+    uint8_t *kind;
+};
+/* The solve's fit on rows made up for the purpose (tests) and on the rendered ones. s[c][k]
+ * starts the fit (a light no row reaches keeps it) and receives it; cov [3 * ESR_MAX_LIGHTS^2]
+ * (or NULL) the estimates' covariance, channel c's entry (k, j) at c * ESR_MAX_LIGHTS^2 + k * K +
+ * j; sigma [3] the residuals' robust scale. Returns 0, -1 when out of memory. */
+int esr_lights_solve_fit(const struct esr_solve_rows *rows, double s[3][ESR_MAX_LIGHTS],
+                         double *cov, double sigma[3]);
 
 #ifdef __cplusplus
 }

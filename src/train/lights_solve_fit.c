@@ -70,10 +70,13 @@ static int residual(int K, const float *a, const float *a2, const float *y, cons
     return kind[at] == 1 || *r > 0.0;
 }
 
-int esr_lights_solve_fit(int K, size_t n, const float *a, const float *a2, const float *y,
-                         const uint8_t *kind, double s[3][ESR_MAX_LIGHTS], double *cov,
-                         double sigma[3])
+int esr_lights_solve_fit(const struct esr_solve_rows *rows, double s[3][ESR_MAX_LIGHTS],
+                         double *cov, double sigma[3])
 {
+    const int K = rows->K;
+    const size_t n = rows->n;
+    const float *a = rows->a, *a2 = rows->a2, *y = rows->y;
+    const uint8_t *kind = rows->kind;
     double *absr = malloc((n ? n : 1) * sizeof(double));
     if (!absr)
         return -1;
