@@ -84,13 +84,14 @@ int esr_lights_estimate(struct esr_model *m, const struct esr_ray_set *rs,
     if (m->cfg.lights_solve && rs->n > rs->n_off) {
         struct esr_lights_solve_info si;
         ESR_TRY(esr_lights_solve(m, rs, o->seed, &si));
-        /* a light the photos do not show emitting (its strength within 3 standard errors of 0:
-         * a reflection the emission field took for a light, a fleck) is no light; the others are
-         * solved again without it */
+        /* a light the photos do not show emitting (its strength 0, or within 3 standard errors
+         * of it: a reflection the emission field took for a light, a fleck) is no light; the
+         * others are solved again without it */
         int dropped = 0;
         for (int k = m->lights.n - 1; m->cfg.lights_solve_drop && k >= 0 && m->lights.n > 1; k--) {
             const struct esr_light *l = &m->lights.light[k];
-            if (l->bound_only || !(l->strength_err > ESR_SOLVE_MAX_ERR))
+            const int dark = l->scale[0] == 0.0f && l->scale[1] == 0.0f && l->scale[2] == 0.0f;
+            if (!dark && (l->bound_only || !(l->strength_err > ESR_SOLVE_MAX_ERR)))
                 continue;
             add(rep, 0, "light %d (area %.3g, at %.2f %.2f %.2f) dropped: the photos do not show it "
                         "emitting (strength %.3g %.3g %.3g +-%.0f%%: within 3 standard errors of "
