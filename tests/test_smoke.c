@@ -391,6 +391,21 @@ static void test_lights_recompute_interrupted(void **state)
     assert_int_equal(test_run_esr(args, out, sizeof out), 0);
 }
 
+/* `esr lights --recompute --set` with a value out of its option's range is refused before
+ * anything is found or written (the lock once took the place of the --set's failure). */
+static void test_lights_set_refused(void **state)
+{
+    (void)state;
+    char args[9000], before[8192], after[8192];
+    dir_state_of(run_dir, 0, before, sizeof before); /* every file (the folder's own time moves
+                                                      with the stale-temporary sweep) */
+    snprintf(args, sizeof args, "lights '%s' --recompute --set lights_solve=7", run_dir);
+    assert_int_equal(test_run_esr(args, out, sizeof out), 1);
+    assert_non_null(strstr(out, "out of range"));
+    dir_state_of(run_dir, 0, after, sizeof after);
+    assert_string_equal(before, after);
+}
+
 /* The strength solve inverts the direct relight: photos made by `esr edit --method direct`'s
  * renderer (edit/relight.c: its own layers, denoiser and light samples) from the trained model
  * with its lights at chosen strengths give those strengths back (train/lights_solve.h). The model
@@ -485,6 +500,7 @@ int main(void)
         cmocka_unit_test(test_lights_picture),
         cmocka_unit_test(test_lights_recompute_interrupted),
         cmocka_unit_test(test_lights_solve_inverts_direct_relight),
+        cmocka_unit_test(test_lights_set_refused),
     };
     return cmocka_run_group_tests(tests, setup, test_teardown_tmpdir);
 }

@@ -76,8 +76,9 @@ const struct esr_command cmd_lights = {
     "                an object is marked where it would be seen)\n"
     "  --set key=value\n"
     "                with --recompute or --drop: one of the lights' options (lights_solve,\n"
-    "                lights_solve_rays, lights_solve_spp, lights_balance, lights_calib_points,\n"
-    "                emitter_k; `esr train --help` lists them), kept in the checkpoint\n"
+    "                lights_solve_rays, lights_solve_spp, lights_solve_seen, lights_solve_dirs,\n"
+    "                lights_solve_drop, lights_balance, lights_calib_points, emitter_k;\n"
+    "                `esr train --help` says each), kept in the checkpoint\n"
     "  --data DIR    the dataset whose training images --recompute and --drop read (lights-off\n"
     "                to calibrate, lights-on for the colour) and --picture shows (default: the\n"
     "                one RUN was trained on)\n"
@@ -254,7 +255,7 @@ static int lights(const struct lights_args *a)
     int rc = ESR_OK;
     for (int i = 0; rc == ESR_OK && i < a->n_set; i++) /* kept in the checkpoint written */
         rc = esr_config_set(&m.cfg, a->set[i]);
-    if (change) /* not beside a training of this run, nor another change of its lights */
+    if (rc == ESR_OK && change) /* not beside a training of this run, nor another change of its lights */
         rc = esr_dir_lock(a->run, "lights", &lock);
     if (rc == ESR_OK && (change || want_picture))
         rc = esr_run_data_dir(a->run, a->data, data, sizeof data);
