@@ -18,11 +18,8 @@
 
 /* a camera ray whose opacity is below this has no surface (the ratio method's mean) */
 #define SURFACE_OPACITY 0.5f
-/* a pixel sees two surfaces (layers) when the rest of its ray behind the first surface
- * (esr_render_out.front_*) holds this much opacity this many voxels further on; a layer of
- * opacity below LIT_OPACITY gets no direct light */
-#define LAYER_OPACITY 0.05f
-#define LAYER_GAP_VOX 2.0f
+/* a pixel sees two surfaces (layers) as esr_render_two_surfaces says (model/model.h); a layer
+ * of opacity below LIT_OPACITY gets no direct light */
 #define LIT_OPACITY 0.02f
 /* the direct light's denoiser: window radius (pixels), depth scale (voxels), normal power, and
  * the smallest base colour the light is divided by */
@@ -94,9 +91,9 @@ static void split_layers(struct view_buf *b, size_t n, float voxel)
 {
     for (size_t p = 0; p < n; p++) {
         const size_t i0 = 2 * p, i1 = i0 + 1;
-        const float a = b->opac[p], a1 = b->front_opac[p], a2 = a - a1;
-        const float d1 = b->front_depth[p], d2 = a2 > 0.0f ? (b->depth[p] * a - d1 * a1) / a2 : 0.0f;
-        const int two = a1 > 0.0f && a2 > LAYER_OPACITY && d2 - d1 > LAYER_GAP_VOX * voxel;
+        const float a = b->opac[p], a1 = b->front_opac[p], a2 = a - a1, d1 = b->front_depth[p];
+        float d2;
+        const int two = esr_render_two_surfaces(a, b->depth[p], a1, d1, voxel, &d2);
         b->l_opac[i0] = two ? a1 : a;
         b->l_depth[i0] = two ? d1 : b->depth[p];
         b->l_opac[i1] = two ? a2 : 0.0f;

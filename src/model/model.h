@@ -161,6 +161,22 @@ struct esr_render_out {
                                 E: fine-tuning for an edit never trains L_emo there */
 };
 
+/* Whether a ray sees two surfaces, from its render's opacity a and depth and its first surface's
+ * front_opacity a1 and front_depth d1 (esr_render_out): the rest of the ray holds more than
+ * ESR_RENDER_LAYER_OPACITY at ESR_RENDER_LAYER_GAP_VOX voxels (of edge voxel) or more behind
+ * the first surface. *d2 receives the rest's weights-normalised depth (0 when it holds none).
+ * Direct relighting lights such a pixel as two layers (edit/relight.c); the lights' strength
+ * solve leaves it out (train/lights_solve.c). */
+#define ESR_RENDER_LAYER_OPACITY 0.05f
+#define ESR_RENDER_LAYER_GAP_VOX 2.0f
+static inline int esr_render_two_surfaces(float a, float depth, float a1, float d1, float voxel,
+                                          float *d2)
+{
+    const float a2 = a - a1;
+    *d2 = a2 > 0.0f ? (depth * a - d1 * a1) / a2 : 0.0f;
+    return a1 > 0.0f && a2 > ESR_RENDER_LAYER_OPACITY && *d2 - d1 > ESR_RENDER_LAYER_GAP_VOX * voxel;
+}
+
 /* Renders n rays (origins/dirs [n*3], dirs unit length) with lights on (1) or off (0). Only
  * coarse/fine models render (an alphamask-only model renders its density as grey).
  * Thread-safe for concurrent calls on one model; allocates its own scratch per call. */

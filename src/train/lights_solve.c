@@ -24,10 +24,6 @@
 #define SOLVE_CHUNK 8192
 /* a ray with a surface: opacity at least this (the rest is background in the pixel) */
 #define SOLVE_OPACITY 0.95f
-/* a ray sees two surfaces (its pixel a silhouette) when this much opacity lies this many voxels
- * behind its first surface (as edit/relight.c's layers) */
-#define SOLVE_LAYER_OPACITY 0.05f
-#define SOLVE_LAYER_GAP_VOX 2.0f
 /* points per call of the lights-off correction's light transport */
 #define SOLVE_LTS_CHUNK 1024
 /* the lights-off correction L_off / L^_off is clamped to [1 / this, this] */
@@ -67,14 +63,13 @@ static int batch_alloc(struct solve_batch *b)
     return ESR_FAIL("lights: out of memory for the strength solve's rays");
 }
 
-/* Whether ray p has one surface, opaque: no silhouette against what lies behind it. */
+/* Whether ray p has one surface, opaque: no silhouette against what lies behind it (the
+ * direct relight's two layers, model/model.h esr_render_two_surfaces). */
 static int single_surface(const struct solve_batch *b, size_t p, float voxel)
 {
-    const float a = b->opac[p], a1 = b->fopac[p], a2 = a - a1;
-    if (a < SOLVE_OPACITY)
-        return 0;
-    const float d1 = b->fdepth[p], d2 = a2 > 0.0f ? (b->depth[p] * a - d1 * a1) / a2 : 0.0f;
-    return !(a1 > 0.0f && a2 > SOLVE_LAYER_OPACITY && d2 - d1 > SOLVE_LAYER_GAP_VOX * voxel);
+    float d2;
+    return b->opac[p] >= SOLVE_OPACITY &&
+           !esr_render_two_surfaces(b->opac[p], b->depth[p], b->fopac[p], b->fdepth[p], voxel, &d2);
 }
 
 /* The lights-on rays to solve from: want of them, one drawn at random in each of want equal
