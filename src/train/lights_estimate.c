@@ -81,7 +81,8 @@ int esr_lights_estimate(struct esr_model *m, const struct esr_ray_set *rs,
         esr_lights_balance_text(m, &bal, line, sizeof line);
         add(rep, 0, "%s", line);
     }
-    if (m->cfg.lights_solve && rs->n > rs->n_off) {
+    const int solving = m->cfg.lights_solve && rs->n > rs->n_off; /* else: the calibration's */
+    if (solving) {
         struct esr_lights_solve_info si;
         ESR_TRY(esr_lights_solve(m, rs, o->seed, &si));
         /* a light the photos do not show emitting (its strength 0, or within 3 standard errors
@@ -117,7 +118,7 @@ int esr_lights_estimate(struct esr_model *m, const struct esr_ray_set *rs,
     for (int i = 0; i < m->lights.n; i++) {
         const struct esr_light *l = &m->lights.light[i];
         char from[96];
-        if (m->cfg.lights_solve && rs->n > rs->n_off)
+        if (solving)
             snprintf(from, sizeof from, "solved on %.0f pixel rows, +-%.1f%%%s", (double)l->calib_points,
                      100.0 * (double)l->strength_err, l->bound_only ? ", a lower bound only" : "");
         else if (esr_light_strength_fitted(&m->lights, i))

@@ -326,12 +326,12 @@ int esr_lights_solve(struct esr_model *m, const struct esr_ray_set *rs, uint64_t
     /* the lights-off correction's light transport (lights_solve_dirs 0: none) */
     const int dirs = m->cfg.lights_solve_dirs;
     float *rr = dirs > 0 ? malloc(n * 3 * sizeof(float)) : NULL;
-    int32_t *b_ids_all = malloc(n * sizeof(int32_t));
+    int32_t *b_ids_all = dirs > 0 ? malloc(n * sizeof(int32_t)) : NULL; /* which rows to correct */
     struct esr_lts lts;
     memset(&lts, 0, sizeof lts);
     const long keep_step = m->step;
     m->step = 1; /* off the normal SDF's refresh period: computed once; restored below */
-    if (rc == ESR_OK && (!b_ids_all || (dirs > 0 && !rr)))
+    if (rc == ESR_OK && dirs > 0 && (!rr || !b_ids_all))
         rc = ESR_FAIL("lights: out of memory for the strength solve");
     if (rc == ESR_OK && dirs > 0)
         rc = esr_lts_init_sized(&lts, m, SOLVE_LTS_CHUNK, dirs, ESR_LTS_FIRST_HIT);
@@ -350,10 +350,10 @@ int esr_lights_solve(struct esr_model *m, const struct esr_ray_set *rs, uint64_t
             memcpy(rgb + p * 3, c_on + r * 3, 3 * sizeof(float));
         }
         rc = batch_render(m, nsdf, &b, nb);
-        if (rc == ESR_OK && rr)
+        if (rc == ESR_OK && rr) {
             rc = batch_correction(m, &lts, &b, nb, sh.voxel, seed + r0, rr + r0 * 3);
-        for (size_t p = 0; rc == ESR_OK && p < nb; p++)
-            b_ids_all[r0 + p] = b.ids[p];
+            memcpy(b_ids_all + r0, b.ids, nb * sizeof(int32_t));
+        }
         if (rc == ESR_OK)
             batch_rows(&ctx, &b, rgb, nb, r0, &rows);
     }
