@@ -21,6 +21,7 @@
 #include "core/colour.h"
 #include "core/error.h"
 #include "core/rng.h"
+#include "edit/finetune_loss.h"
 #include "fields/env_sg.h"
 #include "fields/sdf.h"
 #include "model/model.h"
@@ -463,21 +464,23 @@ static void test_lts_lights_in_transport(void **state)
     teardown(&fx);
 }
 
-/* The fine-tune's direct-light hook for the edit test: fixed values per point and outgoing
- * direction (the edited light brighter and bluer than the found one), whatever the weights. */
-static int fixed_direct(void *user, const struct esr_lts *l, size_t P,
-                        const struct esr_light_edit *edits, float *direct3, float *found3)
+/* The fine-tune's loss for the edit test (edit/finetune_loss.h): fixed direct light per point and
+ * outgoing direction (the edited light brighter and bluer than the found one), whatever the
+ * weights, then the loss. */
+static int fixed_direct_loss(void *user, struct esr_lts *l, const struct esr_model *m,
+                             const float *sdf, const struct esr_point_query *q, size_t P,
+                             double *se_emo)
 {
-    (void)user, (void)l, (void)edits;
+    struct esr_finetune_loss *fl = user;
     for (size_t i = 0; i < P * 2; i++)
         for (int c = 0; c < 3; c++) {
-            found3[i * 3 + c] = 0.2f + 0.05f * (float)c + 0.02f * (float)(i % 3);
-            direct3[i * 3 + c] = found3[i * 3 + c] * (3.0f + 1.5f * (float)c);
+            fl->found3[i * 3 + c] = 0.2f + 0.05f * (float)c + 0.02f * (float)(i % 3);
+            fl->direct3[i * 3 + c] = fl->found3[i * 3 + c] * (3.0f + 1.5f * (float)c);
         }
-    return ESR_OK;
+    return esr_finetune_loss_run(fl, l, m, sdf, q, P, se_emo);
 }
 
-/* Radiance fine-tuning's edit loss (train/lts.c point_loss_edit): the points' L_emo towards the
+/* Radiance fine-tuning's edit loss (edit/finetune_loss.c): the points' L_emo towards the
  * trained model's L_emo times the ratio of the edited and found transport estimates, each
  * channel's squared error weighted by the sRGB slope at the target. Its target and weights are
  * held (stop-gradient), so the fixture makes them constants of the tuned components: the sphere
@@ -501,9 +504,11 @@ static void test_finetune_edit_gradients(void **state)
     struct esr_light_edit edits[ESR_MAX_LIGHTS];
     for (int k = 0; k < ESR_MAX_LIGHTS; k++)
         edits[k] = (struct esr_light_edit){2.0f, 0, 0.0f, 0.0f};
-    fx.st.lts.edit = edits;
-    fx.st.lts.edit_ref = &trained;
-    fx.st.lts.edit_direct = fixed_direct;
+    struct esr_finetune_loss fl;
+    assert_int_equal(esr_finetune_loss_init(&fl, &trained, fx.st.lts.P, fx.st.lts.M), 0);
+    fl.edit = edits;
+    const struct esr_lts_loss_hook hook = {fixed_direct_loss, &fl};
+    fx.st.lts.hook = &hook;
     analytic_gradient(&fx);
     const struct esr_lts_stats *ls = &fx.st.lts_stats;
     print_message("finetune edit loss: %zu points, %zu secondary rays, %zu hits, weighted mse "
@@ -514,7 +519,8 @@ static void test_finetune_edit_gradients(void **state)
     assert_true(max_abs(&fx, ESR_COMP_EMO_MLP) > 1e-3);
     check_component(&fx, ESR_COMP_EMO_FEAT, eps_of(ESR_COMP_EMO_FEAT));
     check_component(&fx, ESR_COMP_EMO_MLP, eps_of(ESR_COMP_EMO_MLP));
-    fx.st.lts.edit = NULL; /* the lts frees its reference fields; the copy is ours */
+    fx.st.lts.hook = NULL;
+    esr_finetune_loss_free(&fl);
     teardown(&fx);
     free(trained_w);
 }

@@ -32,15 +32,14 @@ void esr_finetune_default_opts(struct esr_finetune_opts *o)
     o->lr_final = 0.1f;
 }
 
-/* The LTS hook: the lights' direct light at the step's points, edited and as found (the same
- * samples), each summed over lights. */
-static int edited_and_found_direct(void *user, const struct esr_lts *l, size_t P,
-                                   const struct esr_light_edit *edits, float *direct3,
-                                   float *found3)
+/* The lights' direct light at the step's points, edited and as found (the same samples), each
+ * summed over lights. */
+static int edited_and_found_direct(struct esr_finetune *f, const struct esr_lts *l, size_t P,
+                                   float *direct3, float *found3)
 {
-    struct esr_finetune *f = user;
     const struct esr_direct_points dp = {P, l->pos3, l->nrm3, l->mf.brdf5, l->wo3, 2};
-    ESR_TRY(esr_lights_direct(&f->shadows, f->samples, f->m->lights.n, edits, &dp, f->o.light_spp,
+    ESR_TRY(esr_lights_direct(&f->shadows, f->samples, f->m->lights.n, f->loss.edit, &dp,
+                              f->o.light_spp,
                               f->seed ^ (uint64_t)(f->step + 1) * 0x9e3779b97f4a7c15ULL, f->direct,
                               f->found));
     const double *src[2] = {f->direct, f->found};
@@ -54,6 +53,16 @@ static int edited_and_found_direct(void *user, const struct esr_lts *l, size_t P
                 dst[v][i * 3 + (size_t)c] = (float)sum;
             }
     return ESR_OK;
+}
+
+/* The LTS's loss while an edit is tuned: the direct light at its points, then the loss. */
+static int finetune_lts_loss(void *user, struct esr_lts *l, const struct esr_model *m,
+                             const float *sdf, const struct esr_point_query *q, size_t P,
+                             double *se_emo)
+{
+    struct esr_finetune *f = user;
+    ESR_TRY(edited_and_found_direct(f, l, P, f->loss.direct3, f->loss.found3));
+    return esr_finetune_loss_run(&f->loss, l, m, sdf, q, P, se_emo);
 }
 
 void esr_finetune_start(struct esr_model *m, const struct esr_light_edit *edits, float rho[3])
@@ -86,6 +95,7 @@ void esr_finetune_free(struct esr_finetune *f)
     free(f->trained_moments);
     esr_march_free(&f->march);
     esr_lts_free(&f->lts);
+    esr_finetune_loss_free(&f->loss);
     for (int k = 0; k < ESR_MAX_LIGHTS; k++)
         esr_light_samples_free(&f->samples[k]);
     esr_light_shadows_free(&f->shadows);
@@ -160,11 +170,13 @@ int esr_finetune_init(struct esr_finetune *f, struct esr_model *m, const struct 
     }
     if (rc == ESR_OK)
         rc = esr_march_init(&f->march, o->rays, 1);
-    if (rc == ESR_OK) { /* the LTS workspace at our sizes, first hit */
+    if (rc == ESR_OK) /* the LTS workspace at our sizes, first hit */
         rc = esr_lts_init_sized(&f->lts, m, o->points, o->dirs, ESR_LTS_FIRST_HIT);
-        f->lts.edit_direct = edited_and_found_direct;
-        f->lts.edit_user = f;
-        f->lts.edit_ref = &f->trained;
+    if (rc == ESR_OK)
+        rc = esr_finetune_loss_init(&f->loss, &f->trained, o->points, o->dirs);
+    if (rc == ESR_OK) {
+        f->hook = (struct esr_lts_loss_hook){finetune_lts_loss, f};
+        f->lts.hook = &f->hook;
     }
     if (rc != ESR_OK)
         esr_finetune_free(f);
@@ -200,7 +212,7 @@ int esr_finetune_apply(struct esr_finetune *f, struct esr_model *m,
         memset(m->adam.m + p->off, 0, p->count * sizeof(float));
         memset(m->adam.v + p->off, 0, p->count * sizeof(float));
     }
-    f->lts.edit = edits;
+    f->loss.edit = edits;
     f->seed = seed;
     f->applied = 1; /* from here on the weights move: restore puts them back */
     esr_finetune_start(m, edits, NULL);
@@ -237,7 +249,7 @@ int esr_finetune_apply(struct esr_finetune *f, struct esr_model *m,
         }
         st->iters = it + 1;
     }
-    f->lts.edit = NULL;
+    f->loss.edit = NULL;
     if (rc != ESR_OK) {
         esr_finetune_restore(f, m);
         return rc;

@@ -1,7 +1,7 @@
 /* Relighting by radiance fine-tuning (the paper's main method, METHOD.md "Scene editing", the
  * seed's Tables 4 and 6): for one edit of the lights, everything but the emo feature grid and the
  * emo radiance MLP is frozen and L_emo is trained towards the LTS estimate of the edited scene
- * (train/lts.h, edit), so the lights-on render L_off + L_emo shows the edit with its reflections
+ * (edit/finetune_loss.h), so the lights-on render L_off + L_emo shows the edit with its reflections
  * and interreflections at the data-fitted L_emo's detail.
  *
  * Choices, each for a user who edits several lights and views:
@@ -12,7 +12,7 @@
  *   first-hit incident directions that do not end on a light. A small bright light is thus not
  *   left to the few hemisphere directions that happen to hit it (blotchy, dark results).
  * - The target is the trained L_emo scaled by the ratio of the transport's estimates with and
- *   without the edit (train/lts.h says why): an edit that changes nothing changes nothing, and
+ *   without the edit (edit/finetune_loss.h says why): an edit that changes nothing changes nothing, and
  *   the light the reconstruction cannot attribute follows the lights in proportion.
  * - Points: surface samples of the training cameras' rays, all of them, not only those on the
  *   edited light (the authors' rays on the edited light's mask): the light the edit changes
@@ -27,6 +27,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "edit/finetune_loss.h"
 #include "io/dataset.h"
 #include "model/model.h"
 #include "train/light_direct.h"
@@ -68,6 +69,8 @@ struct esr_finetune {
     struct esr_model trained;      /* the trained model: m's description with trained_w */
     struct esr_march march;
     struct esr_lts lts;
+    struct esr_finetune_loss loss; /* the LTS's loss while an edit is tuned (its hook) */
+    struct esr_lts_loss_hook hook;
     struct esr_light_samples samples[ESR_MAX_LIGHTS]; /* calibrated emission */
     struct esr_light_shadows shadows; /* the frozen SDF, prepared once for the shadow rays */
     double *direct, *found;        /* [points * 2 * ESR_MAX_LIGHTS * 3] edited, as found */

@@ -7,7 +7,6 @@
 
 #include "core/brdf.h"
 #include "core/brdf_sampling.h"
-#include "core/colour.h"
 #include "core/error.h"
 #include "core/rng.h"
 #include "core/sampling.h"
@@ -21,19 +20,6 @@
 #define NORMAL_REFRESH 50
 /* Secondary rays start this many voxels off the surface point along the normal. */
 #define SECONDARY_OFFSET_VOX 1.0f
-/* Fine-tuning's ratio of estimates: a floor (linear radiance) that keeps points no light
- * reaches from dividing noise by noise, plus this share of the step's mean direct light (as
- * the ratio relight's mean term, edit/relight.h), and a cap on how far one step's target may
- * scale. Lamp test_nvc, 6 frames of 2 edits, by the share: 0 28.54 dB, 0.05 28.94, 0.1 28.91,
- * 0.15 28.80, 0.3 28.53, 1 27.71. */
-#define EDIT_EPS 1e-3f
-#define EDIT_FLOOR_SHARE 0.05f
-#define EDIT_MAX_RATIO 16.0f
-/* Fine-tuning's errors are weighted by esr_image_error_scale squared at the target's lights-on
- * radiance (L_off + target): edits are judged as images, and a recolour to a saturated hue takes
- * channels near 0 (a faint colour haze on the floor in a linear MSE). Lamp test_nvc, 6 frames of
- * 2 edits, by the radiance's floor: linear MSE 29.92 dB, 0.05 30.40, 0.01 30.47, 0.003 30.47. */
-
 void esr_lts_free(struct esr_lts *l)
 {
     float *bufs[] = {l->R3, l->normal_sdf, l->pos3,     l->nrm3,     l->wo3,       l->wi3,
@@ -41,12 +27,11 @@ void esr_lts_free(struct esr_lts *l)
                      l->d_li_off3,  l->d_li_emo3, l->orig3,   l->hit_t,     l->hit_pos3,
                      l->q_pos3,     l->q_dir3,   l->d_tone3,  l->d_lin3,    l->d_emit3,
                      l->d_brdf5,    l->hat3,     l->sec_off3, l->sec_emo3, l->d_sec_off3, l->d_sec_emo3,
-                     l->edit_direct3, l->found_direct3, l->hit_sdf};
+                     l->hit_sdf};
     for (size_t i = 0; i < sizeof bufs / sizeof bufs[0]; i++)
         free(bufs[i]);
     free(l->hit_flags);
     free(l->skipped);
-    free(l->on_light);
     free(l->certain);
     free(l->pick);
     free(l->hit_row);
@@ -57,8 +42,6 @@ void esr_lts_free(struct esr_lts *l)
     free(l->q_on);
     esr_march_free(&l->sec);
     esr_point_fields_free(&l->pf);
-    if (l->has_pf_ref)
-        esr_point_fields_free(&l->pf_ref);
     esr_material_fields_free(&l->mf);
     memset(l, 0, sizeof(*l));
 }
@@ -103,12 +86,11 @@ int esr_lts_init_sized(struct esr_lts *l, const struct esr_model *m, int points,
               {&l->d_li_off3, PM * 3}, {&l->d_li_emo3, PM * 3}, {&l->orig3, PM * 3},
               {&l->R3, PM * 3},        {&l->hit_t, PM},         {&l->hit_pos3, PM * 3},
               {&l->d_emit3, P * 3},    {&l->d_brdf5, P * ESR_BRDF_CHANNELS},
-              {&l->hat3, P * 12},      {&l->edit_direct3, P * 6}, {&l->found_direct3, P * 6}};
+              {&l->hat3, P * 12}};
     int ok = 1;
     for (size_t i = 0; i < sizeof fl / sizeof fl[0]; i++)
         ok &= (*fl[i].p = malloc(fl[i].n * sizeof(float))) != NULL;
     ok &= (l->hit_flags = malloc(PM)) != NULL;
-    ok &= (l->on_light = malloc(PM)) != NULL;
     ok &= (l->hit_row = malloc(PM * sizeof(int32_t))) != NULL;
     ok &= (l->certain = malloc(P)) != NULL;
     int rc = ok ? ESR_OK : ESR_FAIL("lts: out of memory for %zu points x %d directions", P, l->M);
@@ -353,91 +335,14 @@ static void point_loss(struct esr_lts *l, size_t p, float scale, float w_l, floa
     db[4] = d_mat.metallic;
 }
 
-/* The reflection sum_j L_i R w of point p towards wo for the incident emo radiance of rows
- * `lin` (on row - off row at each hit), hits on a light left out (skip). */
-static void reflected_emo(const struct esr_lts *l, const float *lin, const uint8_t *skip, size_t p,
-                          const struct esr_material *mat, struct esr_vec3 n, struct esr_vec3 wo,
-                          float out[3])
-{
-    const size_t M = (size_t)l->M;
-    out[0] = out[1] = out[2] = 0.0f;
-    for (size_t j = 0; j < M; j++) {
-        const size_t i = p * M + j;
-        const int32_t r = l->hit_row[i];
-        if (r < 0 || skip[i])
-            continue;
-        float R[3];
-        esr_brdf_eval(mat, n, wo, esr_v3_at(l->wi3, i), R);
-        for (int c = 0; c < 3; c++)
-            out[c] += (lin[(size_t)(r + 1) * 3 + c] - lin[(size_t)r * 3 + c]) * R[c] * l->wt[i];
-    }
-}
-
-/* The ratio's floors for this step: EDIT_EPS + EDIT_FLOOR_SHARE x the mean of D' and of D over
- * the step's points and outgoing directions, per channel. */
-static void edit_floors(struct esr_lts *l, size_t P)
-{
-    double now[3] = {0, 0, 0}, was[3] = {0, 0, 0};
-    for (size_t i = 0; i < P * 2; i++)
-        for (int c = 0; c < 3; c++) {
-            now[c] += fmaxf(l->edit_direct3[i * 3 + (size_t)c], 0.0f);
-            was[c] += fmaxf(l->found_direct3[i * 3 + (size_t)c], 0.0f);
-        }
-    for (int c = 0; c < 3; c++) {
-        l->edit_floor[c] = EDIT_EPS + EDIT_FLOOR_SHARE * (float)(now[c] / (double)(P * 2));
-        l->found_floor[c] = EDIT_EPS + EDIT_FLOOR_SHARE * (float)(was[c] / (double)(P * 2));
-    }
-}
-
-/* Fine-tuning's loss at point p (lts.h, edit): L_emo' towards sg(L_emo (D' + K L_emo') /
- * (D + K L_emo)) for both outgoing directions, each channel's squared error weighted by
- * esr_image_error_scale squared; only the points' L_emo' rows get a gradient. A
- * point on a light is left out: its trained L_emo is the saturated emitter, not a measured
- * reflection (the editor renders lights from their emission, edit/editor.h), and hits on lights
- * do not read it. */
-static void point_loss_edit(struct esr_lts *l, const struct esr_lights *lights, size_t p,
-                            float scale, double *se_emo)
-{
-    if (esr_lights_id_at(lights, l->pos3 + p * 3) >= 0)
-        return;
-    const float *lin = l->pf.lin3, *ref = l->pf_ref.lin3;
-    const struct esr_material mat = esr_material_of_row(l->mf.brdf5 + p * ESR_BRDF_CHANNELS, 1.0f);
-    const struct esr_vec3 n = esr_v3_at(l->nrm3, p);
-    for (int o = 0; o < 2; o++) {
-        const struct esr_vec3 wo = esr_v3_at(l->wo3, 2 * p + (size_t)o);
-        if (esr_v3_dot(n, wo) <= 0.0f)
-            continue;
-        const size_t po = p * 2 + (size_t)o, row_off = p * 4 + (size_t)o * 2, row_on = row_off + 1;
-        float refl[3], refl_ref[3];
-        reflected_emo(l, lin, l->on_light, p, &mat, n, wo, refl);
-        reflected_emo(l, ref, l->on_light, p, &mat, n, wo, refl_ref);
-        for (int c = 0; c < 3; c++) {
-            const float L = lin[row_on * 3 + c] - lin[row_off * 3 + c];
-            const float L_ref = ref[row_on * 3 + c] - ref[row_off * 3 + c];
-            const float now = l->edit_direct3[po * 3 + c] + refl[c];
-            const float was = l->found_direct3[po * 3 + c] + refl_ref[c];
-            const float ratio = fminf((fmaxf(now, 0.0f) + l->edit_floor[c]) /
-                                          (fmaxf(was, 0.0f) + l->found_floor[c]),
-                                      EDIT_MAX_RATIO);
-            const float target = L_ref * ratio, e = L - target;
-            const float slope = esr_image_error_scale(lin[row_off * 3 + c] + target);
-            const float w = slope * slope;
-            *se_emo += (double)(w * e * e);
-            l->d_lin3[row_on * 3 + c] += 2.0f * scale * w * e;
-        }
-    }
-}
-
 int esr_lts_run(struct esr_lts *l, const struct esr_model *m, const float *sdf, float *g_sdf,
                 float *grads, const struct esr_march *mc, const uint8_t *ray_certain,
                 uint64_t seed, struct esr_lts_stats *out)
 {
     memset(out, 0, sizeof(*out));
-    if (l->edit && (!l->edit_ref || !l->edit_direct))
-        return ESR_FAIL("lts: an edit needs the trained model and the direct-light hook");
     if (mc->n_kept == 0)
         return ESR_OK;
-    if (!l->normal_sdf || (!l->edit && m->step % NORMAL_REFRESH == 0)) {
+    if (!l->normal_sdf || (!l->hook && m->step % NORMAL_REFRESH == 0)) {
         esr_lts_refresh_normals(l);
         ESR_TRY(esr_model_normal_sdf(m, &l->normal_sdf));
         if (!l->normal_sdf) { /* smoothing off: the raw SDF's own gradient */
@@ -475,26 +380,13 @@ int esr_lts_run(struct esr_lts *l, const struct esr_model *m, const float *sdf, 
     memset(l->d_li_emo3, 0, PM * 3 * sizeof(float));
     memset(l->d_emit3, 0, P * 3 * sizeof(float));
     /* mean over points x 2 outgoing x 3 channels, per term */
-    /* fine-tuning has no other loss to weigh this one against */
-    const float w = l->edit ? 1.0f : m->cfg.lts_weight, scale = w / (float)(P * 2 * 3);
+    /* a hook (fine-tuning) has no other loss to weigh this one against */
+    const float w = l->hook ? 1.0f : m->cfg.lts_weight, scale = w / (float)(P * 2 * 3);
     const int pair = ray_certain && m->cfg.pdra_sg; /* "w/o sg": one plain MSE */
     const float w_l = pair ? m->cfg.pdra_w_l : 1.0f, w_r = pair ? m->cfg.pdra_w_r : 1.0f;
     double se_off = 0.0, se_emo = 0.0, prod = 0.0;
-    if (l->edit) {
-        ESR_TRY(l->edit_direct(l->edit_user, l, P, l->edit, l->edit_direct3, l->found_direct3));
-        if (!l->has_pf_ref) {
-            ESR_TRY(esr_point_fields_init(&l->pf_ref, l->edit_ref, rows, 0));
-            l->has_pf_ref = 1;
-        }
-        ESR_TRY(esr_point_fields_fwd(&l->pf_ref, l->edit_ref, sdf, &q));
-        edit_floors(l, P);
-#pragma omp parallel for schedule(static)
-        for (size_t i = 0; i < PM; i++)
-            l->on_light[i] = l->hit_row[i] >= 0 &&
-                             esr_lights_id_at(&m->lights, l->hit_pos3 + i * 3) >= 0;
-#pragma omp parallel for schedule(dynamic, 4) reduction(+ : se_emo)
-        for (size_t p = 0; p < P; p++)
-            point_loss_edit(l, &m->lights, p, scale, &se_emo);
+    if (l->hook) {
+        ESR_TRY(l->hook->run(l->hook->user, l, m, sdf, &q, P, &se_emo));
     } else {
         /* each point writes only its own rows and directions */
 #pragma omp parallel for schedule(dynamic, 4) reduction(+ : se_off, se_emo, prod)
@@ -505,7 +397,7 @@ int esr_lts_run(struct esr_lts *l, const struct esr_model *m, const float *sdf, 
     if (grads) { /* NULL: forward only (the calibration reads the estimates, not a gradient) */
         hits = esr_lts_incident_scatter(l, P, g_sdf);
         ESR_TRY(esr_point_fields_bwd(&l->pf, m, g_sdf, grads, l->d_tone3, l->d_lin3));
-        if (!l->edit) {
+        if (!l->hook) {
             ESR_TRY(esr_material_fields_bwd(&l->mf, m, g_sdf, grads, l->d_emit3, l->d_brdf5));
             esr_lights_balance_env(&m->lights, l->d_env3, PM); /* through map / balance */
             esr_env_sg_bwd(env, lobes, l->wi3, PM, l->d_env3, grads + m->part[ESR_COMP_ENV].off);
@@ -514,7 +406,7 @@ int esr_lts_run(struct esr_lts *l, const struct esr_model *m, const float *sdf, 
     const double n = (double)(P * 2 * 3);
     out->mse_off = se_off / n;
     out->mse_emo = se_emo / n;
-    out->loss = (double)w * (l->split && !l->edit ? prod / n : out->mse_off + out->mse_emo);
+    out->loss = (double)w * (l->split && !l->hook ? prod / n : out->mse_off + out->mse_emo);
     out->points = P;
     out->secondary = PM;
     out->hits = hits;

@@ -40,13 +40,26 @@ enum esr_lts_estimator { ESR_LTS_FIRST_HIT = 0, ESR_LTS_VOLUME = 1 };
 
 struct esr_lts_stats {
     double loss;            /* weighted loss added */
-    double mse_off, mse_emo; /* an edit's mse_emo: weighted as its loss (lts.c, EDIT_TONE_FLOOR) */
+    double mse_off, mse_emo; /* with a hook, the hook's (fine-tuning's: weighted) */
     size_t points, secondary, hits; /* hits: secondary rays that reached a surface (first hit)
                                         or whose final transmittance is below 1/2 (volume) */
 };
 
 /* lts_dirs' upper bound (model/config.c) */
 #define ESR_LTS_MAX_DIRS 4096
+
+/* A loss that replaces the LTS loss on the same points (radiance fine-tuning, whose state and
+ * loss live in edit/finetune_loss.h): called each step after the points' and the hits' rows q
+ * are rendered into l->pf (and the points' materials into l->mf), it adds its gradient into
+ * l->d_lin3 and its squared error into *se_emo (the stats' mse_emo). With a hook the normals
+ * are computed once (the geometry is frozen), and only the rows' radiance gets a gradient (not
+ * the materials, E or the environment). */
+struct esr_lts;
+struct esr_lts_loss_hook {
+    int (*run)(void *user, struct esr_lts *l, const struct esr_model *m, const float *sdf,
+               const struct esr_point_query *q, size_t P, double *se_emo);
+    void *user;
+};
 
 struct esr_lts {
     int P, M;                  /* points, incident directions per point */
@@ -102,35 +115,9 @@ struct esr_lts {
     size_t pick_cap;
     struct esr_point_fields pf;
     struct esr_material_fields mf;
-    /* Radiance fine-tuning (edit/finetune.h) when edit is set (NULL in training): one edit per
-     * light of the model, and edit_ref, the trained model (the same components with the weights
-     * before fine-tuning). Lights-on renders show each light's edited emission analytically
-     * (model/lights.h, edited), so the fields learn only how the reflected light changes, as the
-     * ratio of the reconstructed transport's estimates with and without the edit:
-     *     L_emo'(x) <- L_emo(x) (D'(x) + K L_emo'(x) + f') / (D(x) + K L_emo(x) + f)  (per channel)
-     * D, D': the lights' direct light at x as found and edited (edit_direct, one set of samples);
-     * f, f': 5% of the step's mean D and D' (the ratio relight's mean term: light that reaches
-     * x by ways the direct light misses follows the scene's average change; +0.4 dB on lamp
-     * test_nvc); K L: the reflection of the incident L_emo over hits not on a light; L_emo: the
-     * trained model on the same rows. The trained L_emo is not exactly a fixed point of the
-     * reconstructed transport (calibration, BRDF, normals): fine-tuning towards the plain
-     * estimate first drifts to that transport's own solution (lamp, an edit that changes
-     * nothing: 19.6 dB against the model's own render), and keeping the unexplained rest as an
-     * added residual keeps it in the old colour (lamp test_nvc 26.0 dB: a warm floor under a red
-     * lamp). As a ratio, an edit that changes nothing is a fixed point and all of L_emo follows
-     * the lights. The target is fixed each step (a fixed-point iteration); only the points' L_emo
-     * rows get a gradient, nothing else; points on a light are left out (their L_emo is the
-     * saturated emitter); the normals are computed once (the geometry is frozen). */
-    const struct esr_light_edit *edit;
-    const struct esr_model *edit_ref;
-    int (*edit_direct)(void *user, const struct esr_lts *l, size_t P,
-                       const struct esr_light_edit *edits, float *direct3, float *found3);
-    void *edit_user;
-    float *edit_direct3, *found_direct3; /* [P*2*3] D' and D per point and outgoing direction */
-    float edit_floor[3], found_floor[3]; /* the step's floors f' and f below */
-    uint8_t *on_light;         /* [P*M] the direction's first hit is on a light */
-    struct esr_point_fields pf_ref; /* the trained model's rows */
-    int has_pf_ref;
+    /* A loss in place of the LTS loss (NULL in training): radiance fine-tuning's
+     * (edit/finetune_loss.h). */
+    const struct esr_lts_loss_hook *hook;
 };
 
 int esr_lts_init(struct esr_lts *l, const struct esr_model *m);
