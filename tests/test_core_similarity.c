@@ -122,10 +122,24 @@ static void test_eigen_refusals(void **state)
     esr_error_clear();
 }
 
-/* y_i = scale R x_i + t (+ noise), n points from `state` (z squeezed by z_scale). */
-static void make_pairs(uint64_t seed, int n, double z_scale, double scale, const double r[3][3], const double t[3],
-                       double noise, double *x, double *y)
+/* The similarity x -> scale R x + t. */
+static struct esr_similarity similarity(double scale, const double r[3][3], const double t[3])
 {
+    struct esr_similarity tr;
+    tr.scale = scale;
+    for (int a = 0; a < 3; a++) {
+        tr.translation[a] = t[a];
+        for (int b = 0; b < 3; b++)
+            tr.rotation[a][b] = r[a][b];
+    }
+    return tr;
+}
+
+/* y_i = tr(x_i) (+ noise), n points from `state` (z squeezed by z_scale). */
+static void make_pairs(uint64_t seed, int n, double z_scale, const struct esr_similarity *tr, double noise,
+                       double *x, double *y)
+{
+    const double scale = tr->scale, (*r)[3] = tr->rotation, *t = tr->translation;
     uint64_t state = seed;
     for (int i = 0; i < n; i++) {
         for (int a = 0; a < 3; a++)
@@ -136,9 +150,9 @@ static void make_pairs(uint64_t seed, int n, double z_scale, double scale, const
     }
 }
 
-static void assert_recovers(const struct esr_similarity *s, double scale, const double r[3][3], const double t[3],
-                            double tol)
+static void assert_recovers(const struct esr_similarity *s, const struct esr_similarity *truth, double tol)
 {
+    const double scale = truth->scale, (*r)[3] = truth->rotation, *t = truth->translation;
     assert_true(fabs(s->scale - scale) < tol * scale);
     for (int a = 0; a < 3; a++) {
         assert_true(fabs(s->translation[a] - t[a]) < tol * 10.0);
@@ -159,17 +173,18 @@ static void test_similarity_recovers_known_transforms(void **state)
     for (int c = 0; c < 4; c++) {
         double r[3][3];
         axis_angle(axes[c], degrees[c], r);
+        const struct esr_similarity tr = similarity(scales[c], r, t);
         struct esr_similarity s;
         /* general points, then points on one plane (a ring of cameras) */
         for (int flat = 0; flat < 2; flat++) {
-            make_pairs(7 + (uint64_t)c, N, flat ? 0.0 : 1.0, scales[c], r, t, 0.0, x, y);
+            make_pairs(7 + (uint64_t)c, N, flat ? 0.0 : 1.0, &tr, 0.0, x, y);
             assert_int_equal(esr_similarity_fit(x, y, N, &s), ESR_OK);
-            assert_recovers(&s, scales[c], r, t, 1e-10);
+            assert_recovers(&s, &tr, 1e-10);
         }
         /* the minimum: 3 points */
-        make_pairs(99, 3, 1.0, scales[c], r, t, 0.0, x, y);
+        make_pairs(99, 3, 1.0, &tr, 0.0, x, y);
         assert_int_equal(esr_similarity_fit(x, y, 3, &s), ESR_OK);
-        assert_recovers(&s, scales[c], r, t, 1e-9);
+        assert_recovers(&s, &tr, 1e-9);
     }
 }
 
@@ -182,10 +197,11 @@ static void test_similarity_noisy_is_optimal(void **state)
     double x[3 * N], y[3 * N], r[3][3];
     const double axis[3] = {0.2, 1.0, -0.4}, t[3] = {1.0, -1.0, 2.0};
     axis_angle(axis, 63.0, r);
-    make_pairs(3, N, 1.0, 2.5, r, t, 0.01, x, y);
+    const struct esr_similarity tr = similarity(2.5, r, t);
+    make_pairs(3, N, 1.0, &tr, 0.01, x, y);
     struct esr_similarity s;
     assert_int_equal(esr_similarity_fit(x, y, N, &s), ESR_OK);
-    assert_recovers(&s, 2.5, r, t, 2e-3);
+    assert_recovers(&s, &tr, 2e-3);
     const double base = 0.0;
     double res0 = base;
     for (int i = 0; i < N; i++) {
@@ -229,7 +245,8 @@ static void test_similarity_reflection_gives_rotation(void **state)
     enum { N = 20 };
     double x[3 * N], y[3 * N], id[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
     const double t[3] = {0, 0, 0};
-    make_pairs(11, N, 1.0, 1.0, id, t, 0.0, x, y);
+    const struct esr_similarity tr = similarity(1.0, id, t);
+    make_pairs(11, N, 1.0, &tr, 0.0, x, y);
     for (int i = 0; i < N; i++)
         y[3 * i + 2] = -y[3 * i + 2];
     struct esr_similarity s;

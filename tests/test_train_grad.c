@@ -623,7 +623,8 @@ static void test_normal_smoothness_gradient(void **state)
     float *g_sdf = calloc(ns, sizeof(float)), *grads = calloc(m->params.count, sizeof(float));
     float emit[NP * 3] = {0}, d_emit[NP * 3] = {0};
     struct esr_pdra_reg *reg = &fx.st.pdra.reg;
-    assert_int_equal(esr_pdra_reg_smooth(reg, m, sdf, g_sdf, grads, &pts, emit, d_emit, 9), ESR_OK);
+    const struct esr_pdra_reg_batch rb = {&pts, emit, d_emit, 9};
+    assert_int_equal(esr_pdra_reg_smooth(reg, m, sdf, g_sdf, grads, &rb), ESR_OK);
     assert_true(reg->ns_loss > 0.0);
     size_t bad = 0, nonzero = 0;
     float *junk = calloc(ns, sizeof(float));
@@ -636,7 +637,7 @@ static void test_normal_smoothness_gradient(void **state)
             const float at[3] = {keep + eps, keep - eps, keep};
             for (int k = 0; k < 3; k++) {
                 sdf[i] = at[k];
-                esr_pdra_reg_smooth(reg, m, sdf, junk, grads, &pts, emit, d_emit, 9);
+                esr_pdra_reg_smooth(reg, m, sdf, junk, grads, &rb);
                 l[k] = reg->ns_loss;
             }
             fd = (l[0] - l[1]) / (2.0 * eps);

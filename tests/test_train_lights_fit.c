@@ -79,10 +79,11 @@ static void decide(const double rim_gain[K], double rim_size, double noise, uint
     const int has_rim[ESR_MAX_LIGHTS] = {1, 1};
     static double ca[POINTS * K], cy[POINTS];
     float t_on[ESR_MAX_LIGHTS];
-    assert_int_equal(esr_calib_decide_rims(&L, &mr.rows, fit, K, has_rim, ca, cy, emits, t_on), 0);
+    const struct esr_calib_problem pb = {&L, &mr.rows, fit, K, ca, cy};
+    assert_int_equal(esr_calib_decide_rims(&pb, has_rim, emits, t_on), 0);
     for (int k = 0; k < K; k++) /* the sign says the choice */
         assert_true(emits[k] ? t_on[k] < -ESR_CALIB_RIM_T : t_on[k] > -ESR_CALIB_RIM_T);
-    assert_int_equal(esr_calib_fit(&L, &mr.rows, fit, K, emits, ca, cy, scale, NULL, NULL, NULL), 0);
+    assert_int_equal(esr_calib_fit(&pb, emits, scale, NULL, NULL, NULL), 0);
 }
 
 /* Light 0's rim is in the rows, light 1's is not: 0's emits, 1's stays dark, and the strengths

@@ -154,12 +154,14 @@ static void print_cell(double v, int general)
         printf(" %10.2f", v);
 }
 
-/* One table row; `normal` (mean normal error, degrees) is a column only when with_normals. */
-static void print_row(const char *name, const char *mode, int n, double psnr, double ssim, double psnr_lin,
-                      double ssim_lin, double hdr, int with_normals, double normal)
+/* One table row of the scores s (a view's: n 1); `normal` (mean normal error, degrees) is a
+ * column only when with_normals. */
+static void print_row(const char *name, const char *mode, const struct esr_eval_mean *s, int with_normals,
+                      double normal)
 {
-    printf("%-16s %-9s %4d %8.2f %7.4f %8.2f %7.4f", name, mode, n, psnr, ssim, psnr_lin, ssim_lin);
-    print_cell(hdr, 1);
+    printf("%-16s %-9s %4d %8.2f %7.4f %8.2f %7.4f", name, mode, s->n, s->psnr, s->ssim, s->psnr_linear,
+           s->ssim_linear);
+    print_cell(s->hdr_mse, 1);
     if (with_normals)
         print_cell(normal, 0);
     printf("\n");
@@ -175,18 +177,16 @@ static void print_table(const struct esr_eval_result *res)
     printf("\n");
     for (int i = 0; i < res->n_views; i++) {
         const struct esr_eval_view *v = &res->views[i];
-        print_row(v->name, esr_light_mode_name(v->mode), 1, v->psnr, v->ssim, v->psnr_linear, v->ssim_linear,
-                  v->hdr_mse, nrm, v->has_normal_gt ? v->normal.mean_deg : NAN);
+        const struct esr_eval_mean one = {1, v->psnr, v->ssim, v->psnr_linear, v->ssim_linear, v->hdr_mse};
+        print_row(v->name, esr_light_mode_name(v->mode), &one, nrm, v->has_normal_gt ? v->normal.mean_deg : NAN);
     }
     for (int mode = 0; mode < ESR_LIGHT_MODE_COUNT; mode++) {
         const struct esr_eval_mean *m = &res->by_mode[mode];
         if (m->n > 0)
-            print_row("mean", esr_light_mode_name((enum esr_light_mode)mode), m->n, m->psnr, m->ssim,
-                      m->psnr_linear, m->ssim_linear, m->hdr_mse, nrm, NAN);
+            print_row("mean", esr_light_mode_name((enum esr_light_mode)mode), m, nrm, NAN);
     }
     const struct esr_eval_mean *m = &res->all;
-    print_row("mean", "all", m->n, m->psnr, m->ssim, m->psnr_linear, m->ssim_linear, m->hdr_mse, nrm,
-              res->normals.mean_deg);
+    print_row("mean", "all", m, nrm, res->normals.mean_deg);
 }
 
 /* The pooled normal error, or a note that the dataset has no ground-truth normal maps. */
@@ -360,8 +360,8 @@ static int evaluate_edits(const struct eval_args *a, const struct esr_run_select
         esr_finetune_default_opts(&ft);
         if (a->iters)
             ft.iters = a->iters;
-        status = esr_edit_eval_phase(&m, &sel->ds, sel->phase, sel->idx, sel->n, dir, a->method,
-                                     a->spp, &ft, show_edit_progress, NULL, &res);
+        const struct esr_edit_eval_opts eo = {a->method, a->spp, &ft, show_edit_progress, NULL};
+        status = esr_edit_eval_phase(&m, sel, dir, &eo, &res);
     }
     struct cli_aside aside = {0};
     const char *json_to = cli_aside_add(&aside, json), *html_to = cli_aside_add(&aside, html);

@@ -38,10 +38,10 @@ static int edited_and_found_direct(struct esr_finetune *f, const struct esr_lts 
                                    float *direct3, float *found3)
 {
     const struct esr_direct_points dp = {P, l->pos3, l->nrm3, l->mf.brdf5, l->wo3, 2};
-    ESR_TRY(esr_lights_direct(&f->shadows, f->samples, f->m->lights.n, f->loss.edit, &dp,
-                              f->o.light_spp,
-                              f->seed ^ (uint64_t)(f->step + 1) * 0x9e3779b97f4a7c15ULL, f->direct,
-                              f->found));
+    const struct esr_direct_lights dl = {&f->shadows, f->samples, f->m->lights.n, f->loss.edit,
+                                         f->o.light_spp};
+    ESR_TRY(esr_lights_direct(&dl, &dp, f->seed ^ (uint64_t)(f->step + 1) * 0x9e3779b97f4a7c15ULL,
+                              f->direct, f->found));
     const double *src[2] = {f->direct, f->found};
     float *dst[2] = {direct3, found3};
     for (int v = 0; v < 2; v++)
@@ -228,9 +228,9 @@ int esr_finetune_apply(struct esr_finetune *f, struct esr_model *m,
         for (int i = 0; rc == ESR_OK && i < 2; i++) /* only these are read below */
             esr_nn_params_zero_grad(&m->params, m->part[TUNED[i]].off, m->part[TUNED[i]].count);
         struct esr_lts_stats ls;
+        const struct esr_lts_batch lb = {&f->march, NULL, seed ^ 0x17a3c0ffeeULL ^ (uint64_t)it};
         if (rc == ESR_OK)
-            rc = esr_lts_run(&f->lts, m, sdf, f->g_sdf, m->params.g, &f->march, NULL,
-                             seed ^ 0x17a3c0ffeeULL ^ (uint64_t)it, &ls);
+            rc = esr_lts_run(&f->lts, m, sdf, f->g_sdf, m->params.g, &lb, &ls);
         if (rc == ESR_OK && !isfinite(ls.mse_emo))
             rc = ESR_FAIL("finetune: the LTS loss became %g at step %d", ls.mse_emo, it);
         if (rc != ESR_OK)

@@ -100,9 +100,9 @@ static int run_calls(struct esr_model *m, const struct points *pt, int estimator
     double secs = 0.0, secondary = 0.0, hits = 0.0;
     for (int c = -1; rc == ESR_OK && c < calls; c++) { /* call -1 warms up, untimed */
         struct esr_lts_stats st;
+        const struct esr_lts_batch lb = {&mc, NULL, seed0 + (uint64_t)(c + 1) * 7919u};
         const double t0 = omp_get_wtime();
-        rc = esr_lts_run(&l, m, esr_model_values(m, ESR_COMP_SDF), g_sdf, grads, &mc, NULL,
-                         seed0 + (uint64_t)(c + 1) * 7919u, &st);
+        rc = esr_lts_run(&l, m, esr_model_values(m, ESR_COMP_SDF), g_sdf, grads, &lb, &st);
         if (c < 0)
             continue;
         secs += omp_get_wtime() - t0;

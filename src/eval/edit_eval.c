@@ -222,11 +222,15 @@ static int group_by_edit(struct esr_edit_eval *res)
     return ESR_OK;
 }
 
-int esr_edit_eval_phase(struct esr_model *m, const struct esr_dataset *ds,
-                        enum esr_phase_id phase, const int *idx, int n, const char *out_dir,
-                        enum esr_edit_method method, int spp, const struct esr_finetune_opts *ft,
-                        esr_edit_eval_progress_fn progress, void *user, struct esr_edit_eval *res)
+int esr_edit_eval_phase(struct esr_model *m, const struct esr_run_selection *sel,
+                        const char *out_dir, const struct esr_edit_eval_opts *opts,
+                        struct esr_edit_eval *res)
 {
+    const struct esr_dataset *ds = &sel->ds;
+    const enum esr_phase_id phase = sel->phase;
+    const int *idx = sel->idx, n = sel->n;
+    const enum esr_edit_method method = opts->method;
+    const int spp = opts->spp;
     memset(res, 0, sizeof(*res));
     res->phase = phase;
     res->method = method;
@@ -258,7 +262,7 @@ int esr_edit_eval_phase(struct esr_model *m, const struct esr_dataset *ds,
         frame_edits(ds, &ph->frames[idx[i]], &res->split, m->lights.n, edits[i]);
     order_by_edit((const struct esr_light_edit(*)[ESR_MAX_LIGHTS])edits, n, m->lights.n, order);
     struct esr_editor ed;
-    int rc = esr_editor_init(&ed, m, ds, method, spp, ft);
+    int rc = esr_editor_init(&ed, m, ds, method, spp, opts->ft);
     for (int k = 0; k < n && rc == ESR_OK; k++) {
         const int i = order[k];
         const struct esr_frame *f = &ph->frames[idx[i]];
@@ -274,10 +278,10 @@ int esr_edit_eval_phase(struct esr_model *m, const struct esr_dataset *ds,
         if (rc == ESR_OK)
             rc = score_view(ds, f, &lin, out_dir, v);
         esr_image_free(&lin);
-        if (rc == ESR_OK && progress) {
+        if (rc == ESR_OK && opts->progress) {
             const struct esr_edit_eval_progress p = {f->name, k + 1, n, v->psnr,
                                                      ed.finetunes > res->n_edits};
-            progress(user, &p);
+            opts->progress(opts->user, &p);
         }
         res->n_edits = ed.finetunes;
     }

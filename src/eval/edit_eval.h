@@ -16,6 +16,7 @@
 
 #include "edit/editor.h"
 #include "eval/light_split.h"
+#include "eval/run_dir.h"
 #include "io/dataset.h"
 #include "model/model.h"
 
@@ -63,11 +64,20 @@ struct esr_edit_eval_progress {
 };
 typedef void (*esr_edit_eval_progress_fn)(void *user, const struct esr_edit_eval_progress *p);
 
-/* ft: fine-tuning options (NULL: the defaults); progress may be NULL. */
-int esr_edit_eval_phase(struct esr_model *m, const struct esr_dataset *ds,
-                        enum esr_phase_id phase, const int *idx, int n, const char *out_dir,
-                        enum esr_edit_method method, int spp, const struct esr_finetune_opts *ft,
-                        esr_edit_eval_progress_fn progress, void *user, struct esr_edit_eval *res);
+/* How esr_edit_eval_phase relights the frames, and whom it tells. */
+struct esr_edit_eval_opts {
+    enum esr_edit_method method;
+    int spp;                             /* direct, ratio: light samples per pixel and light
+                                            (finetune: on the pixels that see a light) */
+    const struct esr_finetune_opts *ft;  /* fine-tuning options (NULL: the defaults) */
+    esr_edit_eval_progress_fn progress;  /* called after each scored frame, or NULL */
+    void *user;                          /* progress's first argument */
+};
+
+/* The frames sel selects (sel->ds's phase sel->phase), relit and scored as *opts says. */
+int esr_edit_eval_phase(struct esr_model *m, const struct esr_run_selection *sel,
+                        const char *out_dir, const struct esr_edit_eval_opts *opts,
+                        struct esr_edit_eval *res);
 void esr_edit_eval_free(struct esr_edit_eval *res);
 
 /* {"phase", "method": "direct"|"ratio"|"finetune", "spp" (direct, ratio) | "finetunes",

@@ -61,11 +61,23 @@ static int light_id_at(const struct esr_image *ids, size_t p)
     return (int)lroundf(ids->data[p * (size_t)ids->channels] * 255.0f) - 1;
 }
 
-/* One view's power per light into found[] / truth[] and the esr light ids it shows into *seen. */
-static int add_view(const struct esr_dataset *ds, const struct esr_frame *f, const char *render_dir,
-                    const struct esr_light_split *split, const struct esr_emitter_radiance_result *rad,
-                    double *found, double *truth, uint32_t *seen, int *ids_used)
+/* What every view's power is measured with. */
+struct power_setup {
+    const struct esr_dataset *ds;                  /* the true lights' masks */
+    const char *render_dir;                        /* the views' N_emission.exr, N_lights.png */
+    const struct esr_light_split *split;           /* which true light each esr light follows */
+    const struct esr_emitter_radiance_result *rad; /* the true lights scored, in order */
+};
+
+/* One view's power per light into found[] / truth[] and the esr light ids it shows into *seen;
+ * *ids_used counts the views whose light ids were read. */
+static int add_view(const struct power_setup *ps, const struct esr_frame *f, double *found,
+                    double *truth, uint32_t *seen, int *ids_used)
 {
+    const struct esr_dataset *ds = ps->ds;
+    const char *render_dir = ps->render_dir;
+    const struct esr_light_split *split = ps->split;
+    const struct esr_emitter_radiance_result *rad = ps->rad;
     char path[ESR_PATH_MAX * 2];
     if (esr_view_path(path, sizeof path, render_dir, f->name, "_emission.exr") != ESR_OK ||
         !esr_file_exists(path))
@@ -131,9 +143,9 @@ int esr_emitter_strength_eval(const struct esr_dataset *ds, enum esr_phase_id ph
     double found[ESR_MAX_TRUE_LIGHTS] = {0}, truth[ESR_MAX_TRUE_LIGHTS] = {0};
     uint32_t seen = 0;
     const struct esr_phase *ph = &ds->phases[phase];
+    const struct power_setup ps = {ds, render_dir, split, rad};
     for (int i = 0; i < n; i++)
-        ESR_TRY(add_view(ds, &ph->frames[idx[i]], render_dir, split, rad, found, truth, &seen,
-                         &out->power_views));
+        ESR_TRY(add_view(&ps, &ph->frames[idx[i]], found, truth, &seen, &out->power_views));
     if (out->power_views > 0) {
         out->lights_found = out->lights_wrong = 0;
         out->found_from = "renders";

@@ -25,25 +25,33 @@ static cJSON *floats(const float *v, int n)
     return a;
 }
 
-/* A buffer view + accessor pair over bytes [off, off + len) of the one buffer. */
-static int add_accessor(cJSON *views, cJSON *accessors, size_t off, size_t len, int target,
-                        int component, size_t count, const char *type, const float *mn,
-                        const float *mx)
+/* One buffer view + accessor pair: what add_accessor writes. */
+struct accessor {
+    size_t off, len;        /* the view: bytes [off, off + len) of the one buffer */
+    int target;             /* the view's target (GL_ARRAY_BUFFER, GL_ELEMENT_ARRAY_BUFFER) */
+    int component;          /* componentType (GL_FLOAT, GL_UNSIGNED_INT) */
+    size_t count;           /* elements */
+    const char *type;       /* "VEC3", "SCALAR" */
+    const float *mn, *mx;   /* [3] each: the elements' bounds, or NULL: none written */
+};
+
+/* A buffer view + accessor pair as *ac describes it; returns the accessor's index. */
+static int add_accessor(cJSON *views, cJSON *accessors, const struct accessor *ac)
 {
     cJSON *v = cJSON_CreateObject();
     cJSON_AddNumberToObject(v, "buffer", 0);
-    cJSON_AddNumberToObject(v, "byteOffset", (double)off);
-    cJSON_AddNumberToObject(v, "byteLength", (double)len);
-    cJSON_AddNumberToObject(v, "target", target);
+    cJSON_AddNumberToObject(v, "byteOffset", (double)ac->off);
+    cJSON_AddNumberToObject(v, "byteLength", (double)ac->len);
+    cJSON_AddNumberToObject(v, "target", ac->target);
     cJSON_AddItemToArray(views, v);
     cJSON *a = cJSON_CreateObject();
     cJSON_AddNumberToObject(a, "bufferView", cJSON_GetArraySize(views) - 1);
-    cJSON_AddNumberToObject(a, "componentType", component);
-    cJSON_AddNumberToObject(a, "count", (double)count);
-    cJSON_AddStringToObject(a, "type", type);
-    if (mn) {
-        cJSON_AddItemToObject(a, "min", floats(mn, 3));
-        cJSON_AddItemToObject(a, "max", floats(mx, 3));
+    cJSON_AddNumberToObject(a, "componentType", ac->component);
+    cJSON_AddNumberToObject(a, "count", (double)ac->count);
+    cJSON_AddStringToObject(a, "type", ac->type);
+    if (ac->mn) {
+        cJSON_AddItemToObject(a, "min", floats(ac->mn, 3));
+        cJSON_AddItemToObject(a, "max", floats(ac->mx, 3));
     }
     cJSON_AddItemToArray(accessors, a);
     return cJSON_GetArraySize(accessors) - 1;
@@ -97,12 +105,12 @@ int esr_glb_write(const char *path, const struct esr_mesh *mesh, const struct es
     cJSON_AddStringToObject(asset, "generator", "esr export --gltf");
     cJSON *views = cJSON_AddArrayToObject(root, "bufferViews");
     cJSON *accessors = cJSON_AddArrayToObject(root, "accessors");
-    const int a_pos = add_accessor(views, accessors, 0, vbytes, GL_ARRAY_BUFFER, GL_FLOAT, nv,
-                                   "VEC3", mn, mx);
-    const int a_nrm = add_accessor(views, accessors, vbytes, vbytes, GL_ARRAY_BUFFER, GL_FLOAT, nv,
-                                   "VEC3", NULL, NULL);
-    const int a_col = add_accessor(views, accessors, 2 * vbytes, vbytes, GL_ARRAY_BUFFER, GL_FLOAT,
-                                   nv, "VEC3", NULL, NULL);
+    const struct accessor pos = {0, vbytes, GL_ARRAY_BUFFER, GL_FLOAT, nv, "VEC3", mn, mx};
+    const struct accessor nrm = {vbytes, vbytes, GL_ARRAY_BUFFER, GL_FLOAT, nv, "VEC3", NULL, NULL};
+    const struct accessor col = {2 * vbytes, vbytes, GL_ARRAY_BUFFER, GL_FLOAT, nv, "VEC3", NULL, NULL};
+    const int a_pos = add_accessor(views, accessors, &pos);
+    const int a_nrm = add_accessor(views, accessors, &nrm);
+    const int a_col = add_accessor(views, accessors, &col);
     cJSON *meshes = cJSON_AddArrayToObject(root, "meshes");
     cJSON *materials = cJSON_AddArrayToObject(root, "materials");
     cJSON *nodes = cJSON_AddArrayToObject(root, "nodes");
@@ -115,8 +123,9 @@ int esr_glb_write(const char *path, const struct esr_mesh *mesh, const struct es
             continue;
         const size_t ib = p->n_triangles * 3 * sizeof(uint32_t);
         memcpy(bin + off, p->tri, ib);
-        const int a_idx = add_accessor(views, accessors, off, ib, GL_ELEMENT_ARRAY_BUFFER,
-                                       GL_UNSIGNED_INT, p->n_triangles * 3, "SCALAR", NULL, NULL);
+        const struct accessor idx = {off, ib, GL_ELEMENT_ARRAY_BUFFER, GL_UNSIGNED_INT,
+                                     p->n_triangles * 3, "SCALAR", NULL, NULL};
+        const int a_idx = add_accessor(views, accessors, &idx);
         off += ib;
         cJSON_AddItemToArray(materials, material_json(p, &uses_strength));
         cJSON *mesh_j = cJSON_CreateObject();

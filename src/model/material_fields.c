@@ -136,13 +136,23 @@ int esr_material_fields_fwd(struct esr_material_fields *mf, const struct esr_mod
     return ESR_OK;
 }
 
-/* One MLP's backward and its feature grid's: input-row gradients land in dx. */
+/* One branch of the material fields (E's or the BRDF's): its MLP, the feature grid it reads,
+ * and the workspace its backward uses. */
+struct branch {
+    enum esr_component mlp, feat;
+    struct esr_mlp_ctx *ctx; /* the MLP's forward context */
+    float *dx;               /* [n * n_in] the MLP's input-row gradients */
+    float *d_f;              /* [n * ch] the feature grid's samples' gradients */
+};
+
+/* One MLP's backward and its feature grid's: input-row gradients land in br->dx. */
 static int branch_bwd(struct esr_material_fields *mf, const struct esr_model *m,
-                      enum esr_component mlp, enum esr_component feat, struct esr_mlp_ctx *ctx,
-                      const float *d_out, float *dx, float *d_f, float *grads)
+                      const struct branch *br, const float *d_out, float *grads)
 {
+    const enum esr_component mlp = br->mlp, feat = br->feat;
+    float *dx = br->dx, *d_f = br->d_f;
     const size_t n = mf->n, ni = (size_t)mf->n_in;
-    ESR_TRY(esr_mlp_bwd(esr_model_mlp(m, mlp), m->params.w, grads, ctx, d_out, dx,
+    ESR_TRY(esr_mlp_bwd(esr_model_mlp(m, mlp), m->params.w, grads, br->ctx, d_out, dx,
                         ESR_NN_GRAD_OVERWRITE));
     esr_rows_copy_cols(dx, ni, d_f, (size_t)mf->ch, n, mf->ch);
     esr_grid_sample_bwd(esr_model_grid(m, feat), mf->pos3, n, d_f, grads + m->part[feat].off);
@@ -169,12 +179,12 @@ int esr_material_fields_bwd(struct esr_material_fields *mf, const struct esr_mod
         scale_base_colour(d_brdf5, mf->d_brdf5_field, n, b);
         d_brdf5 = mf->d_brdf5_field;
     }
+    const struct branch emit = {ESR_COMP_EMIT_MLP, ESR_COMP_EMO_FEAT, &mf->ctx_e, mf->dx_e, mf->d_fe};
+    const struct branch brdf = {ESR_COMP_BRDF_MLP, ESR_COMP_BRDF_FEAT, &mf->ctx_b, mf->dx_b, mf->d_fb};
     if (d_emit3)
-        ESR_TRY(branch_bwd(mf, m, ESR_COMP_EMIT_MLP, ESR_COMP_EMO_FEAT, &mf->ctx_e, d_emit3, mf->dx_e,
-                           mf->d_fe, grads));
+        ESR_TRY(branch_bwd(mf, m, &emit, d_emit3, grads));
     if (d_brdf5)
-        ESR_TRY(branch_bwd(mf, m, ESR_COMP_BRDF_MLP, ESR_COMP_BRDF_FEAT, &mf->ctx_b, d_brdf5,
-                           mf->dx_b, mf->d_fb, grads));
+        ESR_TRY(branch_bwd(mf, m, &brdf, d_brdf5, grads));
 #pragma omp parallel for schedule(static)
     for (size_t k = 0; k < n; k++)
         for (int j = 0; j < gd; j++)

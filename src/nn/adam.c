@@ -45,11 +45,22 @@ int esr_adam_resize(struct esr_adam *a, size_t count)
     return ESR_OK;
 }
 
+/* One step's coefficients, the same for every entry of a range. */
+struct adam_coef {
+    float b1, b2;       /* the moments' decay (beta1, beta2) */
+    float step;         /* lr / (1 - b1^t): the first moment's bias correction folded in */
+    float inv_sqrt_bc2; /* 1 / sqrt(1 - b2^t): the second moment's */
+    float eps;
+    int sparse;         /* 1: an entry whose gradient is exactly zero is left alone */
+};
+
 /* The per-entry update of entry i (the scalar form, for the tail of a range). */
 static inline void adam_entry(float *ESR_RESTRICT w, const float *ESR_RESTRICT g,
-                              float *ESR_RESTRICT m, float *ESR_RESTRICT v, size_t i, float b1,
-                              float b2, float step, float inv_sqrt_bc2, float eps, int sparse)
+                              float *ESR_RESTRICT m, float *ESR_RESTRICT v, size_t i,
+                              const struct adam_coef *k)
 {
+    const float b1 = k->b1, b2 = k->b2, step = k->step, inv_sqrt_bc2 = k->inv_sqrt_bc2, eps = k->eps;
+    const int sparse = k->sparse;
     float gi = g[i];
     if (sparse && gi == 0.0f)
         return;
@@ -66,9 +77,11 @@ static inline void adam_entry(float *ESR_RESTRICT w, const float *ESR_RESTRICT g
  * untouched as skipping it, and a block whose 8 gradients are all zero (most of a grid away from
  * the batch's rays) is skipped after reading only its gradients. */
 ESR_HOT static void adam_range(float *ESR_RESTRICT w, const float *ESR_RESTRICT g,
-                               float *ESR_RESTRICT m, float *ESR_RESTRICT v, size_t n, float b1,
-                               float b2, float step, float inv_sqrt_bc2, float eps, int sparse)
+                               float *ESR_RESTRICT m, float *ESR_RESTRICT v, size_t n,
+                               const struct adam_coef *k)
 {
+    const float b1 = k->b1, b2 = k->b2, step = k->step, inv_sqrt_bc2 = k->inv_sqrt_bc2, eps = k->eps;
+    const int sparse = k->sparse;
     size_t i = 0;
     for (; i + 8 <= n; i += 8) {
         if (sparse) {
@@ -93,7 +106,7 @@ ESR_HOT static void adam_range(float *ESR_RESTRICT w, const float *ESR_RESTRICT 
         }
     }
     for (; i < n; i++)
-        adam_entry(w, g, m, v, i, b1, b2, step, inv_sqrt_bc2, eps, sparse);
+        adam_entry(w, g, m, v, i, k);
 }
 
 void esr_adam_step(const struct esr_adam_hp *hp, long t, struct esr_adam *a, float *w,
@@ -103,14 +116,13 @@ void esr_adam_step(const struct esr_adam_hp *hp, long t, struct esr_adam *a, flo
         t = 1;
     double bc1 = 1.0 - pow(hp->beta1, (double)t);
     double bc2 = 1.0 - pow(hp->beta2, (double)t);
-    float step = (float)(hp->lr / bc1);
-    float inv_sqrt_bc2 = (float)(1.0 / sqrt(bc2));
+    const struct adam_coef k = {hp->beta1, hp->beta2, (float)(hp->lr / bc1), (float)(1.0 / sqrt(bc2)),
+                                hp->eps, hp->sparse};
     const size_t chunk = 1 << 14;
     size_t n_chunks = (n + chunk - 1) / chunk;
 #pragma omp parallel for schedule(static) if (n_chunks > 1)
     for (size_t c = 0; c < n_chunks; c++) {
         size_t b = offset + c * chunk, len = c + 1 < n_chunks ? chunk : n - c * chunk;
-        adam_range(w + b, g + b, a->m + b, a->v + b, len, hp->beta1, hp->beta2, step,
-                   inv_sqrt_bc2, hp->eps, hp->sparse);
+        adam_range(w + b, g + b, a->m + b, a->v + b, len, &k);
     }
 }

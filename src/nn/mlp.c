@@ -126,35 +126,16 @@ void esr_mlp_ctx_free(struct esr_mlp_ctx *c)
     memset(c, 0, sizeof(*c));
 }
 
-/* C = A B over a tile of the given shape: no bias, no activation, C overwritten. */
-static struct esr_gemm_tile gemm_plain(const float *a, int lda, const float *b, int ldb, float *c,
-                                       int ldc, int m, int n, int k)
-{
-    struct esr_gemm_tile t;
-    t.a = a;
-    t.b = b;
-    t.c = c;
-    t.bias = NULL;
-    t.m = m;
-    t.n = n;
-    t.k = k;
-    t.lda = lda;
-    t.ldb = ldb;
-    t.ldc = ldc;
-    t.trans_a = 0;
-    t.accumulate = 0;
-    t.act = ESR_NN_ACT_NONE;
-    return t;
-}
-
 /* Runs layer l on `rows` rows: y = act(x W_l + b_l). */
 static void layer_fwd(const struct esr_mlp *m, const float *params, int l, const float *x, int ldx,
                       float *y, int ldy, int rows)
 {
-    struct esr_gemm_tile t = gemm_plain(x, ldx, params + m->w_off[l], m->fan_out[l], y, ldy, rows,
-                                        m->fan_out[l], m->fan_in[l]);
-    t.bias = params + m->b_off[l];
-    t.act = l == m->n_layers - 1 ? m->desc.out_act : m->desc.hidden_act;
+    const struct esr_gemm_tile t = {
+        .a = x, .b = params + m->w_off[l], .c = y, .bias = params + m->b_off[l],
+        .m = rows, .n = m->fan_out[l], .k = m->fan_in[l],
+        .lda = ldx, .ldb = m->fan_out[l], .ldc = ldy,
+        .act = l == m->n_layers - 1 ? m->desc.out_act : m->desc.hidden_act,
+    };
     esr_gemm_tile(&t);
 }
 
@@ -241,15 +222,6 @@ static void bias_grad(const float *dz, int rows, int n, float *db)
             db[j] += dz[r * n + j];
 }
 
-/* C (+)= A B over a tile, no bias, no activation. */
-static void tile_product(const float *a, int lda, const float *b, int ldb, float *c, int ldc,
-                         int m, int n, int k, int accumulate)
-{
-    struct esr_gemm_tile t = gemm_plain(a, lda, b, ldb, c, ldc, m, n, k);
-    t.accumulate = accumulate;
-    esr_gemm_tile(&t);
-}
-
 /* dz = act'(y) * dy over n contiguous values; the activation is switched once, outside the loop,
  * so each case vectorises. */
 ESR_HOT static void act_bwd_block(enum esr_nn_act act, const float *ESR_RESTRICT y,
@@ -289,20 +261,26 @@ static void tile_bwd(const struct bwd_job *j, size_t r0, int rows, float *g, flo
         const float *x = l == 0 ? c->in + r0 * n_in : act_row(m, c, l - 1, r0);
         int ldx = l == 0 ? n_in : w;
         bias_grad(gz, rows, fo, g + (m->b_off[l] - m->offset));
-        struct esr_gemm_tile dw = gemm_plain(x, ldx, gz, fo, g + (m->w_off[l] - m->offset), fo,
-                                             fi, fo, rows);
-        dw.trans_a = 1; /* dW += X^T dZ */
-        dw.accumulate = 1;
+        const struct esr_gemm_tile dw = { /* dW += X^T dZ */
+            .a = x, .b = gz, .c = g + (m->w_off[l] - m->offset), .m = fi, .n = fo, .k = rows,
+            .lda = ldx, .ldb = fo, .ldc = fo, .trans_a = 1, .accumulate = 1, .act = ESR_NN_ACT_NONE,
+        };
         esr_gemm_tile(&dw);
         const float *wt = c->wt + (m->w_off[l] - m->offset);
-        if (l > 0) {
-            tile_product(gz, fo, wt, fi, dh, fi, rows, fi, fo, 0);
+        if (l > 0) { /* dH = dZ W^T */
+            const struct esr_gemm_tile dx = {.a = gz, .b = wt, .c = dh, .m = rows, .n = fi, .k = fo,
+                                             .lda = fo, .ldb = fi, .ldc = fi, .act = ESR_NN_ACT_NONE};
+            esr_gemm_tile(&dx);
             /* Hidden layers are width-wide rows (ldx == fi), so the tile is one flat block. */
             act_bwd_block(m->desc.hidden_act, x, dh, dz, rows * fi);
             gz = dz;
-        } else if (j->mode != ESR_NN_GRAD_IGNORE) {
-            tile_product(gz, fo, wt, fi, j->d_in + r0 * n_in, n_in, rows, fi, fo,
-                         j->mode == ESR_NN_GRAD_ACCUMULATE);
+        } else if (j->mode != ESR_NN_GRAD_IGNORE) { /* d_in (+)= dZ W^T */
+            const struct esr_gemm_tile dx = {
+                .a = gz, .b = wt, .c = j->d_in + r0 * n_in, .m = rows, .n = fi, .k = fo,
+                .lda = fo, .ldb = fi, .ldc = n_in, .accumulate = j->mode == ESR_NN_GRAD_ACCUMULATE,
+                .act = ESR_NN_ACT_NONE,
+            };
+            esr_gemm_tile(&dx);
         }
     }
 }

@@ -8,7 +8,8 @@
 
 #include "nn/activation.h"
 
-/* Row-major C = op(A) op(B) + beta C through the workspace's library; ta/tb 'N' or 'T'. */
+/* Row-major C = op(A) op(B) + beta C through the workspace's library; ta/tb 'N' or 'T'.
+ * Exempt from the eight-argument rule: it keeps the BLAS sgemm signature it wraps. */
 static void sgemm(const struct esr_mlp_ctx *ctx, char ta, char tb, size_t m, int n, size_t k, const float *a,
                   int lda, const float *b, int ldb, float beta, float *c, int ldc)
 {

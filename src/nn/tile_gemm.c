@@ -31,7 +31,8 @@ ESR_INLINE void act_block(enum esr_nn_act act, float *c, int ldc, int rows, int 
 
 /* mr x (8 nv) block of C over the full k; mr and nv (1 or 2 vectors) are literals at every call
  * so the accumulators live in registers. A(r, p) = a[r * rs + p * ks]. b and bias point at 8 nv
- * readable floats per row (padded by the caller if needed). */
+ * readable floats per row (padded by the caller if needed).
+ * Exempt from the eight-argument rule: a BLAS-convention GEMM microkernel (sizes, strides apart). */
 ESR_INLINE void micro(int mr, int nv, const float *a, size_t rs, size_t ks, const float *b,
                       int ldb, float *c, int ldc, int k, const float *bias, int accumulate,
                       enum esr_nn_act act)
@@ -68,7 +69,8 @@ ESR_INLINE void micro(int mr, int nv, const float *a, size_t rs, size_t ks, cons
 }
 
 /* All rows of one panel of 8 nv columns: blocks of mr_main rows, then single rows. rs and ks are
- * A's row and k strides, literals at the call sites below so the common ks = 1 folds away. */
+ * A's row and k strides, literals at the call sites below so the common ks = 1 folds away.
+ * Exempt from the eight-argument rule: a BLAS-convention GEMM panel kernel, as micro. */
 ESR_INLINE void panel_strided(int mr_main, int nv, const struct esr_gemm_tile *t, size_t rs,
                               size_t ks, const float *b, int ldb, float *c, int ldc,
                               const float *bias)

@@ -7,19 +7,14 @@
 #include "synth/scene_build.h"
 
 static struct esr_synth_prim *add_prim(struct esr_synth_scene *s, const char *name, enum esr_synth_prim_kind kind,
-                                       struct esr_vec3 a, struct esr_vec3 b, float r, float g, float bl,
-                                       float roughness, float metallic)
+                                       struct esr_vec3 a, struct esr_vec3 b, const struct esr_material *mat)
 {
     struct esr_synth_prim *p = &s->prims[s->n_prims++];
     memset(p, 0, sizeof *p);
     p->kind = kind;
     p->a = a;
     p->b = b;
-    p->mat.base[0] = r;
-    p->mat.base[1] = g;
-    p->mat.base[2] = bl;
-    p->mat.roughness = roughness;
-    p->mat.metallic = metallic;
+    p->mat = *mat;
     p->texture = ESR_SYNTH_TEX_NONE;
     p->light = -1;
     p->name = name;
@@ -64,12 +59,13 @@ static void init_scene(struct esr_synth_scene *s, const char *name, const char *
     s->n_test = 10;
 }
 
+const struct esr_material esr_synth_chrome = {{0.95f, 0.95f, 0.95f}, 0.05f, 1.0f};
+
 /* The helpers under the names scene_build.h gives them (scenes_lights.c builds with them). */
 struct esr_synth_prim *esr_synth_add_prim(struct esr_synth_scene *s, const char *name, enum esr_synth_prim_kind kind,
-                                          struct esr_vec3 a, struct esr_vec3 b, float r, float g, float bl,
-                                          float roughness, float metallic)
+                                          struct esr_vec3 a, struct esr_vec3 b, const struct esr_material *mat)
 {
-    return add_prim(s, name, kind, a, b, r, g, bl, roughness, metallic);
+    return add_prim(s, name, kind, a, b, mat);
 }
 
 void esr_synth_set_texture(struct esr_synth_prim *p, enum esr_synth_texture tex, float r, float g, float b,
@@ -95,26 +91,26 @@ static void build_default(struct esr_synth_scene *s)
 {
     init_scene(s, "default", "floor disc, warm lamp shade + blue orb (2 lights), diffuse and glossy objects");
     struct esr_synth_prim *p;
-    p = add_prim(s, "floor", ESR_SYNTH_CYLINDER, esr_v3(0, 0, -0.06f), esr_v3(1.2f, 0.06f, 0), 0.75f, 0.72f, 0.65f,
-                 0.7f, 0.0f);
+    p = add_prim(s, "floor", ESR_SYNTH_CYLINDER, esr_v3(0, 0, -0.06f), esr_v3(1.2f, 0.06f, 0),
+                 &(struct esr_material){{0.75f, 0.72f, 0.65f}, 0.7f, 0.0f});
     set_texture(p, ESR_SYNTH_TEX_CHECKER, 0.2f, 0.22f, 0.25f, 0.25f);
-    add_prim(s, "lamp_pole", ESR_SYNTH_CYLINDER, esr_v3(-0.55f, 0.4f, 0), esr_v3(0.03f, 0.62f, 0), 0.6f, 0.6f, 0.6f,
-             0.3f, 1.0f);
-    p = add_prim(s, "lampshade", ESR_SYNTH_CYLINDER, esr_v3(-0.55f, 0.4f, 0.62f), esr_v3(0.2f, 0.22f, 0), 0.85f, 0.8f,
-                 0.65f, 0.8f, 0.0f);
+    add_prim(s, "lamp_pole", ESR_SYNTH_CYLINDER, esr_v3(-0.55f, 0.4f, 0), esr_v3(0.03f, 0.62f, 0),
+             &(struct esr_material){{0.6f, 0.6f, 0.6f}, 0.3f, 1.0f});
+    p = add_prim(s, "lampshade", ESR_SYNTH_CYLINDER, esr_v3(-0.55f, 0.4f, 0.62f), esr_v3(0.2f, 0.22f, 0),
+                 &(struct esr_material){{0.85f, 0.8f, 0.65f}, 0.8f, 0.0f});
     add_light(s, p, 1.0f, 0.8f, 0.55f, 8.0f);
-    p = add_prim(s, "orb", ESR_SYNTH_SPHERE, esr_v3(0.6f, -0.45f, 0.14f), esr_v3(0.14f, 0, 0), 0.6f, 0.7f, 0.8f,
-                 0.4f, 0.0f);
+    p = add_prim(s, "orb", ESR_SYNTH_SPHERE, esr_v3(0.6f, -0.45f, 0.14f), esr_v3(0.14f, 0, 0),
+                 &(struct esr_material){{0.6f, 0.7f, 0.8f}, 0.4f, 0.0f});
     add_light(s, p, 0.2f, 0.5f, 1.0f, 12.0f);
-    add_prim(s, "red_ball", ESR_SYNTH_SPHERE, esr_v3(0.15f, 0.05f, 0.32f), esr_v3(0.32f, 0, 0), 0.8f, 0.15f, 0.1f,
-             0.6f, 0.0f);
-    add_prim(s, "metal_ball", ESR_SYNTH_SPHERE, esr_v3(-0.35f, -0.6f, 0.22f), esr_v3(0.22f, 0, 0), 0.95f, 0.85f,
-             0.6f, 0.25f, 1.0f);
-    p = add_prim(s, "striped_box", ESR_SYNTH_BOX, esr_v3(0.35f, 0.4f, 0), esr_v3(0.75f, 0.8f, 0.4f), 0.9f, 0.85f,
-                 0.2f, 0.5f, 0.0f);
+    add_prim(s, "red_ball", ESR_SYNTH_SPHERE, esr_v3(0.15f, 0.05f, 0.32f), esr_v3(0.32f, 0, 0),
+             &(struct esr_material){{0.8f, 0.15f, 0.1f}, 0.6f, 0.0f});
+    add_prim(s, "metal_ball", ESR_SYNTH_SPHERE, esr_v3(-0.35f, -0.6f, 0.22f), esr_v3(0.22f, 0, 0),
+             &(struct esr_material){{0.95f, 0.85f, 0.6f}, 0.25f, 1.0f});
+    p = add_prim(s, "striped_box", ESR_SYNTH_BOX, esr_v3(0.35f, 0.4f, 0), esr_v3(0.75f, 0.8f, 0.4f),
+                 &(struct esr_material){{0.9f, 0.85f, 0.2f}, 0.5f, 0.0f});
     set_texture(p, ESR_SYNTH_TEX_STRIPES, 0.1f, 0.3f, 0.7f, 0.1f);
-    add_prim(s, "green_post", ESR_SYNTH_CYLINDER, esr_v3(-0.75f, -0.1f, 0), esr_v3(0.13f, 0.5f, 0), 0.15f, 0.6f,
-             0.2f, 0.35f, 0.0f);
+    add_prim(s, "green_post", ESR_SYNTH_CYLINDER, esr_v3(-0.75f, -0.1f, 0), esr_v3(0.13f, 0.5f, 0),
+             &(struct esr_material){{0.15f, 0.6f, 0.2f}, 0.35f, 0.0f});
 }
 
 /* The default scene as a real capture would show it: every surface but the lights' carries
@@ -143,26 +139,25 @@ static void build_glossy(struct esr_synth_scene *s)
     init_scene(s, "glossy", "glossy floor and wall near a ball light + small magenta emitter, strong inter-reflections");
     s->spp = 128;
     struct esr_synth_prim *p;
-    p = add_prim(s, "floor", ESR_SYNTH_CYLINDER, esr_v3(0, 0, -0.06f), esr_v3(1.2f, 0.06f, 0), 0.8f, 0.8f, 0.78f,
-                 0.15f, 0.6f);
+    p = add_prim(s, "floor", ESR_SYNTH_CYLINDER, esr_v3(0, 0, -0.06f), esr_v3(1.2f, 0.06f, 0),
+                 &(struct esr_material){{0.8f, 0.8f, 0.78f}, 0.15f, 0.6f});
     set_texture(p, ESR_SYNTH_TEX_CHECKER, 0.45f, 0.45f, 0.5f, 0.3f);
-    p = add_prim(s, "wall", ESR_SYNTH_BOX, esr_v3(-1.0f, 0.75f, 0), esr_v3(1.0f, 0.85f, 0.9f), 0.85f, 0.85f, 0.85f,
-                 0.2f, 0.3f);
+    p = add_prim(s, "wall", ESR_SYNTH_BOX, esr_v3(-1.0f, 0.75f, 0), esr_v3(1.0f, 0.85f, 0.9f),
+                 &(struct esr_material){{0.85f, 0.85f, 0.85f}, 0.2f, 0.3f});
     set_texture(p, ESR_SYNTH_TEX_STRIPES, 0.3f, 0.35f, 0.45f, 0.2f);
-    p = add_prim(s, "ball_light", ESR_SYNTH_SPHERE, esr_v3(0.0f, 0.1f, 0.45f), esr_v3(0.16f, 0, 0), 0.9f, 0.9f,
-                 0.9f, 0.5f, 0.0f);
+    p = add_prim(s, "ball_light", ESR_SYNTH_SPHERE, esr_v3(0.0f, 0.1f, 0.45f), esr_v3(0.16f, 0, 0),
+                 &(struct esr_material){{0.9f, 0.9f, 0.9f}, 0.5f, 0.0f});
     add_light(s, p, 1.0f, 0.9f, 0.75f, 10.0f);
-    p = add_prim(s, "emitter_box", ESR_SYNTH_BOX, esr_v3(0.65f, -0.55f, 0), esr_v3(0.8f, -0.4f, 0.15f), 0.5f, 0.5f,
-                 0.5f, 0.5f, 0.0f);
+    p = add_prim(s, "emitter_box", ESR_SYNTH_BOX, esr_v3(0.65f, -0.55f, 0), esr_v3(0.8f, -0.4f, 0.15f),
+                 &(struct esr_material){{0.5f, 0.5f, 0.5f}, 0.5f, 0.0f});
     add_light(s, p, 1.0f, 0.25f, 0.8f, 15.0f);
-    add_prim(s, "gold_ball", ESR_SYNTH_SPHERE, esr_v3(-0.5f, -0.25f, 0.3f), esr_v3(0.3f, 0, 0), 1.0f, 0.78f, 0.35f,
-             0.1f, 1.0f);
-    add_prim(s, "chrome_ball", ESR_SYNTH_SPHERE, esr_v3(0.45f, 0.3f, 0.2f), esr_v3(0.2f, 0, 0), 0.95f, 0.95f, 0.95f,
-             0.05f, 1.0f);
-    add_prim(s, "copper_post", ESR_SYNTH_CYLINDER, esr_v3(-0.1f, -0.75f, 0), esr_v3(0.12f, 0.6f, 0), 0.95f, 0.6f,
-             0.45f, 0.3f, 1.0f);
-    add_prim(s, "white_block", ESR_SYNTH_BOX, esr_v3(-0.95f, 0.2f, 0), esr_v3(-0.65f, 0.5f, 0.3f), 0.8f, 0.8f, 0.8f,
-             0.8f, 0.0f);
+    add_prim(s, "gold_ball", ESR_SYNTH_SPHERE, esr_v3(-0.5f, -0.25f, 0.3f), esr_v3(0.3f, 0, 0),
+             &(struct esr_material){{1.0f, 0.78f, 0.35f}, 0.1f, 1.0f});
+    add_prim(s, "chrome_ball", ESR_SYNTH_SPHERE, esr_v3(0.45f, 0.3f, 0.2f), esr_v3(0.2f, 0, 0), &esr_synth_chrome);
+    add_prim(s, "copper_post", ESR_SYNTH_CYLINDER, esr_v3(-0.1f, -0.75f, 0), esr_v3(0.12f, 0.6f, 0),
+             &(struct esr_material){{0.95f, 0.6f, 0.45f}, 0.3f, 1.0f});
+    add_prim(s, "white_block", ESR_SYNTH_BOX, esr_v3(-0.95f, 0.2f, 0), esr_v3(-0.65f, 0.5f, 0.3f),
+             &(struct esr_material){{0.8f, 0.8f, 0.8f}, 0.8f, 0.0f});
 }
 
 static const struct {

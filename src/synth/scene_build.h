@@ -5,10 +5,12 @@
 
 #include "synth/scene.h"
 
-/* Appends a primitive of plain base colour (r, g, bl), not emissive, named name (a string literal). */
+/* Appends a primitive of material *mat (its plain base colour; a texture may follow), not
+ * emissive, named name (a string literal); a and b as esr_synth_prim's. */
 struct esr_synth_prim *esr_synth_add_prim(struct esr_synth_scene *s, const char *name, enum esr_synth_prim_kind kind,
-                                          struct esr_vec3 a, struct esr_vec3 b, float r, float g, float bl,
-                                          float roughness, float metallic);
+                                          struct esr_vec3 a, struct esr_vec3 b, const struct esr_material *mat);
+/* The mirror-like metal of the scenes' chrome balls. */
+extern const struct esr_material esr_synth_chrome;
 /* Gives p a procedural texture of base colours 0 (its own) and (r, g, b). */
 void esr_synth_set_texture(struct esr_synth_prim *p, enum esr_synth_texture tex, float r, float g, float b,
                            float period);

@@ -45,13 +45,23 @@ static int occluded(const struct esr_synth_scene *s, struct esr_vec3 o, struct e
 
 static float power_heuristic(float a, float b) { return a * a / (a * a + b * b); }
 
-/* Light k's contribution at x by one point sampled on its surface, MIS-weighted against BRDF
- * sampling. Adds beta * R * Le * w / pdf to l. Every lit light gets its own sample (rather than
- * one light picked at random), which removes the noise of the light choice for a second shadow ray. */
-static void sample_emitter(const struct esr_synth_trace_params *p, int k, struct esr_vec3 x, struct esr_vec3 n,
-                           struct esr_vec3 wo, const struct esr_material *m, struct esr_rng *rng, const float beta[3],
-                           float l[3])
+/* The path vertex being shaded. */
+struct vertex {
+    struct esr_vec3 x;             /* the surface point */
+    struct esr_vec3 n;             /* its unit normal, on the side wo sees */
+    struct esr_vec3 wo;            /* unit direction back along the path */
+    const struct esr_material *m;  /* the surface's material at x */
+};
+
+/* Light k's contribution at vertex v by one point sampled on its surface, MIS-weighted against
+ * BRDF sampling. Adds beta * R * Le * w / pdf to l. Every lit light gets its own sample (rather
+ * than one light picked at random), which removes the noise of the light choice for a second
+ * shadow ray. */
+static void sample_emitter(const struct esr_synth_trace_params *p, int k, const struct vertex *v,
+                           struct esr_rng *rng, const float beta[3], float l[3])
 {
+    const struct esr_vec3 x = v->x, n = v->n, wo = v->wo;
+    const struct esr_material *m = v->m;
     const struct esr_synth_scene *s = p->scene;
     const struct esr_synth_prim *lp = &s->prims[s->lights[k].prim];
     struct esr_vec3 y, ny;
@@ -76,11 +86,12 @@ static void sample_emitter(const struct esr_synth_trace_params *p, int k, struct
         l[c] += beta[c] * f[c] * p->emission[k][c] * w;
 }
 
-/* The world light's contribution at x by one cosine-distributed direction, MIS-weighted. */
-static void sample_world(const struct esr_synth_trace_params *p, struct esr_vec3 x, struct esr_vec3 n,
-                         struct esr_vec3 wo, const struct esr_material *m, struct esr_rng *rng, const float beta[3],
-                         float l[3])
+/* The world light's contribution at vertex v by one cosine-distributed direction, MIS-weighted. */
+static void sample_world(const struct esr_synth_trace_params *p, const struct vertex *v, struct esr_rng *rng,
+                         const float beta[3], float l[3])
 {
+    const struct esr_vec3 x = v->x, n = v->n, wo = v->wo;
+    const struct esr_material *m = v->m;
     struct esr_vec3 t, b;
     esr_v3_basis(n, &t, &b);
     float u1 = esr_rng_float(rng), u2 = esr_rng_float(rng);
@@ -161,11 +172,12 @@ int esr_synth_trace_path(const struct esr_synth_trace_params *p, struct esr_vec3
         if (esr_v3_dot(n, wo) < 0.0f) /* reached from inside through rounding: shade the side seen */
             n = esr_v3_scale(n, -1.0f);
         struct esr_material m = esr_synth_prim_material(prim, x);
+        const struct vertex v = {x, n, wo, &m};
         for (int j = 0; j < s->n_lights; j++)
             if (p->lit[j])
-                sample_emitter(p, j, x, n, wo, &m, rng, beta, l);
+                sample_emitter(p, j, &v, rng, beta, l);
         if (world_on)
-            sample_world(p, x, n, wo, &m, rng, beta, l);
+            sample_world(p, &v, rng, beta, l);
         struct esr_vec3 wi;
         float pdf, f[3];
         float u0 = esr_rng_float(rng), u1 = esr_rng_float(rng), u2 = esr_rng_float(rng);

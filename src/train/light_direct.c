@@ -100,11 +100,13 @@ ESR_HOT size_t esr_light_direct_point(const struct esr_direct_point_query *query
     return traced;
 }
 
-ESR_HOT int esr_lights_direct(const struct esr_light_shadows *sh, const struct esr_light_samples *ls,
-                              int n_lights, const struct esr_light_edit *edits,
-                              const struct esr_direct_points *pts, int spp, uint64_t seed,
-                              double *out, double *out_found)
+ESR_HOT int esr_lights_direct(const struct esr_direct_lights *L, const struct esr_direct_points *pts,
+                              uint64_t seed, double *out, double *out_found)
 {
+    const struct esr_light_shadows *sh = L->sh;
+    const struct esr_light_samples *ls = L->ls;
+    const struct esr_light_edit *edits = L->edits;
+    const int n_lights = L->n, spp = L->spp;
     if (pts->n_wo < 1 || pts->n_wo > ESR_DIRECT_MAX_WO)
         return ESR_FAIL("lights: %d outgoing directions per point (1 to %d)", pts->n_wo,
                         ESR_DIRECT_MAX_WO);

@@ -76,15 +76,22 @@ struct esr_direct_point_query {
 size_t esr_light_direct_point(const struct esr_direct_point_query *q, struct esr_rng *rng,
                               float (*edited)[3], float (*found)[3]);
 
-/* out[((p * n_wo + o) * ESR_MAX_LIGHTS + K) * 3 + c] = D_K (per channel) for the n_lights lights
- * whose surface samples ls[] are given, each sample's emission edited by edits[K] (NULL: as the
- * samples carry it); out_found (or NULL), the same for the emission as found, from the same
- * samples and shadow rays (what fine-tuning compares). Zero for a back-facing wo.
- * Deterministic in seed. Fails (writing nothing) unless pts->n_wo is 1..ESR_DIRECT_MAX_WO and
- * n_lights 0..ESR_MAX_LIGHTS. */
-int esr_lights_direct(const struct esr_light_shadows *sh, const struct esr_light_samples *ls, int n_lights,
-                      const struct esr_light_edit *edits, const struct esr_direct_points *pts,
-                      int spp, uint64_t seed, double *out, double *out_found);
+/* The lights whose direct light esr_lights_direct sums, and how it samples them. */
+struct esr_direct_lights {
+    const struct esr_light_shadows *sh; /* the SDF the shadow rays march */
+    const struct esr_light_samples *ls; /* [n] each light's surface samples */
+    int n;                              /* lights, 0..ESR_MAX_LIGHTS */
+    const struct esr_light_edit *edits; /* [n] each sample's emission edited by its light's edit,
+                                           or NULL: as the samples carry it */
+    int spp;                            /* area samples per point and light */
+};
+
+/* out[((p * n_wo + o) * ESR_MAX_LIGHTS + K) * 3 + c] = D_K (per channel) for the lights of *L;
+ * out_found (or NULL), the same for the emission as found, from the same samples and shadow
+ * rays (what fine-tuning compares). Zero for a back-facing wo. Deterministic in seed. Fails
+ * (writing nothing) unless pts->n_wo is 1..ESR_DIRECT_MAX_WO and L->n 0..ESR_MAX_LIGHTS. */
+int esr_lights_direct(const struct esr_direct_lights *L, const struct esr_direct_points *pts,
+                      uint64_t seed, double *out, double *out_found);
 
 #ifdef __cplusplus
 }

@@ -101,14 +101,16 @@ struct silhouette_sums {
     long rows;
 };
 
-/* A batch of light k's candidate rays (o3/d3 [n*3], photo sRGB rgb3): its field composited at
+/* A batch of light k's candidate rays (lights-on rays, photo sRGB): its field composited at
  * scale 1 (g) and the render with it dark, the other lights at their scales (rest); the
- * unclipped rows the field reaches add g.(photo - rest) and g.g to the sums. g3, rest3 [n*3]
- * scratch. */
-static int silhouette_batch(struct esr_model *m, int k, const float scales[][3], const float *o3,
-                            const float *d3, const float *rgb3, size_t n, float *g3, float *rest3,
+ * unclipped rows the field reaches add g.(photo - rest) and g.g to the sums. g3, rest3
+ * [rays->n * 3] scratch. */
+static int silhouette_batch(struct esr_model *m, int k, const float scales[][3],
+                            const struct esr_ray_set *rays, float *g3, float *rest3,
                             struct silhouette_sums *sum)
 {
+    const float *o3 = rays->orig3, *d3 = rays->dir3, *rgb3 = rays->rgb3;
+    const size_t n = rays->n;
     struct esr_lights *L = &m->lights;
     for (int a = 0; a < L->n; a++)
         for (int c = 0; c < 3; c++)
@@ -139,12 +141,14 @@ static int silhouette_batch(struct esr_model *m, int k, const float scales[][3],
     return ESR_OK;
 }
 
-/* Light k's silhouette scale (sil) and pixel count over the rays (orig3/dir3/rgb3 [n*3]) through
- * its box, taken BALANCE_CHUNK at a time: least squares per channel of photo - rest = s g. */
+/* Light k's silhouette scale (sil) and pixel count over the lights-on rays through its box,
+ * taken BALANCE_CHUNK at a time: least squares per channel of photo - rest = s g. */
 static int silhouette_scale(struct esr_model *m, int k, const float scales[][3],
-                            const float *orig3, const float *dir3, const float *rgb3, size_t n,
-                            const float box[6], float sil[3], long *rows)
+                            const struct esr_ray_set *rays, const float box[6], float sil[3],
+                            long *rows)
 {
+    const float *orig3 = rays->orig3, *dir3 = rays->dir3, *rgb3 = rays->rgb3;
+    const size_t n = rays->n;
     float *buf = malloc((size_t)BALANCE_CHUNK * 15 * sizeof(float));
     if (!buf)
         return ESR_FAIL("lights: out of memory for the colour balance");
@@ -164,7 +168,8 @@ static int silhouette_scale(struct esr_model *m, int k, const float scales[][3],
             got++;
         }
         if (got == BALANCE_CHUNK || (r == n && got > 0)) {
-            rc = silhouette_batch(m, k, scales, o3, d3, y3, got, g3, rest3, &sum);
+            const struct esr_ray_set batch = {got, 0, o3, d3, y3, 0};
+            rc = silhouette_batch(m, k, scales, &batch, g3, rest3, &sum);
             got = 0;
         }
     }
@@ -180,8 +185,8 @@ int esr_lights_balance(struct esr_model *m, const struct esr_ray_set *rs,
 {
     struct esr_lights *L = &m->lights;
     const size_t n = rs->n - rs->n_off; /* the lights-on rays follow the lights-off ones */
-    const float *orig3 = rs->orig3 + rs->n_off * 3, *dir3 = rs->dir3 + rs->n_off * 3;
-    const float *rgb3 = rs->rgb3 + rs->n_off * 3;
+    const struct esr_ray_set on = {n, 0, rs->orig3 + rs->n_off * 3, rs->dir3 + rs->n_off * 3,
+                                   rs->rgb3 + rs->n_off * 3, rs->transparent};
     memset(info, 0, sizeof(*info));
     for (int c = 0; c < 3; c++)
         info->applied[c] = 1.0f;
@@ -196,7 +201,7 @@ int esr_lights_balance(struct esr_model *m, const struct esr_ray_set *rs,
     /* lights too small to fit borrowed their scale: no colour of their own to compare */
     for (int k = 0; rc == ESR_OK && k < L->n; k++)
         if (esr_light_strength_fitted(L, k))
-            rc = silhouette_scale(m, k, (const float(*)[3])scales, orig3, dir3, rgb3, n, box[k],
+            rc = silhouette_scale(m, k, (const float(*)[3])scales, &on, box[k],
                                   info->silhouette[k], &info->rows[k]);
     for (int a = 0; a < L->n; a++)
         memcpy(L->light[a].scale, scales[a], sizeof scales[a]);

@@ -41,11 +41,19 @@
  * [1 / this, this] */
 #define CALIB_MAX_CORRECTION 4.0
 
+/* The rays calibration points are searched on. */
+struct calib_rays {
+    const float *orig3, *dir3; /* [n*3] origins and unit directions */
+    size_t n;
+};
+
 /* Calibration points: the strongest sample (weight >= CALIB_SURFACE_WEIGHT) of random rays,
  * kept when it lies on no light and its E is well below k. */
-static int calib_points(const struct esr_model *m, const float *orig3, const float *dir3, size_t n,
-                        int want, uint64_t seed, float *pos3, float *dir_out3, int *got)
+static int calib_points(const struct esr_model *m, const struct calib_rays *rays, int want,
+                        uint64_t seed, float *pos3, float *dir_out3, int *got)
 {
+    const float *orig3 = rays->orig3, *dir3 = rays->dir3;
+    const size_t n = rays->n;
     const float *sdf = esr_model_values(m, ESR_COMP_SDF);
     const float k = m->cfg.emitter_k;
     struct esr_trace t;
@@ -110,13 +118,25 @@ static int point_frame(const struct esr_lts *l, size_t p, struct esr_vec3 *n, st
     return esr_v3_dot(*n, *wo) > 0.0f;
 }
 
+/* One LTS call's points and what was measured at them. */
+struct calib_chunk {
+    const struct esr_lts *l;  /* the call: points, normals, materials, hemisphere directions */
+    size_t P;                 /* its points */
+    const float *hit_emit3;   /* [P * l->M * 3] E at the hemisphere directions' hits */
+    const double *A;          /* the settled lights' direct light (esr_lights_direct's out) */
+    const double *Ar;         /* the same from their undecided rims, or NULL: no light has one */
+};
+
 /* Adds one LTS call's points as rows: A from esr_lights_direct, B from the hemisphere directions
  * (the other surfaces' emo radiance, and the lights' own reflected part L_emo - E where a
  * direction hits one). */
-static void accumulate(const struct esr_model *m, const struct esr_lts *l, size_t P,
-                       const float *hit_emit3, const double *Aall, const double *Rall,
-                       int correct_base, struct esr_calib_rows *rows, double *seen)
+static void accumulate(const struct esr_model *m, const struct calib_chunk *ch, int correct_base,
+                       struct esr_calib_rows *rows, double *seen)
 {
+    const struct esr_lts *l = ch->l;
+    const size_t P = ch->P;
+    const float *hit_emit3 = ch->hit_emit3;
+    const double *Aall = ch->A, *Rall = ch->Ar;
     const int K = m->lights.n;
     const size_t M = (size_t)l->M;
     for (size_t p = 0; p < P && rows->n < rows->cap; p++) {
@@ -218,8 +238,9 @@ int esr_lights_calibrate(struct esr_model *m, const float *orig3, const float *d
         has_rim[a] = lr[a].n > 0;
         any_rim |= has_rim[a];
     }
+    const struct calib_rays rays = {orig3, dir3, n};
     if (rc == ESR_OK)
-        rc = calib_points(m, orig3, dir3, n, want, seed, pos, dir, &got);
+        rc = calib_points(m, &rays, want, seed, pos, dir, &got);
     /* the LTS machinery at these points: its own sizes, first hit */
     const long keep_step = m->step;
     m->step = 1; /* off the normal SDF's refresh period: computed once; restored below */
@@ -237,6 +258,9 @@ int esr_lights_calibrate(struct esr_model *m, const float *orig3, const float *d
     memset(&shadows, 0, sizeof shadows);
     if (rc == ESR_OK)
         rc = esr_light_shadows_init(&shadows, m);
+    /* the direct light of each light's settled part and of its undecided rim, apart */
+    const struct esr_direct_lights settled = {&shadows, ls, K, NULL, CALIB_LIGHT_SPP};
+    const struct esr_direct_lights rims = {&shadows, lr, K, NULL, CALIB_LIGHT_SPP};
     for (int p0 = 0; rc == ESR_OK && p0 < got; p0 += CALIB_CHUNK) {
         const size_t P = (size_t)(got - p0 < CALIB_CHUNK ? got - p0 : CALIB_CHUNK);
         struct esr_march pts; /* the points as a kept list: the LTS takes each once */
@@ -245,18 +269,20 @@ int esr_lights_calibrate(struct esr_model *m, const float *orig3, const float *d
         pts.kpos3 = pos + (size_t)p0 * 3;
         pts.kdir3 = dir + (size_t)p0 * 3;
         struct esr_lts_stats st;
-        rc = esr_lts_run(&l, m, sdf, NULL, NULL, &pts, NULL, seed + (uint64_t)p0, &st);
+        const struct esr_lts_batch lb = {&pts, NULL, seed + (uint64_t)p0};
+        rc = esr_lts_run(&l, m, sdf, NULL, NULL, &lb, &st);
         if (rc == ESR_OK)
             rc = esr_material_fields_fwd(&mf, m, sdf, l.hit_pos3, P * CALIB_DIRS);
         /* A_K: the samples carry the field's E (scales 1), the scale is what is solved for */
         const struct esr_direct_points dp = {P, l.pos3, l.nrm3, l.mf.brdf5, l.wo3, 2};
         const uint64_t dseed = seed ^ (uint64_t)(p0 + 1) * 0x9e3779b97f4a7c15ULL;
         if (rc == ESR_OK)
-            rc = esr_lights_direct(&shadows, ls, K, NULL, &dp, CALIB_LIGHT_SPP, dseed, Abuf, NULL);
+            rc = esr_lights_direct(&settled, &dp, dseed, Abuf, NULL);
         if (rc == ESR_OK && any_rim)
-            rc = esr_lights_direct(&shadows, lr, K, NULL, &dp, CALIB_LIGHT_SPP, ~dseed, Rbuf, NULL);
+            rc = esr_lights_direct(&rims, &dp, ~dseed, Rbuf, NULL);
+        const struct calib_chunk ch = {&l, P, mf.emit3, Abuf, any_rim ? Rbuf : NULL};
         if (rc == ESR_OK)
-            accumulate(m, &l, P, mf.emit3, Abuf, any_rim ? Rbuf : NULL, correct_base, &rows, seen);
+            accumulate(m, &ch, correct_base, &rows, seen);
     }
     esr_material_fields_free(&mf);
     esr_lts_free(&l);
@@ -270,8 +296,8 @@ int esr_lights_calibrate(struct esr_model *m, const float *orig3, const float *d
     int fit[ESR_MAX_LIGHTS], emits[ESR_MAX_LIGHTS] = {0};
     float t_on[ESR_MAX_LIGHTS] = {0};
     int nf = esr_lights_fitted(&m->lights, fit);
-    if (rc == ESR_OK && any_rim &&
-        esr_calib_decide_rims(&m->lights, &rows, fit, nf, has_rim, ca, cy, emits, t_on) != 0)
+    const struct esr_calib_problem rim_pb = {&m->lights, &rows, fit, nf, ca, cy};
+    if (rc == ESR_OK && any_rim && esr_calib_decide_rims(&rim_pb, has_rim, emits, t_on) != 0)
         rc = ESR_FAIL("lights: out of memory for the calibration");
     if (rc == ESR_OK)
         rc = esr_lights_settle(m, emits);
@@ -279,8 +305,9 @@ int esr_lights_calibrate(struct esr_model *m, const float *orig3, const float *d
         m->lights.rim[a] = (struct esr_light_rim){(long)lr[a].n, emits[a], t_on[a]};
     /* the lights to fit by their settled areas (a rim left dark can move one past the share) */
     nf = esr_lights_fitted(&m->lights, fit);
+    const struct esr_calib_problem pb = {&m->lights, &rows, fit, nf, ca, cy};
     double scale[3][ESR_MAX_LIGHTS];
-    if (rc == ESR_OK && esr_calib_fit(&m->lights, &rows, fit, nf, emits, ca, cy, scale, NULL, NULL, NULL) != 0)
+    if (rc == ESR_OK && esr_calib_fit(&pb, emits, scale, NULL, NULL, NULL) != 0)
         rc = ESR_FAIL("lights: out of memory for the calibration");
     for (int c = 0; rc == ESR_OK && c < 3; c++) {
         for (int f = 0; f < nf; f++)

@@ -19,10 +19,14 @@ static double huber(double u)
     return au <= c ? 0.5 * u * u : c * (au - 0.5 * c);
 }
 
-int esr_calib_fit(const struct esr_lights *L, const struct esr_calib_rows *rows, const int *fit,
-                  int nf, const int *emits, double *ca, double *cy, double scale[3][ESR_MAX_LIGHTS],
-                  const double *sigma, double *sigma_out, double *loss)
+int esr_calib_fit(const struct esr_calib_problem *pb, const int *emits,
+                  double scale[3][ESR_MAX_LIGHTS], const double *sigma, double *sigma_out,
+                  double *loss)
 {
+    const struct esr_lights *L = pb->L;
+    const struct esr_calib_rows *rows = pb->rows;
+    const int *fit = pb->fit, nf = pb->nf;
+    double *ca = pb->ca, *cy = pb->cy;
     const int K = L->n;
     for (int c = 0; c < 3; c++) {
         for (size_t p = 0; p < rows->n; p++) { /* channel c's rows of the fitted lights */
@@ -76,10 +80,11 @@ static double paired_t(const double *to, const double *from, size_t np)
     return var > 0.0 ? mean / sqrt(var / (double)np) : 0.0;
 }
 
-int esr_calib_decide_rims(const struct esr_lights *L, const struct esr_calib_rows *rows,
-                          const int *fit, int nf, const int *has_rim, double *ca, double *cy,
+int esr_calib_decide_rims(const struct esr_calib_problem *pb, const int *has_rim,
                           int emits[ESR_MAX_LIGHTS], float t_on[ESR_MAX_LIGHTS])
 {
+    const struct esr_lights *L = pb->L;
+    const struct esr_calib_rows *rows = pb->rows;
     double scale[3][ESR_MAX_LIGHTS], sigma[3];
     const size_t nr = rows->n * 3;
     double *best = malloc((nr ? nr : 1) * sizeof(double));
@@ -88,9 +93,9 @@ int esr_calib_decide_rims(const struct esr_lights *L, const struct esr_calib_row
     memset(t_on, 0, ESR_MAX_LIGHTS * sizeof(float));
     int rc = best && loss ? 0 : -1;
     if (rc == 0)
-        rc = esr_calib_fit(L, rows, fit, nf, emits, ca, cy, scale, NULL, sigma, NULL);
+        rc = esr_calib_fit(pb, emits, scale, NULL, sigma, NULL);
     if (rc == 0)
-        rc = esr_calib_fit(L, rows, fit, nf, emits, ca, cy, scale, sigma, NULL, best);
+        rc = esr_calib_fit(pb, emits, scale, sigma, NULL, best);
     /* forward: the rim whose light helps most, while one helps clearly (a rim once on stays on) */
     for (;;) {
         int pick = -1;
@@ -99,7 +104,7 @@ int esr_calib_decide_rims(const struct esr_lights *L, const struct esr_calib_row
             if (!has_rim[k] || emits[k])
                 continue;
             emits[k] = 1;
-            rc = esr_calib_fit(L, rows, fit, nf, emits, ca, cy, scale, sigma, NULL, loss);
+            rc = esr_calib_fit(pb, emits, scale, sigma, NULL, loss);
             emits[k] = 0;
             const double t = paired_t(loss, best, rows->n);
             if (rc == 0 && t < t_pick)
@@ -108,14 +113,14 @@ int esr_calib_decide_rims(const struct esr_lights *L, const struct esr_calib_row
         if (rc != 0 || pick < 0)
             break;
         emits[pick] = 1;
-        rc = esr_calib_fit(L, rows, fit, nf, emits, ca, cy, scale, sigma, NULL, best);
+        rc = esr_calib_fit(pb, emits, scale, sigma, NULL, best);
     }
     /* what each rim's light does against the final choice, for the report */
     for (int k = 0; rc == 0 && k < L->n; k++) {
         if (!has_rim[k])
             continue;
         emits[k] = !emits[k];
-        rc = esr_calib_fit(L, rows, fit, nf, emits, ca, cy, scale, sigma, NULL, loss);
+        rc = esr_calib_fit(pb, emits, scale, sigma, NULL, loss);
         emits[k] = !emits[k];
         const double t = paired_t(loss, best, rows->n);
         t_on[k] = (float)(emits[k] ? -t : t);

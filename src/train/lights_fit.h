@@ -38,14 +38,24 @@ struct esr_calib_rows {
     double median[3]; /* r's median per channel */
 };
 
-/* Fits the fitted lights' scales (fit [nf], esr_lights_fitted) to the rows, per channel, light
- * K's undecided rim counted as part of it when emits[K] (NULL: no rim counts): scale[c][f]. The
- * residuals' scale per channel (1.4826 median |residual|) goes to sigma_out (or NULL), and when
- * sigma is given each row's Huber loss at that scale to loss [n*3] (point p, channel c at
- * p * 3 + c). ca [n*nf] and cy [n] are scratch. Returns 0, -1 when out of memory. */
-int esr_calib_fit(const struct esr_lights *L, const struct esr_calib_rows *rows, const int *fit,
-                  int nf, const int *emits, double *ca, double *cy, double scale[3][ESR_MAX_LIGHTS],
-                  const double *sigma, double *sigma_out, double *loss);
+/* What the calibration fits: the lights, their rows, which of them are fitted, and scratch. */
+struct esr_calib_problem {
+    const struct esr_lights *L;
+    const struct esr_calib_rows *rows;
+    const int *fit; /* [nf] the fitted lights' ids (esr_lights_fitted) */
+    int nf;
+    double *ca;     /* [rows->n * nf] scratch */
+    double *cy;     /* [rows->n] scratch */
+};
+
+/* Fits the fitted lights' scales to the rows of *pb, per channel, light K's undecided rim
+ * counted as part of it when emits[K] (NULL: no rim counts): scale[c][f]. The residuals' scale
+ * per channel (1.4826 median |residual|) goes to sigma_out (or NULL), and when sigma is given
+ * each row's Huber loss at that scale to loss [n*3] (point p, channel c at p * 3 + c). Returns 0,
+ * -1 when out of memory. */
+int esr_calib_fit(const struct esr_calib_problem *pb, const int *emits,
+                  double scale[3][ESR_MAX_LIGHTS], const double *sigma, double *sigma_out,
+                  double *loss);
 
 /* Decides which lights' undecided rims emit (emits[K]; has_rim[K]: light K has one), by the
  * light they would cast: starting from none, the rim whose light explains the rows best joins,
@@ -55,8 +65,7 @@ int esr_calib_fit(const struct esr_lights *L, const struct esr_calib_rows *rows,
  * from dark to emitting (negative: its light helps, by -t_on standard errors; with rims that
  * light the same points an emitting one can end above -ESR_CALIB_RIM_T). Returns 0, -1 when out
  * of memory. */
-int esr_calib_decide_rims(const struct esr_lights *L, const struct esr_calib_rows *rows,
-                          const int *fit, int nf, const int *has_rim, double *ca, double *cy,
+int esr_calib_decide_rims(const struct esr_calib_problem *pb, const int *has_rim,
                           int emits[ESR_MAX_LIGHTS], float t_on[ESR_MAX_LIGHTS]);
 
 /* One line on what the calibration decided about light id's undecided rim (esr_lights.rim),

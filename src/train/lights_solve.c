@@ -188,7 +188,8 @@ static int batch_correction(struct esr_model *m, struct esr_lts *l, const struct
         pts.kpos3 = pos;
         pts.kdir3 = dir;
         struct esr_lts_stats st;
-        rc = esr_lts_run(l, m, sdf, NULL, NULL, &pts, NULL, seed + p0, &st);
+        const struct esr_lts_batch lb = {&pts, NULL, seed + p0};
+        rc = esr_lts_run(l, m, sdf, NULL, NULL, &lb, &st);
         for (size_t q = 0; rc == ESR_OK && q < P; q++)
             for (int c = 0; c < 3; c++) {
                 const float off = l->pf.lin3[(q * 4) * 3 + (size_t)c], hat = l->hat3[(q * 2) * 6 + (size_t)c];

@@ -55,9 +55,11 @@ static int invert(int K, const double *g, double *inv)
 
 /* Row i's residual in channel c at s (columns: a, or the mean of a and a2), and whether it counts (a lower bound only while the fit
  * is below it). */
-static int residual(int K, const float *a, const float *a2, const float *y, const uint8_t *kind,
-                    size_t i, int c, const double *s, double *r)
+static int residual(const struct esr_solve_rows *rows, size_t i, int c, const double *s, double *r)
 {
+    const int K = rows->K;
+    const float *a = rows->a, *a2 = rows->a2, *y = rows->y;
+    const uint8_t *kind = rows->kind;
     const size_t at = i * 3 + (size_t)c;
     if (kind[at] == 0)
         return 0;
@@ -93,7 +95,7 @@ int esr_lights_solve_fit(const struct esr_solve_rows *rows, double s[3][ESR_MAX_
             memset(G, 0, sizeof G);
             for (size_t i = 0; i < n; i++) {
                 double r;
-                if (!residual(K, a, a2, y, kind, i, c, s[c], &r))
+                if (!residual(rows, i, c, s[c], &r))
                     continue;
                 const double w = scale > 0.0 && fabs(r) > HUBER_K * scale ? HUBER_K * scale / fabs(r) : 1.0;
                 const float *ai = a + (i * 3 + (size_t)c) * (size_t)K;
@@ -117,7 +119,7 @@ int esr_lights_solve_fit(const struct esr_solve_rows *rows, double s[3][ESR_MAX_
             size_t m = 0;
             for (size_t i = 0; i < n; i++) {
                 double r;
-                if (kind[i * 3 + (size_t)c] == 1 && residual(K, a, a2, y, kind, i, c, s[c], &r))
+                if (kind[i * 3 + (size_t)c] == 1 && residual(rows, i, c, s[c], &r))
                     absr[m++] = fabs(r);
             }
             scale = m ? 1.4826 * esr_median_doubles(absr, m) : 0.0;

@@ -242,11 +242,22 @@ static void build_point_rows(struct esr_lts *l, size_t P)
             }
 }
 
+/* How a call weighs its points' errors (the same for every point). */
+struct point_weights {
+    float scale; /* the loss weight over the terms averaged: points x 2 outgoing x 3 channels */
+    float w_l;   /* the emo pair's weight on E's side (1: the plain MSE) */
+    float w_r;   /* the emo pair's weight on L_emo's side (1: the plain MSE) */
+    int sg;      /* pdra's stop-gradient pair in force: an uncertain point's emo error trains E
+                    and L_emo, not the reflection */
+};
+
 /* Estimates, loss and the gradients of everything they read, for point p; *prod gets the split
  * loss's products (l->split). */
-static void point_loss(struct esr_lts *l, size_t p, float scale, float w_l, float w_r, int sg,
+static void point_loss(struct esr_lts *l, size_t p, const struct point_weights *pw,
                        double *se_off, double *se_emo, double *prod)
 {
+    const float scale = pw->scale, w_l = pw->w_l, w_r = pw->w_r;
+    const int sg = pw->sg;
     const size_t M = (size_t)l->M;
     const float *lin = l->pf.lin3, *E = l->mf.emit3 + p * 3;
     const struct esr_material mat = esr_material_of_row(l->mf.brdf5 + p * ESR_BRDF_CHANNELS, 1.0f);
@@ -336,9 +347,11 @@ static void point_loss(struct esr_lts *l, size_t p, float scale, float w_l, floa
 }
 
 int esr_lts_run(struct esr_lts *l, const struct esr_model *m, const float *sdf, float *g_sdf,
-                float *grads, const struct esr_march *mc, const uint8_t *ray_certain,
-                uint64_t seed, struct esr_lts_stats *out)
+                float *grads, const struct esr_lts_batch *b, struct esr_lts_stats *out)
 {
+    const struct esr_march *mc = b->mc;
+    const uint8_t *ray_certain = b->ray_certain;
+    const uint64_t seed = b->seed;
     memset(out, 0, sizeof(*out));
     if (mc->n_kept == 0)
         return ESR_OK;
@@ -384,6 +397,7 @@ int esr_lts_run(struct esr_lts *l, const struct esr_model *m, const float *sdf, 
     const float w = l->hook ? 1.0f : m->cfg.lts_weight, scale = w / (float)(P * 2 * 3);
     const int pair = ray_certain && m->cfg.pdra_sg; /* "w/o sg": one plain MSE */
     const float w_l = pair ? m->cfg.pdra_w_l : 1.0f, w_r = pair ? m->cfg.pdra_w_r : 1.0f;
+    const struct point_weights pw = {scale, w_l, w_r, pair};
     double se_off = 0.0, se_emo = 0.0, prod = 0.0;
     if (l->hook) {
         ESR_TRY(l->hook->run(l->hook->user, l, m, sdf, &q, P, &se_emo));
@@ -391,7 +405,7 @@ int esr_lts_run(struct esr_lts *l, const struct esr_model *m, const float *sdf, 
         /* each point writes only its own rows and directions */
 #pragma omp parallel for schedule(dynamic, 4) reduction(+ : se_off, se_emo, prod)
         for (size_t p = 0; p < P; p++)
-            point_loss(l, p, scale, w_l, w_r, pair, &se_off, &se_emo, &prod);
+            point_loss(l, p, &pw, &se_off, &se_emo, &prod);
     }
     size_t hits = 0;
     if (grads) { /* NULL: forward only (the calibration reads the estimates, not a gradient) */

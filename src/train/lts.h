@@ -139,14 +139,21 @@ int esr_lts_set_lights(struct esr_lts *l, const struct esr_model *m, struct esr_
  * checkpoint inside a stage, so a resumed stage trains exactly as one never stopped. */
 void esr_lts_refresh_normals(struct esr_lts *l);
 
-/* The LTS loss on points taken from mc's kept list (the primary batch's last forward), its
- * gradient ADDED into grads (flat base) and g_sdf (the SDF the fields read). `sdf` is that SDF.
- * ray_certain (per ray of the batch, or NULL: none) marks the pdra stage's certain rays: their
- * points re-render L_emo from reflection alone and give E no gradient. grads NULL: the forward
- * only (the estimates and the stats, hits 0; g_sdf is not touched). */
+/* The batch an LTS call takes its points from. */
+struct esr_lts_batch {
+    const struct esr_march *mc;  /* the primary batch's last forward: the points are taken from
+                                    its kept list */
+    const uint8_t *ray_certain;  /* per ray of the batch, or NULL (none): the pdra stage's certain
+                                    rays, whose points re-render L_emo from reflection alone and
+                                    give E no gradient */
+    uint64_t seed;               /* the call's draws (points, directions, secondary rays) */
+};
+
+/* The LTS loss on points of batch b, its gradient ADDED into grads (flat base) and g_sdf (the
+ * SDF the fields read). `sdf` is that SDF. grads NULL: the forward only (the estimates and the
+ * stats, hits 0; g_sdf is not touched). */
 int esr_lts_run(struct esr_lts *l, const struct esr_model *m, const float *sdf, float *g_sdf,
-                float *grads, const struct esr_march *mc, const uint8_t *ray_certain,
-                uint64_t seed, struct esr_lts_stats *out);
+                float *grads, const struct esr_lts_batch *b, struct esr_lts_stats *out);
 
 #ifdef __cplusplus
 }

@@ -131,7 +131,7 @@ int esr_pdra_step(struct esr_pdra *pd, struct esr_model *m, const float *sdf, fl
     pd->supp_loss = 0.0;
     if (m->cfg.pdra_progressive) /* else "w/o progressive": every ray uncertain */
         groups_and_suppression(pd, m, mc, &a, chosen_k_end);
-    ESR_TRY(esr_pdra_reg_smooth(&pd->reg, m, sdf, g_sdf, grads, mc, pd->mf.emit3, pd->d_rows3,
-                                seed));
+    const struct esr_pdra_reg_batch rb = {mc, pd->mf.emit3, pd->d_rows3, seed};
+    ESR_TRY(esr_pdra_reg_smooth(&pd->reg, m, sdf, g_sdf, grads, &rb));
     return esr_material_fields_bwd(&pd->mf, m, g_sdf, grads, pd->d_rows3, NULL);
 }

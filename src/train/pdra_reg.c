@@ -68,9 +68,12 @@ static float sign(float x)
 }
 
 int esr_pdra_reg_smooth(struct esr_pdra_reg *r, const struct esr_model *m, const float *sdf,
-                        float *g_sdf, float *grads, const struct esr_march *mc, const float *emit3,
-                        float *d_emit3, uint64_t seed)
+                        float *g_sdf, float *grads, const struct esr_pdra_reg_batch *b)
 {
+    const struct esr_march *mc = b->mc;
+    const float *emit3 = b->emit3;
+    float *d_emit3 = b->d_emit3;
+    const uint64_t seed = b->seed;
     const size_t n = mc->n_kept;
     const struct esr_grid *g = esr_model_grid(m, ESR_COMP_SDF);
     const float vox = esr_grid_voxel_size(g, 0);

@@ -35,12 +35,20 @@ struct esr_pdra_reg {
 int esr_pdra_reg_init(struct esr_pdra_reg *r, const struct esr_model *m, size_t cap);
 void esr_pdra_reg_free(struct esr_pdra_reg *r);
 
-/* Emission smoothness at mc's kept rows, whose E is emit3 (the caller's forward): its gradient
- * is ADDED into d_emit3 (the kept rows') and the jittered points' into grads / g_sdf. Normal
- * smoothness: ADDED into g_sdf. Either term is skipped at weight 0. */
+/* The batch the smoothness terms are taken on. */
+struct esr_pdra_reg_batch {
+    const struct esr_march *mc; /* the primary batch's last forward: the terms' points are its
+                                   kept rows */
+    const float *emit3;         /* [mc->n_kept * 3] E at the kept rows (the caller's forward) */
+    float *d_emit3;             /* [mc->n_kept * 3] the kept rows' E gradient, ADDED into */
+    uint64_t seed;              /* the step's jitter and emission-smoothness rows */
+};
+
+/* Emission smoothness at b's kept rows: its gradient is ADDED into b->d_emit3 and the jittered
+ * points' into grads / g_sdf. Normal smoothness: ADDED into g_sdf. Either term is skipped at
+ * weight 0. */
 int esr_pdra_reg_smooth(struct esr_pdra_reg *r, const struct esr_model *m, const float *sdf,
-                        float *g_sdf, float *grads, const struct esr_march *mc, const float *emit3,
-                        float *d_emit3, uint64_t seed);
+                        float *g_sdf, float *grads, const struct esr_pdra_reg_batch *b);
 
 /* Entropy of the final transmittances t_last[n]: returns the loss (w_ent mean H) and writes
  * d_t_last[n] (its gradient). */

@@ -107,8 +107,8 @@ int esr_train_step_run(struct esr_train_step *st, struct esr_model *m, int n, ui
         certain = st->pdra.certain;
     }
     if (st->has_lts) {
-        ESR_TRY(esr_lts_run(&st->lts, m, sdf, g_sdf, m->params.g, &st->tr.march, certain,
-                            seed ^ 0x17a3c0ffeeULL, &st->lts_stats));
+        const struct esr_lts_batch lb = {&st->tr.march, certain, seed ^ 0x17a3c0ffeeULL};
+        ESR_TRY(esr_lts_run(&st->lts, m, sdf, g_sdf, m->params.g, &lb, &st->lts_stats));
         out->loss += st->lts_stats.loss;
     }
     if (st->sdf_view)

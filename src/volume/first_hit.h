@@ -238,14 +238,21 @@ ESR_INLINE float esr_first_hit_probe(const struct esr_first_hit_grid *fg, const 
     return c0 + fz * (c1 - c0);
 }
 
-/* Zero of f in [a, b] with f(a) = fa > 0 >= fb = f(b): false position with the Illinois fix
- * (halve the weight of an end that survives twice), midpoint when the secant point is not strictly
- * inside the bracket, until b - a <= tol or iters run out; returns the secant point of the last
- * bracket (the midpoint if that is degenerate). */
+/* A bracket of the ray's first zero of f: f(a) = fa > 0 >= fb = f(b), a < b. */
+struct esr_first_hit_bracket {
+    float a, fa; /* the end outside the surface and f there */
+    float b, fb; /* the end on or inside it and f there */
+};
+
+/* Zero of f in bracket br: false position with the Illinois fix (halve the weight of an end
+ * that survives twice), midpoint when the secant point is not strictly inside the bracket, until
+ * b - a <= tol or iters run out; returns the secant point of the last bracket (the midpoint if
+ * that is degenerate). */
 ESR_INLINE float esr_first_hit_refine(const struct esr_first_hit_grid *fg, const float o[3],
-                                      const float d[3], float a, float fa, float b, float fb,
+                                      const float d[3], const struct esr_first_hit_bracket *br,
                                       float tol, int iters)
 {
+    float a = br->a, fa = br->fa, b = br->b, fb = br->fb;
     float wa = fa, wb = fb, lip, ex;
     int side = 0;
     for (int k = 0; k < iters && b - a > tol; k++) {
@@ -324,7 +331,8 @@ ESR_INLINE unsigned esr_first_hit_ray(const struct esr_first_hit_grid *fg,
             tn = esr_fh_min(nextafterf(t, INFINITY), t1);
         float fn = esr_first_hit_probe(fg, o, d, tn, &lip, &ex);
         if (f > 0.0f && fn <= 0.0f) {
-            *t_hit = esr_first_hit_refine(fg, o, d, t, f, tn, fn, tol, p->refine_iters);
+            const struct esr_first_hit_bracket br = {t, f, tn, fn};
+            *t_hit = esr_first_hit_refine(fg, o, d, &br, tol, p->refine_iters);
             return flags | ESR_FIRST_HIT_HIT;
         }
         t = tn;

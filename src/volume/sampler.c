@@ -50,9 +50,10 @@ void esr_samples_free(struct esr_samples *s)
     memset(s, 0, sizeof(*s));
 }
 
-/* The mask's empty blocks as a march reads them. */
-struct mask_blocks {
-    const uint8_t *any; /* esr_mask_blocks */
+/* What a march skips by the mask (with one; all NULL without). */
+struct mask_skip {
+    const float (*occ_box)[3]; /* [2][3] min and max of the points the mask keeps */
+    const uint8_t *any;        /* its empty blocks (esr_mask_blocks) */
     int nb[3];
 };
 
@@ -61,7 +62,7 @@ struct mask_blocks {
  * last step whose whole stratum [t0 + k' step, t0 + (k' + 1) step) ends before it (0.01 lattice
  * units short, for rounding), so the march skips the steps after k up to it, whose samples the
  * mask would drop; else k. */
-static long empty_block_end(const struct esr_mask *m, const struct mask_blocks *b, const float q[3],
+static long empty_block_end(const struct esr_mask *m, const struct mask_skip *b, const float q[3],
                             const float d[3], float t, float t0, float step, long k)
 {
     const int n[3] = {m->nx, m->ny, m->nz};
@@ -94,14 +95,14 @@ static long empty_block_end(const struct esr_mask *m, const struct mask_blocks *
 }
 
 /* Marches one ray; writes kept samples to (ray, t, pos) when out_t is non-NULL. Returns the count.
- * Both passes call this with the same RNG stream, so they agree sample for sample. occ_box (with
- * a mask; NULL: none) bounds the points the mask keeps: the steps outside it are skipped, and so
- * are the steps across an empty block of the mask (blocks, with a mask); the samples are those of
- * the whole march. */
-static size_t march(const struct esr_sample_params *p, const float occ_box[2][3],
-                    const struct mask_blocks *blocks, const float o[3], const float d[3], int r,
-                    int32_t *out_ray, float *out_t, float *out_pos)
+ * Both passes call this with the same RNG stream, so they agree sample for sample. With a mask,
+ * the steps outside skip->occ_box are skipped, and so are the steps across an empty block of the
+ * mask; the samples are those of the whole march. */
+static size_t march(const struct esr_sample_params *p, const struct mask_skip *skip,
+                    const float o[3], const float d[3], int r, int32_t *out_ray, float *out_t,
+                    float *out_pos)
 {
+    const float(*occ_box)[3] = skip->occ_box;
     float t0, t1, near = p->near, far = p->far;
     if (p->t_min && p->t_min[r] > near)
         near = p->t_min[r];
@@ -134,7 +135,7 @@ static size_t march(const struct esr_sample_params *p, const float occ_box[2][3]
             break;
         float q[3] = {o[0] + t * d[0], o[1] + t * d[1], o[2] + t * d[2]};
         if (p->mask && !esr_mask_query(p->mask, q)) {
-            k = empty_block_end(p->mask, blocks, q, d, t, t0, p->step, k);
+            k = empty_block_end(p->mask, skip, q, d, t, t0, p->step, k);
             continue;
         }
         if (out_t) {
@@ -162,8 +163,7 @@ int esr_sample_rays(const struct esr_sample_params *p, const float *origins, con
         return ESR_FAIL("ray sampling: %d rays, buffer holds at most %d", n_rays, out->max_rays);
     size_t *start = out->ray_start;
     float box[2][3];
-    const float(*occ_box)[3] = NULL;
-    struct mask_blocks blocks = {NULL, {0, 0, 0}};
+    struct mask_skip skip = {NULL, NULL, {0, 0, 0}};
     if (p->mask) {
         if (!esr_mask_occupied_box(p->mask, box[0], box[1])) { /* nothing is kept */
             for (int r = 0; r <= n_rays; r++)
@@ -171,9 +171,9 @@ int esr_sample_rays(const struct esr_sample_params *p, const float *origins, con
             out->n_rays = n_rays;
             return ESR_OK;
         }
-        occ_box = (const float(*)[3])box;
-        esr_mask_block_dims(p->mask, blocks.nb);
-        const size_t nb = (size_t)blocks.nb[0] * (size_t)blocks.nb[1] * (size_t)blocks.nb[2];
+        skip.occ_box = (const float(*)[3])box;
+        esr_mask_block_dims(p->mask, skip.nb);
+        const size_t nb = (size_t)skip.nb[0] * (size_t)skip.nb[1] * (size_t)skip.nb[2];
         if (nb > out->blocks_cap) {
             uint8_t *grown = realloc(out->blocks, nb);
             if (!grown)
@@ -182,12 +182,12 @@ int esr_sample_rays(const struct esr_sample_params *p, const float *origins, con
             out->blocks_cap = nb;
         }
         esr_mask_blocks(p->mask, out->blocks);
-        blocks.any = out->blocks;
+        skip.any = out->blocks;
     }
 #pragma omp parallel for schedule(dynamic, 64)
     for (int r = 0; r < n_rays; r++)
-        start[r + 1] = march(p, occ_box, &blocks, origins + (size_t)r * 3, dirs + (size_t)r * 3, r,
-                             NULL, NULL, NULL);
+        start[r + 1] = march(p, &skip, origins + (size_t)r * 3, dirs + (size_t)r * 3, r, NULL, NULL,
+                             NULL);
     start[0] = 0;
     for (int r = 0; r < n_rays; r++)
         start[r + 1] += start[r];
@@ -198,8 +198,8 @@ int esr_sample_rays(const struct esr_sample_params *p, const float *origins, con
 #pragma omp parallel for schedule(dynamic, 64)
     for (int r = 0; r < n_rays; r++) {
         size_t s0 = start[r];
-        march(p, occ_box, &blocks, origins + (size_t)r * 3, dirs + (size_t)r * 3, r, out->ray + s0,
-              out->t + s0, out->pos + s0 * 3);
+        march(p, &skip, origins + (size_t)r * 3, dirs + (size_t)r * 3, r, out->ray + s0, out->t + s0,
+              out->pos + s0 * 3);
     }
     out->n_rays = n_rays;
     return ESR_OK;
