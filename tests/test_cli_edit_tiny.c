@@ -78,10 +78,8 @@ static void test_edit_writes_views(void **state)
 {
     (void)state;
     char run[4300], cmd[24000], out[8192];
-    tiny_copy_run("run_pdra", "run_pdra_views", run, sizeof run);
     struct esr_model m;
-    snprintf(cmd, sizeof cmd, "%s/ckpt_pdra.bin", run);
-    assert_int_equal(esr_model_load(&m, cmd), ESR_OK);
+    tiny_copy_run_model("run_pdra", "run_pdra_views", run, sizeof run, &m);
     char edit_out[4400];
     snprintf(edit_out, sizeof edit_out, "%s/edit_bad", test_tmpdir);
 

@@ -58,6 +58,15 @@ void tiny_copy_run(const char *name, const char *as, char *run, size_t size)
     assert_int_equal(system(cmd), 0);
 }
 
+void tiny_copy_run_model(const char *name, const char *as, char *run, size_t size,
+                         struct esr_model *m)
+{
+    char path[4400];
+    tiny_copy_run(name, as, run, size);
+    snprintf(path, sizeof path, "%s/ckpt_pdra.bin", run);
+    assert_int_equal(esr_model_load(m, path), ESR_OK);
+}
+
 void run_dir_pair(char straight[4200], char cut[4200], const char *test)
 {
     snprintf(straight, 4200, "%s/straight_%s", test_tmpdir, test);

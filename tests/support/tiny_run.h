@@ -37,6 +37,9 @@ int tiny_setup(void **state);
 /* A copy of the fixture's folder `name` (runs/full, run_pdra) at test_tmpdir/as, its path into
  * run (size bytes): for a test that writes into the run or runs esr commands on it. */
 void tiny_copy_run(const char *name, const char *as, char *run, size_t size);
+/* tiny_copy_run, then the copy's ckpt_pdra.bin loaded into *m (the caller frees it). */
+void tiny_copy_run_model(const char *name, const char *as, char *run, size_t size,
+                         struct esr_model *m);
 
 /* The run folders (in test_tmpdir) of a straight run and of one that is stopped and resumed, for
  * the test `test`. */
