@@ -31,8 +31,10 @@ test-tools: deps
 	  npm install --silent --no-audit --no-fund --prefix build-tools $(GLTF_VALIDATOR) || \
 	  echo "note: $(GLTF_VALIDATOR) could not be installed; the glTF validation test will say it skipped"
 
+CONFIGURE := cmake -S . -B build -DCMAKE_BUILD_TYPE=Release >/dev/null
+
 build: deps
-	cmake -S . -B build -DCMAKE_BUILD_TYPE=Release >/dev/null
+	$(CONFIGURE)
 	cmake --build build -j $(JOBS)
 
 # the quick loop: after `make build`, the unit tests of every module (ctest label `unit`: no
@@ -40,7 +42,10 @@ build: deps
 check: build
 	cd build && ctest --output-on-failure -j $(JOBS) -L unit
 
-demo: build
+# the demo needs only the binary: the tests' programs are built by `make check` / `make test`
+demo: deps
+	$(CONFIGURE)
+	cmake --build build -j $(JOBS) --target esr
 	./build/esr demo --out $(DEMO_OUT)
 
 test-release: build test-tools
