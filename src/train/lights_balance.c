@@ -168,7 +168,7 @@ static int silhouette_scale(struct esr_model *m, int k, const float scales[][3],
             got++;
         }
         if (got == BALANCE_CHUNK || (r == n && got > 0)) {
-            const struct esr_ray_set batch = {got, 0, o3, d3, y3, 0};
+            const struct esr_ray_set batch = {.n = got, .orig3 = o3, .dir3 = d3, .rgb3 = y3};
             rc = silhouette_batch(m, k, scales, &batch, g3, rest3, &sum);
             got = 0;
         }
@@ -185,8 +185,11 @@ int esr_lights_balance(struct esr_model *m, const struct esr_ray_set *rs,
 {
     struct esr_lights *L = &m->lights;
     const size_t n = rs->n - rs->n_off; /* the lights-on rays follow the lights-off ones */
-    const struct esr_ray_set on = {n, 0, rs->orig3 + rs->n_off * 3, rs->dir3 + rs->n_off * 3,
-                                   rs->rgb3 + rs->n_off * 3, rs->transparent};
+    const struct esr_ray_set on = {.n = n, /* n_off 0: all lights-on */
+                                   .orig3 = rs->orig3 + rs->n_off * 3,
+                                   .dir3 = rs->dir3 + rs->n_off * 3,
+                                   .rgb3 = rs->rgb3 + rs->n_off * 3,
+                                   .transparent = rs->transparent};
     memset(info, 0, sizeof(*info));
     for (int c = 0; c < 3; c++)
         info->applied[c] = 1.0f;
