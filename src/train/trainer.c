@@ -828,6 +828,27 @@ static int setup(struct run *r)
     return ESR_OK;
 }
 
+/* The stage a run starts loading at: on resume, the last one up to --until whose checkpoint RUN
+ * holds (its model is whole: a copy of a run that keeps only ckpt_fine.bin trains lts and pdra
+ * from it, not everything again from alphamask); else the first. */
+static int first_stage(struct run *r)
+{
+    for (int s = (int)r->o->until; r->o->resume && s > 0; s--) {
+        char path[4200];
+        ckpt_path(r, (enum esr_stage)s, path, sizeof path);
+        if (esr_file_exists(path)) {
+            char before[4200];
+            ckpt_path(r, (enum esr_stage)(s - 1), before, sizeof before);
+            if (!esr_file_exists(before))
+                say(r, (enum esr_stage)s, "resume: starting from %s (the earlier stages' "
+                                          "checkpoints are not in %s; it holds what they learned)",
+                    path, r->o->run_dir);
+            return s;
+        }
+    }
+    return 0;
+}
+
 int esr_train_run(const struct esr_train_opts *o)
 {
     struct run r;
@@ -838,11 +859,14 @@ int esr_train_run(const struct esr_train_opts *o)
     int rc = setup(&r);
     struct esr_model prev, cur;
     int have_prev = 0;
+    const int first = rc == ESR_OK ? first_stage(&r) : 0;
     for (int s = 0; rc == ESR_OK && s <= (int)o->until; s++) {
         int skip = 0;
         rc = check_lighting(&r, (enum esr_stage)s, &skip);
         if (rc != ESR_OK || skip)
             break;
+        if (s < first) /* a later stage's checkpoint holds all the earlier ones learned */
+            continue;
         rc = stage_model(&r, (enum esr_stage)s, have_prev ? &prev : NULL, &cur);
         if (have_prev) /* the new stage took what it needs from it */
             esr_model_free(&prev);
