@@ -3,6 +3,7 @@
 #include <cJSON.h>
 #include <ftw.h>
 #include <omp.h>
+#include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -25,9 +26,34 @@
 
 static int run_bench(int argc, char **argv);
 
+struct bench_opts {
+    const char *out, *data, *run;
+    int quick, no_train;
+    int iters; /* training iterations per stage; -1 = by --quick */
+};
+
+#define AT(field) offsetof(struct bench_opts, field)
+static const struct cli_option bench_options[] = {
+    {"--out", "FILE", "JSON output (default: bench.json)", CLI_TEXT, .at = AT(out)},
+    {"--quick", NULL, "fewer repetitions, 40 training iterations per stage (a rough figure in well "
+     "under a minute; its fine stage starts from a barely trained coarse model, so it marches far "
+     "more samples per ray than a real run)", CLI_FLAG, .at = AT(quick)},
+    {"--iters", "N", "training iterations per stage instead of the preset's", CLI_INT,
+     .at = AT(iters), .lo = 2, .hi = 1000000,
+     .bad = "--iters: expected an integer in 2..1000000, got '%s'"},
+    {"--data", "DIR", "dataset for the training benchmark (and for --run's, instead of the one RUN "
+     "records)", CLI_TEXT, .at = AT(data)},
+    {"--no-train", NULL, "skip the training benchmark", CLI_FLAG, .at = AT(no_train)},
+    {"--run", "RUN", "also compare the LTS estimators on RUN's pdra (else lts) checkpoint and time "
+     "the direct and the ratio relight of its first test_nv view and a fine-tune", CLI_TEXT,
+     .at = AT(run)},
+    {0},
+};
+
 const struct esr_command cmd_bench = {
-    "bench",
-    "measure kernel, path-tracer, ray-path and training throughput (JSON + table)",
+    .name = "bench",
+    .summary = "measure kernel, path-tracer, ray-path and training throughput (JSON + table)",
+    .usage =
     "usage: esr bench [options]\n"
     "\n"
     "Measures, with all OpenMP threads (set OMP_NUM_THREADS to change):\n"
@@ -43,28 +69,10 @@ const struct esr_command cmd_bench = {
     "          time per LTS call, secondary rays/s, and bias and standard deviation of the\n"
     "          estimate L^_o against the faithful estimator with 4096 directions (relative RMS)\n"
     "and the peak resident memory, with the machine (CPU model, cores, threads), git commit and\n"
-    "date. Prints a table and writes the JSON to --out.\n"
-    "\n"
-    "options:\n"
-    "  --out FILE    JSON output (default: bench.json)\n"
-    "  --quick       fewer repetitions, 40 training iterations per stage (a rough figure in\n"
-    "                well under a minute; its fine stage starts from a barely trained coarse\n"
-    "                model, so it marches far more samples per ray than a real run)\n"
-    "  --iters N     training iterations per stage instead of the preset's\n"
-    "  --data DIR    dataset for the training benchmark (and for --run's, instead of the one\n"
-    "                RUN records)\n"
-    "  --no-train    skip the training benchmark\n"
-    "  --run RUN     also compare the LTS estimators on RUN's pdra (else lts) checkpoint and time\n"
-    "                the direct and the ratio relight of its first test_nv view and a fine-tune\n"
-    "  -h, --help    this text\n",
-    run_bench,
-    1, /* view_loop */
-};
-
-struct bench_opts {
-    const char *out, *data, *run;
-    int quick, train;
-    int iters; /* training iterations per stage; -1 = by --quick */
+    "date. Prints a table and writes the JSON to --out.\n",
+    .options = bench_options,
+    .run = run_bench,
+    .view_loop = 1,
 };
 
 /* "model name" of the first processor in /proc/cpuinfo, or "unknown". */
@@ -443,7 +451,7 @@ static int bench_all(const struct bench_opts *o, cJSON *root)
     if (sections == ESR_OK)
         sections = render_section(o, root);
     fflush(stdout);
-    if (sections == ESR_OK && o->train)
+    if (sections == ESR_OK && !o->no_train)
         sections = train_section(o, root);
     if (sections == ESR_OK && o->run) {
         char data[4096];
@@ -514,29 +522,10 @@ static int check_inputs(const struct bench_opts *o)
 
 static int run_bench(int argc, char **argv)
 {
-    if (cli_wants_help(&cmd_bench, argc, argv))
-        return 0;
-    struct bench_opts o = {"bench.json", NULL, NULL, 0, 1, -1};
-    for (int i = 1; i < argc; i++) {
-        const char *a = argv[i];
-        int has_value = i + 1 < argc;
-        if (!strcmp(a, "--out") && has_value)
-            o.out = argv[++i];
-        else if (!strcmp(a, "--data") && has_value)
-            o.data = argv[++i];
-        else if (!strcmp(a, "--run") && has_value)
-            o.run = argv[++i];
-        else if (!strcmp(a, "--iters") && has_value) {
-            if (cli_parse_int(argv[++i], 2, 1000000, &o.iters))
-                return cli_fail(&cmd_bench, "--iters: expected an integer in 2..1000000, got '%s'",
-                                argv[i]);
-        } else if (!strcmp(a, "--quick"))
-            o.quick = 1;
-        else if (!strcmp(a, "--no-train"))
-            o.train = 0;
-        else
-            return cli_fail(&cmd_bench, "unknown option or missing value: '%s'", a);
-    }
+    struct bench_opts o = {"bench.json", NULL, NULL, 0, 0, -1};
+    const int parsed = cli_parse(&cmd_bench, argc, argv, &o);
+    if (parsed != CLI_PARSED)
+        return parsed == CLI_HELPED ? 0 : 1;
     if (check_inputs(&o) != ESR_OK)
         return cli_fail_lib(&cmd_bench);
     cJSON *root = cJSON_CreateObject();

@@ -1,6 +1,7 @@
 /* esr demo: the main job end to end on the built-in default scene (or a given dataset), by
  * running the other subcommands in order: synth -> info -> train -> eval -> export. */
 #include <math.h>
+#include <stddef.h>
 #include <stdio.h>
 #include <string.h>
 #include <sys/stat.h>
@@ -15,9 +16,31 @@
 
 static int run_demo(int argc, char **argv);
 
+#define DEMO_MAX_SETS 32
+
+struct demo_args {
+    const char *out, *data, *preset;
+    struct cli_texts sets;
+};
+
+#define AT(field) offsetof(struct demo_args, field)
+static const struct cli_option demo_options[] = {
+    {"--out", "DIR", "output folder (default runs/demo; created if missing)", CLI_TEXT,
+     .at = AT(out)},
+    {"--data", "DATA", "use this dataset instead of synthesising the default scene", CLI_TEXT,
+     .at = AT(data)},
+    {"--preset", "NAME", "training preset (fast, the default, paper or smoke)", CLI_TEXT,
+     .at = AT(preset)},
+    {"--set", "key=value", "training option override (repeatable; see `esr train --help`)",
+     CLI_TEXTS, .at = AT(sets), .hi = DEMO_MAX_SETS},
+    {0},
+};
+
 const struct esr_command cmd_demo = {
-    "demo",
-    "the main job end to end: synthesise the default scene, train, evaluate, export the mesh",
+    .name = "demo",
+    .summary = "the main job end to end: synthesise the default scene, train, evaluate, export the "
+               "mesh",
+    .usage =
     "usage: esr demo [--out DIR] [--data DATA] [--preset NAME] [--set key=value ...]\n"
     "\n"
     "Runs the whole pipeline and leaves everything under DIR (default runs/demo):\n"
@@ -35,24 +58,9 @@ const struct esr_command cmd_demo = {
     "                     radiance against the truth, Chamfer distance to the ground-truth\n"
     "                     surface when the scene has one (`esr eval`); the test_nv renders in\n"
     "                     DIR/run/render/test_nv, the report DIR/run/report.html\n"
-    "  7. DIR/mesh.ply    the reconstructed surface with normals and colours (`esr export`)\n"
-    "\n"
-    "options:\n"
-    "  --out DIR          output folder (default runs/demo; created if missing)\n"
-    "  --data DATA        use this dataset instead of synthesising the default scene\n"
-    "  --preset NAME      training preset (fast, the default, paper or smoke)\n"
-    "  --set key=value    training option override (repeatable; see `esr train --help`)\n"
-    "  -h, --help         this text\n",
-    run_demo,
-    0, /* view_loop */
-};
-
-#define DEMO_MAX_SETS 32
-
-struct demo_args {
-    const char *out, *data, *preset;
-    const char *sets[DEMO_MAX_SETS];
-    int n_sets;
+    "  7. DIR/mesh.ply    the reconstructed surface with normals and colours (`esr export`)\n",
+    .options = demo_options,
+    .run = run_demo,
 };
 
 static double now_s(void)
@@ -130,34 +138,12 @@ static int is_file(const char *path)
     return stat(path, &st) == 0 && S_ISREG(st.st_mode);
 }
 
-static int parse(int argc, char **argv, struct demo_args *a)
-{
-    for (int i = 1; i < argc; i++) {
-        const char *s = argv[i];
-        int has_value = i + 1 < argc;
-        if (!strcmp(s, "--out") && has_value)
-            a->out = argv[++i];
-        else if (!strcmp(s, "--data") && has_value)
-            a->data = argv[++i];
-        else if (!strcmp(s, "--preset") && has_value)
-            a->preset = argv[++i];
-        else if (!strcmp(s, "--set") && has_value) {
-            if (a->n_sets == DEMO_MAX_SETS)
-                return cli_fail(&cmd_demo, "at most %d --set options", DEMO_MAX_SETS);
-            a->sets[a->n_sets++] = argv[++i];
-        } else
-            return cli_fail(&cmd_demo, "unknown argument or missing value: '%s'", s);
-    }
-    return 0;
-}
-
 static int run_demo(int argc, char **argv)
 {
-    if (cli_wants_help(&cmd_demo, argc, argv))
-        return 0;
-    struct demo_args a = {"runs/demo", NULL, "fast", {NULL}, 0};
-    if (parse(argc, argv, &a))
-        return 1;
+    struct demo_args a = {"runs/demo", NULL, "fast", {{NULL}, 0}};
+    const int parsed = cli_parse(&cmd_demo, argc, argv, &a);
+    if (parsed != CLI_PARSED)
+        return parsed == CLI_HELPED ? 0 : 1;
     char scene[4096], run[4096], info[4096], sheet[4096], mesh[4096], probe[4200];
     snprintf(scene, sizeof scene, "%s/scene", a.out);
     snprintf(run, sizeof run, "%s/run", a.out);
@@ -194,9 +180,9 @@ static int run_demo(int argc, char **argv)
     train[n++] = "--resume";
     train[n++] = "--preset";
     train[n++] = (char *)a.preset;
-    for (int i = 0; i < a.n_sets; i++) {
+    for (int i = 0; i < a.sets.n; i++) {
         train[n++] = "--set";
-        train[n++] = (char *)a.sets[i];
+        train[n++] = (char *)a.sets.v[i];
     }
     double t_train = now_s();
     if (step(3, &cmd_train, n, train))

@@ -2,6 +2,7 @@
 #include <dirent.h>
 #include <math.h>
 #include <omp.h>
+#include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -22,9 +23,61 @@
 
 static int run_edit(int argc, char **argv);
 
+struct edit_args {
+    int argc;
+    char **argv; /* for edit.json */
+    const char *run, *out, *views, *data, *frames;
+    int orbit, spp, n_groups, iters;
+    enum esr_edit_method method;
+    struct {
+        int light; /* -1 = all */
+        struct esr_light_edit e;
+        int has_intensity, has_colour; /* an --intensity, a --color follows */
+    } g[ESR_MAX_LIGHTS * 2];
+};
+
+static int light_group(void *args, const struct cli_option *o, const char *v);
+static int group_value(void *args, const struct cli_option *o, const char *v);
+static int method_value(void *args, const struct cli_option *o, const char *v);
+
+#define AT(field) offsetof(struct edit_args, field)
+/* --light, --intensity and --color make the groups (their handlers); the others are once each */
+static const struct cli_option edit_options[] = {
+    {"RUN", .kind = CLI_ARG, .at = AT(run)},
+    {"--light", "ID|all", "starts a group: the light's id (as `esr lights RUN` lists them) or all",
+     CLI_CALL, .call = light_group},
+    {"--intensity", "X", "the group's light strength times X (0 = off, at most 1e6)", CLI_CALL,
+     .call = group_value},
+    {"--color", "H,S", "the group's hue and saturation, both in [0,1] (its value kept)", CLI_CALL,
+     .call = group_value},
+    {"--method", "M", "direct (default), ratio or finetune (above)", CLI_CALL, .once = 1,
+     .call = method_value},
+    {"--out", "DIR", "the folder the views and edit.json are written to", CLI_TEXT, .at = AT(out),
+     .once = 1},
+    {"--views", "PHASE", "the cameras of a dataset phase (default: test_nv), one view per frame, "
+     "named as the frame (c000_off and c000_on alike; consecutive frames of one camera are "
+     "rendered once)", CLI_TEXT, .at = AT(views), .once = 1},
+    {"--orbit", "N", "N cameras on a circle around the scene at the first test camera's distance "
+     "and height, written orbit_000 .. orbit_<N-1>", CLI_INT, .at = AT(orbit), .lo = 1, .hi = 3600,
+     .once = 1, .bad = "--orbit: expected 1..3600 views, got '%s'"},
+    {"--frames", "a,b", "only these frames of the phase, by name (not with --orbit)", CLI_TEXT,
+     .at = AT(frames), .once = 1},
+    {"--spp", "N", "light samples per pixel and light (default 8; finetune: on lights' pixels)",
+     CLI_INT, .at = AT(spp), .lo = 1, .hi = 4096, .once = 1,
+     .bad = "--spp: expected 1..4096, got '%s'"},
+    {"--iters", "N", "finetune: steps of the fine-tune (default 300; refused with other methods)",
+     CLI_INT, .at = AT(iters), .lo = 1, .hi = 1000000, .once = 1,
+     .bad = "--iters: expected 1..1000000, got '%s'"},
+    {"--data", "DIR", "dataset (default: the one RUN was trained on)", CLI_TEXT, .at = AT(data),
+     .once = 1},
+    {0},
+};
+
 const struct esr_command cmd_edit = {
-    "edit",
-    "relight a trained scene: each light's intensity and colour, rendered from test or orbit views",
+    .name = "edit",
+    .summary = "relight a trained scene: each light's intensity and colour, rendered from test or "
+               "orbit views",
+    .usage =
     "usage: esr edit RUN --light ID|all [--intensity X] [--color H,S] [--light ...]...\n"
     "                [--method direct|ratio|finetune] --out DIR [--views PHASE | --orbit N]\n"
     "                [--frames a,b] [--spp N] [--iters N] [--data DIR]\n"
@@ -54,50 +107,11 @@ const struct esr_command cmd_edit = {
     "  finetune   the paper's radiance fine-tuning (edit/finetune.h): L_emo trained towards the\n"
     "             light transport with the edited emission (about 25 s per edit on 2 cores),\n"
     "             then the fine-tuned lights-on radiance rendered: interreflections included\n"
-    "             (where a pixel sees a light, the lights' direct light as in direct)\n"
-    "\n"
-    "options:\n"
-    "  --views PHASE  the cameras of a dataset phase (default: test_nv), one view per frame,\n"
-    "                 named as the frame (c000_off and c000_on alike; consecutive frames of\n"
-    "                 one camera are rendered once)\n"
-    "  --orbit N      N cameras on a circle around the scene at the first test camera's distance\n"
-    "                 and height, written orbit_000 .. orbit_<N-1>\n"
-    "  --frames a,b   only these frames of the phase, by name (not with --orbit)\n"
-    "  --spp N        light samples per pixel and light (default 8; finetune: on lights' pixels)\n"
-    "  --iters N      finetune: steps of the fine-tune (default 300; refused with other methods)\n"
-    "  --data DIR     dataset (default: the one RUN was trained on)\n"
-    "  -h, --help     this text\n",
-    run_edit,
-    1, /* view_loop */
+    "             (where a pixel sees a light, the lights' direct light as in direct)\n",
+    .options = edit_options,
+    .run = run_edit,
+    .view_loop = 1,
 };
-
-struct edit_args {
-    int argc;
-    char **argv; /* for edit.json */
-    const char *run, *out, *views, *data, *frames;
-    int orbit, spp, n_groups, iters;
-    enum esr_edit_method method;
-    int has_method, has_spp;
-    struct {
-        int light; /* -1 = all */
-        struct esr_light_edit e;
-        int has_intensity, has_colour; /* an --intensity, a --color follows */
-    } g[ESR_MAX_LIGHTS * 2];
-};
-
-static int twice(const char *o)
-{
-    return cli_fail(&cmd_edit, "%s given twice", o);
-}
-
-/* The option o's value, refused when o was given before (*seen). */
-static int once(const char *o, int *seen)
-{
-    if (*seen)
-        return twice(o);
-    *seen = 1;
-    return 0;
-}
 
 /* "H,S" in [0,1] each (each as cli_parse_double reads numbers). */
 static int parse_hs(const char *text, float *h, float *s)
@@ -116,12 +130,54 @@ static int parse_hs(const char *text, float *h, float *s)
     return 0;
 }
 
-/* A text option's value (once). */
-static int text_value(const char *o, const char *v, const char **out)
+/* --light ID|all: a new group (the run's own range of ids is checked once its lights are
+ * loaded). */
+static int light_group(void *args, const struct cli_option *o, const char *v)
 {
-    if (*out)
-        return twice(o);
-    *out = v;
+    struct edit_args *a = args;
+    if (a->n_groups == (int)(sizeof a->g / sizeof a->g[0]))
+        return cli_fail(&cmd_edit, "too many %s groups", o->name);
+    int id = -1;
+    if (strcmp(v, "all") && cli_parse_int(v, 0, 1000000, &id))
+        return cli_fail(&cmd_edit, "--light: expected a light id (0, 1, ...) or 'all', got '%s'",
+                        v);
+    a->g[a->n_groups].light = id;
+    a->g[a->n_groups].e.intensity = 1.0f;
+    a->n_groups++;
+    return 0;
+}
+
+/* --intensity X or --color H,S: once each in the group of the --light before it. */
+static int group_value(void *args, const struct cli_option *o, const char *v)
+{
+    struct edit_args *a = args;
+    if (a->n_groups == 0)
+        return cli_fail(&cmd_edit, "%s before any --light", o->name);
+    struct esr_light_edit *e = &a->g[a->n_groups - 1].e;
+    const int intensity = !strcmp(o->name, "--intensity");
+    int *has = intensity ? &a->g[a->n_groups - 1].has_intensity : &a->g[a->n_groups - 1].has_colour;
+    if (*has)
+        return cli_fail(&cmd_edit, "%s given twice after one --light", o->name);
+    *has = 1;
+    if (!intensity) {
+        if (parse_hs(v, &e->hue, &e->sat))
+            return cli_fail(&cmd_edit, "--color: expected H,S with both in [0,1], got '%s'", v);
+        e->recolour = 1;
+        return 0;
+    }
+    double x;
+    if (cli_parse_double(v, 0.0, ESR_LIGHT_EDIT_MAX_INTENSITY, &x))
+        return cli_fail(&cmd_edit, "--intensity: expected a number >= 0 and at most %g, got '%s'",
+                        ESR_LIGHT_EDIT_MAX_INTENSITY, v);
+    e->intensity = (float)x;
+    return 0;
+}
+
+static int method_value(void *args, const struct cli_option *o, const char *v)
+{
+    struct edit_args *a = args;
+    if (esr_edit_method_from_name(v, &a->method))
+        return cli_fail(&cmd_edit, "%s: expected direct, ratio or finetune, got '%s'", o->name, v);
     return 0;
 }
 
@@ -132,83 +188,9 @@ static int parse(int argc, char **argv, struct edit_args *a)
     a->argv = argv;
     a->spp = 8;
     a->method = ESR_EDIT_DIRECT;
-    for (int i = 1; i < argc; i++) {
-        const char *o = argv[i];
-        const int has = i + 1 < argc;
-        if (!strcmp(o, "--light") && has) {
-            if (a->n_groups == (int)(sizeof a->g / sizeof a->g[0]))
-                return cli_fail(&cmd_edit, "too many --light groups");
-            const char *v = argv[++i];
-            int id = -1; /* the run's own range is checked once its lights are loaded */
-            if (strcmp(v, "all") && cli_parse_int(v, 0, 1000000, &id))
-                return cli_fail(&cmd_edit, "--light: expected a light id (0, 1, ...) or 'all', got "
-                                "'%s'", v);
-            a->g[a->n_groups].light = id;
-            a->g[a->n_groups].e.intensity = 1.0f;
-            a->n_groups++;
-        } else if ((!strcmp(o, "--intensity") || !strcmp(o, "--color")) && has) {
-            if (a->n_groups == 0)
-                return cli_fail(&cmd_edit, "%s before any --light", o);
-            const char *v = argv[++i];
-            struct esr_light_edit *e = &a->g[a->n_groups - 1].e;
-            if (!strcmp(o, "--intensity")) {
-                double x;
-                if (a->g[a->n_groups - 1].has_intensity)
-                    return cli_fail(&cmd_edit, "--intensity given twice after one --light");
-                a->g[a->n_groups - 1].has_intensity = 1;
-                if (cli_parse_double(v, 0.0, ESR_LIGHT_EDIT_MAX_INTENSITY, &x))
-                    return cli_fail(&cmd_edit, "--intensity: expected a number >= 0 and at most "
-                                    "%g, got '%s'", ESR_LIGHT_EDIT_MAX_INTENSITY, v);
-                e->intensity = (float)x;
-            } else {
-                if (a->g[a->n_groups - 1].has_colour)
-                    return cli_fail(&cmd_edit, "--color given twice after one --light");
-                a->g[a->n_groups - 1].has_colour = 1;
-                if (parse_hs(v, &e->hue, &e->sat))
-                    return cli_fail(&cmd_edit, "--color: expected H,S with both in [0,1], got '%s'", v);
-                e->recolour = 1;
-            }
-        } else if (!strcmp(o, "--method") && has) {
-            const char *v = argv[++i];
-            if (once(o, &a->has_method))
-                return 1;
-            if (esr_edit_method_from_name(v, &a->method))
-                return cli_fail(&cmd_edit, "--method: expected direct, ratio or finetune, got '%s'", v);
-        } else if (!strcmp(o, "--out") && has) {
-            if (text_value(o, argv[++i], &a->out))
-                return 1;
-        } else if (!strcmp(o, "--views") && has) {
-            if (text_value(o, argv[++i], &a->views))
-                return 1;
-        } else if (!strcmp(o, "--data") && has) {
-            if (text_value(o, argv[++i], &a->data))
-                return 1;
-        } else if (!strcmp(o, "--frames") && has) {
-            if (text_value(o, argv[++i], &a->frames))
-                return 1;
-        } else if (!strcmp(o, "--orbit") && has) {
-            if (a->orbit)
-                return twice(o);
-            if (cli_parse_int(argv[++i], 1, 3600, &a->orbit))
-                return cli_fail(&cmd_edit, "--orbit: expected 1..3600 views, got '%s'", argv[i]);
-        } else if (!strcmp(o, "--iters") && has) {
-            if (a->iters)
-                return twice(o);
-            if (cli_parse_int(argv[++i], 1, 1000000, &a->iters))
-                return cli_fail(&cmd_edit, "--iters: expected 1..1000000, got '%s'", argv[i]);
-        } else if (!strcmp(o, "--spp") && has) {
-            if (once(o, &a->has_spp))
-                return 1;
-            if (cli_parse_int(argv[++i], 1, 4096, &a->spp))
-                return cli_fail(&cmd_edit, "--spp: expected 1..4096, got '%s'", argv[i]);
-        } else if (o[0] == '-' && o[1]) {
-            return cli_fail(&cmd_edit, "unknown option or missing value: '%s'", o);
-        } else if (a->run) {
-            return cli_fail(&cmd_edit, "more than one RUN given ('%s', '%s')", a->run, o);
-        } else {
-            a->run = o;
-        }
-    }
+    const int rc = cli_parse(&cmd_edit, argc, argv, a);
+    if (rc != CLI_PARSED)
+        return rc;
     if (!a->run)
         return cli_fail(&cmd_edit, "missing RUN directory");
     if (!a->out)
@@ -483,11 +465,10 @@ static int edit(const struct edit_args *a)
 
 static int run_edit(int argc, char **argv)
 {
-    if (cli_wants_help(&cmd_edit, argc, argv))
-        return 0;
     struct edit_args a;
-    if (parse(argc, argv, &a))
-        return 1;
+    const int rc = parse(argc, argv, &a);
+    if (rc != CLI_PARSED)
+        return rc == CLI_HELPED ? 0 : 1;
     cli_catch_interrupt(&cmd_edit, 0);
     if (edit(&a) == ESR_OK)
         return 0;

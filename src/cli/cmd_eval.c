@@ -1,5 +1,6 @@
 /* esr eval RUN: render (or reuse) a phase's test views and score them against the dataset. */
 #include <math.h>
+#include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -19,10 +20,48 @@
 
 static int run_eval(int argc, char **argv);
 
+struct eval_args {
+    const char *run, *phase, *data, *frames;
+    int limit, rerender;
+    int spp, iters;
+    enum esr_edit_method method;
+    const char *edit_option; /* the first of --method, --spp, --iters given (edit phases only) */
+    int argc;
+    char **argv; /* for the JSON's "made_by" */
+};
+
+static int edit_option(void *args, const struct cli_option *o, const char *value);
+
+#define AT(field) offsetof(struct eval_args, field)
+static const struct cli_option eval_options[] = {
+    {"RUN", .kind = CLI_ARG, .at = AT(run)},
+    {"--phase", "P", "phase to evaluate (default: test_nv)", CLI_TEXT, .at = AT(phase)},
+    {"--data", "DIR", "dataset directory (default: the one recorded in RUN)", CLI_TEXT,
+     .at = AT(data)},
+    {"--frames", "a,b,..", "only these frames, by name (e.g. c000_off,c003_on)", CLI_TEXT,
+     .at = AT(frames)},
+    {"--limit", "N", "only the first N (selected) frames (with either, the phase's JSON, P.json or "
+     "P_METHOD.json, and its report hold only those views, replacing the earlier ones)", CLI_INT,
+     .at = AT(limit), .lo = 1, .hi = 1000000,
+     .bad = "--limit must be an integer in 1..1000000 (leave it out for every frame), got '%s'"},
+    {"--rerender", NULL, "render every selected frame again (the edit phases relight every time)",
+     CLI_FLAG, .at = AT(rerender)},
+    {"--method", "M", "edit phases: direct (default), ratio (edit/relight.h) or finetune (one "
+     "radiance fine-tune per distinct edit of the phase, edit/finetune.h)", CLI_CALL,
+     .call = edit_option},
+    {"--spp", "N", "edit phases: light samples per pixel and light (default 8; finetune: on the "
+     "lights' pixels)", CLI_INT, .at = AT(spp), .lo = 1, .hi = 4096, .call = edit_option},
+    {"--iters", "N", "edit phases, finetune: steps per fine-tune (default 300)", CLI_INT,
+     .at = AT(iters), .lo = 1, .hi = 1000000, .call = edit_option},
+    {0},
+};
+
 const struct esr_command cmd_eval = {
-    "eval",
-    "score a run on a test phase (PSNR, SSIM, HDR MSE per view and lighting, normal error; emitter IoU, "
-    "light strengths and split; relighting on the edit phases) + HTML report",
+    .name = "eval",
+    .summary = "score a run on a test phase (PSNR, SSIM, HDR MSE per view and lighting, normal "
+               "error; emitter IoU, light strengths and split; relighting on the edit phases) + "
+               "HTML report",
+    .usage =
     "usage: esr eval RUN [options]\n"
     "\n"
     "Renders the frames of a phase with the run's model into RUN/render/P (as `esr render`; frames\n"
@@ -61,35 +100,22 @@ const struct esr_command cmd_eval = {
     "--method (edit/relight.h; dataset lights mapped to esr's by the frames' per-light masks) into\n"
     "RUN/render/P_METHOD, and write RUN/eval/P_METHOD.json (PSNR, SSIM per view, mean, mean per\n"
     "edit asked; the light split) and RUN/report_P_METHOD.html (original, edit, ground truth side\n"
-    "by side).\n"
-    "\n"
-    "options:\n"
-    "  --phase P        phase to evaluate (default: test_nv)\n"
-    "  --data DIR       dataset directory (default: the one recorded in RUN)\n"
-    "  --frames a,b,..  only these frames, by name (e.g. c000_off,c003_on)\n"
-    "  --limit N        only the first N (selected) frames\n"
-    "                   (with either, the phase's JSON, P.json or P_METHOD.json, and its report\n"
-    "                   hold only those views, replacing the earlier ones)\n"
-    "  --rerender       render every selected frame again (the edit phases relight every time)\n"
-    "  --method M       edit phases: direct (default), ratio (edit/relight.h) or finetune (one\n"
-    "                   radiance fine-tune per distinct edit of the phase, edit/finetune.h)\n"
-    "  --spp N          edit phases: light samples per pixel and light (default 8; finetune:\n"
-    "                   on the lights' pixels)\n"
-    "  --iters N        edit phases, finetune: steps per fine-tune (default 300)\n"
-    "  -h, --help       this text\n",
-    run_eval,
-    1, /* view_loop */
+    "by side).\n",
+    .options = eval_options,
+    .run = run_eval,
+    .view_loop = 1,
 };
 
-struct eval_args {
-    const char *run, *phase, *data, *frames;
-    int limit, rerender;
-    int spp, iters;
-    enum esr_edit_method method;
-    const char *edit_option; /* the first of --method, --spp, --iters given (edit phases only) */
-    int argc;
-    char **argv; /* for the JSON's "made_by" */
-};
+/* --method, --spp and --iters apply to the edit phases only: the first given is named when the
+ * phase is another; --method's value is read here. */
+static int edit_option(void *args, const struct cli_option *o, const char *value)
+{
+    struct eval_args *a = args;
+    a->edit_option = a->edit_option ? a->edit_option : o->name;
+    if (strcmp(o->name, "--method") || !esr_edit_method_from_name(value, &a->method))
+        return 0;
+    return cli_fail(&cmd_eval, "--method: expected direct, ratio or finetune, got '%s'", value);
+}
 
 static void show_progress(void *user, const struct esr_view_progress *p)
 {
@@ -409,44 +435,10 @@ static int evaluate_edits(const struct eval_args *a, const struct esr_run_select
 
 static int run_eval(int argc, char **argv)
 {
-    if (cli_wants_help(&cmd_eval, argc, argv))
-        return 0;
     struct eval_args a = {NULL, "test_nv", NULL, NULL, 0, 0, 8, 0, ESR_EDIT_DIRECT, NULL, argc, argv};
-    for (int i = 1; i < argc; i++) {
-        const char *s = argv[i];
-        int has_value = i + 1 < argc;
-        if (!strcmp(s, "--phase") && has_value)
-            a.phase = argv[++i];
-        else if (!strcmp(s, "--data") && has_value)
-            a.data = argv[++i];
-        else if (!strcmp(s, "--frames") && has_value)
-            a.frames = argv[++i];
-        else if (!strcmp(s, "--rerender"))
-            a.rerender = 1;
-        else if (!strcmp(s, "--method") && has_value) {
-            a.edit_option = a.edit_option ? a.edit_option : s;
-            const char *mth = argv[++i];
-            if (esr_edit_method_from_name(mth, &a.method))
-                return cli_fail(&cmd_eval, "--method: expected direct, ratio or finetune, got '%s'", mth);
-        } else if (!strcmp(s, "--iters") && has_value) {
-            a.edit_option = a.edit_option ? a.edit_option : s;
-            if (cli_parse_int(argv[++i], 1, 1000000, &a.iters))
-                return cli_fail(&cmd_eval, "--iters must be an integer in 1..1000000, got '%s'", argv[i]);
-        } else if (!strcmp(s, "--spp") && has_value) {
-            a.edit_option = a.edit_option ? a.edit_option : s;
-            if (cli_parse_int(argv[++i], 1, 4096, &a.spp))
-                return cli_fail(&cmd_eval, "--spp must be an integer in 1..4096, got '%s'", argv[i]);
-        }
-        else if (!strcmp(s, "--limit") && has_value) {
-            if (cli_parse_int(argv[++i], 1, 1000000, &a.limit))
-                return cli_fail(&cmd_eval, "--limit must be an integer in 1..1000000 (leave it out for every frame), got '%s'", argv[i]);
-        } else if (s[0] == '-' && s[1])
-            return cli_fail(&cmd_eval, "unknown option or missing value: '%s'", s);
-        else if (a.run)
-            return cli_fail(&cmd_eval, "more than one RUN given ('%s', '%s')", a.run, s);
-        else
-            a.run = s;
-    }
+    const int parsed = cli_parse(&cmd_eval, argc, argv, &a);
+    if (parsed != CLI_PARSED)
+        return parsed == CLI_HELPED ? 0 : 1;
     if (!a.run)
         return cli_fail(&cmd_eval, "missing RUN directory");
     if (a.iters && a.method != ESR_EDIT_FINETUNE)

@@ -1,6 +1,7 @@
 /* esr export RUN --mesh out.ply | --gltf out.glb: the model's surface as a coloured PLY mesh or a
  * relightable glTF asset. */
 #include <errno.h>
+#include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -18,9 +19,29 @@
 
 static int run_export(int argc, char **argv);
 
+struct export_args {
+    const char *run, *mesh, *gltf;
+    int res, no_colour;
+};
+
+#define AT(field) offsetof(struct export_args, field)
+static const struct cli_option export_options[] = {
+    {"RUN", .kind = CLI_ARG, .at = AT(run)},
+    {"--mesh", "FILE", "output PLY", CLI_TEXT, .at = AT(mesh)},
+    {"--gltf", "FILE", "output GLB (one of --mesh, --gltf is needed; both write two files, not one "
+     "file for both, both or neither: when the glTF fails an earlier PLY stays)", CLI_TEXT,
+     .at = AT(gltf)},
+    {"--res", "N", "resample the SDF to N^3 lattice points first (8..1024; default: the model's "
+     "grid)", CLI_INT, .at = AT(res), .lo = ESR_MODEL_MESH_RES_MIN, .hi = ESR_MODEL_MESH_RES_MAX},
+    {"--no-colour", NULL, "PLY: leave out vertex colours (faster)", CLI_FLAG, .at = AT(no_colour)},
+    {0},
+};
+
 const struct esr_command cmd_export = {
-    "export",
-    "extract the model's surface (marching cubes on the SDF) as a PLY mesh or a relightable glTF",
+    .name = "export",
+    .summary = "extract the model's surface (marching cubes on the SDF) as a PLY mesh or a "
+               "relightable glTF",
+    .usage =
     "usage: esr export RUN [--mesh OUT.ply] [--gltf OUT.glb] [options]  (at least one of the two)\n"
     "\n"
     "Loads the most advanced checkpoint in run directory RUN (or RUN may be a checkpoint file),\n"
@@ -30,17 +51,9 @@ const struct esr_command cmd_export = {
     "\n"
     "With --gltf, a relightable binary glTF (render/model_gltf.h): the same surface with the\n"
     "reconstructed base colour per vertex, roughness and metallic, and each light found as its\n"
-    "own node (light_<id>) emitting its calibrated radiance (KHR_materials_emissive_strength).\n"
-    "\n"
-    "options:\n"
-    "  --mesh FILE   output PLY\n"
-    "  --gltf FILE   output GLB (one of --mesh, --gltf is needed; both write two files, not one\n"
-    "                file for both, both or neither: when the glTF fails an earlier PLY stays)\n"
-    "  --res N       resample the SDF to N^3 lattice points first (8..1024; default: the model's grid)\n"
-    "  --no-colour   PLY: leave out vertex colours (faster)\n"
-    "  -h, --help    this text\n",
-    run_export,
-    0, /* view_loop */
+    "own node (light_<id>) emitting its calibrated radiance (KHR_materials_emissive_strength).\n",
+    .options = export_options,
+    .run = run_export,
 };
 
 /* The glTF of model to gltf_path, saying which lights got their node. */
@@ -127,30 +140,12 @@ static int check_not_input(const char *run, const char *out)
 
 static int run_export(int argc, char **argv)
 {
-    if (cli_wants_help(&cmd_export, argc, argv))
-        return 0;
-    const char *run = NULL, *mesh = NULL, *gltf = NULL;
-    int res = 0, colours = 1;
-    for (int i = 1; i < argc; i++) {
-        const char *a = argv[i];
-        int has_value = i + 1 < argc;
-        if (!strcmp(a, "--mesh") && has_value)
-            mesh = argv[++i];
-        else if (!strcmp(a, "--gltf") && has_value)
-            gltf = argv[++i];
-        else if (!strcmp(a, "--no-colour"))
-            colours = 0;
-        else if (!strcmp(a, "--res") && has_value) {
-            if (cli_parse_int(argv[++i], ESR_MODEL_MESH_RES_MIN, ESR_MODEL_MESH_RES_MAX, &res))
-                return cli_fail(&cmd_export, "--res must be an integer in %d..%d, got '%s'", ESR_MODEL_MESH_RES_MIN,
-                                ESR_MODEL_MESH_RES_MAX, argv[i]);
-        } else if (a[0] == '-' && a[1])
-            return cli_fail(&cmd_export, "unknown option or missing value: '%s'", a);
-        else if (run)
-            return cli_fail(&cmd_export, "more than one RUN given ('%s', '%s')", run, a);
-        else
-            run = a;
-    }
+    struct export_args args = {NULL, NULL, NULL, 0, 0};
+    const int parsed = cli_parse(&cmd_export, argc, argv, &args);
+    if (parsed != CLI_PARSED)
+        return parsed == CLI_HELPED ? 0 : 1;
+    const char *run = args.run, *mesh = args.mesh, *gltf = args.gltf;
+    const int res = args.res, colours = !args.no_colour;
     if (!run)
         return cli_fail(&cmd_export, "missing RUN directory");
     if (!mesh && !gltf)

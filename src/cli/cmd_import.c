@@ -1,4 +1,5 @@
 /* esr import colmap: a COLMAP-posed photo capture into a dataset in the ESR layout. */
+#include <stddef.h>
 #include <stdio.h>
 #include <string.h>
 #include <unistd.h>
@@ -12,9 +13,31 @@ static int run_import(int argc, char **argv);
 
 #define DEFAULT_SIZE 400
 
+struct import_args {
+    struct cli_texts positional; /* colmap MODEL_DIR IMAGES, or dtu SCAN */
+    const char *out, *align_to, *masks;
+    int size; /* 0: not given (DEFAULT_SIZE) */
+    int force;
+};
+
+#define AT(field) offsetof(struct import_args, field)
+static const struct cli_option import_options[] = {
+    {"SOURCE", .kind = CLI_ARGS, .at = AT(positional), .hi = 3},
+    {"--out", "DATA", "output dataset folder (absent or empty unless --force)", CLI_TEXT,
+     .at = AT(out)},
+    {"--size", "N", "longer side of the written images in pixels, 8..16384 (default: 400)", CLI_INT,
+     .at = AT(size), .lo = 8, .hi = 16384},
+    {"--align-to", "TRUE_DATA", "align to and compare with true cameras (above)", CLI_TEXT,
+     .at = AT(align_to)},
+    {"--masks", "MASKS", "colmap: foreground masks (above)", CLI_TEXT, .at = AT(masks)},
+    {"--force", NULL, "replace a non-empty DATA", CLI_FLAG, .at = AT(force)},
+    {0},
+};
+
 const struct esr_command cmd_import = {
-    "import",
-    "turn a COLMAP-posed photo capture or a DTU scan into a dataset (ESR layout)",
+    .name = "import",
+    .summary = "turn a COLMAP-posed photo capture or a DTU scan into a dataset (ESR layout)",
+    .usage =
     "usage: esr import colmap MODEL_DIR IMAGES --out DATA [--size N | --align-to TRUE_DATA]\n"
     "                         [--masks MASKS] [--force]\n"
     "       esr import dtu SCAN --out DATA [--size N] [--force]\n"
@@ -53,17 +76,9 @@ const struct esr_command cmd_import = {
     "TRUE_DATA's pinhole (size, camera_angle_x) and its test_nv phase is copied in, so runs on both\n"
     "are scored on the same test views. Prints and records in import.json (\"alignment\") the\n"
     "median and largest rotation error (degrees) and camera-centre error (absolute and in units\n"
-    "of the scene radius: half the largest side of scene.json's tight box, else 1).\n"
-    "\n"
-    "options:\n"
-    "  --out DATA   output dataset folder (absent or empty unless --force)\n"
-    "  --size N     longer side of the written images in pixels, 8..16384 (default: 400)\n"
-    "  --align-to TRUE_DATA  align to and compare with true cameras (above)\n"
-    "  --masks MASKS  colmap: foreground masks (above)\n"
-    "  --force      replace a non-empty DATA\n"
-    "  -h, --help   this text\n",
-    run_import,
-    0, /* view_loop */
+    "of the scene radius: half the largest side of scene.json's tight box, else 1).\n",
+    .options = import_options,
+    .run = run_import,
 };
 
 static void show_progress(void *user, int done, int total)
@@ -132,43 +147,27 @@ static int run_dtu(const char **positional, int n_pos, const struct esr_colmap_i
 
 static int run_import(int argc, char **argv)
 {
-    if (cli_wants_help(&cmd_import, argc, argv))
-        return 0;
-    struct esr_colmap_import_opts o;
-    memset(&o, 0, sizeof o);
-    o.size = DEFAULT_SIZE;
-    const char *positional[3] = {NULL, NULL, NULL};
-    int n_pos = 0, size_given = 0;
-    for (int i = 1; i < argc; i++) {
-        const char *a = argv[i];
-        int has_value = i + 1 < argc;
-        if (!strcmp(a, "--force")) {
-            o.force = 1;
-        } else if (!strcmp(a, "--out") && has_value) {
-            o.out_dir = argv[++i];
-        } else if (!strcmp(a, "--align-to") && has_value) {
-            o.align_to = argv[++i];
-        } else if (!strcmp(a, "--masks") && has_value) {
-            o.masks_dir = argv[++i];
-        } else if (!strcmp(a, "--size") && has_value) {
-            size_given = 1;
-            if (cli_parse_int(argv[++i], 8, 16384, &o.size))
-                return cli_fail(&cmd_import, "--size must be an integer in 8..16384, got '%s'", argv[i]);
-        } else if (a[0] == '-' && a[1]) {
-            return cli_fail(&cmd_import, "unknown option or missing value: '%s'", a);
-        } else if (n_pos == 3) {
-            return cli_fail(&cmd_import, "too many arguments ('%s')", a);
-        } else {
-            positional[n_pos++] = a;
-        }
-    }
+    struct import_args a;
+    memset(&a, 0, sizeof a);
+    const int parsed = cli_parse(&cmd_import, argc, argv, &a);
+    if (parsed != CLI_PARSED)
+        return parsed == CLI_HELPED ? 0 : 1;
+    const char **positional = a.positional.v;
+    const int n_pos = a.positional.n;
     if (n_pos < 1 || (strcmp(positional[0], "colmap") && strcmp(positional[0], "dtu")))
         return cli_fail(&cmd_import, "the first argument names the source: 'colmap' or 'dtu'");
-    if (!o.out_dir)
+    if (!a.out)
         return cli_fail(&cmd_import, "missing --out DATA");
-    if (size_given && o.align_to)
+    if (a.size && a.align_to)
         return cli_fail(&cmd_import, "--size and --align-to exclude each other: an aligned import takes the true "
                         "dataset's image size");
+    struct esr_colmap_import_opts o;
+    memset(&o, 0, sizeof o);
+    o.out_dir = a.out;
+    o.align_to = a.align_to;
+    o.masks_dir = a.masks;
+    o.size = a.size ? a.size : DEFAULT_SIZE;
+    o.force = a.force;
     int tty = isatty(STDERR_FILENO);
     if (!strcmp(positional[0], "dtu")) {
         if (o.masks_dir)

@@ -1,4 +1,5 @@
 /* esr info DATA_DIR: what a dataset holds, and every problem with its files. */
+#include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -11,9 +12,24 @@
 
 static int run_info(int argc, char **argv);
 
+struct info_args {
+    const char *dir, *json, *sheet;
+};
+
+#define AT(field) offsetof(struct info_args, field)
+static const struct cli_option info_options[] = {
+    {"DATA_DIR", .kind = CLI_ARG, .at = AT(dir)},
+    {"--json", "FILE", "also write the summary and the problems as JSON (atomically)", CLI_TEXT,
+     .at = AT(json)},
+    {"--contact-sheet", "FILE.png", "write a grid of thumbnails: train lights off, train lights "
+     "on, test views (composited on white)", CLI_TEXT, .at = AT(sheet)},
+    {0},
+};
+
 const struct esr_command cmd_info = {
-    "info",
-    "describe a dataset and check its files",
+    .name = "info",
+    .summary = "describe a dataset and check its files",
+    .usage =
     "usage: esr info DATA_DIR [--json FILE] [--contact-sheet FILE.png]\n"
     "\n"
     "Loads DATA_DIR (ESR layout: transforms/transforms_<phase>.json, or NeRF-synthetic:\n"
@@ -21,15 +37,9 @@ const struct esr_command cmd_info = {
     "of lights, per phase the frame count and the count per lighting mode, the bounding box of\n"
     "the camera centres and their distance from the origin, and the scene box. Then decodes every\n"
     "image, EXR and mask the dataset refers to and lists every problem found.\n"
-    "Exit status: 0 when the dataset is valid, 1 when it cannot be loaded or has problems.\n"
-    "\n"
-    "options:\n"
-    "  --json FILE                 also write the summary and the problems as JSON (atomically)\n"
-    "  --contact-sheet FILE.png    write a grid of thumbnails: train lights off, train lights on,\n"
-    "                              test views (composited on white)\n"
-    "  -h, --help                  show this text\n",
-    run_info,
-    0, /* view_loop */
+    "Exit status: 0 when the dataset is valid, 1 when it cannot be loaded or has problems.\n",
+    .options = info_options,
+    .run = run_info,
 };
 
 struct problem_list {
@@ -138,21 +148,11 @@ static int write_contact_sheet(const struct esr_dataset *ds, const char *path)
 
 static int run_info(int argc, char **argv)
 {
-    if (cli_wants_help(&cmd_info, argc, argv))
-        return 0;
-    const char *dir = NULL, *json_path = NULL, *sheet_path = NULL;
-    for (int i = 1; i < argc; i++) {
-        if (!strcmp(argv[i], "--json") && i + 1 < argc)
-            json_path = argv[++i];
-        else if (!strcmp(argv[i], "--contact-sheet") && i + 1 < argc)
-            sheet_path = argv[++i];
-        else if (argv[i][0] == '-')
-            return cli_fail(&cmd_info, "unknown or incomplete option '%s'", argv[i]);
-        else if (!dir)
-            dir = argv[i];
-        else
-            return cli_fail(&cmd_info, "unexpected argument '%s'", argv[i]);
-    }
+    struct info_args a = {NULL, NULL, NULL};
+    const int parsed = cli_parse(&cmd_info, argc, argv, &a);
+    if (parsed != CLI_PARSED)
+        return parsed == CLI_HELPED ? 0 : 1;
+    const char *dir = a.dir, *json_path = a.json, *sheet_path = a.sheet;
     if (!dir)
         return cli_fail(&cmd_info, "missing DATA_DIR");
     /* the outputs' names and folders before the dataset is checked (a minute on a large one) */

@@ -2,6 +2,7 @@
  * strength) as a table; on request, or when --recompute or --drop changes them, RUN/lights.json
  * and a picture of where each light is. */
 #include <signal.h>
+#include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -23,10 +24,46 @@
 
 static int run_lights(int argc, char **argv);
 
+#define LIGHTS_MAX_SETS 16
+struct lights_args {
+    const char *run, *data, *drop, *json, *picture;
+    int again;
+    struct cli_texts set; /* --set key=value: the lights' options */
+};
+
+static int lights_set(void *args, const struct cli_option *o, const char *value);
+
+#define AT(field) offsetof(struct lights_args, field)
+static const struct cli_option lights_options[] = {
+    {"RUN", .kind = CLI_ARG, .at = AT(run)},
+    {"--recompute", NULL, "find and calibrate the lights again and store them in the checkpoint (a "
+     "run whose pdra stage found none keeps none unless asked)", CLI_FLAG, .at = AT(again)},
+    {"--drop", "IDS", "remove these lights (ids as listed now; a reflection you judge no light, "
+     "such as a mirror's view of a lamp: it then follows the lights it reflects in relights "
+     "instead of glowing on), calibrate the others again without them and store the result in the "
+     "checkpoint; --recompute brings them back", CLI_TEXT, .at = AT(drop)},
+    {"--json", "FILE.json", "write the lights as JSON to FILE.json (as RUN/lights.json, above)",
+     CLI_TEXT, .at = AT(json)},
+    {"--picture", "FILE.png", "write where each light is: the lights-on training photo that shows "
+     "the most lights' centroids, enlarged to at least 256 pixels wide, each light's id in a black "
+     "box beside a cross at its centroid (occlusion not tested: a light behind an object is marked "
+     "where it would be seen)", CLI_TEXT, .at = AT(picture)},
+    {"--set", "key=value", "with --recompute or --drop: one of the lights' options (lights_solve, "
+     "lights_solve_rays, lights_solve_spp, lights_solve_seen, lights_solve_dirs, "
+     "lights_solve_drop, lights_balance, lights_calib_points, emitter_k; `esr train --help` says "
+     "each), kept in the checkpoint", CLI_TEXTS, .at = AT(set), .hi = LIGHTS_MAX_SETS,
+     .call = lights_set},
+    {"--data", "DIR", "the dataset whose training images --recompute and --drop read (lights-off "
+     "to calibrate, lights-on for the colour) and --picture shows (default: the one RUN was "
+     "trained on)", CLI_TEXT, .at = AT(data)},
+    {0},
+};
+
 const struct esr_command cmd_lights = {
-    "lights",
-    "list the lights a run found (id, place, area, colour as `esr edit` takes it, power) and where "
-    "they are",
+    .name = "lights",
+    .summary = "list the lights a run found (id, place, area, colour as `esr edit` takes it, "
+               "power) and where they are",
+    .usage =
     "usage: esr lights RUN [--recompute | --drop ID[,ID...]] [--set key=value ...]\n"
     "                  [--json FILE.json] [--picture FILE.png] [--data DIR]\n"
     "\n"
@@ -58,34 +95,20 @@ const struct esr_command cmd_lights = {
     "   the base colour),\n"
     "   \"emitter_k\", \"checkpoint\", \"units\", \"colour_balance\" (the base colour's factor per\n"
     "   channel, the environment map's divisor, set from the lights' silhouettes in the lights-on\n"
-    "   photos; 1 1 1: none)}\n"
-    "\n"
-    "options:\n"
-    "  --recompute   find and calibrate the lights again and store them in the checkpoint (a\n"
-    "                run whose pdra stage found none keeps none unless asked)\n"
-    "  --drop IDS    remove these lights (ids as listed now; a reflection you judge no light,\n"
-    "                such as a mirror's view of a lamp: it then follows the lights it reflects\n"
-    "                in relights instead of glowing on), calibrate the others again without\n"
-    "                them and store the result in the checkpoint; --recompute brings them back\n"
-    "  --json FILE.json\n"
-    "                write the lights as JSON to FILE.json (as RUN/lights.json, above)\n"
-    "  --picture FILE.png\n"
-    "                write where each light is: the lights-on training photo that shows the most\n"
-    "                lights' centroids, enlarged to at least 256 pixels wide, each light's id in a\n"
-    "                black box beside a cross at its centroid (occlusion not tested: a light behind\n"
-    "                an object is marked where it would be seen)\n"
-    "  --set key=value\n"
-    "                with --recompute or --drop: one of the lights' options (lights_solve,\n"
-    "                lights_solve_rays, lights_solve_spp, lights_solve_seen, lights_solve_dirs,\n"
-    "                lights_solve_drop, lights_balance, lights_calib_points, emitter_k;\n"
-    "                `esr train --help` says each), kept in the checkpoint\n"
-    "  --data DIR    the dataset whose training images --recompute and --drop read (lights-off\n"
-    "                to calibrate, lights-on for the colour) and --picture shows (default: the\n"
-    "                one RUN was trained on)\n"
-    "  -h, --help    this text\n",
-    run_lights,
-    0, /* view_loop */
+    "   photos; 1 1 1: none)}\n",
+    .options = lights_options,
+    .run = run_lights,
 };
+
+/* Only the lights' own options change here. */
+static int lights_set(void *args, const struct cli_option *o, const char *value)
+{
+    (void)args;
+    if (strncmp(value, "lights_", 7) && strncmp(value, "emitter_k=", 10))
+        return cli_fail(&cmd_lights, "%s %s: only the lights' options (lights_..., emitter_k) "
+                        "change here; the others are the training's", o->name, value);
+    return 0;
+}
 
 /* Finds (find) and calibrates the lights of m from the training rays of ds, loaded from DATA
  * (the lights-off ones calibrate, the lights-on ones balance their colour): the trainer's
@@ -157,14 +180,6 @@ static int add_out(struct out_file *o, int *n, enum out_kind kind, const char *p
     (*n)++;
     return ESR_OK;
 }
-
-#define LIGHTS_MAX_SETS 16
-struct lights_args {
-    const char *run, *data, *drop, *json, *picture;
-    int again;
-    const char *set[LIGHTS_MAX_SETS]; /* --set key=value: the lights' options */
-    int n_set;
-};
 
 /* Writes file o's bytes to `to`. */
 static int write_one(const struct out_file *o, const char *to, const struct esr_model *m,
@@ -253,8 +268,8 @@ static int lights(const struct lights_args *a)
     int lock = -1, have_ds = 0;
     struct esr_dataset ds;
     int rc = ESR_OK;
-    for (int i = 0; rc == ESR_OK && i < a->n_set; i++) /* kept in the checkpoint written */
-        rc = esr_config_set(&m.cfg, a->set[i]);
+    for (int i = 0; rc == ESR_OK && i < a->set.n; i++) /* kept in the checkpoint written */
+        rc = esr_config_set(&m.cfg, a->set.v[i]);
     if (rc == ESR_OK && change) /* not beside a training of this run, nor another change of its lights */
         rc = esr_dir_lock(a->run, "lights", &lock);
     if (rc == ESR_OK && (change || want_picture))
@@ -289,43 +304,17 @@ static int lights(const struct lights_args *a)
 
 static int run_lights(int argc, char **argv)
 {
-    if (cli_wants_help(&cmd_lights, argc, argv))
-        return 0;
     struct lights_args a;
     memset(&a, 0, sizeof a);
-    for (int i = 1; i < argc; i++) {
-        const char *s = argv[i];
-        if (!strcmp(s, "--recompute"))
-            a.again = 1;
-        else if (!strcmp(s, "--drop") && i + 1 < argc)
-            a.drop = argv[++i];
-        else if (!strcmp(s, "--data") && i + 1 < argc)
-            a.data = argv[++i];
-        else if (!strcmp(s, "--json") && i + 1 < argc)
-            a.json = argv[++i];
-        else if (!strcmp(s, "--picture") && i + 1 < argc)
-            a.picture = argv[++i];
-        else if (!strcmp(s, "--set") && i + 1 < argc) {
-            if (a.n_set == LIGHTS_MAX_SETS)
-                return cli_fail(&cmd_lights, "more than %d --set options", LIGHTS_MAX_SETS);
-            if (strncmp(argv[i + 1], "lights_", 7) && strncmp(argv[i + 1], "emitter_k=", 10))
-                return cli_fail(&cmd_lights, "--set %s: only the lights' options (lights_..., "
-                                "emitter_k) change here; the others are the training's",
-                                argv[i + 1]);
-            a.set[a.n_set++] = argv[++i];
-        } else if (s[0] == '-' && s[1])
-            return cli_fail(&cmd_lights, "unknown option or missing value: '%s'", s);
-        else if (a.run)
-            return cli_fail(&cmd_lights, "more than one RUN given ('%s', '%s')", a.run, s);
-        else
-            a.run = s;
-    }
+    const int parsed = cli_parse(&cmd_lights, argc, argv, &a);
+    if (parsed != CLI_PARSED)
+        return parsed == CLI_HELPED ? 0 : 1;
     if (!a.run)
         return cli_fail(&cmd_lights, "missing RUN directory");
     if (a.data && !a.again && !a.drop && !a.picture)
         return cli_fail(&cmd_lights, "--data is read only with --recompute, --drop or --picture "
                         "(the lights are stored in RUN's pdra checkpoint)");
-    if (a.n_set && !a.again && !a.drop)
+    if (a.set.n && !a.again && !a.drop)
         return cli_fail(&cmd_lights, "--set changes how the lights are found and calibrated: give "
                         "it with --recompute or --drop");
     if (a.again && a.drop)

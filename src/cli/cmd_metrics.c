@@ -1,6 +1,7 @@
 /* esr metrics A B [--json FILE]: PSNR / SSIM / MSE between two images. */
 #include <cJSON.h>
 #include <math.h>
+#include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -15,9 +16,23 @@
 
 static int run_metrics(int argc, char **argv);
 
+struct metrics_args {
+    struct cli_texts images; /* A and B */
+    const char *json;
+};
+
+#define AT(field) offsetof(struct metrics_args, field)
+static const struct cli_option metrics_options[] = {
+    {"A B", .kind = CLI_ARGS, .at = AT(images), .hi = 2,
+     .bad = "expected exactly two images, got a third: '%s'"},
+    {"--json", "FILE", "also write the JSON object to FILE (atomically)", CLI_TEXT, .at = AT(json)},
+    {0},
+};
+
 const struct esr_command cmd_metrics = {
-    "metrics",
-    "PSNR, SSIM and MSE between two images (PNG, EXR or JPEG)",
+    .name = "metrics",
+    .summary = "PSNR, SSIM and MSE between two images (PNG, EXR or JPEG)",
+    .usage =
     "usage: esr metrics A B [--json FILE]\n"
     "\n"
     "Compares image A with image B and prints one JSON object to stdout:\n"
@@ -28,13 +43,9 @@ const struct esr_command cmd_metrics = {
     "SSIM is the NeRF-literature variant (11x11 Gaussian, sigma 1.5, valid borders, per-channel\n"
     "mean); it is null for images under 11x11 pixels. An EXR (linear) is not compared with a\n"
     "PNG or JPEG (sRGB-encoded): compare like with like (esr render writes N.exr beside\n"
-    "N_linear.png, the linear render through the sRGB curve).\n"
-    "\n"
-    "options:\n"
-    "  --json FILE   also write the JSON object to FILE (atomically)\n"
-    "  -h, --help    show this text\n",
-    run_metrics,
-    0, /* view_loop */
+    "N_linear.png, the linear render through the sRGB curve).\n",
+    .options = metrics_options,
+    .run = run_metrics,
 };
 
 /* Reads path and returns it as RGB (or grey) without alpha, composited on white. */
@@ -92,25 +103,14 @@ static int compute(const char *path_a, const char *path_b, cJSON *obj)
 
 static int run_metrics(int argc, char **argv)
 {
-    if (cli_wants_help(&cmd_metrics, argc, argv))
-        return 0;
-    const char *paths[2] = {NULL, NULL}, *json_path = NULL;
-    int n_paths = 0;
-    for (int i = 1; i < argc; i++) {
-        if (!strcmp(argv[i], "--json")) {
-            if (i + 1 >= argc)
-                return cli_fail(&cmd_metrics, "--json needs a file name");
-            json_path = argv[++i];
-        } else if (argv[i][0] == '-' && argv[i][1] != '\0') {
-            return cli_fail(&cmd_metrics, "unknown option '%s'", argv[i]);
-        } else if (n_paths < 2) {
-            paths[n_paths++] = argv[i];
-        } else {
-            return cli_fail(&cmd_metrics, "expected exactly two images, got a third: '%s'", argv[i]);
-        }
-    }
-    if (n_paths != 2)
+    struct metrics_args a;
+    memset(&a, 0, sizeof a);
+    const int parsed = cli_parse(&cmd_metrics, argc, argv, &a);
+    if (parsed != CLI_PARSED)
+        return parsed == CLI_HELPED ? 0 : 1;
+    if (a.images.n != 2)
         return cli_fail(&cmd_metrics, "expected two images A and B");
+    const char *const *paths = a.images.v, *json_path = a.json;
     cJSON *obj = cJSON_CreateObject();
     if (!obj)
         return cli_fail(&cmd_metrics, "out of memory");

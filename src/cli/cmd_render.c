@@ -1,4 +1,5 @@
 /* esr render RUN: render the test views of a phase with the trained model. */
+#include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -12,9 +13,31 @@
 
 static int run_render(int argc, char **argv);
 
+struct render_args {
+    const char *run, *phase, *out, *frames, *data;
+    int limit;
+};
+
+#define AT(field) offsetof(struct render_args, field)
+static const struct cli_option render_options[] = {
+    {"RUN", .kind = CLI_ARG, .at = AT(run)},
+    {"--phase", "P", "phase to render (default: test_nv)", CLI_TEXT, .at = AT(phase)},
+    {"--out", "DIR", "output directory (default: RUN/render/P; not inside the dataset, unless "
+     "inside RUN)", CLI_TEXT, .at = AT(out)},
+    {"--frames", "a,b,..", "only these frames, by name (e.g. c000_off,c003_on)", CLI_TEXT,
+     .at = AT(frames)},
+    {"--limit", "N", "only the first N (selected) frames", CLI_INT, .at = AT(limit), .lo = 1,
+     .hi = 1000000,
+     .bad = "--limit must be an integer in 1..1000000 (leave it out for every frame), got '%s'"},
+    {"--data", "DIR", "dataset directory (default: the one recorded in RUN)", CLI_TEXT,
+     .at = AT(data)},
+    {0},
+};
+
 const struct esr_command cmd_render = {
-    "render",
-    "render a phase's test views with a trained model (PNG, linear, EXR, normal, depth)",
+    .name = "render",
+    .summary = "render a phase's test views with a trained model (PNG, linear, EXR, normal, depth)",
+    .usage =
     "usage: esr render RUN [options]\n"
     "\n"
     "Renders every frame of a dataset phase with the model in run directory RUN (its most advanced\n"
@@ -38,18 +61,10 @@ const struct esr_command cmd_render = {
     "  env.exr/.png         the environment map, equirectangular, once per folder\n"
     "and render.json, the record of which frames are current for the checkpoint.\n"
     "Light-edit phases (test_nvi, test_nvc, test_nvic): `esr eval RUN --phase P` relights and\n"
-    "scores them; `esr edit` relights the scene as you choose.\n"
-    "\n"
-    "options:\n"
-    "  --phase P        phase to render (default: test_nv)\n"
-    "  --out DIR        output directory (default: RUN/render/P; not inside the dataset, unless\n"
-    "                   inside RUN)\n"
-    "  --frames a,b,..  only these frames, by name (e.g. c000_off,c003_on)\n"
-    "  --limit N        only the first N (selected) frames\n"
-    "  --data DIR       dataset directory (default: the one recorded in RUN)\n"
-    "  -h, --help       this text\n",
-    run_render,
-    1, /* view_loop */
+    "scores them; `esr edit` relights the scene as you choose.\n",
+    .options = render_options,
+    .run = run_render,
+    .view_loop = 1,
 };
 
 static void show_progress(void *user, const struct esr_view_progress *p)
@@ -73,31 +88,12 @@ static int render_selected(const char *run, const struct esr_run_selection *sel,
 
 static int run_render(int argc, char **argv)
 {
-    if (cli_wants_help(&cmd_render, argc, argv))
-        return 0;
-    const char *run = NULL, *phase = "test_nv", *out = NULL, *frames = NULL, *data = NULL;
-    int limit = 0;
-    for (int i = 1; i < argc; i++) {
-        const char *a = argv[i];
-        int has_value = i + 1 < argc;
-        if (!strcmp(a, "--phase") && has_value)
-            phase = argv[++i];
-        else if (!strcmp(a, "--out") && has_value)
-            out = argv[++i];
-        else if (!strcmp(a, "--frames") && has_value)
-            frames = argv[++i];
-        else if (!strcmp(a, "--data") && has_value)
-            data = argv[++i];
-        else if (!strcmp(a, "--limit") && has_value) {
-            if (cli_parse_int(argv[++i], 1, 1000000, &limit))
-                return cli_fail(&cmd_render, "--limit must be an integer in 1..1000000 (leave it out for every frame), got '%s'", argv[i]);
-        } else if (a[0] == '-' && a[1])
-            return cli_fail(&cmd_render, "unknown option or missing value: '%s'", a);
-        else if (run)
-            return cli_fail(&cmd_render, "more than one RUN given ('%s', '%s')", run, a);
-        else
-            run = a;
-    }
+    struct render_args a = {NULL, "test_nv", NULL, NULL, NULL, 0};
+    const int parsed = cli_parse(&cmd_render, argc, argv, &a);
+    if (parsed != CLI_PARSED)
+        return parsed == CLI_HELPED ? 0 : 1;
+    const char *run = a.run, *phase = a.phase, *out = a.out, *frames = a.frames, *data = a.data;
+    const int limit = a.limit;
     if (!run)
         return cli_fail(&cmd_render, "missing RUN directory");
     char out_dir[ESR_PATH_MAX];

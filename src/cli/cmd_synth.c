@@ -1,5 +1,6 @@
 /* esr synth: render a built-in scene into a complete dataset. */
 #include <errno.h>
+#include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -11,30 +12,48 @@
 
 static int run_synth(int argc, char **argv);
 
+struct synth_args {
+    struct esr_synth_options opt;
+    const char *out_dir;
+};
+
+static int seed_value(void *args, const struct cli_option *o, const char *value);
+static void list_scenes(FILE *out);
+
+#define AT(field) offsetof(struct synth_args, field)
+static const struct cli_option synth_options[] = {
+    {"OUT_DIR", .kind = CLI_ARG, .at = AT(out_dir)},
+    {"--scene", "NAME", "built-in scene (default: default); `--scene list` lists them", CLI_TEXT,
+     .at = AT(opt.scene)},
+    {"--res", "N", "image width = height in pixels, 8..2048 (default: the scene's, 100 or 160)",
+     CLI_INT, .at = AT(opt.res), .lo = ESR_SYNTH_RES_MIN, .hi = ESR_SYNTH_RES_MAX},
+    {"--spp", "N", "samples per pixel, 1..65536 (default: the scene's)", CLI_INT, .at = AT(opt.spp),
+     .lo = ESR_SYNTH_SPP_MIN, .hi = ESR_SYNTH_SPP_MAX},
+    {"--train", "N", "train views per lighting condition, 1..500 (default: the scene's, 50)",
+     CLI_INT, .at = AT(opt.n_train), .lo = 1, .hi = 500},
+    {"--test", "N", "test cameras, 1..500 (default: the scene's, 10)", CLI_INT,
+     .at = AT(opt.n_test), .lo = 1, .hi = 500},
+    {"--seed", "S", "seed of cameras and noise (default: 1)", CLI_CALL, .call = seed_value},
+    {"--backdrop", NULL, "the cameras see a distant backdrop where renders are transparent: opaque "
+     "images like photographs of an object in a room (esr then learns the background, "
+     "fields/background.h)", CLI_FLAG, .at = AT(opt.backdrop)},
+    {"--force", NULL, "replace a non-empty OUT_DIR", CLI_FLAG, .at = AT(opt.force)},
+    {0},
+};
+
 const struct esr_command cmd_synth = {
-    "synth",
-    "render a built-in scene into a complete ESR-NeRF dataset",
+    .name = "synth",
+    .summary = "render a built-in scene into a complete ESR-NeRF dataset",
+    .usage =
     "usage: esr synth [options] OUT_DIR\n"
     "\n"
     "Renders a built-in analytic scene with a path tracer into OUT_DIR in the dataset layout of\n"
     "FORMAT.md (train, test_nv, test_nvi, test_nvc, test_nvic, masks, transforms, scene.json) plus\n"
     "ground truth in OUT_DIR/gt (mesh.ply; per test camera normal, base colour, roughness,\n"
-    "metallic and emission EXR maps). Written to a hidden sibling directory and renamed at the end.\n"
-    "\n"
-    "options:\n"
-    "  --scene NAME   built-in scene (default: default); `--scene list` lists them\n"
-    "  --res N        image width = height in pixels, 8..2048 (default: the scene's, 100 or 160)\n"
-    "  --spp N        samples per pixel, 1..65536 (default: the scene's)\n"
-    "  --train N      train views per lighting condition, 1..500 (default: the scene's, 50)\n"
-    "  --test N       test cameras, 1..500 (default: the scene's, 10)\n"
-    "  --seed S       seed of cameras and noise (default: 1)\n"
-    "  --backdrop     the cameras see a distant backdrop where renders are transparent: opaque\n"
-    "                 images like photographs of an object in a room (esr then learns the\n"
-    "                 background, fields/background.h)\n"
-    "  --force        replace a non-empty OUT_DIR\n"
-    "  -h, --help     this text\n",
-    run_synth,
-    0, /* view_loop */
+    "metallic and emission EXR maps). Written to a hidden sibling directory and renamed at the end.\n",
+    .options = synth_options,
+    .help_more = list_scenes,
+    .run = run_synth,
 };
 
 static void list_scenes(FILE *out)
@@ -47,15 +66,16 @@ static void list_scenes(FILE *out)
                     s.res, s.res, s.spp, s.summary);
 }
 
-/* Parses a whole-string integer in [lo, hi]. */
-static int parse_int(const char *text, long long lo, long long hi, long long *out)
+/* --seed: 64 bits, beyond cli_parse_int's int. */
+static int seed_value(void *args, const struct cli_option *o, const char *value)
 {
+    struct synth_args *a = args;
     char *end;
     errno = 0;
-    long long v = strtoll(text, &end, 10);
-    if (errno || end == text || *end || v < lo || v > hi)
-        return -1;
-    *out = v;
+    const long long v = strtoll(value, &end, 10);
+    if (errno || end == value || *end || v < 0)
+        return cli_fail(&cmd_synth, "%s must be a non-negative integer, got '%s'", o->name, value);
+    a->opt.seed = (uint64_t)v;
     return 0;
 }
 
@@ -76,52 +96,15 @@ static void show_progress(void *user, const struct esr_synth_progress *p)
 
 static int run_synth(int argc, char **argv)
 {
-    if (cli_wants_help(&cmd_synth, argc, argv)) {
-        printf("\n");
-        list_scenes(stdout);
-        return 0;
-    }
-    struct esr_synth_options opt;
-    memset(&opt, 0, sizeof opt);
-    opt.scene = "default";
-    opt.seed = 1;
-    const char *out_dir = NULL;
-    for (int i = 1; i < argc; i++) {
-        const char *a = argv[i];
-        long long v;
-        int has_value = i + 1 < argc;
-        if (!strcmp(a, "--force")) {
-            opt.force = 1;
-        } else if (!strcmp(a, "--backdrop")) {
-            opt.backdrop = 1;
-        } else if (!strcmp(a, "--scene") && has_value) {
-            opt.scene = argv[++i];
-        } else if (!strcmp(a, "--res") && has_value) {
-            if (parse_int(argv[++i], ESR_SYNTH_RES_MIN, ESR_SYNTH_RES_MAX, &v))
-                return cli_fail(&cmd_synth, "--res must be an integer in %d..%d, got '%s'", ESR_SYNTH_RES_MIN,
-                                ESR_SYNTH_RES_MAX, argv[i]);
-            opt.res = (int)v;
-        } else if (!strcmp(a, "--spp") && has_value) {
-            if (parse_int(argv[++i], ESR_SYNTH_SPP_MIN, ESR_SYNTH_SPP_MAX, &v))
-                return cli_fail(&cmd_synth, "--spp must be an integer in %d..%d, got '%s'", ESR_SYNTH_SPP_MIN,
-                                ESR_SYNTH_SPP_MAX, argv[i]);
-            opt.spp = (int)v;
-        } else if ((!strcmp(a, "--train") || !strcmp(a, "--test")) && has_value) {
-            if (parse_int(argv[++i], 1, 500, &v))
-                return cli_fail(&cmd_synth, "%s must be an integer in 1..500, got '%s'", a, argv[i]);
-            *(!strcmp(a, "--train") ? &opt.n_train : &opt.n_test) = (int)v;
-        } else if (!strcmp(a, "--seed") && has_value) {
-            if (parse_int(argv[++i], 0, 9223372036854775807LL, &v))
-                return cli_fail(&cmd_synth, "--seed must be a non-negative integer, got '%s'", argv[i]);
-            opt.seed = (uint64_t)v;
-        } else if (a[0] == '-' && a[1]) {
-            return cli_fail(&cmd_synth, "unknown option or missing value: '%s'", a);
-        } else if (out_dir) {
-            return cli_fail(&cmd_synth, "more than one OUT_DIR given ('%s', '%s')", out_dir, a);
-        } else {
-            out_dir = a;
-        }
-    }
+    struct synth_args a;
+    memset(&a, 0, sizeof a);
+    a.opt.scene = "default";
+    a.opt.seed = 1;
+    const int parsed = cli_parse(&cmd_synth, argc, argv, &a);
+    if (parsed != CLI_PARSED)
+        return parsed == CLI_HELPED ? 0 : 1;
+    struct esr_synth_options opt = a.opt;
+    const char *out_dir = a.out_dir;
     if (!strcmp(opt.scene, "list")) {
         list_scenes(stdout);
         return 0;

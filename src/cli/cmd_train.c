@@ -1,6 +1,7 @@
 /* esr train DATA --out RUN: the geometry and radiance stages (alphamask -> coarse -> fine). */
 #include <errno.h>
 #include <signal.h>
+#include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -15,9 +16,50 @@
 
 static int run_train(int argc, char **argv);
 
+struct train_args {
+    const char *data, *out;
+    enum esr_stage until;
+    enum esr_preset preset;
+    int has_preset, resume, force, eval, allow_poor;
+    struct cli_texts configs, sets; /* applied in order over the preset */
+};
+
+static int preset_value(void *args, const struct cli_option *o, const char *value);
+static void config_help(FILE *out);
+static int stage_value(void *args, const struct cli_option *o, const char *value);
+
+#define AT(field) offsetof(struct train_args, field)
+static const struct cli_option train_options[] = {
+    {"DATA", .kind = CLI_ARG, .at = AT(data)},
+    {"--out", "RUN", "run directory (created if missing)", CLI_TEXT, .at = AT(out)},
+    {"--until", "STAGE", "last stage to run: alphamask, coarse, fine, lts or pdra (default; fine "
+     "gives the geometry and radiance without the emitters)", CLI_CALL, .call = stage_value},
+    {"--resume", NULL, "continue from RUN's checkpoints with RUN's config.json (without one, with "
+     "the options given now, said); --set changes options of the stages still to train and is "
+     "written to it (e.g. lts and pdra again from a copy's fine checkpoint)", CLI_FLAG,
+     .at = AT(resume)},
+    {"--force", NULL, "start over in a RUN that holds an earlier run (not with --resume)", CLI_FLAG,
+     .at = AT(force)},
+    {"--preset", "NAME", "defaults: fast (CPU, default), paper (the authors' sizes) or smoke "
+     "(every stage a few iterations on grids sized to the images: checks an install in seconds on "
+     "a small `esr synth --res 32` dataset)", CLI_CALL, .call = preset_value},
+    {"--config", "FILE.json", "options as JSON ({\"fine.iters\": 200} or {\"fine\": {\"iters\": "
+     "200}}, optional \"preset\"); unknown keys or out-of-range values are refused", CLI_TEXTS,
+     .at = AT(configs), .hi = CLI_TEXTS_MAX},
+    {"--set", "key=value", "override one option (after --preset and --config; repeatable)",
+     CLI_TEXTS, .at = AT(sets), .hi = CLI_TEXTS_MAX},
+    {"--eval", NULL, "afterwards render the test_nv views with every stage's checkpoint and print "
+     "PSNR (tone-mapped and gamma-corrected linear, lights off/on)", CLI_FLAG, .at = AT(eval)},
+    {"--allow-poor", NULL, "exit 0 even when the run's figures say it failed (above)", CLI_FLAG,
+     .at = AT(allow_poor)},
+    {0},
+};
+
 const struct esr_command cmd_train = {
-    "train",
-    "train the model: geometry, radiance, then emission and materials (alphamask .. pdra)",
+    .name = "train",
+    .summary = "train the model: geometry, radiance, then emission and materials (alphamask .. "
+               "pdra)",
+    .usage =
     "usage: esr train DATA --out RUN [--until STAGE] [--resume | --force]\n"
     "                 [--preset fast|paper|smoke] [--config FILE.json] [--set key=value ...]\n"
     "                 [--eval] [--allow-poor]\n"
@@ -37,26 +79,6 @@ const struct esr_command cmd_train = {
     "A loss or gradient that turns NaN/Inf reloads the last checkpoint with half the learning\n"
     "rate; the third failure stops the run (the checkpoint stays intact).\n"
     "\n"
-    "options:\n"
-    "  --out RUN            run directory (created if missing)\n"
-    "  --until STAGE        last stage to run: alphamask, coarse, fine, lts or pdra (default;\n"
-    "                       fine gives the geometry and radiance without the emitters)\n"
-    "  --resume             continue from RUN's checkpoints with RUN's config.json (without\n"
-    "                       one, with the options given now, said); --set changes options of\n"
-    "                       the stages still to train and is written to it (e.g. lts and pdra\n"
-    "                       again from a copy's fine checkpoint)\n"
-    "  --force              start over in a RUN that holds an earlier run (not with --resume)\n"
-    "  --preset NAME        defaults: fast (CPU, default), paper (the authors' sizes) or smoke\n"
-    "                       (every stage a few iterations on grids sized to the images: checks\n"
-    "                       an install in seconds on a small `esr synth --res 32` dataset)\n"
-    "  --config FILE.json   options as JSON ({\"fine.iters\": 200} or {\"fine\": {\"iters\": 200}},\n"
-    "                       optional \"preset\"); unknown keys or out-of-range values are refused\n"
-    "  --set key=value      override one option (after --preset and --config; repeatable)\n"
-    "  --eval               afterwards render the test_nv views with every stage's checkpoint and\n"
-    "                       print PSNR (tone-mapped and gamma-corrected linear, lights off/on)\n"
-    "  --allow-poor         exit 0 even when the run's figures say it failed (see below)\n"
-    "  -h, --help           show this text and the option table\n"
-    "\n"
     "A run that finishes but whose figures say it failed ends with a warning and exit status 2:\n"
     "a last stage whose training PSNR is below the data's floor (a constant colour per lighting\n"
     "plus 3 dB), far more lights than the dataset describes or emitting regions past the\n"
@@ -64,9 +86,34 @@ const struct esr_command cmd_train = {
     "keeps the warning and exits 0.\n"
     "\n"
     "Exit status: 0 on success, 1 on bad arguments, data or a stopped run, 2 on a poor run.\n",
-    run_train,
-    0, /* view_loop */
+    .options = train_options,
+    .help_more = config_help,
+    .run = run_train,
 };
+
+static void config_help(FILE *out)
+{
+    fprintf(out, "configuration options (--set key=value, --config FILE.json):\n");
+    esr_config_print_help(out);
+}
+
+/* --preset: checked where it stands (the defaults every other option applies to). */
+static int preset_value(void *args, const struct cli_option *o, const char *value)
+{
+    struct train_args *a = args;
+    (void)o;
+    if (esr_preset_from_name(value, &a->preset) != ESR_OK)
+        return cli_fail_lib(&cmd_train);
+    a->has_preset = 1;
+    return 0;
+}
+
+static int stage_value(void *args, const struct cli_option *o, const char *value)
+{
+    struct train_args *a = args;
+    (void)o;
+    return esr_stage_from_name(value, &a->until) != ESR_OK ? cli_fail_lib(&cmd_train) : 0;
+}
 
 struct progress_sink {
     const char *log_path; /* RUN/log, opened at the first line: the trainer creates RUN only
@@ -189,80 +236,41 @@ static void release_interrupt(void)
     sigaction(SIGTERM, &before_term, NULL);
 }
 
+/* The training's options: the preset's defaults, then each --config, then each --set, in the
+ * order given. */
+static int resolve_config(const struct train_args *a, struct esr_train_config *cfg)
+{
+    esr_config_defaults(cfg, a->preset);
+    for (int i = 0; i < a->configs.n; i++)
+        if (esr_config_load_json(cfg, a->configs.v[i]) != ESR_OK)
+            return cli_fail_lib(&cmd_train);
+    for (int i = 0; i < a->sets.n; i++)
+        if (esr_config_set(cfg, a->sets.v[i]) != ESR_OK)
+            return cli_fail_lib(&cmd_train);
+    return 0;
+}
+
 static int run_train(int argc, char **argv)
 {
-    for (int i = 1; i < argc; i++)
-        if (!strcmp(argv[i], "-h") || !strcmp(argv[i], "--help")) {
-            printf("%s\nconfiguration options (--set key=value, --config FILE.json):\n",
-                   cmd_train.usage);
-            esr_config_print_help(stdout);
-            return 0;
-        }
+    struct train_args a;
+    memset(&a, 0, sizeof a);
+    a.until = ESR_STAGE_PDRA;
+    a.preset = ESR_PRESET_FAST;
+    const int parsed = cli_parse(&cmd_train, argc, argv, &a);
+    if (parsed != CLI_PARSED)
+        return parsed == CLI_HELPED ? 0 : 1;
     struct esr_train_opts o;
     memset(&o, 0, sizeof o);
-    o.until = ESR_STAGE_PDRA;
+    o.until = a.until;
     o.nan_test_iter = -1;
-    enum esr_preset preset = ESR_PRESET_FAST;
-    const char *config = NULL, *data = NULL;
-    int do_eval = 0, has_preset = 0, allow_poor = 0;
-    const char *sets[64]; /* the --set values, for a resume */
-    int n_sets = 0;
-    /* first pass: preset (the base every other option applies to) */
-    for (int i = 1; i < argc; i++)
-        if (!strcmp(argv[i], "--preset")) {
-            if (i + 1 >= argc)
-                return cli_fail(&cmd_train, "--preset needs a value (fast, paper or smoke)");
-            if (esr_preset_from_name(argv[++i], &preset) != ESR_OK)
-                return cli_fail_lib(&cmd_train);
-            has_preset = 1;
-        }
-    esr_config_defaults(&o.cfg, preset);
-    for (int i = 1; i < argc; i++)
-        if (!strcmp(argv[i], "--config")) {
-            if (i + 1 >= argc)
-                return cli_fail(&cmd_train, "--config needs a file");
-            config = argv[++i];
-            if (esr_config_load_json(&o.cfg, config) != ESR_OK)
-                return cli_fail_lib(&cmd_train);
-        }
-    for (int i = 1; i < argc; i++) {
-        const char *a = argv[i];
-        int has_val = i + 1 < argc;
-        if (!strcmp(a, "--preset") || !strcmp(a, "--config")) {
-            i++;
-        } else if (!strcmp(a, "--out")) {
-            if (!has_val)
-                return cli_fail(&cmd_train, "--out needs a directory");
-            o.run_dir = argv[++i];
-        } else if (!strcmp(a, "--until")) {
-            if (!has_val)
-                return cli_fail(&cmd_train, "--until needs a stage");
-            if (esr_stage_from_name(argv[++i], &o.until) != ESR_OK)
-                return cli_fail_lib(&cmd_train);
-        } else if (!strcmp(a, "--resume")) {
-            o.resume = 1;
-        } else if (!strcmp(a, "--force")) {
-            o.force = 1;
-        } else if (!strcmp(a, "--eval")) {
-            do_eval = 1;
-        } else if (!strcmp(a, "--allow-poor")) {
-            allow_poor = 1;
-        } else if (!strcmp(a, "--set")) {
-            if (!has_val)
-                return cli_fail(&cmd_train, "--set needs key=value");
-            if (esr_config_set(&o.cfg, argv[++i]) != ESR_OK)
-                return cli_fail_lib(&cmd_train);
-            if (n_sets == (int)(sizeof sets / sizeof sets[0]))
-                return cli_fail(&cmd_train, "more than %d --set options", n_sets);
-            sets[n_sets++] = argv[i];
-        } else if (a[0] == '-') {
-            return cli_fail(&cmd_train, "unknown option '%s'", a);
-        } else if (!data) {
-            data = a;
-        } else {
-            return cli_fail(&cmd_train, "unexpected argument '%s'", a);
-        }
-    }
+    o.run_dir = a.out;
+    o.resume = a.resume;
+    o.force = a.force;
+    if (resolve_config(&a, &o.cfg))
+        return 1;
+    const char *data = a.data, *config = a.configs.n ? a.configs.v[0] : NULL;
+    const enum esr_preset preset = a.preset;
+    const int do_eval = a.eval, has_preset = a.has_preset, allow_poor = a.allow_poor;
     if (!data)
         return cli_fail(&cmd_train, "missing DATA directory");
     if (!o.run_dir)
@@ -285,8 +293,8 @@ static int run_train(int argc, char **argv)
                                 "--preset or a --config would not apply; change single options "
                                 "with --set", cfg_path, esr_preset_name((enum esr_preset)stored.preset));
         }
-        o.resume_set = sets;
-        o.n_resume_set = n_sets;
+        o.resume_set = a.sets.v;
+        o.n_resume_set = a.sets.n;
     }
     char log_path[4200];
     snprintf(log_path, sizeof log_path, "%s/log", o.run_dir);

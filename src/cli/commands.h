@@ -1,32 +1,32 @@
-/* The esr subcommands. Each lives in its own cmd_<name>.c and is listed once in main.c's table. */
+/* The esr subcommands. Each lives in its own cmd_<name>.c and is listed once in command_list.c. */
 #ifndef ESR_CLI_COMMANDS_H
 #define ESR_CLI_COMMANDS_H
+
+#include <stdio.h>
+
+#include "cli/option_table.h"
 
 struct esr_command {
     const char *name;
     const char *summary; /* one line for `esr --help` */
-    const char *usage;   /* full text for `esr <cmd> --help` (options included) */
+    const char *usage;   /* `esr <cmd> --help`'s synopsis and what the command does; the options
+                            part follows from `options` (cli_print_help) */
+    const struct cli_option *options; /* what the command takes (cli_parse), ended by {0} */
+    void (*help_more)(FILE *out); /* what --help says after the options (synth's scenes, train's
+                                     configuration table); NULL: nothing */
     int (*run)(int argc, char **argv); /* argv[0] is the command name; returns the exit code */
     int view_loop; /* 1: renders view after view, each with its own workspaces (main.c keeps
                       freed memory for the next view) */
 };
+
+/* Every command, in the order `esr --help` lists them, ended by NULL (cli/command_list.c). */
+extern const struct esr_command *const cli_commands[];
 
 /* Prints "esr <cmd>: error: <message>" (with the library's pending error if any) and the
  * command's usage hint; returns exit code 1. */
 int cli_fail(const struct esr_command *cmd, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
 /* Prints the library's pending error for cmd and returns 1. */
 int cli_fail_lib(const struct esr_command *cmd);
-/* 1 if argv contains -h or --help (then usage has been printed). */
-int cli_wants_help(const struct esr_command *cmd, int argc, char **argv);
-/* The grammar every command shares (cli/options.c), applied before the command parses its
- * arguments: `--name=value` becomes `--name value`, an option spelt with "colour" or "color"
- * takes the spelling the command's usage uses, and an option the usage text does not name is
- * refused with the nearest one it does. 0 with *argc, *argv replaced; 1 (said) on an unknown
- * option. */
-int cli_normalise_args(const struct esr_command *cmd, int *argc, char ***argv);
-/* The command's arguments as typed, before cli_normalise_args (argv[0] the command's name);
- * 0 before it ran. */
-int cli_typed_args(char ***argv);
 /* Parses a whole-string decimal integer in [lo, hi] (lo, hi within int); 0 on success, -1 else. */
 int cli_parse_int(const char *text, long lo, long hi, int *out);
 /* A decimal number in [lo, hi] (no leading space or '+', no hexadecimal, inf or nan): 0 on
@@ -73,8 +73,8 @@ int cli_ends_with(const char *path, const char *ext);
 void cli_parent_dir(const char *path, char *out, size_t n);
 
 /* The record of what made an output (cli/record.c): {"command": "esr NAME ARGS", "argv": [...],
- * "esr": version, "commit", "time": ISO 8601 UTC}; the caller owns it. ARGS are the arguments as
- * typed when NAME is the command typed, else argv's (a step of `esr demo`). */
+ * "esr": version, "commit", "time": ISO 8601 UTC}; the caller owns it. ARGS are argv's: what was
+ * typed (cli_parse reads --name=value as it stands), or what `esr demo` gave its step. */
 struct cJSON *cli_record(const char *cmd_name, int argc, char **argv);
 /* Sets that record as "made_by" in the JSON object at path (rewritten atomically). */
 int cli_record_into(const char *path, const char *cmd_name, int argc, char **argv);

@@ -1,70 +1,20 @@
 /* esr: emissive source reconstruction. Dispatches to the subcommands in commands.h. */
 #include <malloc.h>
-#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "cli/commands.h"
-#include "core/error.h"
 #include "core/limits.h"
 #include "core/suggest.h"
 #include "nn/tile_gemm.h"
-
-/* One row per subcommand, in the order `esr --help` lists them. */
-static const struct esr_command *const commands[] = {
-    NULL, /* keeps the table non-empty; skipped */
-    &cmd_demo,
-    &cmd_info,
-    &cmd_import,
-    &cmd_metrics,
-    &cmd_synth,
-    &cmd_train,
-    &cmd_render,
-    &cmd_eval,
-    &cmd_export,
-    &cmd_lights,
-    &cmd_edit,
-    &cmd_bench,
-};
-#define N_COMMANDS (int)(sizeof commands / sizeof commands[0])
-
-int cli_wants_help(const struct esr_command *cmd, int argc, char **argv)
-{
-    for (int i = 1; i < argc; i++) {
-        if (!strcmp(argv[i], "-h") || !strcmp(argv[i], "--help")) {
-            printf("%s", cmd->usage);
-            return 1;
-        }
-    }
-    return 0;
-}
-
-int cli_fail(const struct esr_command *cmd, const char *fmt, ...)
-{
-    fprintf(stderr, "esr %s: error: ", cmd->name);
-    va_list args;
-    va_start(args, fmt);
-    vfprintf(stderr, fmt, args);
-    va_end(args);
-    fprintf(stderr, "\n(see `esr %s --help`)\n", cmd->name);
-    return 1;
-}
-
-int cli_fail_lib(const struct esr_command *cmd)
-{
-    fprintf(stderr, "esr %s: error: %s\n", cmd->name,
-            esr_error_pending() ? esr_error_message() : "unknown failure");
-    return 1;
-}
 
 static void print_help(FILE *out)
 {
     fprintf(out, "esr - emissive source reconstruction (ESR-NeRF in C)\n\n"
                  "usage: esr <command> [options]\n\ncommands:\n");
-    for (int i = 0; i < N_COMMANDS; i++)
-        if (commands[i])
-            fprintf(out, "  %-10s %s\n", commands[i]->name, commands[i]->summary);
+    for (int i = 0; cli_commands[i]; i++)
+        fprintf(out, "  %-10s %s\n", cli_commands[i]->name, cli_commands[i]->summary);
     fprintf(out, "\n`esr help <command>` (or `esr <command> --help`) describes a command's options;\n"
                  "`esr --version` names the build and its code paths.\n");
 }
@@ -120,19 +70,20 @@ static void print_version(void)
 
 static const struct esr_command *find_command(const char *name)
 {
-    for (int i = 0; i < N_COMMANDS; i++)
-        if (commands[i] && !strcmp(name, commands[i]->name))
-            return commands[i];
+    for (int i = 0; cli_commands[i]; i++)
+        if (!strcmp(name, cli_commands[i]->name))
+            return cli_commands[i];
     return NULL;
 }
 
 /* An unknown command: the nearest one by name, not the whole help. */
 static int unknown_command(const char *name)
 {
-    const char *names[N_COMMANDS];
-    for (int i = 0; i < N_COMMANDS; i++)
-        names[i] = commands[i] ? commands[i]->name : NULL;
-    const char *near = esr_suggest(name, names, N_COMMANDS);
+    const char *names[32]; /* more than esr has */
+    int n = 0;
+    for (; cli_commands[n] && n < 32; n++)
+        names[n] = cli_commands[n]->name;
+    const char *near = esr_suggest(name, names, n);
     fprintf(stderr, "esr: unknown command '%s'%s%s%s\n(`esr --help` lists the commands)\n", name,
             near ? " (did you mean " : "", near ? near : "", near ? "?)" : "");
     return 1;
@@ -164,11 +115,7 @@ int main(int argc, char **argv)
     const struct esr_command *cmd = find_command(argv[1]);
     if (!cmd)
         return unknown_command(argv[1]);
-    int cmd_argc = argc - 1;
-    char **cmd_argv = argv + 1;
-    if (cli_normalise_args(cmd, &cmd_argc, &cmd_argv) != 0)
-        return 1;
     if (cmd->view_loop)
         keep_freed_memory();
-    return cmd->run(cmd_argc, cmd_argv);
+    return cmd->run(argc - 1, argv + 1); /* the command parses its arguments (cli_parse) */
 }

@@ -17,14 +17,6 @@ extern const char esr_build_commit[];
 
 cJSON *cli_record(const char *cmd_name, int argc, char **argv)
 {
-    char **typed;
-    const int n_typed = cli_typed_args(&typed);
-    /* what the user typed (--name=value kept) when this is the command typed; a step of
-     * `esr demo` records the arguments the demo gave it */
-    if (n_typed > 0 && !strcmp(typed[0], cmd_name)) {
-        argc = n_typed;
-        argv = typed;
-    }
     cJSON *r = cJSON_CreateObject();
     char line[8192];
     int used = snprintf(line, sizeof line, "esr %s", cmd_name);
