@@ -474,6 +474,51 @@ static void test_lts_lights_in_transport(void **state)
     teardown(&fx);
 }
 
+/* Option lts_brdf_emo 0: the BRDF learns from the lights-off error alone (its gradient is the one
+ * a loss without the emo error gives), while E and the incident emo field keep the emo error's
+ * gradient unchanged; 1 (the seed's) differs from both. */
+static void test_lts_brdf_emo_share(void **state)
+{
+    (void)state;
+    struct fixture fx;
+    setup_emitter_stage(&fx, ESR_STAGE_LTS, ESR_LTS_FIRST_HIT);
+    const size_t n = fx.m.params.count;
+    float *g1 = malloc(n * sizeof(float)), *g0 = malloc(n * sizeof(float)), *goff = malloc(n * sizeof(float));
+    assert_true(g1 && g0 && goff);
+    analytic_gradient(&fx);
+    memcpy(g1, fx.analytic, n * sizeof(float));
+    fx.m.cfg.lts_brdf_emo = 0.0f;
+    analytic_gradient(&fx);
+    memcpy(g0, fx.analytic, n * sizeof(float));
+    fx.m.cfg.lts_brdf_emo = 1.0f;
+    fx.st.lts.emo = 0.0f; /* the emo error dropped */
+    analytic_gradient(&fx);
+    memcpy(goff, fx.analytic, n * sizeof(float));
+    const enum esr_component brdf[2] = {ESR_COMP_BRDF_FEAT, ESR_COMP_BRDF_MLP};
+    const enum esr_component emo[2] = {ESR_COMP_EMIT_MLP, ESR_COMP_EMO_MLP};
+    double d_off = 0.0, d_seed = 0.0, mx = 0.0, d_emo = 0.0, mx_emo = 0.0;
+    for (int c = 0; c < 2; c++) {
+        const struct esr_part *pb = &fx.m.part[brdf[c]], *pe = &fx.m.part[emo[c]];
+        for (size_t i = pb->off; i < pb->off + pb->count; i++) {
+            d_off = fmax(d_off, fabs((double)g0[i] - goff[i]));
+            d_seed = fmax(d_seed, fabs((double)g0[i] - g1[i]));
+            mx = fmax(mx, fabs((double)g1[i]));
+        }
+        for (size_t i = pe->off; i < pe->off + pe->count; i++) {
+            d_emo = fmax(d_emo, fabs((double)g0[i] - g1[i]));
+            mx_emo = fmax(mx_emo, fabs((double)g1[i]));
+        }
+    }
+    print_message("BRDF gradient: |share 0 - no emo error| %.3g, |share 0 - share 1| %.3g (max %.3g); "
+                  "E / emo field |share 0 - share 1| %.3g (max %.3g)\n", d_off, d_seed, mx, d_emo, mx_emo);
+    assert_true(mx > 1e-3 && mx_emo > 1e-3);
+    assert_true(d_off <= 1e-5 * mx);   /* the lights-off error alone */
+    assert_true(d_seed > 1e-2 * mx);   /* the seed's loss trains it from the emo error too */
+    assert_true(d_emo <= 1e-6 * mx_emo); /* E and the incident emo field: untouched */
+    free(g1), free(g0), free(goff);
+    teardown(&fx);
+}
+
 /* The fine-tune's loss for the edit test (edit/finetune_loss.h): fixed direct light per point and
  * outgoing direction (the edited light brighter and bluer than the found one), whatever the
  * weights, then the loss. */
@@ -750,6 +795,7 @@ int main(void)
         cmocka_unit_test(test_lts_split_gradients),
         cmocka_unit_test(test_lts_volume_gradients),
         cmocka_unit_test(test_lts_lights_in_transport),
+        cmocka_unit_test(test_lts_brdf_emo_share),
         cmocka_unit_test(test_finetune_edit_gradients),
         cmocka_unit_test(test_pdra_gradients),
         cmocka_unit_test(test_pdra_split_gradients),

@@ -104,6 +104,11 @@ static const struct opt opts[] = {
      "for such a dataset)"},
     {"lts_weight", OPT_FLOAT, OFF(lts_weight), 0, 1e6, DEF(0.01, 0.01),
      "lts: weight of the light-transport MSE (off + emo)"},
+    {"lts_brdf_emo", OPT_FLOAT, OFF(lts_brdf_emo), 0, 1, DEF(1, 1),
+     "lts/pdra: how much of the lights-on (emo) error trains the BRDF (1 = the seed's loss; 0 = the "
+     "BRDF learns from the lights-off error only, so the clipped photos round a light, whose "
+     "light the incident field cannot show, do not raise the base colour there; the emo error "
+     "still trains E and the incident light)"},
     {"field_width", OPT_INT, OFF(field_width), 8, 256, DEF(64, 128),
      "lts: emission and BRDF MLP hidden width"},
     {"field_depth", OPT_INT, OFF(field_depth), 1, 8, DEF(2, 4),

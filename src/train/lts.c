@@ -249,6 +249,7 @@ struct point_weights {
     float w_r;   /* the emo pair's weight on L_emo's side (1: the plain MSE) */
     int sg;      /* pdra's stop-gradient pair in force: an uncertain point's emo error trains E
                     and L_emo, not the reflection */
+    float brdf_emo; /* the share of the emo error that reaches the BRDF (option lts_brdf_emo) */
 };
 
 /* Estimates, loss and the gradients of everything they read, for point p; *prod gets the split
@@ -332,7 +333,7 @@ static void point_loss(struct esr_lts *l, size_t p, const struct point_weights *
             for (int c = 0; c < 3; c++) {
                 const float w = l->wt[i];
                 const float d_off = d_hat_off[j & 1][c], d_emo = refl_emo * d_hat_emo[j & 1][c];
-                d_R[c] = (d_off * l->li_off3[i * 3 + c] + d_emo * l->li_emo3[i * 3 + c]) * w;
+                d_R[c] = (d_off * l->li_off3[i * 3 + c] + pw->brdf_emo * d_emo * l->li_emo3[i * 3 + c]) * w;
                 l->d_li_off3[i * 3 + c] += d_off * R[c] * w;
                 l->d_li_emo3[i * 3 + c] += d_emo * R[c] * w;
             }
@@ -397,7 +398,7 @@ int esr_lts_run(struct esr_lts *l, const struct esr_model *m, const float *sdf, 
     const float w = l->hook ? 1.0f : m->cfg.lts_weight, scale = w / (float)(P * 2 * 3);
     const int pair = ray_certain && m->cfg.pdra_sg; /* "w/o sg": one plain MSE */
     const float w_l = pair ? m->cfg.pdra_w_l : 1.0f, w_r = pair ? m->cfg.pdra_w_r : 1.0f;
-    const struct point_weights pw = {scale, w_l, w_r, pair};
+    const struct point_weights pw = {scale, w_l, w_r, pair, m->cfg.lts_brdf_emo};
     double se_off = 0.0, se_emo = 0.0, prod = 0.0;
     if (l->hook) {
         ESR_TRY(l->hook->run(l->hook->user, l, m, sdf, &q, P, &se_emo));
