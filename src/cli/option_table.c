@@ -100,6 +100,15 @@ static int refuse(const struct esr_command *cmd, const struct cli_option *o, con
     return cli_fail(cmd, "%s must be a number in %g..%g, got '%s'", o->name, o->lo, o->hi, value);
 }
 
+/* Appends v to t, which holds at most `most` (and CLI_TEXTS_MAX); -1 when it is full. */
+static int append(struct cli_texts *t, double most, const char *v)
+{
+    if (t->n >= (int)most || t->n >= CLI_TEXTS_MAX)
+        return -1;
+    t->v[t->n++] = v;
+    return 0;
+}
+
 /* Stores value (NULL for a flag) where o says. */
 static int store(const struct esr_command *cmd, const struct cli_option *o, const char *value,
                  void *args)
@@ -122,9 +131,8 @@ static int store(const struct esr_command *cmd, const struct cli_option *o, cons
         return CLI_PARSED;
     case CLI_TEXTS: {
         struct cli_texts *t = (struct cli_texts *)(void *)at;
-        if (t->n >= (int)o->hi || t->n >= CLI_TEXTS_MAX)
+        if (append(t, o->hi, value))
             return cli_fail(cmd, "more than %d %s options", t->n, o->name);
-        t->v[t->n++] = value;
         return CLI_PARSED;
     }
     default: /* CLI_CALL: the handler stores */
@@ -147,10 +155,8 @@ static int positional(const struct esr_command *cmd, const char *a, void *args)
             return cli_fail(cmd, "more than one %s given ('%s', '%s')", p->name, *slot, a);
         *slot = a;
     } else {
-        struct cli_texts *t = (struct cli_texts *)(void *)at;
-        if (t->n >= (int)p->hi || t->n >= CLI_TEXTS_MAX)
+        if (append((struct cli_texts *)(void *)at, p->hi, a))
             return p->bad ? cli_fail(cmd, p->bad, a) : cli_fail(cmd, "too many arguments ('%s')", a);
-        t->v[t->n++] = a;
     }
     return p->call ? p->call(args, p, a) : CLI_PARSED;
 }

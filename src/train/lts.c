@@ -257,7 +257,7 @@ struct point_weights {
 static void point_loss(struct esr_lts *l, size_t p, const struct point_weights *pw,
                        double *se_off, double *se_emo, double *prod)
 {
-    const float scale = pw->scale, w_l = pw->w_l, w_r = pw->w_r;
+    const float scale = pw->scale, w_l = pw->w_l, w_r = pw->w_r, brdf_emo = pw->brdf_emo;
     const int sg = pw->sg;
     const size_t M = (size_t)l->M;
     const float *lin = l->pf.lin3, *E = l->mf.emit3 + p * 3;
@@ -333,7 +333,7 @@ static void point_loss(struct esr_lts *l, size_t p, const struct point_weights *
             for (int c = 0; c < 3; c++) {
                 const float w = l->wt[i];
                 const float d_off = d_hat_off[j & 1][c], d_emo = refl_emo * d_hat_emo[j & 1][c];
-                d_R[c] = (d_off * l->li_off3[i * 3 + c] + pw->brdf_emo * d_emo * l->li_emo3[i * 3 + c]) * w;
+                d_R[c] = (d_off * l->li_off3[i * 3 + c] + brdf_emo * d_emo * l->li_emo3[i * 3 + c]) * w;
                 l->d_li_off3[i * 3 + c] += d_off * R[c] * w;
                 l->d_li_emo3[i * 3 + c] += d_emo * R[c] * w;
             }
