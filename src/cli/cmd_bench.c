@@ -13,7 +13,9 @@
 
 #include "cli/commands.h"
 #include "core/error.h"
+#include "core/simd.h"
 #include "edit/editor.h"
+#include "eval/bench_ceiling.h"
 #include "eval/bench_lts.h"
 #include "eval/bench_train.h"
 #include "eval/run_dir.h"
@@ -23,6 +25,7 @@
 #include "nn/bench.h"
 #include "model/bench_ray_path.h"
 #include "synth/synth.h"
+#include "nn/tile_gemm.h"
 
 static int run_bench(int argc, char **argv);
 
@@ -64,12 +67,15 @@ const struct esr_command cmd_bench = {
     "  train   a training run of every stage (alphamask, coarse, fine, lts, pdra) with the fast preset:\n"
     "          seconds and rays/s over each whole stage and over its last log window; on --data,\n"
     "          else ../shared/scenes/lamp when present, else a small `esr synth` scene in a temp\n"
-    "          dir (full stages on lamp: about 9 minutes on 2 cores)\n"
+    "          dir (full stages on lamp: about 9 minutes on 2 cores); each stage's time by part\n"
+    "          (march, fields, MLP forward and backward, composite, LTS secondary rays and loss,\n"
+    "          pdra, regularisers, Adam, other), the MLPs' GFLOP/s against oneDNN's sgemm of their\n"
+    "          shape and Adam's GB/s against a parallel copy, both measured in the same run\n"
     "  lts     the LTS incident-radiance estimators on the trained pdra checkpoint (or --run's):\n"
     "          time per LTS call, secondary rays/s, and bias and standard deviation of the\n"
     "          estimate L^_o against the faithful estimator with 4096 directions (relative RMS)\n"
-    "and the peak resident memory, with the machine (CPU model, cores, threads), git commit and\n"
-    "date. Prints a table and writes the JSON to --out.\n",
+    "and the peak resident memory, with the machine (CPU model, cores, threads, the code paths its\n"
+    "kernels picked), git commit and date. Prints a table and writes the JSON to --out.\n",
     .options = bench_options,
     .run = run_bench,
     .view_loop = 1,
@@ -121,8 +127,11 @@ static cJSON *machine_json(void)
     cJSON_AddNumberToObject(o, "omp_threads", omp_get_max_threads());
     cJSON_AddStringToObject(o, "git_commit", commit);
     cJSON_AddStringToObject(o, "date", date);
+    cJSON_AddStringToObject(o, "mlp_kernels", esr_gemm_isa());
+    cJSON_AddStringToObject(o, "hot_loops", esr_hot_loops_isa());
     printf("machine: %s, %ld cores, %d OpenMP threads, commit %.12s, %s\n", cpu, sysconf(_SC_NPROCESSORS_ONLN),
            omp_get_max_threads(), commit[0] ? commit : "-", date);
+    printf("code paths: MLP kernels %s, hot loops %s\n", esr_gemm_isa(), esr_hot_loops_isa());
     return o;
 }
 
@@ -392,6 +401,45 @@ static int train_dataset(const struct bench_opts *o, const char *tmp, char *out,
     return esr_synth_write_dataset(out, &so);
 }
 
+/* Where a stage's time went, part by part, each part's rate beside the machine's ceiling. */
+static void stage_profile(const struct esr_prof_totals *p, double seconds,
+                          const struct esr_bench_ceiling *ceil, cJSON *st)
+{
+    cJSON *parts = cJSON_AddObjectToObject(st, "parts");
+    double sum = 0.0;
+    for (int i = 0; i < ESR_PROF_PARTS; i++)
+        sum += p->seconds[i];
+    if (sum <= 0.0)
+        return;
+    for (int i = 0; i < ESR_PROF_PARTS; i++) {
+        const double s = p->seconds[i];
+        if (s <= 0.0)
+            continue;
+        cJSON *q = cJSON_AddObjectToObject(parts, esr_prof_part_name((enum esr_prof_part)i));
+        cJSON_AddNumberToObject(q, "seconds", s);
+        char rate[96] = "";
+        if (p->flops[i] > 0.0) {
+            const double g = p->flops[i] / s / 1e9;
+            cJSON_AddNumberToObject(q, "gflops", g);
+            cJSON_AddNumberToObject(q, "of_sgemm_mlp_shape", g / ceil->sgemm_mlp_gflops);
+            snprintf(rate, sizeof rate, "%6.1f GFLOP/s, %3.0f%% of sgemm at its shape", g,
+                     100.0 * g / ceil->sgemm_mlp_gflops);
+        } else if (p->bytes[i] > 0.0) {
+            const double g = p->bytes[i] / s / 1e9;
+            cJSON_AddNumberToObject(q, "gbs", g);
+            cJSON_AddNumberToObject(q, "of_copy", g / ceil->copy_gbs);
+            snprintf(rate, sizeof rate, "%6.1f GB/s (nominal), %3.0f%% of a copy", g,
+                     100.0 * g / ceil->copy_gbs);
+        }
+        printf("  %-10s   %-20s %7.2f s %5.1f%%  %s\n", "", esr_prof_part_name((enum esr_prof_part)i), s,
+               100.0 * s / seconds, rate);
+    }
+    const double other = seconds - sum;
+    cJSON_AddNumberToObject(parts, "other_seconds", other);
+    printf("  %-10s   %-20s %7.2f s %5.1f%%  (lights, checkpoints, logs, the rest of the step)\n", "",
+           "other", other, 100.0 * other / seconds);
+}
+
 static int train_section(const struct bench_opts *o, cJSON *root)
 {
     char tmp[] = "/tmp/esr-bench-XXXXXX", data[4096], run[sizeof tmp + 8];
@@ -401,7 +449,11 @@ static int train_section(const struct bench_opts *o, cJSON *root)
     struct esr_bench_train_result r;
     int iters = o->iters >= 0 ? o->iters : o->quick ? 40 : 0;
     snprintf(run, sizeof run, "%s/run", tmp);
-    int status = train_dataset(o, tmp, data, sizeof data, &what);
+    struct esr_bench_ceiling ceiling;
+    const struct esr_bench_ceiling *ceil = &ceiling;
+    int status = esr_bench_ceiling_measure(&ceiling);
+    if (status == ESR_OK)
+        status = train_dataset(o, tmp, data, sizeof data, &what);
     if (status == ESR_OK)
         status = esr_bench_train(data, run, iters, &r);
     /* the estimators on the checkpoint just trained, before it is removed */
@@ -411,6 +463,12 @@ static int train_section(const struct bench_opts *o, cJSON *root)
     ESR_TRY(status);
     cJSON *j = cJSON_AddObjectToObject(root, "train");
     cJSON_AddStringToObject(j, "dataset", data);
+    cJSON *cj = cJSON_AddObjectToObject(j, "ceiling");
+    cJSON_AddNumberToObject(cj, "sgemm_gflops", ceil->sgemm_gflops);
+    cJSON_AddNumberToObject(cj, "sgemm_mlp_shape_gflops", ceil->sgemm_mlp_gflops);
+    cJSON_AddNumberToObject(cj, "copy_gbs", ceil->copy_gbs);
+    printf("\nceilings: oneDNN sgemm %.1f GFLOP/s (1024^3), %.1f GFLOP/s (65536 x 64 x 64); copy "
+           "%.1f GB/s\n", ceil->sgemm_gflops, ceil->sgemm_mlp_gflops, ceil->copy_gbs);
     if (iters > 0)
         printf("\ntraining (%s: %s, %d iterations per stage)\n", what, data, iters);
     else
@@ -434,6 +492,7 @@ static int train_section(const struct bench_opts *o, cJSON *root)
         if (t->secondary_per_s > 0)
             printf("  %-10s secondary rays (first-hit estimator) %.0f/s over the last window\n", "",
                    t->secondary_per_s);
+        stage_profile(&t->prof, t->seconds, ceil, st);
     }
     return ESR_OK;
 }

@@ -6,6 +6,7 @@
 
 #include "cli/commands.h"
 #include "core/limits.h"
+#include "core/simd.h"
 #include "core/suggest.h"
 #include "nn/tile_gemm.h"
 
@@ -59,13 +60,7 @@ extern const char esr_build_commit[]; /* generated at build time (cmake/version.
 static void print_version(void)
 {
     printf("esr %s (commit %s, built %s)\n", ESR_VERSION, esr_build_commit, __DATE__);
-    printf("code paths on this CPU: MLP kernels %s, hot loops %s\n", esr_gemm_isa(),
-#if defined(__x86_64__)
-           __builtin_cpu_supports("x86-64-v3") ? "x86-64-v3 (AVX2, FMA)" : "x86-64 (baseline)"
-#else
-           "portable"
-#endif
-    );
+    printf("code paths on this CPU: MLP kernels %s, hot loops %s\n", esr_gemm_isa(), esr_hot_loops_isa());
 }
 
 static const struct esr_command *find_command(const char *name)

@@ -12,6 +12,16 @@
 #define ESR_HOT
 #endif
 
+/* The clone of the hot loops this CPU runs, in words (`esr --version`, `esr bench`). */
+static inline const char *esr_hot_loops_isa(void)
+{
+#if defined(__x86_64__) && defined(__GNUC__)
+    return __builtin_cpu_supports("x86-64-v3") ? "x86-64-v3 (AVX2, FMA)" : "x86-64 (baseline)";
+#else
+    return "portable";
+#endif
+}
+
 #ifdef __cplusplus
 #define ESR_RESTRICT __restrict__
 #else

@@ -22,6 +22,8 @@ static void on_report(void *user, const struct esr_train_progress *p)
     } else if (p->event == ESR_TRAIN_STAGE_DONE) {
         s->iters = (int)p->iter;
         s->seconds = p->seconds;
+        esr_prof_totals(&s->prof); /* the profile restarts with each stage */
+        esr_prof_reset();
     }
 }
 
@@ -45,7 +47,11 @@ int esr_bench_train(const char *data_dir, const char *run_dir, int iters, struct
     o.cfg.save_every = 1000000;
     o.report = on_report;
     o.user = res;
-    ESR_TRY(esr_train_run(&o));
+    esr_prof_reset();
+    esr_prof_enable(1);
+    const int rc = esr_train_run(&o);
+    esr_prof_enable(0);
+    ESR_TRY(rc);
     for (int s = 0; s < ESR_STAGE_COUNT; s++) {
         struct esr_bench_train_stage *st = &res->stages[s];
         st->batch_rays = o.cfg.batch_rays;

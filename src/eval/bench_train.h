@@ -4,6 +4,7 @@
 #ifndef ESR_EVAL_BENCH_TRAIN_H
 #define ESR_EVAL_BENCH_TRAIN_H
 
+#include "core/profile.h"
 #include "model/model.h"
 
 struct esr_bench_train_stage {
@@ -15,6 +16,7 @@ struct esr_bench_train_stage {
     double samples_per_ray; /* marched samples per ray in that window */
     double kept_per_ray;    /* samples that reached the MLPs */
     double secondary_per_s; /* lts, pdra: secondary rays per second in that window (else 0) */
+    struct esr_prof_totals prof; /* where the stage's step time went (core/profile.h) */
 };
 
 struct esr_bench_train_result {

@@ -5,6 +5,7 @@
 #include <string.h>
 
 #include "core/error.h"
+#include "core/profile.h"
 #include "fields/geo_feature.h"
 #include "fields/grid.h"
 #include "model/rows.h"
@@ -96,8 +97,20 @@ static int mlp_run(const struct esr_material_fields *mf, const struct esr_mlp *m
     return ESR_OK;
 }
 
+static int material_fields_fwd_run(struct esr_material_fields *mf, const struct esr_model *m,
+                                   const float *sdf, const float *pos3, size_t n);
+
 int esr_material_fields_fwd(struct esr_material_fields *mf, const struct esr_model *m,
                             const float *sdf, const float *pos3, size_t n)
+{
+    esr_prof_enter(ESR_PROF_FIELDS);
+    const int rc = material_fields_fwd_run(mf, m, sdf, pos3, n);
+    esr_prof_exit(ESR_PROF_FIELDS);
+    return rc;
+}
+
+static int material_fields_fwd_run(struct esr_material_fields *mf, const struct esr_model *m,
+                                   const float *sdf, const float *pos3, size_t n)
 {
     if (n > mf->cap)
         ESR_TRY(grow(mf, m, n + n / 4));
@@ -159,9 +172,23 @@ static int branch_bwd(struct esr_material_fields *mf, const struct esr_model *m,
     return ESR_OK;
 }
 
+static int material_fields_bwd_run(struct esr_material_fields *mf, const struct esr_model *m,
+                                   float *g_sdf, float *grads, const float *d_emit3,
+                                   const float *d_brdf5);
+
 int esr_material_fields_bwd(struct esr_material_fields *mf, const struct esr_model *m,
                             float *g_sdf, float *grads, const float *d_emit3,
                             const float *d_brdf5)
+{
+    esr_prof_enter(ESR_PROF_FIELDS);
+    const int rc = material_fields_bwd_run(mf, m, g_sdf, grads, d_emit3, d_brdf5);
+    esr_prof_exit(ESR_PROF_FIELDS);
+    return rc;
+}
+
+static int material_fields_bwd_run(struct esr_material_fields *mf, const struct esr_model *m,
+                                   float *g_sdf, float *grads, const float *d_emit3,
+                                   const float *d_brdf5)
 {
     const size_t n = mf->n, ni = (size_t)mf->n_in;
     const int gcol = mf->ch + esr_pe_out_dims(&m->pe_pos), gd = mf->geo_dim;

@@ -5,6 +5,7 @@
 #include <string.h>
 
 #include "core/error.h"
+#include "core/profile.h"
 #include "fields/geo_feature.h"
 #include "fields/grid.h"
 #include "nn/activation.h"
@@ -318,8 +319,20 @@ static int radiance_bwd(struct esr_point_fields *pf, const struct esr_model *m, 
 
 /* ---- dispatch ---- */
 
+static int point_fields_fwd_run(struct esr_point_fields *pf, const struct esr_model *m, const float *sdf,
+                                const struct esr_point_query *q);
+
 int esr_point_fields_fwd(struct esr_point_fields *pf, const struct esr_model *m, const float *sdf,
                          const struct esr_point_query *q)
+{
+    esr_prof_enter(ESR_PROF_FIELDS);
+    const int rc = point_fields_fwd_run(pf, m, sdf, q);
+    esr_prof_exit(ESR_PROF_FIELDS);
+    return rc;
+}
+
+static int point_fields_fwd_run(struct esr_point_fields *pf, const struct esr_model *m, const float *sdf,
+                                const struct esr_point_query *q)
 {
     if (q->n > pf->cap)
         ESR_TRY(grow(pf, m, q->n + q->n / 4));
@@ -341,8 +354,20 @@ int esr_point_fields_fwd(struct esr_point_fields *pf, const struct esr_model *m,
     return rc;
 }
 
+static int point_fields_bwd_run(struct esr_point_fields *pf, const struct esr_model *m, float *g_sdf,
+                                float *grads, const float *d_tone3, const float *d_lin3);
+
 int esr_point_fields_bwd(struct esr_point_fields *pf, const struct esr_model *m, float *g_sdf,
                          float *grads, const float *d_tone3, const float *d_lin3)
+{
+    esr_prof_enter(ESR_PROF_FIELDS);
+    const int rc = point_fields_bwd_run(pf, m, g_sdf, grads, d_tone3, d_lin3);
+    esr_prof_exit(ESR_PROF_FIELDS);
+    return rc;
+}
+
+static int point_fields_bwd_run(struct esr_point_fields *pf, const struct esr_model *m, float *g_sdf,
+                                float *grads, const float *d_tone3, const float *d_lin3)
 {
     from_caller(pf, d_tone3, pf->d_out3);
     switch (pf->head) {

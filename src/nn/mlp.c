@@ -1,12 +1,15 @@
 /* Tiled, fused MLP forward/backward on the CPU; see nn/mlp.h for layout and determinism. */
 #include "nn/mlp.h"
 
+#include "core/profile.h"
+
 #include <math.h>
 #include <omp.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "core/error.h"
+#include "core/profile.h"
 #include "core/rng.h"
 #include "nn/mlp_blas.h"
 #include "nn/tile_gemm.h"
@@ -159,8 +162,30 @@ static void tile_fwd(const struct esr_mlp *m, const float *params, const float *
     layer_fwd(m, params, m->n_layers - 1, x, ldx, out, m->desc.n_out, rows);
 }
 
+/* multiply-adds of one row through every layer, times 2: a forward's flops per row */
+static double flops_per_row(const struct esr_mlp *m)
+{
+    double f = 0.0;
+    for (int l = 0; l < m->n_layers; l++)
+        f += 2.0 * m->fan_in[l] * m->fan_out[l];
+    return f;
+}
+
+static int mlp_fwd_run(const struct esr_mlp *m, const float *params, struct esr_mlp_ctx *c,
+                       const float *in, float *out, size_t n);
+
 int esr_mlp_fwd(const struct esr_mlp *m, const float *params, struct esr_mlp_ctx *c,
                 const float *in, float *out, size_t n)
+{
+    esr_prof_enter(ESR_PROF_MLP_FWD);
+    const int rc = mlp_fwd_run(m, params, c, in, out, n);
+    esr_prof_work(ESR_PROF_MLP_FWD, flops_per_row(m) * (double)n, 0.0);
+    esr_prof_exit(ESR_PROF_MLP_FWD);
+    return rc;
+}
+
+static int mlp_fwd_run(const struct esr_mlp *m, const float *params, struct esr_mlp_ctx *c,
+                       const float *in, float *out, size_t n)
 {
     if (n > c->max_rows)
         return ESR_FAIL("MLP forward of %zu rows exceeds the workspace's %zu", n, c->max_rows);
@@ -298,8 +323,24 @@ static void transpose_weights(const struct esr_mlp *m, const float *params, floa
     }
 }
 
+static int mlp_bwd_run(const struct esr_mlp *m, const float *params, float *grads,
+                       struct esr_mlp_ctx *c, const float *d_out, float *d_in,
+                       enum esr_nn_grad_mode mode);
+
 int esr_mlp_bwd(const struct esr_mlp *m, const float *params, float *grads, struct esr_mlp_ctx *c,
                 const float *d_out, float *d_in, enum esr_nn_grad_mode mode)
+{
+    esr_prof_enter(ESR_PROF_MLP_BWD);
+    const int rc = mlp_bwd_run(m, params, grads, c, d_out, d_in, mode);
+    /* the weights' gradient and the inputs' (the activations' derivatives not counted) */
+    esr_prof_work(ESR_PROF_MLP_BWD, 2.0 * flops_per_row(m) * (double)c->rows, 0.0);
+    esr_prof_exit(ESR_PROF_MLP_BWD);
+    return rc;
+}
+
+static int mlp_bwd_run(const struct esr_mlp *m, const float *params, float *grads,
+                       struct esr_mlp_ctx *c, const float *d_out, float *d_in,
+                       enum esr_nn_grad_mode mode)
 {
     if (!c->in || !c->out)
         return ESR_FAIL("MLP backward without a preceding forward on this workspace");

@@ -8,6 +8,7 @@
 #include "core/brdf.h"
 #include "core/brdf_sampling.h"
 #include "core/error.h"
+#include "core/profile.h"
 #include "core/rng.h"
 #include "core/sampling.h"
 #include "core/vec3.h"
@@ -347,8 +348,20 @@ static void point_loss(struct esr_lts *l, size_t p, const struct point_weights *
     db[4] = d_mat.metallic;
 }
 
+static int run_lts(struct esr_lts *l, const struct esr_model *m, const float *sdf, float *g_sdf,
+                   float *grads, const struct esr_lts_batch *b, struct esr_lts_stats *out);
+
 int esr_lts_run(struct esr_lts *l, const struct esr_model *m, const float *sdf, float *g_sdf,
                 float *grads, const struct esr_lts_batch *b, struct esr_lts_stats *out)
+{
+    esr_prof_enter(ESR_PROF_LTS_LOSS);
+    const int rc = run_lts(l, m, sdf, g_sdf, grads, b, out);
+    esr_prof_exit(ESR_PROF_LTS_LOSS);
+    return rc;
+}
+
+static int run_lts(struct esr_lts *l, const struct esr_model *m, const float *sdf, float *g_sdf,
+                   float *grads, const struct esr_lts_batch *b, struct esr_lts_stats *out)
 {
     const struct esr_march *mc = b->mc;
     const uint8_t *ray_certain = b->ray_certain;

@@ -6,6 +6,7 @@
 
 #include "core/buffers.h"
 #include "core/error.h"
+#include "core/profile.h"
 #include "fields/grid.h"
 #include "model/render_sdf.h"
 #include "model/trace.h"
@@ -102,8 +103,20 @@ static int volume_trace(struct esr_lts *l, const struct esr_model *m, const floa
     return ESR_OK;
 }
 
+static int lts_incident_trace_run(struct esr_lts *l, const struct esr_model *m, const float *sdf,
+                                  size_t P, uint64_t seed, size_t *rows);
+
 int esr_lts_incident_trace(struct esr_lts *l, const struct esr_model *m, const float *sdf,
                            size_t P, uint64_t seed, size_t *rows)
+{
+    esr_prof_enter(ESR_PROF_LTS_SECONDARY);
+    const int rc = lts_incident_trace_run(l, m, sdf, P, seed, rows);
+    esr_prof_exit(ESR_PROF_LTS_SECONDARY);
+    return rc;
+}
+
+static int lts_incident_trace_run(struct esr_lts *l, const struct esr_model *m, const float *sdf,
+                                  size_t P, uint64_t seed, size_t *rows)
 {
     return l->estimator == ESR_LTS_VOLUME ? volume_trace(l, m, sdf, P, seed, rows)
                                           : first_hit_trace(l, m, sdf, P, rows);

@@ -6,6 +6,7 @@
 #include <string.h>
 
 #include "core/error.h"
+#include "core/profile.h"
 #include "core/order.h"
 #include "volume/composite.h"
 
@@ -105,8 +106,20 @@ static void groups_and_suppression(struct esr_pdra *pd, struct esr_model *m,
     esr_composite_bwd(a, pd->d_e_ray3, NULL, pd->d_rows3);
 }
 
+static int pdra_step_run(struct esr_pdra *pd, struct esr_model *m, const float *sdf, float *g_sdf,
+                         float *grads, const struct esr_march *mc, uint64_t seed, float *chosen_k_end);
+
 int esr_pdra_step(struct esr_pdra *pd, struct esr_model *m, const float *sdf, float *g_sdf,
                   float *grads, const struct esr_march *mc, uint64_t seed, float *chosen_k_end)
+{
+    esr_prof_enter(ESR_PROF_PDRA);
+    const int rc = pdra_step_run(pd, m, sdf, g_sdf, grads, mc, seed, chosen_k_end);
+    esr_prof_exit(ESR_PROF_PDRA);
+    return rc;
+}
+
+static int pdra_step_run(struct esr_pdra *pd, struct esr_model *m, const float *sdf, float *g_sdf,
+                         float *grads, const struct esr_march *mc, uint64_t seed, float *chosen_k_end)
 {
     const int n = mc->n_rays;
     *chosen_k_end = 0.0f;

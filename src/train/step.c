@@ -5,6 +5,7 @@
 #include <string.h>
 
 #include "core/error.h"
+#include "core/profile.h"
 #include "fields/sdf.h"
 #include "model/render_sdf.h"
 
@@ -81,7 +82,10 @@ int esr_train_step_run(struct esr_train_step *st, struct esr_model *m, int n, ui
         sdf = raw;
         g_sdf = g_raw;
         if (st->sdf_view) {
-            ESR_TRY(esr_model_view_sdf(m, raw, st->sdf_view, st->scratch));
+            esr_prof_enter(ESR_PROF_REG);
+            const int rc = esr_model_view_sdf(m, raw, st->sdf_view, st->scratch);
+            esr_prof_exit(ESR_PROF_REG);
+            ESR_TRY(rc);
             sdf = st->sdf_view;
             g_sdf = st->g_sdf_view;
             memset(g_sdf, 0, esr_grid_count(esr_model_grid(m, ESR_COMP_SDF)) * sizeof(float));
@@ -111,8 +115,12 @@ int esr_train_step_run(struct esr_train_step *st, struct esr_model *m, int n, ui
         ESR_TRY(esr_lts_run(&st->lts, m, sdf, g_sdf, m->params.g, &lb, &st->lts_stats));
         out->loss += st->lts_stats.loss;
     }
-    if (st->sdf_view)
-        ESR_TRY(esr_grid_smooth_bwd(esr_model_grid(m, ESR_COMP_SDF), st->g_sdf_view, g_raw,
-                                    st->scratch, m->cfg.smooth_ksize, m->cfg.smooth_sigma));
+    if (st->sdf_view) {
+        esr_prof_enter(ESR_PROF_REG);
+        const int rc = esr_grid_smooth_bwd(esr_model_grid(m, ESR_COMP_SDF), st->g_sdf_view, g_raw,
+                                           st->scratch, m->cfg.smooth_ksize, m->cfg.smooth_sigma);
+        esr_prof_exit(ESR_PROF_REG);
+        ESR_TRY(rc);
+    }
     return ESR_OK;
 }

@@ -13,6 +13,7 @@
 
 #include "core/colour.h"
 #include "core/error.h"
+#include "core/profile.h"
 #include "core/limits.h"
 #include "core/rng.h"
 #include "fields/env_sg.h"
@@ -109,6 +110,8 @@ static void adam_all(struct esr_model *m, enum esr_stage s, float lr_scale, long
         hp.eps = 1e-8f;
         hp.sparse = grid;
         esr_adam_step(&hp, t, &m->adam, m->params.w, m->params.g, m->part[c].off, m->part[c].count);
+        /* nominal traffic: w, g, m, v read, w, m, v written (a sparse step skips rows) */
+        esr_prof_work(ESR_PROF_ADAM, 0.0, 7.0 * sizeof(float) * (double)m->part[c].count);
     }
 }
 
@@ -336,7 +339,10 @@ static int iterate(struct run *r, struct esr_model *m, struct esr_train_step *b,
     struct esr_render_loss_result lr;
     ESR_TRY(esr_train_step_run(b, m, B, esr_mix64(seed + (uint64_t)it), &lr));
     *loss = lr.loss;
-    ESR_TRY(add_tv(m, b, s, it, loss));
+    esr_prof_enter(ESR_PROF_REG);
+    const int rc_tv = add_tv(m, b, s, it, loss);
+    esr_prof_exit(ESR_PROF_REG);
+    ESR_TRY(rc_tv);
     w->loss += *loss;
     w->mse += lr.mse_tone;
     w->samples += (double)b->tr.march.smp.count;
@@ -456,7 +462,9 @@ static int run_stage(struct run *r, struct esr_model *m, enum esr_stage s)
             w.t0 = omp_get_wtime();
             continue;
         }
+        esr_prof_enter(ESR_PROF_ADAM);
         adam_all(m, s, f * m->lr_scale, it + 1);
+        esr_prof_exit(ESR_PROF_ADAM);
         /* inv-s follows the step, as esr_model_init and a checkpoint's load set it: what
          * follows a stage (the mask, the lights, the next stage's start, which renders this
          * model: lts's environment level) sees the model a resumed run loads */

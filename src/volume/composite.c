@@ -1,6 +1,8 @@
 /* Batch compositing over rays (see composite.h for the maths). */
 #include "volume/composite.h"
 
+#include "core/profile.h"
+
 void esr_composite_weights(int n_rays, const size_t *ray_start, const float *alpha, float thres,
                            float *weight, float *t_last)
 {
@@ -57,7 +59,16 @@ static const float *bg_of(const struct esr_composite_args *a, int r)
     return a->bg_per_ray ? a->bg + (size_t)r * (size_t)a->channels : a->bg;
 }
 
+static void composite_fwd_run(const struct esr_composite_args *a, float *out);
+
 void esr_composite_fwd(const struct esr_composite_args *a, float *out)
+{
+    esr_prof_enter(ESR_PROF_COMPOSITE);
+    composite_fwd_run(a, out);
+    esr_prof_exit(ESR_PROF_COMPOSITE);
+}
+
+static void composite_fwd_run(const struct esr_composite_args *a, float *out)
 {
     const int C = a->channels;
 #pragma omp parallel for schedule(static)
@@ -109,8 +120,19 @@ void esr_composite_front(const struct esr_composite_args *a, const float *t, flo
     }
 }
 
+static void composite_bwd_run(const struct esr_composite_args *a, const float *d_out, float *d_alpha,
+                              float *d_values);
+
 void esr_composite_bwd(const struct esr_composite_args *a, const float *d_out, float *d_alpha,
                        float *d_values)
+{
+    esr_prof_enter(ESR_PROF_COMPOSITE);
+    composite_bwd_run(a, d_out, d_alpha, d_values);
+    esr_prof_exit(ESR_PROF_COMPOSITE);
+}
+
+static void composite_bwd_run(const struct esr_composite_args *a, const float *d_out, float *d_alpha,
+                              float *d_values)
 {
     const int C = a->channels;
 #pragma omp parallel for schedule(static)

@@ -5,6 +5,7 @@
 #include <string.h>
 
 #include "core/error.h"
+#include "core/profile.h"
 #include "fields/density.h"
 #include "volume/composite.h"
 #include "volume/neus.h"
@@ -194,8 +195,20 @@ static int keep_samples(struct esr_march *mc)
     return ESR_OK;
 }
 
+static int march_fwd_run(struct esr_march *mc, const struct esr_march_geometry *geom,
+                         const struct esr_march_rays *rays);
+
 int esr_march_fwd(struct esr_march *mc, const struct esr_march_geometry *geom,
                   const struct esr_march_rays *rays)
+{
+    esr_prof_enter(ESR_PROF_MARCH);
+    const int rc = march_fwd_run(mc, geom, rays);
+    esr_prof_exit(ESR_PROF_MARCH);
+    return rc;
+}
+
+static int march_fwd_run(struct esr_march *mc, const struct esr_march_geometry *geom,
+                         const struct esr_march_rays *rays)
 {
     if (rays->n < 0 || rays->n > mc->max_rays)
         return ESR_FAIL("march: %d rays for a workspace of %d", rays->n, mc->max_rays);
@@ -217,7 +230,16 @@ void esr_march_zero_d_alpha(struct esr_march *mc)
     memset(mc->d_alpha, 0, mc->smp.count * sizeof(float));
 }
 
+static void march_bwd_run(struct esr_march *mc, float *g_values);
+
 void esr_march_bwd(struct esr_march *mc, float *g_values)
+{
+    esr_prof_enter(ESR_PROF_MARCH);
+    march_bwd_run(mc, g_values);
+    esr_prof_exit(ESR_PROF_MARCH);
+}
+
+static void march_bwd_run(struct esr_march *mc, float *g_values)
 {
     const struct esr_march_geometry *g = &mc->geom;
     const size_t n = mc->smp.count;

@@ -1,0 +1,78 @@
+/* Exclusive-time profile of the training step's parts (see profile.h). */
+#include "core/profile.h"
+
+#include <omp.h>
+#include <string.h>
+
+#define PROF_DEPTH 16
+
+static struct {
+    int on, depth;
+    struct {
+        enum esr_prof_part part;
+        double start, inner; /* inner: time of the parts entered inside it */
+    } stack[PROF_DEPTH];
+    struct esr_prof_totals tot;
+} prof;
+
+static int counting(void)
+{
+    return prof.on && !omp_in_parallel();
+}
+
+void esr_prof_enable(int on)
+{
+    prof.on = on;
+}
+
+void esr_prof_reset(void)
+{
+    prof.depth = 0;
+    memset(&prof.tot, 0, sizeof prof.tot);
+}
+
+void esr_prof_enter(enum esr_prof_part part)
+{
+    if (!counting())
+        return;
+    if (prof.depth < PROF_DEPTH) {
+        prof.stack[prof.depth].part = part;
+        prof.stack[prof.depth].start = omp_get_wtime();
+        prof.stack[prof.depth].inner = 0.0;
+    }
+    prof.depth++;
+}
+
+void esr_prof_exit(enum esr_prof_part part)
+{
+    if (!counting() || prof.depth == 0)
+        return;
+    prof.depth--;
+    if (prof.depth >= PROF_DEPTH || prof.stack[prof.depth].part != part)
+        return; /* too deep, or unbalanced: not counted */
+    const double dt = omp_get_wtime() - prof.stack[prof.depth].start;
+    prof.tot.seconds[part] += dt - prof.stack[prof.depth].inner;
+    if (prof.depth > 0 && prof.depth - 1 < PROF_DEPTH)
+        prof.stack[prof.depth - 1].inner += dt;
+}
+
+void esr_prof_work(enum esr_prof_part part, double flops, double bytes)
+{
+    if (!counting())
+        return;
+    prof.tot.flops[part] += flops;
+    prof.tot.bytes[part] += bytes;
+}
+
+void esr_prof_totals(struct esr_prof_totals *out)
+{
+    *out = prof.tot;
+}
+
+const char *esr_prof_part_name(enum esr_prof_part part)
+{
+    static const char *const names[ESR_PROF_PARTS] = {
+        "march", "fields", "mlp forward", "mlp backward", "composite", "lts secondary rays",
+        "lts loss", "pdra", "regularisers", "adam"};
+    return (unsigned)part < ESR_PROF_PARTS ? names[part] : "?";
+}
