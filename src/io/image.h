@@ -45,6 +45,12 @@ enum esr_exr_compression { ESR_EXR_NONE, ESR_EXR_RLE, ESR_EXR_ZIPS, ESR_EXR_ZIP,
  * pixel type (UINT rounds and clamps to [0, 2^32)) and compression. Written atomically. */
 int esr_exr_write_as(const char *path, const struct esr_image *img, enum esr_exr_pixel pixel,
                      enum esr_exr_compression compression);
+/* One part holding n layers of one size and channel count (light groups, `esr lightmix`):
+ * layer l's channels named "<names[l]>.R" and so on, as compositors read layers; names of 1 to
+ * 64 letters, digits or _, at most 64 layers. Written atomically. */
+int esr_exr_write_layers(const char *path, const struct esr_image *layers,
+                         const char *const *names, int n, enum esr_exr_pixel pixel,
+                         enum esr_exr_compression compression);
 /* Shorthand: half = 1 for 16-bit floats, else 32-bit float; ZIP compression. */
 int esr_exr_write(const char *path, const struct esr_image *img, int half);
 
