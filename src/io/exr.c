@@ -49,9 +49,16 @@ static float exr_sample_to_float(const uint8_t *p, uint16_t type)
 
 static size_t exr_type_size(int type) { return type == EXR_PIXEL_HALF ? 2 : 4; }
 
-/* Output channel (0..3 = R,G,B,A) a stored channel feeds; 4 for a luminance-only "Y"; -1 = ignored. */
-static int exr_channel_slot(const char *name)
+/* Output channel (0..3 = R,G,B,A) a stored channel feeds; 4 for a luminance-only "Y"; -1 = ignored.
+ * With a layer, only the layer's channels "<layer>.R" and so on feed one. */
+static int exr_channel_slot(const char *layer, const char *name)
 {
+    if (layer) {
+        const size_t n = strlen(layer);
+        if (strncmp(name, layer, n) || name[n] != '.')
+            return -1;
+        name += n + 1;
+    }
     static const char *const names[5] = {"R", "G", "B", "A", "Y"};
     for (int k = 0; k < 5; k++)
         if (!strcmp(name, names[k]))
@@ -66,6 +73,7 @@ struct exr_reader {
     int decoder_ready;
     uint8_t *planes[5]; /* one chunk's samples per output slot, stored type */
     struct esr_image *out;
+    const char *layer; /* NULL: the bare channels; else the layer's (esr_exr_read_layer) */
 };
 
 /* Decodes one chunk into the planes and scatters it into the RGBA output. */
@@ -80,7 +88,7 @@ static int read_chunk(struct exr_reader *r, const exr_chunk_info_t *cinfo, const
     int present[5] = {0};
     for (int c = 0; c < r->decoder.channel_count; c++) {
         exr_coding_channel_info_t *ch = &r->decoder.channels[c];
-        int slot = exr_channel_slot(ch->channel_name);
+        int slot = exr_channel_slot(r->layer, ch->channel_name);
         if (slot < 0) {
             ch->decode_to_ptr = NULL;
             continue;
@@ -180,13 +188,16 @@ static int exr_read_setup(struct exr_reader *r, exr_storage_t *storage, const ch
     int colour = 0;
     for (int c = 0; c < chlist->num_channels; c++) {
         const exr_attr_chlist_entry_t *e = &chlist->entries[c];
-        int slot = exr_channel_slot(e->name.str);
+        int slot = exr_channel_slot(r->layer, e->name.str);
         if (slot < 0)
             continue;
         if (e->x_sampling != 1 || e->y_sampling != 1)
             return ESR_FAIL("'%s': subsampled EXR channel '%s' is not supported", path, e->name.str);
         colour |= slot != 3;
     }
+    if (!colour && r->layer)
+        return ESR_FAIL("'%s': EXR has no layer '%s' (none of its channels %s.R, .G, .B or .Y)",
+                        path, r->layer, r->layer);
     if (!colour)
         return ESR_FAIL("'%s': EXR has none of the channels R, G, B or Y", path);
     /* A chunk never reaches past the data window, so a header's huge tile costs no more than
@@ -208,7 +219,7 @@ static int exr_read_setup(struct exr_reader *r, exr_storage_t *storage, const ch
     }
     const int64_t chunk_pixels = cw * (ch < h ? ch : h);
     for (int c = 0; c < chlist->num_channels; c++) {
-        int slot = exr_channel_slot(chlist->entries[c].name.str);
+        int slot = exr_channel_slot(r->layer, chlist->entries[c].name.str);
         if (slot >= 0 && !r->planes[slot] && !(r->planes[slot] = malloc((size_t)chunk_pixels * 4)))
             return ESR_FAIL("out of memory reading '%s'", path);
     }
@@ -244,13 +255,15 @@ static int64_t exr_memory_size(exr_const_context_t ctxt, void *user)
     return (int64_t)((const struct exr_source *)user)->size;
 }
 
-int esr_exr_decode(const void *bytes, size_t size, const char *name, struct esr_image *out)
+static int exr_decode_layer(const void *bytes, size_t size, const char *name, const char *layer,
+                            struct esr_image *out)
 {
     memset(out, 0, sizeof *out);
     struct exr_source src = {bytes, size};
     struct exr_reader r;
     memset(&r, 0, sizeof r);
     r.out = out;
+    r.layer = layer;
     exr_detail[0] = '\0';
     exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
     init.error_handler_fn = exr_on_error;
@@ -278,15 +291,25 @@ int esr_exr_decode(const void *bytes, size_t size, const char *name, struct esr_
     return status;
 }
 
-int esr_exr_read(const char *path, struct esr_image *out)
+int esr_exr_decode(const void *bytes, size_t size, const char *name, struct esr_image *out)
+{
+    return exr_decode_layer(bytes, size, name, NULL, out);
+}
+
+int esr_exr_read_layer(const char *path, const char *layer, struct esr_image *out)
 {
     memset(out, 0, sizeof *out);
     unsigned char *bytes;
     size_t size;
     ESR_TRY(esr_file_read_all(path, &bytes, &size));
-    int status = esr_exr_decode(bytes, size, path, out);
+    int status = exr_decode_layer(bytes, size, path, layer, out);
     free(bytes);
     return status;
+}
+
+int esr_exr_read(const char *path, struct esr_image *out)
+{
+    return esr_exr_read_layer(path, NULL, out);
 }
 
 /* ---- writing ---- */

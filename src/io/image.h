@@ -35,6 +35,9 @@ int esr_png_write(const char *path, const struct esr_image *img, int bits);
  * are ignored). Values are as stored: premultiplied by alpha when the file has alpha (OpenEXR
  * convention). Fails naming the file when it is missing, truncated or corrupt. */
 int esr_exr_read(const char *path, struct esr_image *out);
+/* esr_exr_read of one layer of a multi-layer file (esr_exr_write_layers): its channels
+ * "<layer>.R" and so on (NULL: the bare R, G, B, A, Y); a file without the layer is refused. */
+int esr_exr_read_layer(const char *path, const char *layer, struct esr_image *out);
 /* The same from size bytes in memory (name stands for the file in messages); both refuse a data
  * window of more than esr_limits()->image_pixels pixels before allocating. */
 int esr_exr_decode(const void *bytes, size_t size, const char *name, struct esr_image *out);
