@@ -287,12 +287,89 @@ static void test_oiiotool_reads_the_layers(void **state)
     }
 }
 
+/* The page (DIR/index.html) in headless Chromium, read back as a still (tools/lightmix_page_shot.sh,
+ * the stills at once): for one light off and one recoloured blue (and with ESR_PAGE_ALL_MIXES=1
+ * also one x3 and all x0.5: a browser's start costs 3 s of the suite's time a still), the page's
+ * image equals esr edit's PNG of the same edit given as --light/--intensity/--color to within
+ * 1/255 on at least 99.9% of pixels (skipped, said so, without chromium). */
+static void test_page_equals_edit(void **state)
+{
+    (void)state;
+    if (system("command -v chromium >/dev/null 2>&1") != 0) {
+        print_message("skipped: chromium is not installed (Debian package chromium): the page "
+                      "was not checked against esr edit\n");
+        skip();
+    }
+    char run[4300], cmd[24000], lm[4400];
+    tiny_copy_run("run_pdra", "run_lightmix_page", run, sizeof run);
+    snprintf(lm, sizeof lm, "%s/lm_page", test_tmpdir);
+    snprintf(cmd, sizeof cmd, "lightmix %s --out %s --frames c001_on", run, lm);
+    run_ok(cmd);
+    static const struct {
+        const char *args, *json;
+    } mixes[] = {
+        {"--light 0 --intensity 0", "{\"lights\":[{\"id\":0,\"intensity\":0}]}"},
+        {"--light 0 --color 0.6,1", "{\"lights\":[{\"id\":0,\"hue\":0.6,\"saturation\":1}]}"},
+        {"--light 1 --intensity 3", "{\"lights\":[{\"id\":1,\"intensity\":3}]}"},
+        {"--light all --intensity 0.5",
+         "{\"lights\":[{\"id\":0,\"intensity\":0.5},{\"id\":1,\"intensity\":0.5}]}"},
+    };
+    enum { ALL = sizeof mixes / sizeof mixes[0] };
+    const char *all = getenv("ESR_PAGE_ALL_MIXES");
+    const int N = all && !strcmp(all, "1") ? ALL : 2;
+    struct esr_image edit[ALL];
+    int len = 0;
+    for (int i = 0; i < N; i++) {
+        char ed[4400];
+        snprintf(ed, sizeof ed, "%s/edit_page_%d", test_tmpdir, i);
+        snprintf(cmd, sizeof cmd, "edit %s %s --out %s --frames c001_on", run, mixes[i].args, ed);
+        run_ok(cmd);
+        char png[4500];
+        snprintf(png, sizeof png, "%s/c001_on.png", ed);
+        assert_int_equal(esr_png_read(png, &edit[i]), ESR_OK);
+    }
+    len = snprintf(cmd, sizeof cmd, "pids=; ");
+    for (int i = 0; i < N; i++) /* every still at once: a browser's start is most of its time */
+        len += snprintf(cmd + len, sizeof cmd - (size_t)len,
+                        "%s/../tools/lightmix_page_shot.sh %s/index.html c001_on '%s' %d %d "
+                        "%s/shot_%d.png & pids=\"$pids $!\"; ", ESR_SOURCE_DIR, lm, mixes[i].json,
+                        edit[i].width, edit[i].height, test_tmpdir, i);
+    snprintf(cmd + len, sizeof cmd - (size_t)len,
+             "fail=0; for p in $pids; do wait $p || fail=1; done; exit $fail");
+    assert_int_equal(system(cmd), 0);
+    for (int i = 0; i < N; i++) {
+        char png[4500];
+        struct esr_image shot;
+        snprintf(png, sizeof png, "%s/shot_%d.png", test_tmpdir, i);
+        assert_int_equal(esr_png_read(png, &shot), ESR_OK);
+        assert_true(shot.width >= edit[i].width && shot.height >= edit[i].height);
+        size_t off = 0, px = (size_t)edit[i].width * (size_t)edit[i].height;
+        double most = 0.0;
+        for (int y = 0; y < edit[i].height; y++)
+            for (int x = 0; x < edit[i].width; x++) {
+                int over = 0;
+                for (int c = 0; c < 3; c++) {
+                    const double d = fabs(shot.data[((size_t)y * shot.width + x) * shot.channels + c] -
+                                          edit[i].data[((size_t)y * edit[i].width + x) * 3 + c]);
+                    most = fmax(most, d * 255.0);
+                    over |= d > 1.0 / 255.0 + 1e-6;
+                }
+                off += over;
+            }
+        print_message("page vs esr edit %s: %zu of %zu pixels more than 1/255 apart (at most "
+                      "%.2f/255)\n", mixes[i].args, off, px, most);
+        assert_true((double)off <= 0.001 * (double)px);
+        esr_image_free(&shot), esr_image_free(&edit[i]);
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_layers_mix_to_the_edits),
         cmocka_unit_test(test_refusals),
         cmocka_unit_test(test_oiiotool_reads_the_layers),
+        cmocka_unit_test(test_page_equals_edit),
     };
     return cmocka_run_group_tests(tests, tiny_setup, test_teardown_tmpdir);
 }

@@ -8,6 +8,7 @@
 
 #include "cli/commands.h"
 #include "cli/edit_views.h"
+#include "cli/lightmix_page.h"
 #include "cli/lights_listing.h"
 #include "core/error.h"
 #include "edit/editor.h"
@@ -252,12 +253,20 @@ static int lightmix(const struct lightmix_args *a)
         if (rc == ESR_OK)
             rc = write_layers(staging, names[v], &prev);
         if (rc == ESR_OK)
+            rc = lightmix_page_view(staging, names[v], &prev);
+        if (rc == ESR_OK)
             fprintf(stderr, "  %-16s %4d / %-4d  %.2f s%s\n", names[v], v + 1, views, secs,
                     same ? " (the previous frame's camera: its layers)" : "");
     }
     esr_relight_layers_free(&prev);
     if (rc == ESR_OK)
         rc = write_found_mix(staging, m.lights.n);
+    const struct lightmix_page page = {a->run, esr_edit_method_name(a->method),
+                                       a->orbit ? NULL : a->views ? a->views : "test_nv", a->spp,
+                                       a->orbit, views, (const char(*)[ESR_NAME_MAX])names,
+                                       (const int(*)[2])size};
+    if (rc == ESR_OK)
+        rc = lightmix_page_write(staging, &page, &m);
     if (rc == ESR_OK)
         rc = write_record(staging, a, &m, names, (const int(*)[2])size, views);
     if (rc == ESR_OK) {
@@ -266,10 +275,11 @@ static int lightmix(const struct lightmix_args *a)
         cli_hold_signals(0);
     }
     if (rc == ESR_OK) {
-        fprintf(stderr, "wrote %d view%s' light groups to %s in %.1f s (N.exr: layers off, light_0 "
-                "... light_%d and their _value layers; %s%s), mix.json and lightmix.json\n", views,
-                views == 1 ? "" : "s", a->out, omp_get_wtime() - t_all, m.lights.n - 1, names[0],
-                views > 1 ? " ..." : "");
+        fprintf(stderr, "wrote %d view%s light groups to %s in %.1f s (N.exr: layers off, light_0 "
+                "... light_%d and their _value layers; %s%s), mix.json, lightmix.json and the page: "
+                "open %s/index.html in a browser\n", views,
+                views == 1 ? "'s" : "s'", a->out, omp_get_wtime() - t_all, m.lights.n - 1, names[0],
+                views > 1 ? " ..." : "", a->out);
     } else {
         if (staging[0])
             esr_remove_tree(staging);
