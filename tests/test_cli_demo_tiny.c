@@ -40,7 +40,7 @@ static void test_demo_steps_after_training(void **state)
     assert_non_null(strstr(out, "demo finished"));
     const char *made[] = {"run/lights.json", "run/lights.png", "run/eval/test_nv.json",
                           "run/report.html", "mesh.ply", "info.json", "run/lightmix/index.html",
-                          "run/lightmix/orbit_023.exr", "run/lightmix/orbit_023.js"};
+                          "run/lightmix/orbit_015.exr", "run/lightmix/orbit_015.js"};
     for (size_t i = 0; i < sizeof made / sizeof made[0]; i++) {
         snprintf(cmd, sizeof cmd, "%s/%s", demo, made[i]);
         if (!esr_file_exists(cmd))

@@ -60,9 +60,9 @@ const struct esr_command cmd_demo = {
     "                     surface when the scene has one (`esr eval`); the test_nv renders in\n"
     "                     DIR/run/render/test_nv, the report DIR/run/report.html\n"
     "  7. DIR/mesh.ply    the reconstructed surface with normals and colours (`esr export`)\n"
-    "  8. DIR/run/lightmix  an orbit of 24 views as light groups, with the LightMix page\n"
+    "  8. DIR/run/lightmix  an orbit of 16 views as light groups, with the LightMix page\n"
     "                     (DIR/run/lightmix/index.html: a slider per light, in a browser;\n"
-    "                     `esr lightmix --orbit 24`), when the run found lights\n",
+    "                     `esr lightmix --orbit 16`), when the run found lights\n",
     .options = demo_options,
     .run = run_demo,
 };
@@ -229,7 +229,7 @@ static int run_demo(int argc, char **argv)
 
     char lightmix[4300];
     snprintf(lightmix, sizeof lightmix, "%s/lightmix", run);
-    char *mix[] = {"lightmix", run, "--orbit", "24", "--data", (char *)data, "--out", lightmix};
+    char *mix[] = {"lightmix", run, "--orbit", "16", "--data", (char *)data, "--out", lightmix};
     const int mixed = is_file(probe) && lights_found(run) > 0;
     if (mixed && step(8, &cmd_lightmix, 8, mix))
         return 1;
@@ -249,7 +249,7 @@ static int run_demo(int argc, char **argv)
     printf("  %s                   reconstructed surface (PLY)\n", mesh);
     if (mixed)
         printf("  %s/index.html  open in a browser: the LightMix page, a slider per light (an orbit "
-               "of 24 views as light groups, one EXR each)\n", lightmix);
+               "of 16 views as light groups, one EXR each)\n", lightmix);
     printf("  %s  %s\n", info, sheet);
     return 0;
 }
