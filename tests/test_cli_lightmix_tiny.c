@@ -109,6 +109,29 @@ static void run_ok(const char *cmd)
         fail_msg("esr %s failed:\n%s", cmd, out);
 }
 
+/* Skips the test, saying what was not checked, unless `tool` is installed. */
+static void need_tool(const char *tool, const char *package, const char *unchecked)
+{
+    char cmd[256];
+    snprintf(cmd, sizeof cmd, "command -v %s >/dev/null 2>&1", tool);
+    if (system(cmd) != 0) {
+        print_message("skipped: %s is not installed (Debian package %s): %s\n", tool, package,
+                      unchecked);
+        skip();
+    }
+}
+
+/* A copy of the fixture's pdra run at test_tmpdir/as (its path into run) and its lightmix of
+ * frame c001_on into test_tmpdir/out (into lm). */
+static void lightmix_c001(const char *as, const char *out, char run[4300], char lm[4400])
+{
+    char cmd[24000];
+    tiny_copy_run("run_pdra", as, run, 4300);
+    snprintf(lm, 4400, "%s/%s", test_tmpdir, out);
+    snprintf(cmd, sizeof cmd, "lightmix %s --out %s --frames c001_on", run, lm);
+    run_ok(cmd);
+}
+
 /* Per method: one lightmix, then each case as an edit given by options and by --mix; the
  * layers mixed per the case equal the edit's views, and the --mix views the options' ones. */
 static void test_layers_mix_to_the_edits(void **state)
@@ -249,16 +272,9 @@ static void test_refusals(void **state)
 static void test_oiiotool_reads_the_layers(void **state)
 {
     (void)state;
-    if (system("command -v oiiotool >/dev/null 2>&1") != 0) {
-        print_message("skipped: oiiotool is not installed (Debian openimageio-tools): the layers "
-                      "were not read by an independent reader\n");
-        skip();
-    }
+    need_tool("oiiotool", "openimageio-tools", "the layers were not read by an independent reader");
     char run[4300], cmd[24000], lm[4400], ed[2][4400];
-    tiny_copy_run("run_pdra", "run_lightmix_oiio", run, sizeof run);
-    snprintf(lm, sizeof lm, "%s/lm_oiio", test_tmpdir);
-    snprintf(cmd, sizeof cmd, "lightmix %s --out %s --frames c001_on", run, lm);
-    run_ok(cmd);
+    lightmix_c001("run_lightmix_oiio", "lm_oiio", run, lm);
     static const char *const edits[2] = {"--light 0 --intensity 1", "--light 0 --intensity 0.25 "
                                                                     "--light 1 --intensity 4"};
     static const char *const scales[2][2] = {{"1", "1"}, {"0.25", "4"}};
@@ -295,16 +311,9 @@ static void test_oiiotool_reads_the_layers(void **state)
 static void test_page_equals_edit(void **state)
 {
     (void)state;
-    if (system("command -v chromium >/dev/null 2>&1") != 0) {
-        print_message("skipped: chromium is not installed (Debian package chromium): the page "
-                      "was not checked against esr edit\n");
-        skip();
-    }
+    need_tool("chromium", "chromium", "the page was not checked against esr edit");
     char run[4300], cmd[24000], lm[4400];
-    tiny_copy_run("run_pdra", "run_lightmix_page", run, sizeof run);
-    snprintf(lm, sizeof lm, "%s/lm_page", test_tmpdir);
-    snprintf(cmd, sizeof cmd, "lightmix %s --out %s --frames c001_on", run, lm);
-    run_ok(cmd);
+    lightmix_c001("run_lightmix_page", "lm_page", run, lm);
     static const struct {
         const char *args, *json;
     } mixes[] = {

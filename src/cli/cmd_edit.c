@@ -15,7 +15,6 @@
 #include "edit/light_mix.h"
 #include "eval/run_dir.h"
 #include "io/dir.h"
-#include "io/staging.h"
 #include "io/image.h"
 #include "io/json_file.h"
 #include "model/model.h"
@@ -285,7 +284,7 @@ static int edits_of(const struct edit_args *a, int n, struct esr_light_edit *edi
 /* The view's N.exr and N.png: linear RGB, and through the sRGB curve, clipped. */
 static int write_view_files(const char *dir, const char *name, const struct esr_image *lin)
 {
-    char path[4200];
+    char path[4400];
     const size_t size = sizeof path;
     ESR_TRY(esr_view_path(path, size, dir, name, ".exr"));
     ESR_TRY(esr_exr_write(path, lin, 0));
@@ -343,7 +342,7 @@ static int write_record(const char *dir, const struct edit_args *a, const struct
     cJSON *v = cJSON_AddArrayToObject(r, "views");
     for (int i = 0; i < views; i++)
         cJSON_AddItemToArray(v, cJSON_CreateString(names[i]));
-    char path[4200];
+    char path[4400];
     snprintf(path, sizeof path, "%s/edit.json", dir);
     return esr_json_write_atomic(path, r);
 }
@@ -383,14 +382,11 @@ static int edit(const struct edit_args *a)
         rc = edit_check_out(a->run, a->out, ev.sel.ds.root);
     /* the views go into a staging folder beside --out, which replaces it only once every view
      * and edit.json are written: a failed or interrupted edit leaves --out as it was */
-    char parent[4200], made[4200] = "", staging[4200] = "";
-    cli_parent_dir(a->out, parent, sizeof parent);
+    struct edit_output eo;
+    memset(&eo, 0, sizeof eo);
     static const char *const ours[] = {"edit.json", NULL}, *const our_exts[] = {".png", ".exr", NULL};
     if (rc == ESR_OK)
-        rc = edit_check_replaceable(a->out, ours, our_exts, "esr edit");
-    if (rc == ESR_OK && ((rc = esr_dir_prepare_output_made(parent, made, sizeof made)) != ESR_OK ||
-                         (rc = esr_staging_begin(a->out, 1, staging, sizeof staging)) != ESR_OK))
-        esr_error_append(" (for --out %s)", a->out);
+        rc = edit_output_begin(&eo, a->out, ours, our_exts, "esr edit");
     if (rc == ESR_OK)
         rc = esr_editor_init(&ed, &m, &ev.sel.ds, a->method, a->spp, &ft);
     if (rc == ESR_OK && a->method == ESR_EDIT_FINETUNE)
@@ -429,26 +425,18 @@ static int edit(const struct edit_args *a)
         }
         const double secs = omp_get_wtime() - t0;
         if (rc == ESR_OK)
-            rc = write_view(staging, name, &prev, gain);
+            rc = write_view(eo.staging, name, &prev, gain);
         if (rc == ESR_OK)
             fprintf(stderr, "  %-16s %4d / %-4d  %.2f s%s\n", name, v + 1, views, secs,
                     same ? " (the previous frame's camera: its view)" : "");
     }
     esr_image_free(&prev);
     if (rc == ESR_OK)
-        rc = write_record(staging, a, &m, edits, mix.exposure, names, views);
-    if (rc == ESR_OK) {
-        cli_hold_signals(1); /* the swap is not cut in two */
-        rc = esr_staging_commit(staging, a->out);
-        cli_hold_signals(0);
-    }
+        rc = write_record(eo.staging, a, &m, edits, mix.exposure, names, views);
+    rc = edit_output_end(&eo, rc);
     if (rc == ESR_OK) {
         fprintf(stderr, "wrote %d view%s to %s (N.png: sRGB, N.exr: linear; %s%s) and edit.json\n",
                 views, views == 1 ? "" : "s", a->out, names[0], views > 1 ? " ..." : "");
-    } else {
-        if (staging[0])
-            esr_remove_tree(staging);
-        esr_dir_remove_made(parent, made);
     }
     free(names);
     esr_editor_free(&ed);

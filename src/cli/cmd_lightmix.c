@@ -17,7 +17,6 @@
 #include "io/dir.h"
 #include "io/image.h"
 #include "io/json_file.h"
-#include "io/staging.h"
 #include "model/model.h"
 #include "render/view.h"
 
@@ -135,7 +134,7 @@ static void layer_names(int n, char (*names)[32], const char **ptrs)
 /* DIR/N.exr: the view's layers, 32-bit float. */
 static int write_layers(const char *dir, const char *name, const struct esr_relight_layers *L)
 {
-    char names[LAYERS_MAX][32], path[4200];
+    char names[LAYERS_MAX][32], path[4400];
     const char *ptrs[LAYERS_MAX];
     struct esr_image img[LAYERS_MAX];
     layer_names(L->n_lights, names, ptrs);
@@ -152,7 +151,7 @@ static int write_record(const char *dir, const struct lightmix_args *a, const st
                         char (*views)[ESR_NAME_MAX], const int (*size)[2], int n)
 {
     cJSON *r = cli_record("lightmix", a->argc, a->argv);
-    char fp[32], path[4200];
+    char fp[32], path[4400];
     snprintf(fp, sizeof fp, "%016llx", (unsigned long long)esr_model_fingerprint(m));
     cJSON_AddStringToObject(r, "run", a->run);
     cJSON_AddStringToObject(r, "model_fingerprint", fp);
@@ -183,7 +182,7 @@ static int write_record(const char *dir, const struct lightmix_args *a, const st
 static int write_found_mix(const char *dir, int n_lights)
 {
     struct esr_light_mix mix;
-    char path[4200];
+    char path[4400];
     esr_light_mix_found(&mix, n_lights);
     snprintf(path, sizeof path, "%s/mix.json", dir);
     return esr_json_write_atomic(path, esr_light_mix_json(&mix));
@@ -203,15 +202,12 @@ static int lightmix(const struct lightmix_args *a)
         rc = edit_views_open(&ev, a->run, a->data, a->views, a->frames, a->orbit, a->size, &m);
     if (rc == ESR_OK)
         rc = edit_check_out(a->run, a->out, ev.sel.ds.root);
-    char parent[4200], made[4200] = "", staging[4200] = "";
-    cli_parent_dir(a->out, parent, sizeof parent);
+    struct edit_output eo;
+    memset(&eo, 0, sizeof eo);
     static const char *const ours[] = {"mix.json", "lightmix.json", "index.html", NULL};
     static const char *const our_exts[] = {".exr", ".js", NULL};
     if (rc == ESR_OK)
-        rc = edit_check_replaceable(a->out, ours, our_exts, "esr lightmix");
-    if (rc == ESR_OK && ((rc = esr_dir_prepare_output_made(parent, made, sizeof made)) != ESR_OK ||
-                         (rc = esr_staging_begin(a->out, 1, staging, sizeof staging)) != ESR_OK))
-        esr_error_append(" (for --out %s)", a->out);
+        rc = edit_output_begin(&eo, a->out, ours, our_exts, "esr lightmix");
     struct esr_relight r;
     memset(&r, 0, sizeof r);
     if (rc == ESR_OK)
@@ -251,39 +247,31 @@ static int lightmix(const struct lightmix_args *a)
         const double secs = omp_get_wtime() - t0;
         size[v][0] = cam.width, size[v][1] = cam.height;
         if (rc == ESR_OK)
-            rc = write_layers(staging, names[v], &prev);
+            rc = write_layers(eo.staging, names[v], &prev);
         if (rc == ESR_OK)
-            rc = lightmix_page_view(staging, names[v], &prev);
+            rc = lightmix_page_view(eo.staging, names[v], &prev);
         if (rc == ESR_OK)
             fprintf(stderr, "  %-16s %4d / %-4d  %.2f s%s\n", names[v], v + 1, views, secs,
                     same ? " (the previous frame's camera: its layers)" : "");
     }
     esr_relight_layers_free(&prev);
     if (rc == ESR_OK)
-        rc = write_found_mix(staging, m.lights.n);
+        rc = write_found_mix(eo.staging, m.lights.n);
     const struct lightmix_page page = {a->run, esr_edit_method_name(a->method),
                                        a->orbit ? NULL : a->views ? a->views : "test_nv", a->spp,
-                                       a->orbit, views, (const char(*)[ESR_NAME_MAX])names,
+                                       a->orbit, a->size, views, (const char(*)[ESR_NAME_MAX])names,
                                        (const int(*)[2])size};
     if (rc == ESR_OK)
-        rc = lightmix_page_write(staging, &page, &m);
+        rc = lightmix_page_write(eo.staging, &page, &m);
     if (rc == ESR_OK)
-        rc = write_record(staging, a, &m, names, (const int(*)[2])size, views);
-    if (rc == ESR_OK) {
-        cli_hold_signals(1); /* the swap is not cut in two */
-        rc = esr_staging_commit(staging, a->out);
-        cli_hold_signals(0);
-    }
+        rc = write_record(eo.staging, a, &m, names, (const int(*)[2])size, views);
+    rc = edit_output_end(&eo, rc);
     if (rc == ESR_OK) {
         fprintf(stderr, "wrote %d view%s light groups to %s in %.1f s (N.exr: layers off, light_0 "
                 "... light_%d and their _value layers; %s%s), mix.json, lightmix.json and the page: "
                 "open %s/index.html in a browser\n", views,
                 views == 1 ? "'s" : "s'", a->out, omp_get_wtime() - t_all, m.lights.n - 1, names[0],
                 views > 1 ? " ..." : "", a->out);
-    } else {
-        if (staging[0])
-            esr_remove_tree(staging);
-        esr_dir_remove_made(parent, made);
     }
     free(names);
     free(size);

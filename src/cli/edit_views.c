@@ -7,7 +7,9 @@
 #include <string.h>
 #include <sys/stat.h>
 
+#include "cli/commands.h"
 #include "core/error.h"
+#include "io/dir.h"
 #include "io/staging.h"
 
 int edit_views_open(struct edit_views *v, const char *run, const char *data, const char *phase,
@@ -104,4 +106,35 @@ int edit_check_replaceable(const char *out, const char *const *names, const char
                         "folder (an earlier output's folder is replaced whole once the new one is "
                         "complete)", out, cmd, first, foreign > 1 ? ", ..." : "");
     return ESR_OK;
+}
+
+int edit_output_begin(struct edit_output *o, const char *out, const char *const *names,
+                      const char *const *exts, const char *cmd)
+{
+    memset(o, 0, sizeof *o);
+    o->out = out;
+    cli_parent_dir(out, o->parent, sizeof o->parent);
+    ESR_TRY(edit_check_replaceable(out, names, exts, cmd));
+    int rc = esr_dir_prepare_output_made(o->parent, o->made, sizeof o->made);
+    if (rc == ESR_OK)
+        rc = esr_staging_begin(out, 1, o->staging, sizeof o->staging);
+    if (rc != ESR_OK)
+        esr_error_append(" (for --out %s)", out);
+    return rc;
+}
+
+int edit_output_end(struct edit_output *o, int rc)
+{
+    if (rc == ESR_OK && o->staging[0]) {
+        cli_hold_signals(1); /* the swap is not cut in two */
+        rc = esr_staging_commit(o->staging, o->out);
+        cli_hold_signals(0);
+        if (rc == ESR_OK)
+            return ESR_OK;
+    }
+    if (o->staging[0])
+        esr_remove_tree(o->staging);
+    if (o->out)
+        esr_dir_remove_made(o->parent, o->made);
+    return rc;
 }

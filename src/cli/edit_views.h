@@ -36,4 +36,18 @@ int edit_check_out(const char *run, const char *out, const char *dataset);
 int edit_check_replaceable(const char *out, const char *const *names, const char *const *exts,
                            const char *cmd);
 
+/* An output folder written aside, in a staging folder beside it, and put in place whole once
+ * everything is written: a failed or interrupted command leaves it as it was. */
+struct edit_output {
+    const char *out;
+    char parent[4200], made[4200], staging[4200]; /* staging: where to write */
+};
+/* Refuses an out that edit_check_replaceable refuses (names, exts, cmd as it takes them), makes
+ * out's missing parent folders and the staging folder. */
+int edit_output_begin(struct edit_output *o, const char *out, const char *const *names,
+                      const char *const *exts, const char *cmd);
+/* rc ESR_OK: the staging folder replaces out (signals held meanwhile); otherwise, or when that
+ * fails, the staging folder and the parents made are removed. Returns rc, or the failure. */
+int edit_output_end(struct edit_output *o, int rc);
+
 #endif

@@ -11,6 +11,7 @@
 #include "core/error.h"
 #include "io/file.h"
 #include "io/half.h"
+#include "io/json_file.h"
 
 extern const char esr_lightmix_page_html[];
 extern const unsigned long esr_lightmix_page_html_size;
@@ -55,24 +56,16 @@ int lightmix_page_view(const char *dir, const char *name, const struct esr_relig
     base64((const uint8_t *)half, bytes, text + len);
     len += (int)strlen(text + len);
     len += snprintf(text + len, cap - (size_t)len, "\");\n");
-    char path[4200];
+    char path[4400];
     snprintf(path, sizeof path, "%s/%s.js", dir, name);
     const int rc = esr_file_write_atomic(path, text, (size_t)len);
     free(half), free(text);
     return rc;
 }
 
-static cJSON *floats(const float *v, int n)
-{
-    cJSON *a = cJSON_CreateArray();
-    for (int i = 0; i < n; i++)
-        cJSON_AddItemToArray(a, cJSON_CreateNumber(v[i]));
-    return a;
-}
-
 int lightmix_page_write(const char *dir, const struct lightmix_page *p, const struct esr_model *m)
 {
-    char path[4200];
+    char path[4400];
     snprintf(path, sizeof path, "%s/index.html", dir);
     ESR_TRY(esr_file_write_atomic(path, esr_lightmix_page_html, esr_lightmix_page_html_size));
     cJSON *r = cJSON_CreateObject();
@@ -80,6 +73,7 @@ int lightmix_page_write(const char *dir, const struct lightmix_page *p, const st
     cJSON_AddStringToObject(r, "method", p->method);
     cJSON_AddNumberToObject(r, "spp", p->spp);
     cJSON_AddNumberToObject(r, "orbit", p->orbit);
+    cJSON_AddNumberToObject(r, "size", p->width);
     cJSON_AddStringToObject(r, "phase", p->phase ? p->phase : "");
     cJSON *lights = cJSON_AddArrayToObject(r, "lights");
     for (int k = 0; k < m->lights.n; k++) {
@@ -90,10 +84,10 @@ int lightmix_page_write(const char *dir, const struct lightmix_page *p, const st
             chroma[c] = hsv[2] > 0.0f ? lt->radiance[c] / hsv[2] : 0.0f;
         cJSON *l = cJSON_CreateObject();
         cJSON_AddNumberToObject(l, "id", k);
-        cJSON_AddItemToObject(l, "centroid", floats(lt->centroid, 3));
-        cJSON_AddItemToObject(l, "rgb", floats(lt->radiance, 3));
-        cJSON_AddItemToObject(l, "hsv", floats(hsv, 3));
-        cJSON_AddItemToObject(l, "chroma", floats(chroma, 3));
+        cJSON_AddItemToObject(l, "centroid", esr_json_float_array(lt->centroid, 3));
+        cJSON_AddItemToObject(l, "rgb", esr_json_float_array(lt->radiance, 3));
+        cJSON_AddItemToObject(l, "hsv", esr_json_float_array(hsv, 3));
+        cJSON_AddItemToObject(l, "chroma", esr_json_float_array(chroma, 3));
         cJSON_AddItemToArray(lights, l);
     }
     cJSON *views = cJSON_AddArrayToObject(r, "views");

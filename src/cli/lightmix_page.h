@@ -13,7 +13,7 @@
 /* What lightmix.js says besides the lights. */
 struct lightmix_page {
     const char *run, *method, *phase; /* phase: the views' (NULL with an orbit) */
-    int spp, orbit;
+    int spp, orbit, width;            /* width: --size (0: the cameras' own) */
     int n;                            /* views */
     const char (*names)[ESR_NAME_MAX];
     const int (*size)[2];             /* each view's width and height */
