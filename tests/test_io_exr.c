@@ -23,7 +23,7 @@ static float pattern(int x, int y, int c)
 {
     if (y < 35)
         return (float)(c + 1) * 0.37f + (float)x * 0.25f - (float)y * 0.125f;
-    uint32_t h = (uint32_t)(x * 73856093) ^ (uint32_t)(y * 19349663) ^ (uint32_t)(c * 83492791);
+    uint32_t h = (uint32_t)x * 73856093u ^ (uint32_t)y * 19349663u ^ (uint32_t)c * 83492791u;
     h ^= h >> 13;
     h *= 0x5bd1e995u;
     h ^= h >> 15;

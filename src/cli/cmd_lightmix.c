@@ -35,8 +35,8 @@ static int method_value(void *args, const struct cli_option *o, const char *v);
 #define AT(field) offsetof(struct lightmix_args, field)
 static const struct cli_option lightmix_options[] = {
     {"RUN", .kind = CLI_ARG, .at = AT(run)},
-    {"--out", "DIR", "the folder the layers, mix.json and lightmix.json are written to", CLI_TEXT,
-     .at = AT(out), .once = 1},
+    {"--out", "DIR", "the folder the layers, mix.json, lightmix.json and the page are written to",
+     CLI_TEXT, .at = AT(out), .once = 1},
     {"--views", "PHASE", "the cameras of a dataset phase (default: test_nv), one view per frame, "
      "named as the frame (consecutive frames of one camera are rendered once)", CLI_TEXT,
      .at = AT(views), .once = 1},
@@ -78,8 +78,13 @@ const struct esr_command cmd_lightmix = {
     "the colour (H, S, 1) in RGB, all times 2^exposure: equal to the edit's view to float\n"
     "rounding. Also writes DIR/mix.json (the found mix, as `esr edit --mix` takes it) and\n"
     "DIR/lightmix.json (the command, the model's fingerprint, the lights as `esr lights` lists\n"
-    "them, the views and layers). DIR may not lie in RUN's render or eval folders, nor in the\n"
-    "dataset unless inside RUN; it is replaced whole once everything is written.\n",
+    "them, the views and layers), and the LightMix page, DIR/index.html: open it in a browser\n"
+    "(from the folder, no server or network; WebGL2) for a slider per light (0 to 10x), hue and\n"
+    "saturation, exposure, the mix as an `esr edit` command line and as JSON to save or load;\n"
+    "index.html#view=N&mix=JSON gives a view and a mix, &still=1 the image alone (DIR/N.js and\n"
+    "DIR/lightmix.js hold what it shows). With --size the views are not the cameras' size that\n"
+    "`esr edit` renders. DIR may not lie in RUN's render or eval folders, nor in the dataset\n"
+    "unless inside RUN; it is replaced whole once everything is written.\n",
     .options = lightmix_options,
     .run = run_lightmix,
     .view_loop = 1,
