@@ -197,27 +197,28 @@ ESR_HOT static size_t layers_direct_light(const struct esr_relight *r, const str
  * of each, so the far side of a silhouette takes its light from the surface it continues),
  * weighted by depth (DENOISE_DEPTH_VOX voxels) and normal agreement (cos^DENOISE_NPOW), on the
  * light per unit opacity divided by the base colour so the texture is not blurred, then
- * multiplied back. Reads n_in per-layer lights in[j] (layers_direct_light) and writes each
- * pixel's sum of its layers into out[j] [n * 3]. The weights depend on the view alone, so the
- * filter is linear in its input: the lights filtered one by one add up to their sum filtered. */
+ * multiplied back. Reads n_in per-layer lights in[j] (layers_direct_light; divided by the base
+ * colour in place: they are not read afterwards) and writes each pixel's sum of its layers into
+ * out[j] [n * 3]. The weights depend on the view alone, so the filter is linear in its input:
+ * the lights filtered one by one add up to their sum filtered. */
 static int denoise_direct(const struct esr_relight *r, const struct view_buf *b, int w, int h,
                           int n_in, float *const *in, float *const *out)
 {
     const float vox = r->shadows.voxel;
     const size_t n = (size_t)w * (size_t)h;
-    float *demod = malloc((size_t)n_in * 2 * n * 3 * sizeof(float));
     float *nrm = malloc(2 * n * 3 * sizeof(float)), *albedo = malloc(2 * n * 3 * sizeof(float));
-    if (!demod || !nrm || !albedo) {
-        free(demod), free(nrm), free(albedo);
+    if (!nrm || !albedo) {
+        free(nrm), free(albedo);
         return ESR_FAIL("relight: out of memory for the denoiser");
     }
+    float *const *demod = in;
     for (size_t i = 0; i < 2 * n; i++) {
         const float a = b->l_opac[i] > 1e-4f ? b->l_opac[i] : 1e-4f;
         float len = 0.0f;
         for (int c = 0; c < 3; c++) {
             albedo[i * 3 + c] = fmaxf(b->l_mat5[i * ESR_BRDF_CHANNELS + c] / a, DENOISE_MIN_ALBEDO);
             for (int j = 0; j < n_in; j++)
-                demod[(j * 2 * n + i) * 3 + c] = in[j][i * 3 + c] / (a * albedo[i * 3 + c]);
+                demod[j][i * 3 + c] /= a * albedo[i * 3 + c];
             len += b->l_nrm3[i * 3 + c] * b->l_nrm3[i * 3 + c];
         }
         len = len > 1e-12f ? 1.0f / sqrtf(len) : 0.0f;
@@ -256,7 +257,7 @@ static int denoise_direct(const struct esr_relight *r, const struct view_buf *b,
                             const double wq = (double)wn * exp(-(double)(dd * dd * inv2s2));
                             for (int j = 0; j < n_in; j++)
                                 for (int c = 0; c < 3; c++)
-                                    sum[j][c] += wq * demod[(j * 2 * n + k) * 3 + c];
+                                    sum[j][c] += wq * demod[j][k * 3 + c];
                             wsum += wq;
                         }
                     }
@@ -268,7 +269,7 @@ static int denoise_direct(const struct esr_relight *r, const struct view_buf *b,
                             (float)(sum[j][c] / wsum) * b->l_opac[i] * albedo[i * 3 + c];
             }
         }
-    free(demod), free(nrm), free(albedo);
+    free(nrm), free(albedo);
     return ESR_OK;
 }
 
