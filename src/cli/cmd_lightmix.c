@@ -221,7 +221,8 @@ static int lightmix(const struct lightmix_args *a)
     const int views = ev.n;
     char(*names)[ESR_NAME_MAX] = rc == ESR_OK ? calloc((size_t)views, sizeof *names) : NULL;
     int(*size)[2] = rc == ESR_OK ? calloc((size_t)views, sizeof *size) : NULL;
-    if (rc == ESR_OK && (!names || !size))
+    int *data_of = rc == ESR_OK ? calloc((size_t)views, sizeof *data_of) : NULL;
+    if (rc == ESR_OK && (!names || !size || !data_of))
         rc = ESR_FAIL("out of memory for %d view names", views);
     if (rc == ESR_OK)
         fprintf(stderr, "rendering %d view%s as %d light groups (%s, %d samples per pixel and "
@@ -251,9 +252,10 @@ static int lightmix(const struct lightmix_args *a)
         }
         const double secs = omp_get_wtime() - t0;
         size[v][0] = cam.width, size[v][1] = cam.height;
+        data_of[v] = same ? data_of[v - 1] : v; /* the page loads the layers once */
         if (rc == ESR_OK)
             rc = write_layers(eo.staging, names[v], &prev);
-        if (rc == ESR_OK)
+        if (rc == ESR_OK && !same)
             rc = lightmix_page_view(eo.staging, names[v], &prev);
         if (rc == ESR_OK)
             fprintf(stderr, "  %-16s %4d / %-4d  %.2f s%s\n", names[v], v + 1, views, secs,
@@ -265,7 +267,7 @@ static int lightmix(const struct lightmix_args *a)
     const struct lightmix_page page = {a->run, esr_edit_method_name(a->method),
                                        a->orbit ? NULL : a->views ? a->views : "test_nv", a->spp,
                                        a->orbit, a->size, views, (const char(*)[ESR_NAME_MAX])names,
-                                       (const int(*)[2])size};
+                                       (const int(*)[2])size, data_of};
     if (rc == ESR_OK)
         rc = lightmix_page_write(eo.staging, &page, &m);
     if (rc == ESR_OK)
@@ -280,6 +282,7 @@ static int lightmix(const struct lightmix_args *a)
     }
     free(names);
     free(size);
+    free(data_of);
     esr_relight_free(&r);
     esr_model_free(&m);
     edit_views_free(&ev);

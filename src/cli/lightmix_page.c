@@ -93,7 +93,7 @@ int lightmix_page_write(const char *dir, const struct lightmix_page *p, const st
     cJSON *views = cJSON_AddArrayToObject(r, "views");
     for (int i = 0; i < p->n; i++) {
         char file[ESR_NAME_MAX + 8];
-        snprintf(file, sizeof file, "%s.js", p->names[i]);
+        snprintf(file, sizeof file, "%s.js", p->names[p->data_of[i]]);
         cJSON *v = cJSON_CreateObject();
         cJSON_AddStringToObject(v, "name", p->names[i]);
         cJSON_AddNumberToObject(v, "width", p->size[i][0]);

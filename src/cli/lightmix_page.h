@@ -17,6 +17,8 @@ struct lightmix_page {
     int n;                            /* views */
     const char (*names)[ESR_NAME_MAX];
     const int (*size)[2];             /* each view's width and height */
+    const int *data_of;               /* the view whose <view>.js holds each view's layers (a
+                                         phase's off and on frames of one camera share them) */
 };
 
 /* DIR/<name>.js: the view's layers. */
