@@ -1,6 +1,6 @@
 /* `esr demo` after its training, on a copy of the shared tiny run's pdra run
- * (tests/support/tiny_run.h): its later steps (lights, one edit per light, eval, export) end to
- * end with the arguments it gives them. */
+ * (tests/support/tiny_run.h): its later steps (lights, one edit per light, eval, export,
+ * lightmix) end to end with the arguments it gives them. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -39,7 +39,8 @@ static void test_demo_steps_after_training(void **state)
         fail_msg("esr %s: exit %d:\n%s", cmd, rc, out);
     assert_non_null(strstr(out, "demo finished"));
     const char *made[] = {"run/lights.json", "run/lights.png", "run/eval/test_nv.json",
-                          "run/report.html", "mesh.ply", "info.json"};
+                          "run/report.html", "mesh.ply", "info.json", "run/lightmix/index.html",
+                          "run/lightmix/orbit_015.exr", "run/lightmix/orbit_015.js"};
     for (size_t i = 0; i < sizeof made / sizeof made[0]; i++) {
         snprintf(cmd, sizeof cmd, "%s/%s", demo, made[i]);
         if (!esr_file_exists(cmd))

@@ -2,7 +2,7 @@
  * (tests/support/tiny_run.h): the ratio method (unedited: the lights-on render; all off: the
  * lights-off one; linear in the intensity; edits no light can take refused) and a fine-tuned
  * model's view (the fine-tuned render where no light is seen, the lights' own pixels lit as the
- * direct method lights them). */
+ * direct method lights them); the light groups mixed as an edit says equal the edit. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -188,9 +188,71 @@ static void test_finetune_view(void **state)
     pdra_view_close(&v);
 }
 
+/* The light groups (edit/relight.h, esr_relight_layers) in both methods: unedited, the
+ * lights-off layer plus every light's is the unedited view; and for a handful of edits (one
+ * light off, one x3, one recoloured blue, all x0.5, every light recoloured at its own
+ * intensity) the layers scaled as the edit says equal esr_relight_view of that edit to float
+ * rounding: each light's samples draw from their own stream, and a recolour is its light's
+ * unit-colour layer times the colour. */
+static void test_layers_mix_is_the_edit(void **state)
+{
+    (void)state;
+    struct pdra_view v;
+    pdra_view_open(&v);
+    const int K = v.m.lights.n;
+    enum { N_EDITS = 6 };
+    struct esr_light_edit e[N_EDITS][ESR_MAX_LIGHTS];
+    for (int i = 0; i < N_EDITS; i++)
+        for (int k = 0; k < ESR_MAX_LIGHTS; k++)
+            e[i][k] = (struct esr_light_edit){1.0f, 0, 0.0f, 0.0f};
+    e[1][0].intensity = 0.0f;                                  /* light 0 off */
+    e[2][K - 1].intensity = 3.0f;                              /* the last x3 */
+    e[3][0] = (struct esr_light_edit){1.0f, 1, 0.6f, 1.0f};    /* light 0 blue */
+    for (int k = 0; k < K; k++) {
+        e[4][k].intensity = 0.5f;                              /* all x0.5 */
+        e[5][k] = (struct esr_light_edit){0.7f + (float)k, 1, 0.15f * (float)k, 0.8f};
+    }
+    static const enum esr_relight_mode modes[2] = {ESR_RELIGHT_DIRECT, ESR_RELIGHT_RATIO};
+    for (int mi = 0; mi < 2; mi++) {
+        struct esr_relight r;
+        if (esr_relight_init(&r, &v.m, 8, modes[mi]) != ESR_OK)
+            fail_msg("%s", esr_error_message());
+        struct esr_relight_layers L;
+        if (esr_relight_layers(&r, &v.m, v.cam, 3, &L, NULL) != ESR_OK)
+            fail_msg("%s", esr_error_message());
+        assert_int_equal(L.n_lights, K);
+        double worst = 0.0, effect = 0.0;
+        for (int i = 0; i < N_EDITS; i++) {
+            struct esr_image edit, mix;
+            assert_int_equal(esr_relight_view(&r, &v.m, e[i], v.cam, 3, &edit, NULL), ESR_OK);
+            assert_int_equal(esr_relight_layers_mix(&L, e[i], &mix), ESR_OK);
+            for (size_t j = 0; j < v.px * 3; j++) {
+                double sum = L.off.data[j]; /* unedited: the layers' plain sum */
+                for (int k = 0; k < K; k++)
+                    sum += L.light[k].data[j];
+                if (i == 0)
+                    worst = fmax(worst, fabs(sum - edit.data[j]) / (1.0 + fabs(edit.data[j])));
+                worst = fmax(worst, fabs((double)mix.data[j] - edit.data[j]) /
+                                        (1.0 + fabs(edit.data[j])));
+                effect = fmax(effect, fabs((double)edit.data[j] - L.off.data[j]));
+            }
+            esr_image_free(&edit), esr_image_free(&mix);
+        }
+        print_message("layers (%s, %d lights): the mixes differ from the edits by at most %.3g x "
+                      "(1 + value); the lights' effect up to %.3g\n",
+                      mi ? "ratio" : "direct", K, worst, effect);
+        assert_true(effect > 1e-3);
+        assert_true(worst < 1e-5);
+        esr_relight_layers_free(&L);
+        esr_relight_free(&r);
+    }
+    pdra_view_close(&v);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_layers_mix_is_the_edit),
         cmocka_unit_test(test_finetune_view),
         cmocka_unit_test(test_ratio_edits),
     };

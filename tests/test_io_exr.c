@@ -1,5 +1,6 @@
-/* EXR round trips for every pixel type and write compression, half conversion, bad files, and
- * the lamp scene's EXR/PNG relation (which catches swapped channels). */
+/* EXR round trips for every pixel type and write compression, named layers in one part (light
+ * groups), half conversion, bad files, and the lamp scene's EXR/PNG relation (which catches
+ * swapped channels). */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -22,7 +23,7 @@ static float pattern(int x, int y, int c)
 {
     if (y < 35)
         return (float)(c + 1) * 0.37f + (float)x * 0.25f - (float)y * 0.125f;
-    uint32_t h = (uint32_t)(x * 73856093) ^ (uint32_t)(y * 19349663) ^ (uint32_t)(c * 83492791);
+    uint32_t h = (uint32_t)x * 73856093u ^ (uint32_t)y * 19349663u ^ (uint32_t)c * 83492791u;
     h ^= h >> 13;
     h *= 0x5bd1e995u;
     h ^= h >> 15;
@@ -101,6 +102,53 @@ static void test_round_trips(void **state)
             round_trip(c, ESR_EXR_HALF, (enum esr_exr_compression)comp);
     }
     round_trip(3, ESR_EXR_FLOAT, ESR_EXR_ZIP);
+}
+
+/* Three named RGB layers in one file (esr_exr_write_layers) read back layer by layer, each its own
+ * pixels (the header sorts the channels by name: light_1 before off); an absent layer and bad
+ * layer names are refused naming the file. */
+static void test_layers(void **state)
+{
+    (void)state;
+    char path[4200];
+    snprintf(path, sizeof path, "%s/layers.exr", test_tmpdir);
+    struct esr_image img[3];
+    static const char *const names[3] = {"off", "light_1", "light_1_value"};
+    for (int l = 0; l < 3; l++) {
+        assert_int_equal(esr_image_alloc(&img[l], 37, 41, 3), ESR_OK);
+        for (int y = 0; y < 41; y++)
+            for (int x = 0; x < 37; x++)
+                for (int c = 0; c < 3; c++)
+                    img[l].data[((size_t)y * 37 + x) * 3 + c] = pattern(x, y, c) + 10.0f * (float)l;
+    }
+    assert_int_equal(esr_exr_write_layers(path, img, names, 3, ESR_EXR_FLOAT, ESR_EXR_ZIP), ESR_OK);
+    for (int l = 0; l < 3; l++) {
+        struct esr_image back;
+        if (esr_exr_read_layer(path, names[l], &back) != ESR_OK)
+            fail_msg("%s", esr_error_message());
+        assert_int_equal(back.width, 37);
+        assert_int_equal(back.height, 41);
+        for (size_t p = 0; p < 37 * 41; p++)
+            for (int c = 0; c < 3; c++)
+                assert_true(back.data[p * 4 + c] == img[l].data[p * 3 + c]);
+        esr_image_free(&back);
+    }
+    struct esr_image none;
+    esr_error_clear();
+    assert_int_equal(esr_exr_read_layer(path, "light_2", &none), ESR_ERR);
+    assert_non_null(strstr(esr_error_message(), "has no layer 'light_2'"));
+    assert_non_null(strstr(esr_error_message(), path));
+    static const char *const bad[3] = {"off", "light 1", "x"};
+    esr_error_clear();
+    assert_int_equal(esr_exr_write_layers(path, img, bad, 3, ESR_EXR_HALF, ESR_EXR_ZIP), ESR_ERR);
+    assert_non_null(strstr(esr_error_message(), "layer name 'light 1'"));
+    esr_error_clear();
+    img[2].width = 36;
+    assert_int_equal(esr_exr_write_layers(path, img, names, 3, ESR_EXR_HALF, ESR_EXR_ZIP), ESR_ERR);
+    img[2].width = 37;
+    esr_error_clear();
+    for (int l = 0; l < 3; l++)
+        esr_image_free(&img[l]);
 }
 
 static void expect_read_error(const char *path)
@@ -206,6 +254,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_half_conversion),
         cmocka_unit_test(test_round_trips),
+        cmocka_unit_test(test_layers),
         cmocka_unit_test(test_bad_files),
         cmocka_unit_test(test_lamp_exr_matches_png),
     };

@@ -807,7 +807,7 @@ static void test_direct_light_is_measured_from_the_point(void **state)
             float got[1][3] = {{0}};
             struct esr_rng rng = esr_rng_init(7, 0);
             const struct esr_direct_point_query q = {&sh, &ls, NULL, 1, &mat, x, n, &wo, 1, 1.0f};
-            assert_int_equal((int)esr_light_direct_point(&q, &rng, got, NULL), 1);
+            assert_int_equal((int)esr_light_direct_point(&q, &rng, got, NULL, NULL), 1);
             const struct esr_vec3 v = esr_v3_sub(y, x);
             const float d = esr_v3_length(v);
             const struct esr_vec3 wi = esr_v3_scale(v, 1.0f / d);

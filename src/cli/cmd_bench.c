@@ -48,8 +48,8 @@ static const struct cli_option bench_options[] = {
      "records)", CLI_TEXT, .at = AT(data)},
     {"--no-train", NULL, "skip the training benchmark", CLI_FLAG, .at = AT(no_train)},
     {"--run", "RUN", "also compare the LTS estimators on RUN's pdra (else lts) checkpoint and time "
-     "the direct and the ratio relight of its first test_nv view and a fine-tune", CLI_TEXT,
-     .at = AT(run)},
+     "the direct and the ratio relight of its first test_nv view (and as light groups) and a "
+     "fine-tune", CLI_TEXT, .at = AT(run)},
     {0},
 };
 
@@ -293,7 +293,8 @@ static int finetune_timing(struct esr_model *m, const struct esr_dataset *ds, cJ
 }
 
 /* Seconds per relit view (after a warm-up view) of cam, all lights as found, by the direct
- * (ratio 0) or the ratio method (edit/relight.h), into root's "relight_direct" / "relight_ratio". */
+ * (ratio 0) or the ratio method (edit/relight.h), into root's "relight_direct" / "relight_ratio";
+ * and per view as light groups (esr_relight_layers, what `esr lightmix` renders), beside it. */
 static int relight_timing(const char *run, const struct esr_model *m, const struct esr_camera *c,
                           int ratio, cJSON *root)
 {
@@ -305,7 +306,7 @@ static int relight_timing(const char *run, const struct esr_model *m, const stru
     const double t_init = omp_get_wtime();
     ESR_TRY(esr_relight_init(&rl, m, spp, ratio ? ESR_RELIGHT_RATIO : ESR_RELIGHT_DIRECT));
     const double init_s = omp_get_wtime() - t_init;
-    double secs = 0.0, direct_s = 0.0, shadow_rays = 0.0;
+    double secs = 0.0, direct_s = 0.0, shadow_rays = 0.0, layers_s = 0.0;
     int rc = ESR_OK;
     for (int i = 0; rc == ESR_OK && i <= reps; i++) {
         struct esr_image img;
@@ -318,6 +319,12 @@ static int relight_timing(const char *run, const struct esr_model *m, const stru
             shadow_rays += (double)st.shadow_rays;
         }
         esr_image_free(&img);
+        struct esr_relight_layers L;
+        const double t1 = omp_get_wtime();
+        if (rc == ESR_OK && (rc = esr_relight_layers(&rl, m, c, (uint64_t)i, &L, NULL)) == ESR_OK)
+            esr_relight_layers_free(&L);
+        if (i > 0)
+            layers_s += omp_get_wtime() - t1;
     }
     esr_relight_free(&rl);
     if (rc != ESR_OK)
@@ -335,11 +342,14 @@ static int relight_timing(const char *run, const struct esr_model *m, const stru
     cJSON_AddNumberToObject(j, "shadow_rays_per_view", shadow_rays / reps);
     cJSON_AddNumberToObject(j, "direct_light_seconds_per_view", direct_s / reps);
     cJSON_AddNumberToObject(j, "shadow_rays_per_s", direct_s > 0 ? shadow_rays / direct_s : 0.0);
+    cJSON_AddNumberToObject(j, "light_groups_seconds_per_view", layers_s / reps);
     printf("\n%s relight (%s): %dx%d view, %d lights, %d light samples per pixel: %.3f s per view "
            "(setup %.2f s once); its direct light %.3f s: %.0fk shadow rays, %.0fk per s with "
            "sampling and BRDF\n",
            name, run, c->width, c->height, m->lights.n, spp, secs / reps, init_s, direct_s / reps,
            shadow_rays / reps / 1e3, direct_s > 0 ? shadow_rays / direct_s / 1e3 : 0.0);
+    printf("%s light groups (esr lightmix's layers, off and 2 per light): %.3f s per view, %.2fx "
+           "the relit view\n", name, layers_s / reps, secs > 0 ? layers_s / secs : 0.0);
     return ESR_OK;
 }
 

@@ -1,5 +1,6 @@
 /* esr demo: the main job end to end on the built-in default scene (or a given dataset), by
- * running the other subcommands in order: synth -> info -> train -> eval -> export. */
+ * running the other subcommands in order: synth -> info -> train -> lights -> edit -> eval ->
+ * export -> lightmix. */
 #include <math.h>
 #include <stddef.h>
 #include <stdio.h>
@@ -58,7 +59,10 @@ const struct esr_command cmd_demo = {
     "                     radiance against the truth, Chamfer distance to the ground-truth\n"
     "                     surface when the scene has one (`esr eval`); the test_nv renders in\n"
     "                     DIR/run/render/test_nv, the report DIR/run/report.html\n"
-    "  7. DIR/mesh.ply    the reconstructed surface with normals and colours (`esr export`)\n",
+    "  7. DIR/mesh.ply    the reconstructed surface with normals and colours (`esr export`)\n"
+    "  8. DIR/run/lightmix  an orbit of 16 views as light groups, with the LightMix page\n"
+    "                     (DIR/run/lightmix/index.html: a slider per light, in a browser;\n"
+    "                     `esr lightmix --orbit 16`), when the run found lights\n",
     .options = demo_options,
     .run = run_demo,
 };
@@ -130,6 +134,21 @@ static int demo_edits(const char *run, const char *data)
             return 1;
     }
     return 0;
+}
+
+/* How many lights the run's pdra model found (0 when it cannot be read). */
+static int lights_found(const char *run)
+{
+    char ckpt[4200];
+    snprintf(ckpt, sizeof ckpt, "%s/ckpt_pdra.bin", run);
+    struct esr_model m;
+    if (esr_model_load(&m, ckpt) != ESR_OK) {
+        esr_error_clear();
+        return 0;
+    }
+    const int n = m.lights.n;
+    esr_model_free(&m);
+    return n;
 }
 
 static int is_file(const char *path)
@@ -208,6 +227,13 @@ static int run_demo(int argc, char **argv)
     if (step(7, &cmd_export, 4, export))
         return 1;
 
+    char lightmix[4300];
+    snprintf(lightmix, sizeof lightmix, "%s/lightmix", run);
+    char *mix[] = {"lightmix", run, "--orbit", "16", "--data", (char *)data, "--out", lightmix};
+    const int mixed = is_file(probe) && lights_found(run) > 0;
+    if (mixed && step(8, &cmd_lightmix, 8, mix))
+        return 1;
+
     printf("\ndemo finished in %.1f min (training %.1f min). Results in %s:\n", (now_s() - t0) / 60.0,
            t_train / 60.0, a.out);
     printf("  %s/report.html            open in a browser: renders, metrics, training curves\n", run);
@@ -221,6 +247,9 @@ static int run_demo(int argc, char **argv)
     printf("  %s/render/test_nv         rendered test views (PNG, linear PNG, EXR, normals, depth, "
            "emission, emitter masks, materials, the emission's effect)\n", run);
     printf("  %s                   reconstructed surface (PLY)\n", mesh);
+    if (mixed)
+        printf("  %s/index.html  open in a browser: the LightMix page, a slider per light (an orbit "
+               "of 16 views as light groups, one EXR each)\n", lightmix);
     printf("  %s  %s\n", info, sheet);
     return 0;
 }

@@ -1,21 +1,20 @@
 /* esr edit RUN: relight a trained scene (turn lights up, down, off, recolour them) and render it. */
-#include <dirent.h>
 #include <math.h>
 #include <omp.h>
 #include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/stat.h>
 
 #include "cli/commands.h"
+#include "cli/edit_views.h"
 #include "core/colour.h"
 #include "core/error.h"
 #include "core/vec3.h"
 #include "edit/editor.h"
+#include "edit/light_mix.h"
 #include "eval/run_dir.h"
 #include "io/dir.h"
-#include "io/staging.h"
 #include "io/image.h"
 #include "io/json_file.h"
 #include "model/model.h"
@@ -26,8 +25,9 @@ static int run_edit(int argc, char **argv);
 struct edit_args {
     int argc;
     char **argv; /* for edit.json */
-    const char *run, *out, *views, *data, *frames;
-    int orbit, spp, n_groups, iters;
+    const char *run, *out, *views, *data, *frames, *mix;
+    double exposure;
+    int orbit, spp, n_groups, iters, has_exposure;
     enum esr_edit_method method;
     struct {
         int light; /* -1 = all */
@@ -39,6 +39,7 @@ struct edit_args {
 static int light_group(void *args, const struct cli_option *o, const char *v);
 static int group_value(void *args, const struct cli_option *o, const char *v);
 static int method_value(void *args, const struct cli_option *o, const char *v);
+static int exposure_given(void *args, const struct cli_option *o, const char *v);
 
 #define AT(field) offsetof(struct edit_args, field)
 /* --light, --intensity and --color make the groups (their handlers); the others are once each */
@@ -50,6 +51,11 @@ static const struct cli_option edit_options[] = {
      .call = group_value},
     {"--color", "H,S", "the group's hue and saturation, both in [0,1] (its value kept)", CLI_CALL,
      .call = group_value},
+    {"--mix", "FILE", "the edit as a mix JSON (`esr lightmix` writes one, its page saves one): "
+     "instead of --light groups and --exposure", CLI_TEXT, .at = AT(mix), .once = 1},
+    {"--exposure", "STOPS", "the views' linear RGB times 2^STOPS (default 0)", CLI_DOUBLE,
+     .at = AT(exposure), .lo = -ESR_MIX_MAX_EXPOSURE, .hi = ESR_MIX_MAX_EXPOSURE, .once = 1,
+     .bad = "--exposure: expected stops in -20..20, got '%s'", .call = exposure_given},
     {"--method", "M", "direct (default), ratio or finetune (above)", CLI_CALL, .once = 1,
      .call = method_value},
     {"--out", "DIR", "the folder the views and edit.json are written to", CLI_TEXT, .at = AT(out),
@@ -79,8 +85,9 @@ const struct esr_command cmd_edit = {
                "orbit views",
     .usage =
     "usage: esr edit RUN --light ID|all [--intensity X] [--color H,S] [--light ...]...\n"
-    "                [--method direct|ratio|finetune] --out DIR [--views PHASE | --orbit N]\n"
-    "                [--frames a,b] [--spp N] [--iters N] [--data DIR]\n"
+    "                [--exposure STOPS] [--method direct|ratio|finetune] --out DIR\n"
+    "                [--views PHASE | --orbit N] [--frames a,b] [--spp N] [--iters N] [--data DIR]\n"
+    "       esr edit RUN --mix FILE [--method ...] --out DIR ...\n"
     "\n"
     "Edits the lights `esr lights RUN` lists (ids from 0) and renders the scene. Each --light\n"
     "starts a group; the --intensity and --color after it apply to that light (or to every light\n"
@@ -89,6 +96,9 @@ const struct esr_command cmd_edit = {
     "its value (seed eqs. 10-15). Each --light needs one or both.\n"
     "Groups add up: `--light all --color 0.6,1 --light 0 --intensity 2` recolours every light and\n"
     "doubles light 0; two groups that set the same thing for one light are refused.\n"
+    "--mix FILE gives the same edit as JSON, {\"lights\": [{\"id\": 0, \"intensity\": 0.5},\n"
+    "{\"id\": 1, \"hue\": 0.6, \"saturation\": 1}], \"exposure\": 0} (a light left out stays as\n"
+    "found; `esr lightmix` writes one and its page saves them).\n"
     "Writes per view DIR/N.png (linear through the sRGB curve, clipped) and DIR/N.exr (linear\n"
     "RGB on white); DIR may not lie in RUN's render or eval folders, nor in the dataset unless\n"
     "inside RUN. The views are written aside and replace DIR only once all are complete, with\n"
@@ -181,6 +191,13 @@ static int method_value(void *args, const struct cli_option *o, const char *v)
     return 0;
 }
 
+static int exposure_given(void *args, const struct cli_option *o, const char *v)
+{
+    (void)o, (void)v;
+    ((struct edit_args *)args)->has_exposure = 1;
+    return 0;
+}
+
 static int parse(int argc, char **argv, struct edit_args *a)
 {
     memset(a, 0, sizeof(*a));
@@ -195,8 +212,12 @@ static int parse(int argc, char **argv, struct edit_args *a)
         return cli_fail(&cmd_edit, "missing RUN directory");
     if (!a->out)
         return cli_fail(&cmd_edit, "missing --out DIR");
-    if (a->n_groups == 0)
-        return cli_fail(&cmd_edit, "nothing to edit: give at least one --light ID|all");
+    if (a->mix && (a->n_groups || a->has_exposure))
+        return cli_fail(&cmd_edit, "--mix and %s exclude each other (the mix gives each light's "
+                        "edit and the exposure)", a->n_groups ? "--light" : "--exposure");
+    if (a->n_groups == 0 && !a->mix)
+        return cli_fail(&cmd_edit, "nothing to edit: give at least one --light ID|all, or --mix "
+                        "FILE");
     for (int i = 0; i < a->n_groups; i++)
         if (!a->g[i].has_intensity && !a->g[i].has_colour) {
             char id[16] = "all";
@@ -260,57 +281,44 @@ static int edits_of(const struct edit_args *a, int n, struct esr_light_edit *edi
     return ESR_OK;
 }
 
-/* Writes the view's N.exr and N.png. */
-static int write_view(const char *dir, const char *name, const struct esr_image *lin)
+/* The view's N.exr and N.png: linear RGB, and through the sRGB curve, clipped. */
+static int write_view_files(const char *dir, const char *name, const struct esr_image *lin)
 {
-    char path[4200];
-    ESR_TRY(esr_view_path(path, sizeof path, dir, name, ".exr"));
+    char path[4400];
+    const size_t size = sizeof path;
+    ESR_TRY(esr_view_path(path, size, dir, name, ".exr"));
     ESR_TRY(esr_exr_write(path, lin, 0));
     struct esr_image png;
     ESR_TRY(esr_image_alloc(&png, lin->width, lin->height, 3));
     for (size_t i = 0; i < esr_image_count(lin); i++)
         png.data[i] = esr_srgb_from_linear(fminf(fmaxf(lin->data[i], 0.0f), 1.0f));
-    int rc = esr_view_path(path, sizeof path, dir, name, ".png");
+    int rc = esr_view_path(path, size, dir, name, ".png");
     if (rc == ESR_OK)
         rc = esr_png_write(path, &png, 8);
     esr_image_free(&png);
     return rc;
 }
 
-/* An --out that holds something is replaced only when it is an earlier edit's folder (nothing
- * but files named N.png, N.exr and edit.json): a user's other files are never deleted. */
-static int check_replaceable(const char *out)
+/* Writes the view's N.exr and N.png, its linear RGB times gain (the exposure). */
+static int write_view(const char *dir, const char *name, const struct esr_image *view, float gain)
 {
-    DIR *d = opendir(out);
-    if (!d)
-        return ESR_OK; /* absent (made later), or not a folder (said when it is made) */
-    int foreign = 0;
-    char first[256] = "";
-    for (struct dirent *e; (e = readdir(d));) {
-        const char *n = e->d_name, *dot = strrchr(n, '.');
-        if (!strcmp(n, ".") || !strcmp(n, ".."))
-            continue;
-        char path[4400];
-        struct stat st;
-        snprintf(path, sizeof path, "%s/%s", out, n);
-        const int file = lstat(path, &st) == 0 && S_ISREG(st.st_mode);
-        if (file && (!strcmp(n, "edit.json") || (dot && (!strcmp(dot, ".png") || !strcmp(dot, ".exr")))))
-            continue;
-        if (!foreign++)
-            snprintf(first, sizeof first, "%s", n);
+    struct esr_image exposed = *view, *lin = &exposed;
+    if (gain != 1.0f) {
+        ESR_TRY(esr_image_alloc(&exposed, view->width, view->height, 3));
+        for (size_t i = 0; i < esr_image_count(view); i++)
+            exposed.data[i] = view->data[i] * gain;
     }
-    closedir(d);
-    if (foreign)
-        return ESR_FAIL("--out %s holds files that no esr edit wrote (%s%s): give a new or empty "
-                        "folder (an earlier edit's folder is replaced whole once the new views are "
-                        "complete)", out, first, foreign > 1 ? ", ..." : "");
-    return ESR_OK;
+    const int rc = write_view_files(dir, name, lin);
+    if (gain != 1.0f)
+        esr_image_free(&exposed);
+    return rc;
 }
 
 /* DIR/edit.json: what made the folder (command, options, build, time), the model and its lights
  * by fingerprint, each light's edit and the views. */
 static int write_record(const char *dir, const struct edit_args *a, const struct esr_model *m,
-                        const struct esr_light_edit *edits, char (*names)[ESR_NAME_MAX], int views)
+                        const struct esr_light_edit *edits, double exposure,
+                        char (*names)[ESR_NAME_MAX], int views)
 {
     cJSON *r = cli_record("edit", a->argc, a->argv);
     char fp[32];
@@ -319,6 +327,7 @@ static int write_record(const char *dir, const struct edit_args *a, const struct
     cJSON_AddStringToObject(r, "model_fingerprint", fp);
     cJSON_AddStringToObject(r, "method", esr_edit_method_name(a->method));
     cJSON_AddNumberToObject(r, "spp", a->spp);
+    cJSON_AddNumberToObject(r, "exposure", exposure);
     cJSON *lights = cJSON_AddArrayToObject(r, "lights");
     for (int k = 0; k < m->lights.n; k++) {
         cJSON *l = cJSON_CreateObject();
@@ -333,24 +342,19 @@ static int write_record(const char *dir, const struct edit_args *a, const struct
     cJSON *v = cJSON_AddArrayToObject(r, "views");
     for (int i = 0; i < views; i++)
         cJSON_AddItemToArray(v, cJSON_CreateString(names[i]));
-    char path[4200];
+    char path[4400];
     snprintf(path, sizeof path, "%s/edit.json", dir);
     return esr_json_write_atomic(path, r);
 }
 
-/* Refuses an output folder in RUN's own render and eval folders, or in the dataset outside RUN
- * (a run may live inside its dataset): edited views would replace renders that render.json
- * vouches for, or the photos. */
-static int check_out(const struct edit_args *a, const char *dataset)
+/* The edit of a run of n lights: the --mix file's, or the groups' and --exposure. */
+static int edit_mix(const struct edit_args *a, int n, struct esr_light_mix *mix)
 {
-    char render[4200], eval[4200];
-    snprintf(render, sizeof render, "%s/render", a->run);
-    snprintf(eval, sizeof eval, "%s/eval", a->run);
-    const char *const run_folders[2] = {render, eval};
-    const char *const run_what[2] = {"the run's render folder", "the run's eval folder"};
-    const char *const what = "the dataset";
-    ESR_TRY(esr_output_check_outside(a->out, run_folders, run_what, 2, NULL));
-    return esr_output_check_outside(a->out, &dataset, &what, 1, a->run);
+    if (a->mix)
+        return esr_light_mix_read(a->mix, n, mix);
+    esr_light_mix_found(mix, n);
+    mix->exposure = a->exposure;
+    return edits_of(a, n, mix->edit);
 }
 
 static int edit(const struct edit_args *a)
@@ -360,13 +364,14 @@ static int edit(const struct edit_args *a)
     struct esr_model m;
     memset(&m, 0, sizeof m);
     int rc = esr_model_load_finished_pdra(&m, a->run);
-    struct esr_run_selection sel;
-    memset(&sel, 0, sizeof sel);
+    struct edit_views ev;
+    memset(&ev, 0, sizeof ev);
     if (rc == ESR_OK)
-        rc = esr_run_select(a->run, a->data, a->views ? a->views : "test_nv", a->frames, 0, &sel);
-    struct esr_light_edit edits[ESR_MAX_LIGHTS];
+        rc = edit_views_open(&ev, a->run, a->data, a->views, a->frames, a->orbit, 0, &m);
+    struct esr_light_mix mix;
     if (rc == ESR_OK)
-        rc = edits_of(a, m.lights.n, edits);
+        rc = edit_mix(a, m.lights.n, &mix);
+    const struct esr_light_edit *edits = mix.edit;
     struct esr_editor ed;
     memset(&ed, 0, sizeof ed);
     struct esr_finetune_opts ft;
@@ -374,25 +379,16 @@ static int edit(const struct edit_args *a)
     if (a->iters)
         ft.iters = a->iters;
     if (rc == ESR_OK)
-        rc = check_out(a, sel.ds.root);
-    const float centre[3] = {0.5f * (m.scene_min[0] + m.scene_max[0]),
-                             0.5f * (m.scene_min[1] + m.scene_max[1]),
-                             0.5f * (m.scene_min[2] + m.scene_max[2])};
-    struct esr_camera orbit0; /* an orbit that cannot be made is refused before any work */
-    if (rc == ESR_OK && a->orbit)
-        rc = esr_camera_orbit(&sel.ds.phases[sel.phase].frames[sel.idx[0]].camera, centre, 0,
-                              a->orbit, &orbit0);
+        rc = edit_check_out(a->run, a->out, ev.sel.ds.root);
     /* the views go into a staging folder beside --out, which replaces it only once every view
      * and edit.json are written: a failed or interrupted edit leaves --out as it was */
-    char parent[4200], made[4200] = "", staging[4200] = "";
-    cli_parent_dir(a->out, parent, sizeof parent);
+    struct edit_output eo;
+    memset(&eo, 0, sizeof eo);
+    static const char *const ours[] = {"edit.json", NULL}, *const our_exts[] = {".png", ".exr", NULL};
     if (rc == ESR_OK)
-        rc = check_replaceable(a->out);
-    if (rc == ESR_OK && ((rc = esr_dir_prepare_output_made(parent, made, sizeof made)) != ESR_OK ||
-                         (rc = esr_staging_begin(a->out, 1, staging, sizeof staging)) != ESR_OK))
-        esr_error_append(" (for --out %s)", a->out);
+        rc = edit_output_begin(&eo, a->out, ours, our_exts, "esr edit");
     if (rc == ESR_OK)
-        rc = esr_editor_init(&ed, &m, &sel.ds, a->method, a->spp, &ft);
+        rc = esr_editor_init(&ed, &m, &ev.sel.ds, a->method, a->spp, &ft);
     if (rc == ESR_OK && a->method == ESR_EDIT_FINETUNE)
         fprintf(stderr, "fine-tuning the lights-on radiance for the edit (%d steps)\n",
                 ed.ft.o.iters);
@@ -401,8 +397,8 @@ static int edit(const struct edit_args *a)
     if (rc == ESR_OK && a->method == ESR_EDIT_FINETUNE)
         fprintf(stderr, "fine-tuned in %.1f s (LTS emo MSE %.4g -> %.4g)\n", ed.last.seconds,
                 ed.last.mse_first, ed.last.mse_last);
-    const struct esr_phase *ph = &sel.ds.phases[sel.phase];
-    const int views = a->orbit ? a->orbit : sel.n;
+    const int views = ev.n;
+    const float gain = rc == ESR_OK ? esr_light_mix_gain(&mix) : 1.0f;
     char(*names)[ESR_NAME_MAX] = rc == ESR_OK ? calloc((size_t)views, sizeof *names) : NULL;
     if (rc == ESR_OK && !names)
         rc = ESR_FAIL("out of memory for %d view names", views);
@@ -417,15 +413,9 @@ static int edit(const struct edit_args *a)
                           v, views, a->out);
             break;
         }
-        const struct esr_frame *f = &ph->frames[sel.idx[a->orbit ? 0 : v]];
         char *name = names[v];
-        struct esr_camera cam = f->camera;
-        if (a->orbit) {
-            rc = esr_camera_orbit(&f->camera, centre, v, a->orbit, &cam);
-            snprintf(name, ESR_NAME_MAX, "orbit_%03d", v);
-        } else {
-            snprintf(name, ESR_NAME_MAX, "%s", f->name);
-        }
+        struct esr_camera cam;
+        rc = edit_views_camera(&ev, v, &cam, name);
         const double t0 = omp_get_wtime();
         const int same = prev.data && !memcmp(&cam, &prev_cam, sizeof cam);
         if (rc == ESR_OK && !same) {
@@ -435,31 +425,23 @@ static int edit(const struct edit_args *a)
         }
         const double secs = omp_get_wtime() - t0;
         if (rc == ESR_OK)
-            rc = write_view(staging, name, &prev);
+            rc = write_view(eo.staging, name, &prev, gain);
         if (rc == ESR_OK)
             fprintf(stderr, "  %-16s %4d / %-4d  %.2f s%s\n", name, v + 1, views, secs,
                     same ? " (the previous frame's camera: its view)" : "");
     }
     esr_image_free(&prev);
     if (rc == ESR_OK)
-        rc = write_record(staging, a, &m, edits, names, views);
-    if (rc == ESR_OK) {
-        cli_hold_signals(1); /* the swap is not cut in two */
-        rc = esr_staging_commit(staging, a->out);
-        cli_hold_signals(0);
-    }
+        rc = write_record(eo.staging, a, &m, edits, mix.exposure, names, views);
+    rc = edit_output_end(&eo, rc);
     if (rc == ESR_OK) {
         fprintf(stderr, "wrote %d view%s to %s (N.png: sRGB, N.exr: linear; %s%s) and edit.json\n",
                 views, views == 1 ? "" : "s", a->out, names[0], views > 1 ? " ..." : "");
-    } else {
-        if (staging[0])
-            esr_remove_tree(staging);
-        esr_dir_remove_made(parent, made);
     }
     free(names);
     esr_editor_free(&ed);
     esr_model_free(&m);
-    esr_run_selection_free(&sel);
+    edit_views_free(&ev);
     return rc;
 }
 

@@ -6,5 +6,5 @@
 
 const struct esr_command *const cli_commands[] = {
     &cmd_demo,   &cmd_info,   &cmd_import, &cmd_metrics, &cmd_synth, &cmd_train, &cmd_render,
-    &cmd_eval,   &cmd_export, &cmd_lights, &cmd_edit,    &cmd_bench, NULL,
+    &cmd_eval,   &cmd_export, &cmd_lights, &cmd_edit,    &cmd_lightmix, &cmd_bench, NULL,
 };

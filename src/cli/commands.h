@@ -90,6 +90,7 @@ extern const struct esr_command cmd_eval;
 extern const struct esr_command cmd_export;
 extern const struct esr_command cmd_lights;
 extern const struct esr_command cmd_edit;
+extern const struct esr_command cmd_lightmix;
 extern const struct esr_command cmd_bench;
 extern const struct esr_command cmd_demo;
 

@@ -79,6 +79,30 @@ int esr_relight_view(const struct esr_relight *r, const struct esr_model *m,
                      const struct esr_light_edit *edits, const struct esr_camera *cam,
                      uint64_t seed, struct esr_image *out, struct esr_relight_stats *stats);
 
+/* A view as light groups (`esr lightmix`): the lights-off layer and, per light, its layer at its
+ * found emission (its visible emission and the light it casts: direct, or in the ratio method
+ * its share of the reflected light) and its layer at unit colour times each emitting point's
+ * value V (what a recolour multiplies, model/lights.h). Both methods are linear in each light's
+ * emission, and each light's samples draw from their own stream, so an edit of the view is
+ *     off + sum_K w_K * (recolour_K ? value_K : light_K)     (w_K: esr_light_edit_weights)
+ * to float rounding (esr_relight_layers_mix); unedited, off plus every light_K. */
+struct esr_relight_layers {
+    int n_lights;
+    struct esr_image off;                   /* linear RGB on white, 3 channels */
+    struct esr_image light[ESR_MAX_LIGHTS]; /* [n_lights] */
+    struct esr_image value[ESR_MAX_LIGHTS]; /* [n_lights] */
+};
+
+/* The layers of cam's view (direct or ratio mode; allocated), with the seed esr_relight_view
+ * takes for the same view. */
+int esr_relight_layers(const struct esr_relight *r, const struct esr_model *m,
+                       const struct esr_camera *cam, uint64_t seed, struct esr_relight_layers *L,
+                       struct esr_relight_stats *stats);
+void esr_relight_layers_free(struct esr_relight_layers *L);
+/* The edited view the layers give (one edit per light; checked): into *out (allocated). */
+int esr_relight_layers_mix(const struct esr_relight_layers *L, const struct esr_light_edit *edits,
+                           struct esr_image *out);
+
 #ifdef __cplusplus
 }
 #endif

@@ -49,9 +49,16 @@ static float exr_sample_to_float(const uint8_t *p, uint16_t type)
 
 static size_t exr_type_size(int type) { return type == EXR_PIXEL_HALF ? 2 : 4; }
 
-/* Output channel (0..3 = R,G,B,A) a stored channel feeds; 4 for a luminance-only "Y"; -1 = ignored. */
-static int exr_channel_slot(const char *name)
+/* Output channel (0..3 = R,G,B,A) a stored channel feeds; 4 for a luminance-only "Y"; -1 = ignored.
+ * With a layer, only the layer's channels "<layer>.R" and so on feed one. */
+static int exr_channel_slot(const char *layer, const char *name)
 {
+    if (layer) {
+        const size_t n = strlen(layer);
+        if (strncmp(name, layer, n) || name[n] != '.')
+            return -1;
+        name += n + 1;
+    }
     static const char *const names[5] = {"R", "G", "B", "A", "Y"};
     for (int k = 0; k < 5; k++)
         if (!strcmp(name, names[k]))
@@ -66,6 +73,7 @@ struct exr_reader {
     int decoder_ready;
     uint8_t *planes[5]; /* one chunk's samples per output slot, stored type */
     struct esr_image *out;
+    const char *layer; /* NULL: the bare channels; else the layer's (esr_exr_read_layer) */
 };
 
 /* Decodes one chunk into the planes and scatters it into the RGBA output. */
@@ -80,7 +88,7 @@ static int read_chunk(struct exr_reader *r, const exr_chunk_info_t *cinfo, const
     int present[5] = {0};
     for (int c = 0; c < r->decoder.channel_count; c++) {
         exr_coding_channel_info_t *ch = &r->decoder.channels[c];
-        int slot = exr_channel_slot(ch->channel_name);
+        int slot = exr_channel_slot(r->layer, ch->channel_name);
         if (slot < 0) {
             ch->decode_to_ptr = NULL;
             continue;
@@ -180,13 +188,16 @@ static int exr_read_setup(struct exr_reader *r, exr_storage_t *storage, const ch
     int colour = 0;
     for (int c = 0; c < chlist->num_channels; c++) {
         const exr_attr_chlist_entry_t *e = &chlist->entries[c];
-        int slot = exr_channel_slot(e->name.str);
+        int slot = exr_channel_slot(r->layer, e->name.str);
         if (slot < 0)
             continue;
         if (e->x_sampling != 1 || e->y_sampling != 1)
             return ESR_FAIL("'%s': subsampled EXR channel '%s' is not supported", path, e->name.str);
         colour |= slot != 3;
     }
+    if (!colour && r->layer)
+        return ESR_FAIL("'%s': EXR has no layer '%s' (none of its channels %s.R, .G, .B or .Y)",
+                        path, r->layer, r->layer);
     if (!colour)
         return ESR_FAIL("'%s': EXR has none of the channels R, G, B or Y", path);
     /* A chunk never reaches past the data window, so a header's huge tile costs no more than
@@ -208,7 +219,7 @@ static int exr_read_setup(struct exr_reader *r, exr_storage_t *storage, const ch
     }
     const int64_t chunk_pixels = cw * (ch < h ? ch : h);
     for (int c = 0; c < chlist->num_channels; c++) {
-        int slot = exr_channel_slot(chlist->entries[c].name.str);
+        int slot = exr_channel_slot(r->layer, chlist->entries[c].name.str);
         if (slot >= 0 && !r->planes[slot] && !(r->planes[slot] = malloc((size_t)chunk_pixels * 4)))
             return ESR_FAIL("out of memory reading '%s'", path);
     }
@@ -244,13 +255,15 @@ static int64_t exr_memory_size(exr_const_context_t ctxt, void *user)
     return (int64_t)((const struct exr_source *)user)->size;
 }
 
-int esr_exr_decode(const void *bytes, size_t size, const char *name, struct esr_image *out)
+static int exr_decode_layer(const void *bytes, size_t size, const char *name, const char *layer,
+                            struct esr_image *out)
 {
     memset(out, 0, sizeof *out);
     struct exr_source src = {bytes, size};
     struct exr_reader r;
     memset(&r, 0, sizeof r);
     r.out = out;
+    r.layer = layer;
     exr_detail[0] = '\0';
     exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
     init.error_handler_fn = exr_on_error;
@@ -278,15 +291,25 @@ int esr_exr_decode(const void *bytes, size_t size, const char *name, struct esr_
     return status;
 }
 
-int esr_exr_read(const char *path, struct esr_image *out)
+int esr_exr_decode(const void *bytes, size_t size, const char *name, struct esr_image *out)
+{
+    return exr_decode_layer(bytes, size, name, NULL, out);
+}
+
+int esr_exr_read_layer(const char *path, const char *layer, struct esr_image *out)
 {
     memset(out, 0, sizeof *out);
     unsigned char *bytes;
     size_t size;
     ESR_TRY(esr_file_read_all(path, &bytes, &size));
-    int status = esr_exr_decode(bytes, size, path, out);
+    int status = exr_decode_layer(bytes, size, path, layer, out);
     free(bytes);
     return status;
+}
+
+int esr_exr_read(const char *path, struct esr_image *out)
+{
+    return esr_exr_read_layer(path, NULL, out);
 }
 
 /* ---- writing ---- */
@@ -350,11 +373,25 @@ static uint8_t *exr_make_plane(const struct esr_image *img, int k, exr_pixel_typ
     return plane;
 }
 
+/* The most layers one file holds (esr_exr_write_layers) and the longest layer name. */
+#define EXR_MAX_LAYERS 64
+#define EXR_LAYER_NAME_MAX 64
+
+/* What one file is written from: n layers of one size and channel count, stored channel j of
+ * layer l named "<names[l]>.<R|G|B|A|Y>" (no names: the bare channel names). */
+struct exr_layers_in {
+    const struct esr_image *layers;
+    const char *const *names;
+    int n;
+};
+
 struct exr_writer {
     exr_context_t ctx;
     exr_encode_pipeline_t encoder;
     int encoder_ready;
-    uint8_t *planes[4];
+    uint8_t *planes[EXR_MAX_LAYERS * 4];
+    char channel_names[EXR_MAX_LAYERS * 4][EXR_LAYER_NAME_MAX + 3];
+    int n_planes;
     exr_result_t (*library_compress)(exr_encode_pipeline_t *encode);
 };
 
@@ -391,8 +428,8 @@ static int exr_write_chunks(struct exr_writer *wr, const struct esr_image *img, 
         wr->encoder_ready = 1;
         for (int c = 0; c < wr->encoder.channel_count; c++) {
             exr_coding_channel_info_t *ch = &wr->encoder.channels[c];
-            int k = 0;
-            while (strcmp(ch->channel_name, exr_names_by_channels[img->channels][k]))
+            int k = 0; /* the header sorts the channels by name: find each one's plane */
+            while (k < wr->n_planes - 1 && strcmp(ch->channel_name, wr->channel_names[k]))
                 k++;
             ch->user_bytes_per_element = (int16_t)bpe;
             ch->user_data_type = (uint16_t)type;
@@ -415,14 +452,14 @@ static int exr_write_chunks(struct exr_writer *wr, const struct esr_image *img, 
 }
 
 static int write_header(struct exr_writer *wr, const struct esr_image *img, exr_pixel_type_t type,
-                            exr_compression_t compression, const char *path)
+                        exr_compression_t compression, const char *path)
 {
     int part;
     exr_result_t rc = exr_add_part(wr->ctx, "rgba", EXR_STORAGE_SCANLINE, &part);
     if (rc == EXR_ERR_SUCCESS)
         rc = exr_initialize_required_attr_simple(wr->ctx, part, img->width, img->height, compression);
-    for (int k = 0; k < img->channels && rc == EXR_ERR_SUCCESS; k++)
-        rc = exr_add_channel(wr->ctx, part, exr_names_by_channels[img->channels][k], type,
+    for (int k = 0; k < wr->n_planes && rc == EXR_ERR_SUCCESS; k++)
+        rc = exr_add_channel(wr->ctx, part, wr->channel_names[k], type,
                              EXR_PERCEPTUALLY_LOGARITHMIC, 1, 1);
     if (rc == EXR_ERR_SUCCESS)
         rc = exr_write_header(wr->ctx);
@@ -431,52 +468,105 @@ static int write_header(struct exr_writer *wr, const struct esr_image *img, exr_
     return ESR_OK;
 }
 
-int esr_exr_write_as(const char *path, const struct esr_image *img, enum esr_exr_pixel pixel,
-                     enum esr_exr_compression compression)
+/* Whether src can be written: its layers of one size and 1..4 channels, named (when named) with
+ * letters, digits and _ only. */
+static int exr_source_check(const struct exr_layers_in *src, const char *path)
+{
+    const struct esr_image *img = &src->layers[0];
+    if (src->n < 1 || src->n > EXR_MAX_LAYERS || (src->n > 1 && !src->names))
+        return ESR_FAIL("cannot write '%s': %d layers (1 to %d, named when more than one)", path,
+                        src->n, EXR_MAX_LAYERS);
+    for (int l = 0; l < src->n; l++) {
+        const struct esr_image *li = &src->layers[l];
+        if (!li->data || li->width <= 0 || li->height <= 0 || li->channels < 1 || li->channels > 4 ||
+            li->width != img->width || li->height != img->height || li->channels != img->channels)
+            return ESR_FAIL("cannot write '%s': invalid image (%dx%d, %d channels)", path, li->width,
+                            li->height, li->channels);
+        const char *name = src->names ? src->names[l] : NULL;
+        size_t len = name ? strlen(name) : 0;
+        int ok = !name || (len > 0 && len <= EXR_LAYER_NAME_MAX);
+        for (size_t i = 0; ok && i < len; i++)
+            ok = (name[i] >= 'a' && name[i] <= 'z') || (name[i] >= 'A' && name[i] <= 'Z') ||
+                 (name[i] >= '0' && name[i] <= '9') || name[i] == '_';
+        if (!ok)
+            return ESR_FAIL("cannot write '%s': layer name '%s' (1 to %d letters, digits or _)",
+                            path, name, EXR_LAYER_NAME_MAX);
+    }
+    return ESR_OK;
+}
+
+static int exr_write_source(const char *path, const struct exr_layers_in *src,
+                            enum esr_exr_pixel pixel, enum esr_exr_compression compression)
 {
     static const exr_pixel_type_t types[3] = {EXR_PIXEL_HALF, EXR_PIXEL_FLOAT, EXR_PIXEL_UINT};
     static const exr_compression_t codecs[5] = {EXR_COMPRESSION_NONE, EXR_COMPRESSION_RLE, EXR_COMPRESSION_ZIPS,
                                                 EXR_COMPRESSION_ZIP, EXR_COMPRESSION_PIZ};
     if ((unsigned)pixel > 2u || (unsigned)compression > 4u)
         return ESR_FAIL("cannot write '%s': unknown EXR pixel type or compression", path);
-    if (!img->data || img->width <= 0 || img->height <= 0 || img->channels < 1 || img->channels > 4)
-        return ESR_FAIL("cannot write '%s': invalid image (%dx%d, %d channels)", path, img->width, img->height,
-                        img->channels);
+    ESR_TRY(exr_source_check(src, path));
+    const struct esr_image *img = &src->layers[0];
     exr_pixel_type_t type = types[pixel];
-    struct exr_writer wr;
-    memset(&wr, 0, sizeof wr);
+    struct exr_writer *wr = calloc(1, sizeof *wr);
+    if (!wr)
+        return ESR_FAIL("out of memory encoding '%s'", path);
     struct exr_memory mem = {NULL, 0, 0, 0};
     int status = ESR_OK;
-    for (int k = 0; k < img->channels && status == ESR_OK; k++)
-        if (!(wr.planes[k] = exr_make_plane(img, k, type)))
-            status = ESR_FAIL("out of memory encoding '%s'", path);
+    for (int l = 0; l < src->n && status == ESR_OK; l++)
+        for (int k = 0; k < img->channels && status == ESR_OK; k++) {
+            const char *channel = exr_names_by_channels[img->channels][k];
+            if (src->names)
+                snprintf(wr->channel_names[wr->n_planes], sizeof wr->channel_names[0], "%s.%s",
+                         src->names[l], channel);
+            else
+                snprintf(wr->channel_names[wr->n_planes], sizeof wr->channel_names[0], "%s", channel);
+            if (!(wr->planes[wr->n_planes++] = exr_make_plane(&src->layers[l], k, type)))
+                status = ESR_FAIL("out of memory encoding '%s'", path);
+        }
     exr_detail[0] = '\0';
     exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
     init.error_handler_fn = exr_on_error;
     init.user_data = &mem;
     init.write_fn = exr_memory_write;
     if (status == ESR_OK) {
-        exr_result_t rc = exr_start_write(&wr.ctx, path, EXR_WRITE_FILE_DIRECTLY, &init);
+        exr_result_t rc = exr_start_write(&wr->ctx, path, EXR_WRITE_FILE_DIRECTLY, &init);
         if (rc != EXR_ERR_SUCCESS)
             status = ESR_FAIL("cannot start writing '%s': %s", path, exr_message(rc));
     }
     if (status == ESR_OK)
-        status = write_header(&wr, img, type, codecs[compression], path);
+        status = write_header(wr, img, type, codecs[compression], path);
     if (status == ESR_OK)
-        status = exr_write_chunks(&wr, img, type, path);
-    if (wr.encoder_ready)
-        exr_encoding_destroy(wr.ctx, &wr.encoder);
-    if (wr.ctx) {
-        exr_result_t rc = exr_finish(&wr.ctx);
+        status = exr_write_chunks(wr, img, type, path);
+    if (wr->encoder_ready)
+        exr_encoding_destroy(wr->ctx, &wr->encoder);
+    if (wr->ctx) {
+        exr_result_t rc = exr_finish(&wr->ctx);
         if (status == ESR_OK && (rc != EXR_ERR_SUCCESS || mem.failed))
             status = ESR_FAIL("cannot finish '%s': %s", path, mem.failed ? "out of memory" : exr_message(rc));
     }
     if (status == ESR_OK)
         status = esr_file_write_atomic(path, mem.data, mem.size);
     free(mem.data);
-    for (int k = 0; k < 4; k++)
-        free(wr.planes[k]);
+    for (int k = 0; k < wr->n_planes; k++)
+        free(wr->planes[k]);
+    free(wr);
     return status;
+}
+
+int esr_exr_write_as(const char *path, const struct esr_image *img, enum esr_exr_pixel pixel,
+                     enum esr_exr_compression compression)
+{
+    const struct exr_layers_in src = {img, NULL, 1};
+    return exr_write_source(path, &src, pixel, compression);
+}
+
+int esr_exr_write_layers(const char *path, const struct esr_image *layers,
+                         const char *const *names, int n, enum esr_exr_pixel pixel,
+                         enum esr_exr_compression compression)
+{
+    if (!layers || !names)
+        return ESR_FAIL("cannot write '%s': no layers", path);
+    const struct exr_layers_in src = {layers, names, n};
+    return exr_write_source(path, &src, pixel, compression);
 }
 
 int esr_exr_write(const char *path, const struct esr_image *img, int half)

@@ -35,6 +35,9 @@ int esr_png_write(const char *path, const struct esr_image *img, int bits);
  * are ignored). Values are as stored: premultiplied by alpha when the file has alpha (OpenEXR
  * convention). Fails naming the file when it is missing, truncated or corrupt. */
 int esr_exr_read(const char *path, struct esr_image *out);
+/* esr_exr_read of one layer of a multi-layer file (esr_exr_write_layers): its channels
+ * "<layer>.R" and so on (NULL: the bare R, G, B, A, Y); a file without the layer is refused. */
+int esr_exr_read_layer(const char *path, const char *layer, struct esr_image *out);
 /* The same from size bytes in memory (name stands for the file in messages); both refuse a data
  * window of more than esr_limits()->image_pixels pixels before allocating. */
 int esr_exr_decode(const void *bytes, size_t size, const char *name, struct esr_image *out);
@@ -45,6 +48,12 @@ enum esr_exr_compression { ESR_EXR_NONE, ESR_EXR_RLE, ESR_EXR_ZIPS, ESR_EXR_ZIP,
  * pixel type (UINT rounds and clamps to [0, 2^32)) and compression. Written atomically. */
 int esr_exr_write_as(const char *path, const struct esr_image *img, enum esr_exr_pixel pixel,
                      enum esr_exr_compression compression);
+/* One part holding n layers of one size and channel count (light groups, `esr lightmix`):
+ * layer l's channels named "<names[l]>.R" and so on, as compositors read layers; names of 1 to
+ * 64 letters, digits or _, at most 64 layers. Written atomically. */
+int esr_exr_write_layers(const char *path, const struct esr_image *layers,
+                         const char *const *names, int n, enum esr_exr_pixel pixel,
+                         enum esr_exr_compression compression);
 /* Shorthand: half = 1 for 16-bit floats, else 32-bit float; ZIP compression. */
 int esr_exr_write(const char *path, const struct esr_image *img, int half);
 

@@ -198,11 +198,28 @@ int esr_light_edits_check(const struct esr_light_edit *edits, int n)
     return ESR_OK;
 }
 
+void esr_light_edit_weights(const struct esr_light_edit *ed, float w[3])
+{
+    if (ed->recolour) { /* hsv_to_rgb(h, s, V) is V hsv_to_rgb(h, s, 1): linear in V */
+        const float unit[3] = {ed->hue, ed->sat, 1.0f};
+        esr_hsv_to_rgb(unit, w);
+    } else {
+        w[0] = w[1] = w[2] = 1.0f;
+    }
+    for (int c = 0; c < 3; c++)
+        w[c] *= ed->intensity;
+}
+
+float esr_light_value(const float e[3])
+{
+    return fmaxf(e[0], fmaxf(e[1], e[2]));
+}
+
 void esr_light_edit_apply(const struct esr_light_edit *ed, const float e[3], float out[3])
 {
-    const float v[3] = {ed->intensity * e[0], ed->intensity * e[1], ed->intensity * e[2]};
-    if (ed->recolour)
-        esr_recolour_keep_value(v, ed->hue, ed->sat, out);
-    else
-        memcpy(out, v, sizeof v);
+    float w[3];
+    esr_light_edit_weights(ed, w);
+    const float v = esr_light_value(e);
+    for (int c = 0; c < 3; c++)
+        out[c] = w[c] * (ed->recolour ? v : e[c]);
 }

@@ -119,8 +119,16 @@ void esr_light_update_radiance(struct esr_light *l);
 uint64_t esr_lights_fingerprint(const struct esr_lights *L);
 
 /* The edited emission of radiance e (linear RGB) under edit ed: times the intensity, then hue and
- * saturation replaced with V kept when ed->recolour. */
+ * saturation replaced with V kept when ed->recolour (seed eqs. 10-15). Computed as
+ * w * e, or w * V(e) on every channel with a recolour (w: esr_light_edit_weights), so that an
+ * edit is linear in each light's found emission, or in its value V: a light's contribution at
+ * found colour and at unit colour times V give any edit of it exactly (edit/relight.h's layers). */
 void esr_light_edit_apply(const struct esr_light_edit *ed, const float e[3], float out[3]);
+/* The per-channel weights of edit ed: intensity (no recolour), or intensity times the colour of
+ * hue, saturation and value 1 (a recolour; it multiplies the emission's value V). */
+void esr_light_edit_weights(const struct esr_light_edit *ed, float w[3]);
+/* The value V of the HSV model: the largest channel of e. */
+float esr_light_value(const float e[3]);
 
 /* Removes light id (a reflection the user judges no light, say): its surface leaves the labels,
  * the lights above it move down one id, their table entries with them. The others' strengths

@@ -141,6 +141,11 @@ struct esr_render_out {
                         lights-on renders: the emitters at their calibrated strength */
     float *emitted_lights; /* [n*3] as emitted, from the samples on a light only (E elsewhere
                               is not a light's: none of it) */
+    float *emitted_each_light;       /* [lights.n * n*3] emitted_lights of light K's samples
+                                        only at K * n*3 (the lights' sum: emitted_lights) */
+    float *emitted_value_each_light; /* [lights.n * n*3] the same with each sample's value V
+                                        (model/lights.h) on every channel: what a recolour
+                                        multiplies (edit/relight.h's layers) */
     float *material; /* [n*5] composited BRDF: base colour (3, linear), roughness, metallic (no
                         background: multiply out by opacity); lts stage on, like emission */
     /* The ray's first surface where it sees two (a silhouette against what lies behind it), for

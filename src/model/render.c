@@ -149,15 +149,45 @@ int esr_model_first_hit_sdf(const struct esr_model *m, float **out)
 struct emit_scratch {
     float *rows;
     size_t cap;
+    float *one;   /* [cap] one light's rows (esr_render_out's emitted_each_light) */
+    int8_t *id;   /* [cap / 6] each row's light id, -1: none */
 };
 
 /* What material_rows composites for a chunk's rays; any pointer may be NULL. */
 struct rows_out {
     float *emission3, *emitted3, *emitted_lights3, *material5;
     float *front_opacity, *front_depth, *front_material5; /* with material5 (esr_render_out) */
+    float *each3, *value_each3; /* light K's at K * each_stride (esr_render_out) */
+    size_t each_stride;
     float *lin3; /* the chunk's linear radiance: a lights-on render gains emitted - E */
     int lights_emitted_only; /* ... or, on lights, emitted - L_emo (esr_render_out) */
 };
+
+/* Each light's composited emitted radiance, and its value V on every channel, from the chunk's
+ * emitted rows (es->rows): the rows of the other lights' samples and of
+ * no light's are zero, so that the lights' sum is emitted_lights. */
+static void each_light_emitted(const struct esr_march *mc, const struct esr_lights *L,
+                               struct emit_scratch *es, const struct rows_out *o)
+{
+    const size_t nk = mc->n_kept;
+    for (size_t i = 0; i < nk; i++)
+        es->id[i] = (int8_t)esr_lights_id_at(L, mc->kpos3 + i * 3);
+    struct esr_composite_args one;
+    esr_march_composite_args(mc, es->one, 3, NULL, 0, &one);
+    for (int k = 0; k < L->n; k++)
+        for (int value = 0; value < 2; value++) {
+            float *dst = value ? o->value_each3 : o->each3;
+            if (!dst)
+                continue;
+            for (size_t i = 0; i < nk; i++) {
+                const float *e = es->rows + i * 3;
+                const float v = esr_light_value(e);
+                for (int c = 0; c < 3; c++)
+                    es->one[i * 3 + c] = es->id[i] != k ? 0.0f : value ? v : e[c];
+            }
+            esr_composite_fwd(&one, dst + (size_t)k * o->each_stride);
+        }
+}
 
 /* Composited emission (3), emitted radiance (3; on lights only: emitted_lights3) and BRDF (5,
  * unless mf is emission-only) of the last trace forward's rays (no background). For a lights-on
@@ -184,7 +214,8 @@ static int material_rows(struct esr_trace *t, const struct esr_model *m, const f
                                 o->front_material5, o->front_opacity, o->front_depth);
     }
     const int calibrated = m->lights.n > 0;
-    if (!o->emitted3 && !o->emitted_lights3 && !(calibrated && lights_on && o->lin3))
+    if (!o->emitted3 && !o->emitted_lights3 && !o->each3 && !o->value_each3 &&
+        !(calibrated && lights_on && o->lin3))
         return ESR_OK;
     if (!calibrated) {
         if (o->emitted_lights3) /* no lights: no sample is on one */
@@ -198,9 +229,14 @@ static int material_rows(struct esr_trace *t, const struct esr_model *m, const f
         return ESR_OK;
     }
     if (nk * 6 > es->cap) { /* the emitted rows, and those on lights (or the rows' L_emo) */
-        free(es->rows);
+        free(es->rows), free(es->one), free(es->id);
         es->cap = nk * 6;
-        if (!(es->rows = malloc(es->cap * sizeof(float)))) {
+        es->rows = malloc(es->cap * sizeof(float));
+        es->one = malloc(es->cap * sizeof(float));
+        es->id = malloc(es->cap / 6);
+        if (!es->rows || !es->one || !es->id) {
+            free(es->rows), free(es->one), free(es->id);
+            es->rows = es->one = NULL, es->id = NULL;
             es->cap = 0;
             return ESR_FAIL("render: out of memory for %zu emission rows", nk);
         }
@@ -218,6 +254,8 @@ static int material_rows(struct esr_trace *t, const struct esr_model *m, const f
         esr_march_composite_args(mc, lit, 3, NULL, 0, &al);
         esr_composite_fwd(&al, o->emitted_lights3);
     }
+    if (o->each3 || o->value_each3)
+        each_light_emitted(mc, &m->lights, es, o);
     if (lights_on && o->lin3) { /* the linear radiance's emission at the calibrated strength */
         for (size_t i = 0; i < nk * 3; i++)
             es->rows[i] -= mf->emit3[i];
@@ -298,9 +336,10 @@ int esr_model_render_rays(const struct esr_model *m, const float *origins, const
     uint8_t *flags = NULL, *flags_other = NULL;
     struct esr_material_fields mf;
     const int fields = (out->emission || out->emitted || out->emitted_lights || out->material ||
+                        out->emitted_each_light || out->emitted_value_each_light ||
                         (((lights_on && out->linear) || out->linear_other) && m->lights.n > 0)) &&
                        esr_model_has(m, ESR_COMP_EMIT_MLP);
-    struct emit_scratch es = {NULL, 0};
+    struct emit_scratch es = {NULL, 0, NULL, NULL};
     memset(&mf, 0, sizeof mf);
     if (rc == ESR_OK && fields)
         rc = esr_material_fields_init(&mf, m, (size_t)chunk * 8,
@@ -342,7 +381,9 @@ int esr_model_render_rays(const struct esr_model *m, const float *origins, const
                 out->front_material ? out->front_opacity + r0 : NULL,
                 out->front_material ? out->front_depth + r0 : NULL,
                 out->front_material ? out->front_material + r0 * ESR_BRDF_CHANNELS : NULL,
-                out->linear ? out->linear + r0 * 3 : NULL, out->lights_emitted_only};
+                out->emitted_each_light ? out->emitted_each_light + r0 * 3 : NULL,
+                out->emitted_value_each_light ? out->emitted_value_each_light + r0 * 3 : NULL,
+                n * 3, out->linear ? out->linear + r0 * 3 : NULL, out->lights_emitted_only};
             rc = material_rows(&t, m, sdf, &mf, &es, lights_on, &ro);
             if (rc != ESR_OK)
                 break;
@@ -359,7 +400,7 @@ int esr_model_render_rays(const struct esr_model *m, const float *origins, const
             }
         }
     }
-    free(es.rows);
+    free(es.rows), free(es.one), free(es.id);
     free(depth);
     free(normal);
     free(opac);

@@ -40,7 +40,8 @@ void esr_light_shadows_free(struct esr_light_shadows *s)
 #define SHADOW_STOP_VOX 1.5f
 
 ESR_HOT size_t esr_light_direct_point(const struct esr_direct_point_query *query,
-                                      struct esr_rng *rng, float (*edited)[3], float (*found)[3])
+                                      struct esr_rng *rng, float (*edited)[3], float (*found)[3],
+                                      float (*value)[3])
 {
     const struct esr_light_shadows *sh = query->sh;
     const struct esr_light_samples *ls = query->ls;
@@ -90,11 +91,14 @@ ESR_HOT size_t esr_light_direct_point(const struct esr_direct_point_query *query
             esr_light_edit_apply(edit, e_found, e);
         else
             memcpy(e, e_found, sizeof e);
+        const float val = value ? esr_light_value(e_found) : 0.0f;
         for (int w = 0; w < n_wo; w++)
             for (int c = 0; c < 3; c++) {
                 edited[w][c] += scale * e[c] * R[w][c] * g;
                 if (found)
                     found[w][c] += scale * e_found[c] * R[w][c] * g;
+                if (value)
+                    value[w][c] += scale * val * R[w][c] * g;
             }
     }
     return traced;
@@ -132,7 +136,7 @@ ESR_HOT int esr_lights_direct(const struct esr_direct_lights *L, const struct es
             const struct esr_direct_point_query q = {
                 sh, &ls[k], edits ? &edits[k] : NULL, spp, &mat, esr_v3_at(pts->pos3, p),
                 esr_v3_at(pts->nrm3, p), wo, (int)W, 1.0f};
-            (void)esr_light_direct_point(&q, &rng, d, out_found ? d_found : NULL);
+            (void)esr_light_direct_point(&q, &rng, d, out_found ? d_found : NULL, NULL);
             for (size_t w = 0; w < W; w++)
                 for (int c = 0; c < 3; c++) {
                     const size_t at = ((p * W + w) * ESR_MAX_LIGHTS + k) * 3 + (size_t)c;

@@ -57,7 +57,9 @@ void esr_light_shadows_free(struct esr_light_shadows *s);
  * scale e R(wo_w, wi) |n_y . wi| A N / (spp d^2) per sample and channel (N: the light's point
  * count, A the sample's area) into edited[w] for each of the n_wo
  * outgoing directions wo (e: the sample's emission edited by *edit, or as found when edit is
- * NULL) and, when found is not NULL, the same with the emission as found into found[w]. A
+ * NULL) and, when found is not NULL, the same with the emission as found into found[w], and
+ * when value is not NULL, the same with the found emission's value V (model/lights.h,
+ * esr_light_value) on every channel into value[w] (what a recolour multiplies). A
  * back-facing wo gets nothing; a sample no wo sees is not traced. Draws from rng; returns the
  * shadow rays traced. The kernel of esr_lights_direct and of direct relighting
  * (edit/relight.h). The sums are float (esr_lights_direct adds each light's into its double
@@ -74,7 +76,7 @@ struct esr_direct_point_query {
     float scale;                        /* what each sample's light is multiplied by */
 };
 size_t esr_light_direct_point(const struct esr_direct_point_query *q, struct esr_rng *rng,
-                              float (*edited)[3], float (*found)[3]);
+                              float (*edited)[3], float (*found)[3], float (*value)[3]);
 
 /* The lights whose direct light esr_lights_direct sums, and how it samples them. */
 struct esr_direct_lights {

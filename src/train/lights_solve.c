@@ -127,8 +127,8 @@ ESR_HOT static void batch_rows(const struct solve_ctx *ctx, const struct solve_b
             if (ls[k].n == 0 || ls[k].max_emit <= 0.0f)
                 continue;
             const struct esr_direct_point_query q = {sh, &ls[k], NULL, half, &mat, x, n, &wo, 1, op};
-            (void)esr_light_direct_point(&q, &rng, &col[k], NULL);
-            (void)esr_light_direct_point(&q, &rng2, &col2[k], NULL);
+            (void)esr_light_direct_point(&q, &rng, &col[k], NULL, NULL);
+            (void)esr_light_direct_point(&q, &rng2, &col2[k], NULL, NULL);
         }
         const int id = b->ids[p];
         const int on_light = id >= 0 && id < K;
