@@ -1,6 +1,6 @@
 # Set-up and entry points. `make demo` and `make test` are the two commands in the README:
 # both install missing Debian packages (as root, non-interactively), build, and leave build/esr.
-.PHONY: all deps test-tools build check demo test test-release test-asan bench colmap-roundtrip fuzz clean
+.PHONY: all deps test-tools build check demo test test-release test-asan bench colmap-roundtrip lightmix-blender-check fuzz clean
 
 DEB_PACKAGES := build-essential cmake pkg-config libspng-dev libopenexr-dev libcjson-dev \
                 libjpeg62-turbo-dev libcmocka-dev zlib1g-dev libzip-dev imagemagick libdnnl-dev libopenblas-pthread-dev
@@ -68,6 +68,13 @@ bench: build
 # SIZE, TEST_VIEWS, THREADS, FEATURES.
 colmap-roundtrip: build
 	ESR=./build/esr tests/colmap_roundtrip.sh
+
+# Blender's compositor opens a view of `esr lightmix`'s EXR and finds its light groups by name;
+# their sum there equals OpenImageIO's (tools/lightmix_blender_check.sh; installs blender and
+# openimageio-tools when missing). LIGHTMIX: an esr lightmix folder (default: the demo's).
+LIGHTMIX ?= runs/demo/run/lightmix
+lightmix-blender-check: build
+	ESR=./build/esr tools/lightmix_blender_check.sh $(LIGHTMIX)
 
 # libFuzzer harnesses (fuzz/), clang with ASan+UBSan, each run FUZZ_TIME seconds in turn on one
 # core; exit status 1 on any crash, leak, sanitizer report or memory blow-up (fuzz/run.sh).
