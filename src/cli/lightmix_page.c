@@ -6,6 +6,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <zlib.h>
 
 #include "core/colour.h"
 #include "core/error.h"
@@ -37,11 +38,15 @@ int lightmix_page_view(const char *dir, const char *name, const struct esr_relig
     const int depth = 1 + 2 * L->n_lights, w = L->off.width, h = L->off.height;
     const size_t per = (size_t)w * (size_t)h * 3, bytes = (size_t)depth * per * 2;
     uint16_t *half = malloc(bytes);
-    const size_t b64 = (bytes + 2) / 3 * 4 + 1;
-    const size_t cap = b64 + ESR_NAME_MAX + 64;
+    /* the half floats deflated (zlib; the page inflates them with the browser's
+     * DecompressionStream): 4-5x smaller, so a 36-view orbit of 8 lights at 256 px stays under
+     * 100 MB where the raw layers take 320 */
+    uLongf packed = compressBound((uLong)bytes);
+    uint8_t *zbuf = malloc(packed);
+    const size_t cap = ((size_t)packed + 2) / 3 * 4 + 1 + ESR_NAME_MAX + 64;
     char *text = malloc(cap);
-    if (!half || !text) {
-        free(half), free(text);
+    if (!half || !zbuf || !text) {
+        free(half), free(zbuf), free(text);
         return ESR_FAIL("lightmix: out of memory for the page's layers of %s", name);
     }
     for (int l = 0; l < depth; l++) {
@@ -52,14 +57,18 @@ int lightmix_page_view(const char *dir, const char *name, const struct esr_relig
             memcpy((uint8_t *)half + ((size_t)l * per + i) * 2, (const uint8_t[2]){v & 0xff, v >> 8}, 2);
         }
     }
+    if (compress2(zbuf, &packed, (const Bytef *)half, (uLong)bytes, 6) != Z_OK) {
+        free(half), free(zbuf), free(text);
+        return ESR_FAIL("lightmix: cannot deflate the page's layers of %s", name);
+    }
     int len = snprintf(text, cap, "LIGHTMIX_VIEW(\"%s\", %d, %d, \"", name, w, h);
-    base64((const uint8_t *)half, bytes, text + len);
+    base64(zbuf, (size_t)packed, text + len);
     len += (int)strlen(text + len);
-    len += snprintf(text + len, cap - (size_t)len, "\");\n");
+    len += snprintf(text + len, cap - (size_t)len, "\", \"deflate\");\n");
     char path[4400];
     snprintf(path, sizeof path, "%s/%s.js", dir, name);
     const int rc = esr_file_write_atomic(path, text, (size_t)len);
-    free(half), free(text);
+    free(half), free(zbuf), free(text);
     return rc;
 }
 

@@ -1,7 +1,7 @@
 /* The LightMix page `esr lightmix` writes beside its EXRs: DIR/index.html (the page,
  * src/cli/lightmix_page.html, built into the binary), DIR/lightmix.js (the lights, as `esr lights`
  * names them, the views, the method) and per view DIR/<view>.js (its layers as half floats, off
- * then light_K and light_K_value per light, RGB per pixel, rows top first, base64), loaded by
+ * then light_K and light_K_value per light, RGB per pixel, rows top first, zlib-deflated, base64), loaded by
  * script tags: the page works from file:// with no network and no server. */
 #ifndef ESR_CLI_LIGHTMIX_PAGE_H
 #define ESR_CLI_LIGHTMIX_PAGE_H
