@@ -4,7 +4,9 @@
 # software WebGL through SwiftShader unless a GPU is there): LIGHTS lights (default 8) at
 # SIZE x SIZE pixels (default 512), DRAWS redraws (default 200), each waited for by reading a
 # pixel back. The layers are made up (every value 0.125): the recombination's cost does not
-# depend on them. Prints the page's mean and slowest redraw. A benchmark, not part of the tests.
+# depend on them. Prints, for a drag of one slider, the first redraw (which sums the other lights
+# once) and the mean and slowest of the rest, and the mean when each redraw changes another light.
+# A benchmark, not part of the tests.
 #   tools/lightmix_page_bench.sh [LIGHTS] [SIZE] [DRAWS]
 set -euo pipefail
 lights=${1:-8} size=${2:-512} draws=${3:-200}
