@@ -15,7 +15,7 @@
 #include "model/model.h"
 #include "model/render_sdf.h"
 #include "render/model_mesh.h"
-#include "train/light_direct.h"
+#include "train/lights/direct.h"
 #include "volume/first_hit.h"
 #include "test_grad.h"
 #include "test_model.h"

@@ -32,7 +32,7 @@
 #include "core/error.h"
 #include "edit/relight.h"
 #include "io/dataset.h"
-#include "train/lights_solve.h"
+#include "train/lights/solve.h"
 #include "train/rays.h"
 #include "test_support.h"
 
@@ -408,7 +408,7 @@ static void test_lights_set_refused(void **state)
 
 /* The strength solve inverts the direct relight: photos made by `esr edit --method direct`'s
  * renderer (edit/relight.c: its own layers, denoiser and light samples) from the trained model
- * with its lights at chosen strengths give those strengths back (train/lights_solve.h). The model
+ * with its lights at chosen strengths give those strengths back (train/lights/solve.h). The model
  * is the smoke run's (what it learned does not matter: the photos are its own); its lights light
  * little, so the strengths are mostly read off their own pixels (lights_solve_seen 1). And no
  * strength the run itself solved is absurd (an undertrained field lights almost nothing, which

@@ -25,7 +25,7 @@
 #include "fields/env_sg.h"
 #include "fields/sdf.h"
 #include "model/model.h"
-#include "train/light_surface.h"
+#include "train/lights/surface.h"
 #include "train/lts.h"
 #include "train/pdra_reg.h"
 #include "train/render_loss.h"

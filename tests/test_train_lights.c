@@ -1,4 +1,4 @@
-/* Lights as objects (train/lights.h, model/lights.h): the emitting surface split into lights, each
+/* Lights as objects (train/lights/lights.h, model/lights.h): the emitting surface split into lights, each
  * light's area and centroid, point lookups, and the lights' round trip through a checkpoint. The
  * emission field is made constant (zero weights, last bias b: E = softplus(b) everywhere), so
  * which surfaces emit is decided by the geometry alone and the answers are known: a sphere of
@@ -23,8 +23,8 @@
 #include "model/model.h"
 #include "test_model.h"
 #include "test_support.h"
-#include "train/light_direct.h"
-#include "train/lights.h"
+#include "train/lights/direct.h"
+#include "train/lights/lights.h"
 
 #define RES 48
 /* camera rays: 26 directions (cube faces, edges, corners), a GRID x GRID bundle of parallel
@@ -774,7 +774,7 @@ static void test_balance_finds_the_silhouette_colour(void **state)
     esr_model_free(&m);
 }
 
-/* The direct-light kernel (train/light_direct.h) against the formula it estimates, with nothing in
+/* The direct-light kernel (train/lights/direct.h) against the formula it estimates, with nothing in
  * the way: one light sample y of area A and emission e, facing x, gives e R(wo, wi) |n_y . wi| A /
  * d^2 with wi and d taken from the lit point x itself, not from where its shadow ray starts (one
  * voxel up the normal): measured from there, a light 3 voxels above x came out 2.25x too bright. */

@@ -1,4 +1,4 @@
-/* The lights' calibration fit (train/lights_fit.h) on rows made up for the purpose: two lights
+/* The lights' calibration fit (train/lights/fit.h) on rows made up for the purpose: two lights
  * of known strength, each with an undecided rim whose light the rows carry or not. The fit must
  * give the strengths back, and the rim choice must follow what the rows carry: a rim whose light
  * is in them emits, one whose light is not stays dark, and with only noise to tell them apart
@@ -14,8 +14,8 @@
 
 #include "core/rng.h"
 #include "model/lights.h"
-#include "train/lights.h"
-#include "train/lights_fit.h"
+#include "train/lights/lights.h"
+#include "train/lights/fit.h"
 
 #define POINTS 1500
 #define K 2

@@ -1,4 +1,4 @@
-/* The strength solve's fit (train/lights_solve.h, esr_lights_solve_fit) on rows made up for the
+/* The strength solve's fit (train/lights/solve.h, esr_lights_solve_fit) on rows made up for the
  * purpose: lights of known strength per channel, noise, outliers (a mirror's reflection the
  * direct transport does not carry), clipped rows that only bound the fit from below, and two
  * lights whose transports are proportional. The fit must give the strengths back within their
@@ -13,7 +13,7 @@
 #include <string.h>
 
 #include "core/rng.h"
-#include "train/lights_solve.h"
+#include "train/lights/solve.h"
 
 #define ROWS 4000
 #define K 3

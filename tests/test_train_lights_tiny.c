@@ -19,7 +19,7 @@
 #include "model/model.h"
 #include "test_support.h"
 #include "tiny_run.h"
-#include "train/lights.h"
+#include "train/lights/lights.h"
 #include "train/trainer.h"
 
 /* The pdra stage, continuing the full run's lts checkpoint (the fixture's run_pdra,

@@ -19,7 +19,7 @@
 #include "io/json_file.h"
 #include "model/model.h"
 #include "render/lights_picture.h"
-#include "train/lights.h"
+#include "train/lights/lights.h"
 #include "train/rays.h"
 
 static int run_lights(int argc, char **argv);

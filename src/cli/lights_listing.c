@@ -7,8 +7,8 @@
 
 #include "core/colour.h"
 #include "io/json_file.h"
-#include "train/lights.h"
-#include "train/lights_fit.h"
+#include "train/lights/lights.h"
+#include "train/lights/fit.h"
 
 cJSON *esr_cli_lights_json(const struct esr_model *m, const char *ckpt, const long *unseen)
 {
@@ -45,7 +45,7 @@ cJSON *esr_cli_lights_json(const struct esr_model *m, const char *ckpt, const lo
         cJSON_AddItemToObject(o, "strength_scale", esr_json_float_array(l->scale, 3));
         cJSON_AddNumberToObject(o, "calibration_points", l->calib_points);
         cJSON_AddBoolToObject(o, "strength_fitted", esr_light_strength_fitted(&m->lights, i));
-        if (l->solved) { /* what the photos say of it (train/lights_solve.h) */
+        if (l->solved) { /* what the photos say of it (train/lights/solve.h) */
             cJSON_AddNumberToObject(o, "strength_uncertainty", l->strength_err);
             cJSON_AddBoolToObject(o, "strength_lower_bound_only", l->bound_only);
             cJSON *ins = cJSON_AddArrayToObject(o, "inseparable_from");

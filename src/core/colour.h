@@ -18,7 +18,7 @@ float esr_srgb_from_linear_grad(float linear);
  * A least-squares fit judged as images weights its squared errors by this squared: relighting
  * is scored in sRGB, where a residual of 0.02 linear is 0.13 on a channel at 0.01 and 0.01 on
  * one near 1. Used by the fine-tune's loss (train/lts.c) and the lights' strength calibration
- * (train/lights_calibrate.c). */
+ * (train/lights/calibrate.c). */
 #define ESR_IMAGE_ERROR_FLOOR 0.01f
 float esr_image_error_scale(float linear);
 

@@ -1,5 +1,5 @@
 /* Small dense least squares with a ridge towards 1 and scales kept >= 0 (the lights' strength
- * calibration, train/lights.h: one unknown per light, a few at most). */
+ * calibration, train/lights/lights.h: one unknown per light, a few at most). */
 #ifndef ESR_CORE_RIDGE_SOLVE_H
 #define ESR_CORE_RIDGE_SOLVE_H
 

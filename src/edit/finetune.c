@@ -10,7 +10,7 @@
 #include "fields/grid.h"
 #include "nn/adam.h"
 #include "nn/schedule.h"
-#include "train/light_direct.h"
+#include "train/lights/direct.h"
 #include "model/trace.h"
 
 /* the start's power ratio is kept within these (an edit that turns every light off) */

@@ -7,7 +7,7 @@
  * Choices, each for a user who edits several lights and views:
  * - The edited emission itself is rendered analytically (the model's lights carry the edit while
  *   it is in place, model/lights.h), and the fields learn only the change of the reflected light.
- * - The edited lights' light comes in by light sampling (train/light_direct.h: area samples and
+ * - The edited lights' light comes in by light sampling (train/lights/direct.h: area samples and
  *   shadow rays with exactly the edited emission); interreflections from the fields along
  *   first-hit incident directions that do not end on a light. A small bright light is thus not
  *   left to the few hemisphere directions that happen to hit it (blotchy, dark results).
@@ -30,8 +30,8 @@
 #include "edit/finetune_loss.h"
 #include "io/dataset.h"
 #include "model/model.h"
-#include "train/light_direct.h"
-#include "train/lights.h"
+#include "train/lights/direct.h"
+#include "train/lights/lights.h"
 #include "train/lts.h"
 #include "train/rays.h"
 #include "volume/march.h"

@@ -8,7 +8,7 @@
  * camera ray's surface point x (its expected depth; where the ray sees two surfaces, an object's
  * silhouette against what lies behind it, each is lit at its own point with its own BRDF and
  * weighted by its opacity), y area-sampled over light K's surface
- * samples (train/lights.h) with a shadow ray to each (first hit of the SDF before y: occluded),
+ * samples (train/lights/lights.h) with a shadow ray to each (first hit of the SDF before y: occluded),
  * and E'_K = the light's calibrated emission times its intensity, recoloured to the edit's hue and
  * saturation with V kept (seed eqs. 10-15). Light reaching x only after a bounce is left out
  * (what the method is), so it reaches any colour, including ones never seen in training.
@@ -39,8 +39,8 @@
 #include "io/camera.h"
 #include "io/image.h"
 #include "model/model.h"
-#include "train/light_direct.h"
-#include "train/lights.h"
+#include "train/lights/direct.h"
+#include "train/lights/lights.h"
 
 #ifdef __cplusplus
 extern "C" {

@@ -13,7 +13,7 @@
 #include "io/dir.h"
 #include "io/file.h"
 #include "render/view.h"
-#include "train/lights.h"
+#include "train/lights/lights.h"
 
 
 static void put_metric_cells(FILE *out, double psnr, double ssim, double psnr_lin, double ssim_lin, double hdr)
@@ -161,7 +161,7 @@ static void put_light_edits(FILE *out, const struct esr_report_spec *spec, int k
     }
 }
 
-/* The lights the model found (train/lights.h), when it has any, and their edits. */
+/* The lights the model found (train/lights/lights.h), when it has any, and their edits. */
 static void put_lights(FILE *out, const struct esr_report_spec *spec)
 {
     const struct esr_lights *L = spec->lights;

@@ -115,7 +115,7 @@ static cJSON *header_json(const struct esr_model *m)
 int esr_model_save(const struct esr_model *m, const char *path)
 {
     const size_t labels = m->lights.n > 0 ? esr_grid_voxels(&m->lights.grid) : 0;
-    for (size_t i = 0; i < labels; i++) /* settled by the calibration (train/lights.h) */
+    for (size_t i = 0; i < labels; i++) /* settled by the calibration (train/lights/lights.h) */
         if (m->lights.label[i] & ESR_LIGHT_UNDECIDED)
             return ESR_FAIL("checkpoint %s: the lights' rims are undecided (calibrate them first)",
                             path);
@@ -312,7 +312,7 @@ static int read_lights(struct esr_model *m, const cJSON *h, struct rbuf *b)
         return ESR_OK;
     struct esr_lights *L = &m->lights;
     ESR_TRY(read_lattice(k, "light labels", &L->grid, b->path));
-    /* labels are looked up at SDF lattice indices (train/light_surface.h): another lattice
+    /* labels are looked up at SDF lattice indices (train/lights/surface.h): another lattice
      * would read past them */
     const struct esr_grid *g = esr_model_has(m, ESR_COMP_SDF) ? esr_model_grid(m, ESR_COMP_SDF) : NULL;
     int same = g && g->nx == L->grid.nx && g->ny == L->grid.ny && g->nz == L->grid.nz;

@@ -112,7 +112,7 @@ struct esr_stage_info {
     int lts_loss;             /* adds the light-transport-segment loss (train/lts.h) */
     int ray_groups;           /* certain/uncertain rays by composited E vs k (train/pdra.h) */
     int finds_lights;         /* at its end: the emitters split into lights and their strength
-                                 calibrated (train/lights.h) */
+                                 calibrated (train/lights/lights.h) */
 };
 
 const struct esr_stage_info *esr_stage_info(enum esr_stage s);

@@ -98,14 +98,14 @@ struct esr_train_config {
                                lights at their calibrated strength (0: never) */
     int lights_calib_points; /* surface points that calibrate the lights' strength */
     int lights_solve;        /* 1: the strengths solved from the lights-on pixels
-                                (train/lights_solve.h); 0: the calibration's (ablation) */
+                                (train/lights/solve.h); 0: the calibration's (ablation) */
     int lights_solve_rays;   /* lights-on training pixels that solve them */
     int lights_solve_spp;    /* area samples per light and pixel there */
     int lights_solve_seen;   /* 1: unclipped pixels that see a light are exact rows there; 0:
                                 a light's own pixels bound it from below only */
     int lights_solve_dirs;   /* directions of its lights-off correction (0: none) */
     int lights_solve_drop;   /* 1: lights the solve does not see emitting are dropped */
-    int lights_balance;      /* 1: the silhouette colour balance (train/lights.h); 0: none */
+    int lights_balance;      /* 1: the silhouette colour balance (train/lights/lights.h); 0: none */
     struct esr_stage_config alphamask, coarse, fine, lts, pdra;
 };
 

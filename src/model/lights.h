@@ -1,4 +1,4 @@
-/* The lights a model found (pdra stage, train/lights.h): the emitting surface split into
+/* The lights a model found (pdra stage, train/lights/lights.h): the emitting surface split into
  * separate lights, each with an id, and each light's emission strength calibrated against the
  * light it casts on the rest of the scene.
  *
@@ -6,7 +6,7 @@
  * a small table per light. E(x) of a point on light K is reported as scale_K (per channel) x the
  * emission field's E(x): the field is trained on LDR images, where every emitter is saturated, so
  * it learns the emitters' shape and hue but not their strength; the scale restores the strength
- * (train/lights.h says how). Saved in the checkpoint (model/checkpoint.c). */
+ * (train/lights/lights.h says how). Saved in the checkpoint (model/checkpoint.c). */
 #ifndef ESR_MODEL_LIGHTS_H
 #define ESR_MODEL_LIGHTS_H
 
@@ -55,7 +55,7 @@ struct esr_light {
                              units of the dataset's radiance) */
     float calib_points;   /* non-emitting surface points (or, solved from the lights-on
                              pixels, pixels) whose lighting fixed the scale */
-    /* what the photos say of the strength (train/lights_solve.h; 0 when not solved there): */
+    /* what the photos say of the strength (train/lights/solve.h; 0 when not solved there): */
     float strength_err;   /* its relative standard error (mean over the channels) */
     uint32_t inseparable; /* bit j: the photos cannot tell this light's strength from light j's
                              (their estimates are nearly opposite: only their sum is known) */
@@ -69,19 +69,19 @@ struct esr_lights {
     struct esr_light light[ESR_MAX_LIGHTS];
     struct esr_grid grid; /* the lattice the labels live on (the SDF grid's) */
     uint8_t *label;       /* [nx*ny*nz] 0 or id + 1, ESR_LIGHT_UNSEEN added on the light's part no
-                             camera sees (train/lights.h); NULL when n == 0 */
+                             camera sees (train/lights/lights.h); NULL when n == 0 */
     /* emitting regions large enough to be lights that esr_lights_find left out, past the
      * ESR_MAX_LIGHTS largest (not saved: said where they are found) */
     int n_left_out;
     /* what the last calibration decided about each light's undecided rim (ESR_LIGHT_UNDECIDED;
      * not saved: said where decided): its surface points (0: it had none), whether it emits,
-     * and how clearly the light it casts said so (train/lights_fit.h, esr_calib_decide_rims) */
+     * and how clearly the light it casts said so (train/lights/fit.h, esr_calib_decide_rims) */
     struct esr_light_rim {
         long points;
         int emits;
         float t_on;
     } rim[ESR_MAX_LIGHTS];
-    /* The colour balance found from the lights' own silhouettes (train/lights.h,
+    /* The colour balance found from the lights' own silhouettes (train/lights/lights.h,
      * esr_lights_balance): the base colour is this times the BRDF field's, the environment map
      * the field's over this, per channel (the images fix only their product). 0 0 0: none (1). */
     float balance[3];
@@ -93,11 +93,11 @@ struct esr_lights {
 
 /* A label's flag for a light's unseen part: surface next to the light that no training camera
  * sees (a lampshade's underside), or that only lights-off or clipped photos show and whose light
- * the photos ask for (train/lights.h), which emits the light's mean field, not the field there. */
+ * the photos ask for (train/lights/lights.h), which emits the light's mean field, not the field there. */
 #define ESR_LIGHT_UNSEEN 0x80u
 /* A label's flag, between finding the lights and calibrating them only (never saved), for a
  * light's undecided rim: outer surface next to it that only lights-off or clipped photos see,
- * which may emit or not (the calibration decides, train/lights.h). */
+ * which may emit or not (the calibration decides, train/lights/lights.h). */
 #define ESR_LIGHT_UNDECIDED 0x40u
 /* The light id + 1 of a label (0: no light). */
 #define ESR_LIGHT_LABEL_ID(label) ((int)((label) & 0x3fu))
@@ -132,7 +132,7 @@ float esr_light_value(const float e[3]);
 
 /* Removes light id (a reflection the user judges no light, say): its surface leaves the labels,
  * the lights above it move down one id, their table entries with them. The others' strengths
- * stay as they are (train/lights.h's calibration fits them again without it). ESR_ERR for an
+ * stay as they are (train/lights/lights.h's calibration fits them again without it). ESR_ERR for an
  * id outside [0, n). */
 int esr_lights_drop(struct esr_lights *L, int id);
 

@@ -171,7 +171,7 @@ struct esr_render_out {
  * ESR_RENDER_LAYER_OPACITY at ESR_RENDER_LAYER_GAP_VOX voxels (of edge voxel) or more behind
  * the first surface. *d2 receives the rest's weights-normalised depth (0 when it holds none).
  * Direct relighting lights such a pixel as two layers (edit/relight.c); the lights' strength
- * solve leaves it out (train/lights_solve.c). */
+ * solve leaves it out (train/lights/solve.c). */
 #define ESR_RENDER_LAYER_OPACITY 0.05f
 #define ESR_RENDER_LAYER_GAP_VOX 2.0f
 static inline int esr_render_two_surfaces(float a, float depth, float a1, float d1, float voxel,

@@ -1,5 +1,5 @@
 /* The lights' strength, calibrated against the light they cast (see lights.h). */
-#include "train/lights.h"
+#include "train/lights/lights.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -13,9 +13,9 @@
 #include "core/vec3.h"
 #include "model/material_fields.h"
 #include "model/trace.h"
-#include "train/light_direct.h"
-#include "train/light_surface.h"
-#include "train/lights_fit.h"
+#include "train/lights/direct.h"
+#include "train/lights/surface.h"
+#include "train/lights/fit.h"
 #include "train/lts.h"
 
 /* calibration: LTS points per call, hemisphere directions per point, area samples per point and

@@ -1,5 +1,5 @@
-/* Direct light of the found lights at surface points (see light_direct.h). */
-#include "train/light_direct.h"
+/* Direct light of the found lights at surface points (see lights/direct.h). */
+#include "train/lights/direct.h"
 
 #include <math.h>
 #include <stdlib.h>

@@ -1,16 +1,16 @@
-/* The one entry point to the lights (train/lights.h, esr_lights_estimate): find, calibrate,
+/* The one entry point to the lights (train/lights/lights.h, esr_lights_estimate): find, calibrate,
  * settle the rims, balance the colour, in that order, for the trainer (pdra's end and its
  * mid-stage hand-over) and `esr lights --recompute` / `--drop` alike; what happened comes back
  * as lines the caller prints or logs. */
-#include "train/lights.h"
+#include "train/lights/lights.h"
 
 #include <stdarg.h>
 #include <stdio.h>
 #include <string.h>
 
 #include "core/error.h"
-#include "train/lights_fit.h"
-#include "train/lights_solve.h"
+#include "train/lights/fit.h"
+#include "train/lights/solve.h"
 
 static void add(struct esr_lights_report *rep, int warning, const char *fmt, ...)
     __attribute__((format(printf, 3, 4)));

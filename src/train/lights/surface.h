@@ -1,4 +1,4 @@
-/* The lights' surface (train/lights.h), what finding, calibrating and lighting them share: the
+/* The lights' surface (train/lights/lights.h), what finding, calibrating and lighting them share: the
  * SDF lattice points next to the zero level set projected onto it, the area each stands for, the
  * emission field there, and one light's surface samples for direct lighting. */
 #ifndef ESR_TRAIN_LIGHT_SURFACE_H

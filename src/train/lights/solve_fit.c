@@ -1,6 +1,6 @@
-/* The strength solve's fit (train/lights_solve.h, esr_lights_solve_fit): per channel, a
+/* The strength solve's fit (train/lights/solve.h, esr_lights_solve_fit): per channel, a
  * non-negative robust least squares over exact rows and hinged lower-bound rows. */
-#include "train/lights_solve.h"
+#include "train/lights/solve.h"
 
 #include <math.h>
 #include <stdlib.h>

@@ -1,10 +1,10 @@
-/* The lights' strengths solved from the lights-on photos themselves (train/lights.h's last step,
+/* The lights' strengths solved from the lights-on photos themselves (train/lights/lights.h's last step,
  * cfg lights_solve).
  *
  * The inverse problem. A lights-on training pixel whose camera ray meets a surface point x shows
  *     y = L_off(x) + sum_K s_K . (T_K(x) + g_K(x))          per linear channel
  *     T_K(x) = light K's direct light at x at unit strength: its emission field E over its surface,
- *              area-sampled, through the model's BRDF at x and a shadow ray (train/light_direct.h,
+ *              area-sampled, through the model's BRDF at x and a shadow ray (train/lights/direct.h,
  *              the direct relight's kernel: what `esr edit --method direct` renders with)
  *     g_K(x) = light K's own emission field where the pixel sees the light (a silhouette pixel
  *              mixes it with what lies behind)

@@ -1,4 +1,4 @@
-/* The lights' calibration fit (train/lights.h, esr_lights_calibrate): the rows it solves, the
+/* The lights' calibration fit (train/lights/lights.h, esr_lights_calibrate): the rows it solves, the
  * per-channel robust fit of the lights' scales, and the choice of which lights' undecided rims
  * emit. Apart from the tracing that builds the rows, so that they can be tested on rows made up
  * for the purpose. */
@@ -23,7 +23,7 @@ extern "C" {
 
 /* Calibration rows, one per point and channel: L_emo - r B ~ sum_K s_K r A_K, both sides times
  * esr_image_error_scale at the point's lights-on radiance, r the lights-off correction of the
- * point's base colour over its median (train/lights.h says why). Kept apart until the medians
+ * point's base colour over its median (train/lights/lights.h says why). Kept apart until the medians
  * are known; with K lights (esr_lights.n). */
 struct esr_calib_rows {
     size_t n, cap;  /* points */

@@ -1,6 +1,6 @@
 /* Lights as objects: which surfaces emit, split into lights, grown over their unseen parts (see
  * lights.h). */
-#include "train/lights.h"
+#include "train/lights/lights.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -11,7 +11,7 @@
 #include "fields/grid.h"
 #include "fields/trilerp.h"
 #include "model/render_sdf.h"
-#include "train/light_surface.h"
+#include "train/lights/surface.h"
 #include "volume/first_hit.h"
 #include "volume/free_space.h"
 

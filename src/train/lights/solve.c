@@ -1,5 +1,5 @@
-/* The lights' strengths solved from the lights-on photos (see lights_solve.h): the rows. */
-#include "train/lights_solve.h"
+/* The lights' strengths solved from the lights-on photos (see lights/solve.h): the rows. */
+#include "train/lights/solve.h"
 
 #include <math.h>
 #include <omp.h>
@@ -16,8 +16,8 @@
 #include "fields/grid.h"
 #include "model/material_fields.h"
 #include "model/render_sdf.h"
-#include "train/light_direct.h"
-#include "train/light_surface.h"
+#include "train/lights/direct.h"
+#include "train/lights/surface.h"
 #include "train/lts.h"
 
 /* rays rendered per batch */

@@ -5,7 +5,7 @@
  * for its area) and a shadow ray to each (first hit of the SDF before y: occluded). Sampling the
  * lights by area, not by direction, keeps D nearly noise-free even for a small bright light,
  * which a few hemisphere directions hit only by chance. Used by the calibration of the lights'
- * strength (train/lights.h), by radiance fine-tuning (edit/finetune.h), which needs the edited
+ * strength (train/lights/lights.h), by radiance fine-tuning (edit/finetune.h), which needs the edited
  * lights' light exactly, and per pixel by direct and ratio relighting (edit/relight.h). */
 #ifndef ESR_TRAIN_LIGHT_DIRECT_H
 #define ESR_TRAIN_LIGHT_DIRECT_H
@@ -17,7 +17,7 @@
 #include "core/rng.h"
 #include "core/vec3.h"
 #include "model/model.h"
-#include "train/light_surface.h"
+#include "train/lights/surface.h"
 #include "volume/first_hit.h"
 
 #ifdef __cplusplus

@@ -1,5 +1,5 @@
 /* The lights' colour from their own silhouettes (see lights.h, esr_lights_balance). */
-#include "train/lights.h"
+#include "train/lights/lights.h"
 
 #include <math.h>
 #include <stdio.h>

@@ -48,7 +48,7 @@
  * ESR_LIGHTS_SMALL_SHARE of the lights' area is not fitted but takes the fitted lights' mean scale,
  * at which its light enters the fit (esr_lights_fitted, esr_lights_share_scale,
  * esr_lights_fit_columns). A light's undecided rim joins it when the fit with its light
- * explains the rows clearly better (train/lights_fit.h, esr_calib_decide_rims): both scenes'
+ * explains the rows clearly better (train/lights/fit.h, esr_calib_decide_rims): both scenes'
  * lampshades gain the outer ring of the bottom the SDF closes (a closed shade's bottom emits,
  * and so, seen from below, does an open one's inside), while the rim of floor and sphere around
  * the default scene's orb, and lamp's bulb's, stay dark. Caveat: images fix the product of albedo

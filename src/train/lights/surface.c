@@ -1,6 +1,6 @@
 /* The lights' surface: band points, their areas and emission, a light's samples (see
- * light_surface.h). */
-#include "train/light_surface.h"
+ * lights/surface.h). */
+#include "train/lights/surface.h"
 
 #include <math.h>
 #include <stdlib.h>

@@ -1,5 +1,5 @@
-/* The lights' calibration fit (see lights_fit.h). */
-#include "train/lights_fit.h"
+/* The lights' calibration fit (see lights/fit.h). */
+#include "train/lights/fit.h"
 
 #include <math.h>
 #include <stdio.h>
@@ -8,7 +8,7 @@
 
 #include "core/order.h"
 #include "core/ridge_solve.h"
-#include "train/lights.h"
+#include "train/lights/lights.h"
 
 _Static_assert(ESR_MAX_LIGHTS <= ESR_RIDGE_MAX, "the calibration solves one unknown per light");
 
