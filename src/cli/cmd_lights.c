@@ -48,11 +48,9 @@ static const struct cli_option lights_options[] = {
      "the most lights' centroids, enlarged to at least 256 pixels wide, each light's id in a black "
      "box beside a cross at its centroid (occlusion not tested: a light behind an object is marked "
      "where it would be seen)", CLI_TEXT, .at = AT(picture)},
-    {"--set", "key=value", "with --recompute or --drop: one of the lights' options (lights_solve, "
-     "lights_solve_rays, lights_solve_spp, lights_solve_seen, lights_solve_dirs, "
-     "lights_solve_drop, lights_balance, lights_calib_points, emitter_k; `esr train --help` says "
-     "each), kept in the checkpoint", CLI_TEXTS, .at = AT(set), .hi = LIGHTS_MAX_SETS,
-     .call = lights_set},
+    {"--set", "key=value", "with --recompute or --drop: one of the lights' options, every "
+     "training option named lights_... and emitter_k (`esr train --help` lists and says each), "
+     "kept in the checkpoint", CLI_TEXTS, .at = AT(set), .hi = LIGHTS_MAX_SETS, .call = lights_set},
     {"--data", "DIR", "the dataset whose training images --recompute and --drop read (lights-off "
      "to calibrate, lights-on for the colour) and --picture shows (default: the one RUN was "
      "trained on)", CLI_TEXT, .at = AT(data)},
