@@ -1,0 +1,190 @@
+/* `esr synth`'s photo-like train captures (synth/photo.h): the exposure re-centring is exact, the
+ * lights-on set's exposure is what --on-exposure asks in the written images, the filmic curve is
+ * monotone and invertible, the truth is in gt/photos.json and the dataset still loads. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <cmocka.h>
+#include <cjson/cJSON.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "core/colour.h"
+#include "io/dataset.h"
+#include "io/image.h"
+#include "synth/photo.h"
+#include "test_support.h"
+
+/* A plan of n train frames, every third lights-off, the rest lights-on with a warm light. */
+static void fake_plan(struct esr_synth_plan *plan, struct esr_synth_frame *frames, int n)
+{
+    memset(plan, 0, sizeof *plan);
+    memset(frames, 0, (size_t)n * sizeof *frames);
+    for (int i = 0; i < n; i++) {
+        frames[i].mode = i % 3 == 0 ? ESR_LIGHT_OFF : ESR_LIGHT_ON;
+        if (frames[i].mode == ESR_LIGHT_ON) {
+            frames[i].emission[0][0] = 4.0f;
+            frames[i].emission[0][1] = 2.0f;
+            frames[i].emission[0][2] = 1.0f;
+        }
+    }
+    plan->n_frames[ESR_PHASE_TRAIN] = n;
+    plan->frames[ESR_PHASE_TRAIN] = frames;
+}
+
+static void test_recentring_is_exact(void **state)
+{
+    (void)state;
+    enum { N = 31 };
+    struct esr_synth_plan plan;
+    struct esr_synth_frame frames[N];
+    struct esr_photo_truth t[N];
+    fake_plan(&plan, frames, N);
+    const struct esr_photo_options opt = {.exposure_jitter = 1.0, .on_exposure = -1.5, .wb_jitter = 0.1};
+    esr_photo_plan(&opt, &plan, 1, 7, t);
+    double sum[2] = {0, 0}, spread = 0.0;
+    int count[2] = {0, 0};
+    for (int i = 0; i < N; i++) {
+        const int on = frames[i].mode == ESR_LIGHT_ON;
+        sum[on] += t[i].stops;
+        count[on]++;
+        spread = fmax(spread, fabs(t[i].stops - (on ? -1.5 : 0.0)));
+        for (int c = 0; c < 3; c++)
+            assert_true(t[i].gain[c] >= 0.9 - 1e-12 && t[i].gain[c] <= 1.1 + 1e-12);
+    }
+    assert_true(fabs(sum[0] / count[0]) < 1e-12);
+    assert_true(fabs(sum[1] / count[1] + 1.5) < 1e-12);
+    assert_true(spread > 0.3 && spread <= 2.0); /* jittered, within +-1 plus the re-centring */
+}
+
+/* --wb-follow on a warm light lowers red against blue, and keeps the gains' geometric mean. */
+static void test_wb_follow_cools_a_warm_light(void **state)
+{
+    (void)state;
+    enum { N = 6 };
+    struct esr_synth_plan plan;
+    struct esr_synth_frame frames[N];
+    struct esr_photo_truth t[N];
+    fake_plan(&plan, frames, N);
+    const struct esr_photo_options opt = {.wb_follow = 1};
+    esr_photo_plan(&opt, &plan, 1, 7, t);
+    for (int i = 0; i < N; i++) {
+        const double *g = t[i].gain;
+        assert_true(fabs(g[0] * g[1] * g[2] - 1.0) < 1e-12);
+        if (frames[i].mode == ESR_LIGHT_OFF)
+            assert_true(g[0] == 1.0 && g[1] == 1.0 && g[2] == 1.0);
+        else /* m = (4, 2, 1): w = (1/sqrt 2, 1, sqrt 2) */
+            assert_true(fabs(g[0] - sqrt(0.5)) < 1e-12 && fabs(g[2] - sqrt(2.0)) < 1e-12);
+    }
+}
+
+static void test_filmic_is_monotone_and_invertible(void **state)
+{
+    (void)state;
+    double prev = -1.0, max_err = 0.0;
+    assert_true(esr_photo_filmic(0.0) == 0.0);
+    assert_true(fabs(esr_photo_filmic(1.0) - 1.0) < 1e-6);
+    for (int i = 0; i <= 4096; i++) {
+        const double x = i / 4096.0, y = esr_photo_filmic(x);
+        assert_true(y > prev);
+        prev = y;
+        max_err = fmax(max_err, fabs(esr_photo_filmic_inverse(y) - x));
+    }
+    assert_true(max_err < 1e-5);
+    /* S-shaped against sRGB: darker in the shadows, brighter in the highlights */
+    assert_true(esr_photo_filmic(0.05) < esr_srgb_from_linear(0.05f));
+    assert_true(esr_photo_filmic(0.6) > esr_srgb_from_linear(0.6f));
+}
+
+/* Mean linear value of the pixels of a train image that are opaque and unclipped (no channel at
+ * 255) in the plain render. */
+static double mean_linear(const char *path, const struct esr_image *plain)
+{
+    struct esr_image img;
+    assert_int_equal(esr_image_read(path, &img), 0);
+    double sum = 0.0;
+    long n = 0;
+    for (size_t i = 0; i < (size_t)img.width * (size_t)img.height; i++) {
+        const float *p = plain->data + 4 * i;
+        if (p[3] < 1.0f || fmaxf(p[0], fmaxf(p[1], p[2])) > 254.5f / 255.0f)
+            continue;
+        for (int c = 0; c < 3; c++)
+            sum += esr_linear_from_srgb(img.data[(size_t)img.channels * i + (size_t)c]);
+        n++;
+    }
+    esr_image_free(&img);
+    assert_true(n > 20);
+    return sum / (double)n;
+}
+
+/* The same seed with and without --on-exposure -1: every lights-on image's opaque pixels halve
+ * (to 8-bit rounding), every lights-off one's stay; gt/photos.json holds the truth and the
+ * dataset loads. */
+static void test_on_exposure_in_the_images(void **state)
+{
+    (void)state;
+    char *tmp = test_make_tmpdir(), args[1024], out[8192], path[1024];
+    snprintf(args, sizeof args, "synth --res 24 --spp 2 --train 2 --test 1 --seed 3 %s/plain", tmp);
+    assert_int_equal(test_run_esr(args, out, sizeof out), 0);
+    snprintf(args, sizeof args, "synth --res 24 --spp 2 --train 2 --test 1 --seed 3 --on-exposure -1 %s/photo", tmp);
+    assert_int_equal(test_run_esr(args, out, sizeof out), 0);
+
+    snprintf(path, sizeof path, "%s/photo/gt/photos.json", tmp);
+    cJSON *truth = test_read_json(path);
+    assert_non_null(truth);
+    const cJSON *frames = cJSON_GetObjectItem(truth, "frames");
+    assert_int_equal(cJSON_GetArraySize(frames), 4);
+    snprintf(path, sizeof path, "%s/photo", tmp);
+    struct esr_dataset ds;
+    assert_int_equal(esr_dataset_load(path, &ds), 0);
+    esr_dataset_free(&ds);
+
+    const cJSON *fr;
+    int n_on = 0;
+    cJSON_ArrayForEach(fr, frames)
+    {
+        const char *file = cJSON_GetObjectItem(fr, "file_path")->valuestring;
+        const int on = !strcmp(cJSON_GetObjectItem(fr, "mode")->valuestring, "on");
+        const double stops = cJSON_GetObjectItem(fr, "exposure_stops")->valuedouble;
+        assert_true(stops == (on ? -1.0 : 0.0));
+        struct esr_image plain;
+        snprintf(path, sizeof path, "%s/plain/%s.png", tmp, file);
+        assert_int_equal(esr_png_read(path, &plain), 0);
+        const double base = mean_linear(path, &plain);
+        snprintf(path, sizeof path, "%s/photo/%s.png", tmp, file);
+        const double ratio = mean_linear(path, &plain) / base;
+        esr_image_free(&plain);
+        assert_true(fabs(ratio - (on ? 0.5 : 1.0)) < 0.02 * (on ? 0.5 : 1.0));
+        n_on += on;
+    }
+    assert_int_equal(n_on, 2);
+    cJSON_Delete(truth);
+    test_rmtree(tmp);
+    free(tmp);
+}
+
+static void test_bad_curve_fails_cleanly(void **state)
+{
+    (void)state;
+    char *tmp = test_make_tmpdir(), args[1024], out[8192];
+    snprintf(args, sizeof args, "synth --res 16 --curve gamma %s/ds", tmp);
+    assert_int_not_equal(test_run_esr(args, out, sizeof out), 0);
+    assert_non_null(strstr(out, "--curve must be srgb or filmic, got 'gamma'"));
+    test_rmtree(tmp);
+    free(tmp);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_recentring_is_exact),
+        cmocka_unit_test(test_wb_follow_cools_a_warm_light),
+        cmocka_unit_test(test_filmic_is_monotone_and_invertible),
+        cmocka_unit_test(test_on_exposure_in_the_images),
+        cmocka_unit_test(test_bad_curve_fails_cleanly),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
