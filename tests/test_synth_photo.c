@@ -166,6 +166,40 @@ static void test_on_exposure_in_the_images(void **state)
     free(tmp);
 }
 
+/* --jpeg: train frames are train/<name>.jpg in the transforms, decode at the dataset's size as
+ * opaque RGB, and the dataset loads; test frames stay PNG renders. */
+static void test_jpeg_frames_load(void **state)
+{
+    (void)state;
+    char *tmp = test_make_tmpdir(), args[1024], out[8192], path[1024];
+    snprintf(args, sizeof args, "synth --res 24 --spp 2 --train 2 --test 1 --seed 3 --jpeg 90 %s/ds", tmp);
+    assert_int_equal(test_run_esr(args, out, sizeof out), 0);
+    snprintf(path, sizeof path, "%s/ds", tmp);
+    struct esr_dataset ds;
+    assert_int_equal(esr_dataset_load(path, &ds), 0);
+    int n_train = 0;
+    for (int p = 0; p < ESR_PHASE_COUNT; p++)
+    for (int i = 0; i < ds.phases[p].n_frames; i++) {
+        const struct esr_frame *f = &ds.phases[p].frames[i];
+        esr_frame_image_path(&ds, f, path, sizeof path);
+        const size_t len = strlen(path);
+        const int is_jpeg = len > 4 && !strcmp(path + len - 4, ".jpg");
+        assert_int_equal(is_jpeg, p == ESR_PHASE_TRAIN);
+        if (!is_jpeg)
+            continue;
+        struct esr_image img;
+        assert_int_equal(esr_image_read(path, &img), 0);
+        assert_int_equal(img.width, 24);
+        assert_int_equal(img.channels, 3);
+        esr_image_free(&img);
+        n_train++;
+    }
+    assert_int_equal(n_train, 4);
+    esr_dataset_free(&ds);
+    test_rmtree(tmp);
+    free(tmp);
+}
+
 static void test_bad_curve_fails_cleanly(void **state)
 {
     (void)state;
@@ -184,6 +218,7 @@ int main(void)
         cmocka_unit_test(test_wb_follow_cools_a_warm_light),
         cmocka_unit_test(test_filmic_is_monotone_and_invertible),
         cmocka_unit_test(test_on_exposure_in_the_images),
+        cmocka_unit_test(test_jpeg_frames_load),
         cmocka_unit_test(test_bad_curve_fails_cleanly),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

@@ -49,6 +49,8 @@ static const struct cli_option synth_options[] = {
      "(src/synth/photo.h)", CLI_FLAG, .at = AT(opt.photo.wb_follow)},
     {"--curve", "NAME", "train photos' tone curve: srgb (default) or filmic (an S-curve, src/synth/photo.h)",
      CLI_CALL, .call = curve_value},
+    {"--jpeg", "Q", "train photos as JPEG of quality Q, 1..100 (train/<name>.jpg; default: PNG)", CLI_INT,
+     .at = AT(opt.photo.jpeg_quality), .lo = 1, .hi = 100},
     {"--force", NULL, "replace a non-empty OUT_DIR", CLI_FLAG, .at = AT(opt.force)},
     {0},
 };

@@ -76,10 +76,10 @@ static int write_mask(const char *path, const struct esr_synth_scene *s, const i
     return esr_png_write(path, mask, 8);
 }
 
-/* A train photo (photo.h) to its PNG: opaque over white where the render is not, exposed by
+/* A train photo (photo.h) to its PNG or JPEG: opaque over white where the render is not, exposed by
  * 2^stops times the white-balance gains, clipped, through the camera's tone curve. */
-static int write_photo_png(const char *path, const struct esr_image *lin, const struct esr_photo_truth *t,
-                           enum esr_photo_curve curve, struct esr_image *tmp)
+static int write_photo(const char *path, const struct esr_image *lin, const struct esr_photo_truth *t,
+                       const struct esr_photo_options *opt, struct esr_image *tmp)
 {
     const size_t n = (size_t)lin->width * (size_t)lin->height;
     const double exposure = exp2(t->stops);
@@ -88,10 +88,12 @@ static int write_photo_png(const char *path, const struct esr_image *lin, const 
         float *dst = tmp->data + 4 * i;
         for (int c = 0; c < 3; c++) {
             const double scene = (double)src[c] + (1.0 - (double)src[3]); /* premultiplied over white */
-            dst[c] = (float)esr_photo_encode(curve, exposure * t->gain[c] * scene);
+            dst[c] = (float)esr_photo_encode(opt->curve, exposure * t->gain[c] * scene);
         }
         dst[3] = 1.0f;
     }
+    if (opt->jpeg_quality)
+        return esr_jpeg_write(path, tmp, opt->jpeg_quality, NULL, 0);
     return esr_png_write(path, tmp, 8);
 }
 
@@ -156,10 +158,12 @@ static void report(const struct job *j, const char *phase, int done, int total, 
 static int write_frame_image(struct job *j, enum esr_phase_id ph, const struct esr_synth_frame *f)
 {
     char path[PATH_LEN];
+    if (ph == ESR_PHASE_TRAIN && j->photos) {
+        snprintf(path, sizeof path, "%s/%s/%s.%s", j->root, esr_phase_name(ph), f->name,
+                 j->opt->photo.jpeg_quality ? "jpg" : "png");
+        return write_photo(path, &j->lin, &j->photos[f - j->plan->frames[ESR_PHASE_TRAIN]], &j->opt->photo, &j->png);
+    }
     snprintf(path, sizeof path, "%s/%s/%s.png", j->root, esr_phase_name(ph), f->name);
-    if (ph == ESR_PHASE_TRAIN && j->photos)
-        return write_photo_png(path, &j->lin, &j->photos[f - j->plan->frames[ESR_PHASE_TRAIN]], j->opt->photo.curve,
-                               &j->png);
     ESR_TRY(write_png_from_linear(path, &j->lin, &j->png));
     if (ph == ESR_PHASE_TRAIN)
         return ESR_OK;
@@ -319,7 +323,8 @@ static int write_all(struct job *j, const struct esr_synth_settings *set)
     ESR_TRY(render_train(j));
     ESR_TRY(render_test(j));
     for (int i = 0; i < N_PHASES; i++)
-        ESR_TRY(esr_synth_json_transforms(j->root, j->scene, j->plan, phases[i]));
+        ESR_TRY(esr_synth_json_transforms(j->root, j->scene, j->plan, phases[i],
+                                          phases[i] == ESR_PHASE_TRAIN ? esr_synth_train_ext(&j->opt->photo) : ""));
     ESR_TRY(esr_synth_json_scene(j->root, j->scene, j->plan, set));
     if (j->photos)
         ESR_TRY(esr_synth_json_photos(j->root, j->plan, &j->opt->photo, j->photos));

@@ -45,7 +45,7 @@ static cJSON *matrix(const struct esr_camera *cam)
 }
 
 int esr_synth_json_transforms(const char *dir, const struct esr_synth_scene *s, const struct esr_synth_plan *plan,
-                              enum esr_phase_id phase)
+                              enum esr_phase_id phase, const char *ext)
 {
     const char *pname = esr_phase_name(phase), *tag = esr_synth_mask_tag(phase);
     cJSON *root = cJSON_CreateObject();
@@ -56,7 +56,7 @@ int esr_synth_json_transforms(const char *dir, const struct esr_synth_scene *s, 
         const struct esr_camera *cam = phase == ESR_PHASE_TRAIN ? &plan->train_cams[f->cam] : &plan->test_cams[f->cam];
         char path[256];
         cJSON *fr = cJSON_CreateObject();
-        snprintf(path, sizeof path, "%s/%s", pname, f->name);
+        snprintf(path, sizeof path, "%s/%s%s", pname, f->name, ext);
         cJSON_AddStringToObject(fr, "file_path", path);
         cJSON_AddItemToObject(fr, "transform_matrix", matrix(cam));
         cJSON *lights = cJSON_AddArrayToObject(fr, "lights");
@@ -230,7 +230,7 @@ int esr_synth_json_photos(const char *dir, const struct esr_synth_plan *plan, co
         const struct esr_synth_frame *f = &plan->frames[ESR_PHASE_TRAIN][i];
         char path[256];
         cJSON *fr = cJSON_CreateObject();
-        snprintf(path, sizeof path, "%s/%s", esr_phase_name(ESR_PHASE_TRAIN), f->name);
+        snprintf(path, sizeof path, "%s/%s%s", esr_phase_name(ESR_PHASE_TRAIN), f->name, esr_synth_train_ext(opt));
         cJSON_AddStringToObject(fr, "file_path", path);
         cJSON_AddStringToObject(fr, "mode", esr_light_mode_name(f->mode));
         cJSON_AddNumberToObject(fr, "exposure_stops", truth[i].stops);

@@ -5,9 +5,10 @@
 #include "synth/photo.h"
 #include "synth/plan.h"
 
-/* Writes <dir>/transforms/transforms_<phase>.json for the plan's frames of phase. */
+/* Writes <dir>/transforms/transforms_<phase>.json for the plan's frames of phase, each file_path
+ * ending in ext ("" or ".jpg"). */
 int esr_synth_json_transforms(const char *dir, const struct esr_synth_scene *s, const struct esr_synth_plan *plan,
-                              enum esr_phase_id phase);
+                              enum esr_phase_id phase, const char *ext);
 
 /* Render settings recorded in scene.json. */
 struct esr_synth_settings {

@@ -13,7 +13,7 @@
 int esr_photo_active(const struct esr_photo_options *opt)
 {
     return opt->exposure_jitter != 0.0 || opt->on_exposure != 0.0 || opt->wb_jitter != 0.0 || opt->wb_follow ||
-           opt->curve != ESR_PHOTO_CURVE_SRGB;
+           opt->curve != ESR_PHOTO_CURVE_SRGB || opt->jpeg_quality;
 }
 
 int esr_photo_check(const struct esr_photo_options *opt)
@@ -24,6 +24,8 @@ int esr_photo_check(const struct esr_photo_options *opt)
         return ESR_FAIL("--on-exposure %g is out of range -8..8 stops", opt->on_exposure);
     if (!(opt->wb_jitter >= 0.0 && opt->wb_jitter <= 0.9))
         return ESR_FAIL("--wb-jitter %g is out of range 0..0.9", opt->wb_jitter);
+    if (opt->jpeg_quality < 0 || opt->jpeg_quality > 100)
+        return ESR_FAIL("--jpeg %d is out of range 1..100", opt->jpeg_quality);
     return ESR_OK;
 }
 
@@ -104,4 +106,9 @@ int esr_photo_curve_parse(const char *name)
 const char *esr_photo_curve_name(enum esr_photo_curve curve)
 {
     return curve == ESR_PHOTO_CURVE_FILMIC ? "filmic" : "srgb";
+}
+
+const char *esr_synth_train_ext(const struct esr_photo_options *opt)
+{
+    return opt->jpeg_quality ? ".jpg" : "";
 }

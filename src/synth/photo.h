@@ -16,6 +16,7 @@ struct esr_photo_options {
     double wb_jitter;       /* per-photo per-channel gains uniform in 1 +- this */
     int wb_follow;          /* lights-on white balance pulled towards the lights' colour */
     enum esr_photo_curve curve;
+    int jpeg_quality;       /* 1..100: train photos as JPEG (train/<name>.jpg); 0: PNG */
 };
 
 /* The truth of one train photo: pixel = curve(clip(2^stops * gain[c] * linear[c])). */
@@ -52,6 +53,10 @@ double esr_photo_filmic_inverse(double code);
 
 /* Linear value (clipped to [0, 1]) to code value in [0, 1] by curve. */
 double esr_photo_encode(enum esr_photo_curve curve, double linear);
+
+/* The file name ending a train frame's file_path carries: ".jpg" for JPEG photos, "" for PNG
+ * (FORMAT.md: a file_path without extension names a PNG). */
+const char *esr_synth_train_ext(const struct esr_photo_options *opt);
 
 /* "srgb" / "filmic" to the curve; -1 for another name. */
 int esr_photo_curve_parse(const char *name);
