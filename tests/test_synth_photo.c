@@ -14,6 +14,8 @@
 
 #include "core/colour.h"
 #include "io/dataset.h"
+#include "io/exif_exposure.h"
+#include "io/file.h"
 #include "io/image.h"
 #include "synth/photo.h"
 #include "test_support.h"
@@ -200,6 +202,77 @@ static void test_jpeg_frames_load(void **state)
     free(tmp);
 }
 
+static unsigned char *slurp(const char *path, size_t *n)
+{
+    FILE *f = fopen(path, "rb");
+    assert_non_null(f);
+    fseek(f, 0, SEEK_END);
+    *n = (size_t)ftell(f);
+    fseek(f, 0, SEEK_SET);
+    unsigned char *b = malloc(*n);
+    assert_non_null(b);
+    assert_int_equal(fread(b, 1, *n, f), *n);
+    fclose(f);
+    return b;
+}
+
+/* --exif: every JPEG's ExposureTime, FNumber and ISO read back (libexif) give t * ISO / N^2
+ * proportional to 2^exposure_stops of gt/photos.json, to 2%. */
+static void test_exif_round_trips(void **state)
+{
+    (void)state;
+    char *tmp = test_make_tmpdir(), args[1024], out[8192], path[1024];
+    snprintf(args, sizeof args, "synth --res 16 --spp 1 --train 3 --test 1 --seed 4 --jpeg 80 --exif "
+             "--exposure-jitter 1.5 --on-exposure -1 %s/ds", tmp);
+    assert_int_equal(test_run_esr(args, out, sizeof out), 0);
+    snprintf(path, sizeof path, "%s/ds/gt/photos.json", tmp);
+    cJSON *truth = test_read_json(path);
+    assert_non_null(truth);
+    const struct esr_exif_exposure base = {ESR_PHOTO_EXIF_BASE_TIME_S, ESR_PHOTO_EXIF_F_NUMBER, ESR_PHOTO_EXIF_ISO};
+    const cJSON *fr;
+    int n = 0;
+    cJSON_ArrayForEach(fr, cJSON_GetObjectItem(truth, "frames"))
+    {
+        snprintf(path, sizeof path, "%s/ds/%s", tmp, cJSON_GetObjectItem(fr, "file_path")->valuestring);
+        size_t size;
+        unsigned char *bytes = slurp(path, &size);
+        struct esr_exif_exposure e;
+        char why[128];
+        assert_int_equal(esr_exif_exposure_read(bytes, size, &e, why, sizeof why), 1);
+        free(bytes);
+        const double want = exp2(cJSON_GetObjectItem(fr, "exposure_stops")->valuedouble);
+        const double got = esr_exif_relative_exposure(&e) / esr_exif_relative_exposure(&base);
+        assert_true(fabs(got / want - 1.0) < 0.02);
+        n++;
+    }
+    assert_int_equal(n, 6);
+    cJSON_Delete(truth);
+    test_rmtree(tmp);
+    free(tmp);
+}
+
+/* Absurd EXIF is refused with the reason, missing EXIF is "none": neither is trusted. */
+static void test_absurd_exif_is_refused(void **state)
+{
+    (void)state;
+    struct esr_exif_exposure e = {1.0 / 100.0, 2.8, 0}, back;
+    unsigned char *app1;
+    size_t n;
+    char why[128];
+    assert_int_equal(esr_exif_exposure_payload(&e, &app1, &n), 0);
+    assert_int_equal(esr_exif_exposure_read(app1, n, &back, why, sizeof why), -1);
+    assert_non_null(strstr(why, "ISO 0"));
+    free(app1);
+    e.iso = 200;
+    e.exposure_time_s = 0.0;
+    assert_int_equal(esr_exif_exposure_payload(&e, &app1, &n), 0);
+    assert_int_equal(esr_exif_exposure_read(app1, n, &back, why, sizeof why), -1);
+    assert_non_null(strstr(why, "ExposureTime"));
+    free(app1);
+    static const unsigned char not_exif[] = "Exif\0\0garbage";
+    assert_int_equal(esr_exif_exposure_read(not_exif, sizeof not_exif, &back, why, sizeof why), 0);
+}
+
 static void test_bad_curve_fails_cleanly(void **state)
 {
     (void)state;
@@ -219,6 +292,8 @@ int main(void)
         cmocka_unit_test(test_filmic_is_monotone_and_invertible),
         cmocka_unit_test(test_on_exposure_in_the_images),
         cmocka_unit_test(test_jpeg_frames_load),
+        cmocka_unit_test(test_exif_round_trips),
+        cmocka_unit_test(test_absurd_exif_is_refused),
         cmocka_unit_test(test_bad_curve_fails_cleanly),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

@@ -51,6 +51,8 @@ static const struct cli_option synth_options[] = {
      CLI_CALL, .call = curve_value},
     {"--jpeg", "Q", "train photos as JPEG of quality Q, 1..100 (train/<name>.jpg; default: PNG)", CLI_INT,
      .at = AT(opt.photo.jpeg_quality), .lo = 1, .hi = 100},
+    {"--exif", NULL, "with --jpeg: each JPEG carries EXIF ExposureTime, FNumber and ISO of its exposure "
+     "(f/4, ISO 100, (1/60 s) * 2^stops)", CLI_FLAG, .at = AT(opt.photo.exif)},
     {"--force", NULL, "replace a non-empty OUT_DIR", CLI_FLAG, .at = AT(opt.force)},
     {0},
 };

@@ -10,6 +10,7 @@
 
 #include "core/colour.h"
 #include "core/error.h"
+#include "io/exif_exposure.h"
 #include "io/ply.h"
 #include "io/staging.h"
 #include "synth/json.h"
@@ -91,6 +92,16 @@ static int write_photo(const char *path, const struct esr_image *lin, const stru
             dst[c] = (float)esr_photo_encode(opt->curve, exposure * t->gain[c] * scene);
         }
         dst[3] = 1.0f;
+    }
+    if (opt->jpeg_quality && opt->exif) {
+        struct esr_exif_exposure e;
+        esr_photo_exif(t, &e);
+        unsigned char *app1;
+        size_t size;
+        ESR_TRY(esr_exif_exposure_payload(&e, &app1, &size));
+        const int rc = esr_jpeg_write(path, tmp, opt->jpeg_quality, app1, size);
+        free(app1);
+        return rc;
     }
     if (opt->jpeg_quality)
         return esr_jpeg_write(path, tmp, opt->jpeg_quality, NULL, 0);

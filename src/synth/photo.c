@@ -6,6 +6,7 @@
 #include "core/colour.h"
 #include "core/error.h"
 #include "core/rng.h"
+#include "io/exif_exposure.h"
 
 /* RNG stream of the photo truth, apart from the plan's and the renders' streams */
 #define PHOTO_STREAM 0x70686f746fULL
@@ -24,6 +25,8 @@ int esr_photo_check(const struct esr_photo_options *opt)
         return ESR_FAIL("--on-exposure %g is out of range -8..8 stops", opt->on_exposure);
     if (!(opt->wb_jitter >= 0.0 && opt->wb_jitter <= 0.9))
         return ESR_FAIL("--wb-jitter %g is out of range 0..0.9", opt->wb_jitter);
+    if (opt->exif && !opt->jpeg_quality)
+        return ESR_FAIL("--exif needs --jpeg (EXIF lives in JPEG files)");
     if (opt->jpeg_quality < 0 || opt->jpeg_quality > 100)
         return ESR_FAIL("--jpeg %d is out of range 1..100", opt->jpeg_quality);
     return ESR_OK;
@@ -111,4 +114,11 @@ const char *esr_photo_curve_name(enum esr_photo_curve curve)
 const char *esr_synth_train_ext(const struct esr_photo_options *opt)
 {
     return opt->jpeg_quality ? ".jpg" : "";
+}
+
+void esr_photo_exif(const struct esr_photo_truth *t, struct esr_exif_exposure *out)
+{
+    out->exposure_time_s = ESR_PHOTO_EXIF_BASE_TIME_S * exp2(t->stops);
+    out->f_number = ESR_PHOTO_EXIF_F_NUMBER;
+    out->iso = ESR_PHOTO_EXIF_ISO;
 }

@@ -17,6 +17,7 @@ struct esr_photo_options {
     int wb_follow;          /* lights-on white balance pulled towards the lights' colour */
     enum esr_photo_curve curve;
     int jpeg_quality;       /* 1..100: train photos as JPEG (train/<name>.jpg); 0: PNG */
+    int exif;               /* JPEGs carry the EXIF exposure of esr_photo_exif */
 };
 
 /* The truth of one train photo: pixel = curve(clip(2^stops * gain[c] * linear[c])). */
@@ -53,6 +54,14 @@ double esr_photo_filmic_inverse(double code);
 
 /* Linear value (clipped to [0, 1]) to code value in [0, 1] by curve. */
 double esr_photo_encode(enum esr_photo_curve curve, double linear);
+
+/* The camera settings a photo of stops exposure is written with under --exif: aperture f/4 and
+ * ISO 100 fixed, exposure time (1/60 s) * 2^stops, so t * ISO / N^2 is proportional to 2^stops. */
+#define ESR_PHOTO_EXIF_BASE_TIME_S (1.0 / 60.0)
+#define ESR_PHOTO_EXIF_F_NUMBER 4.0
+#define ESR_PHOTO_EXIF_ISO 100
+struct esr_exif_exposure;
+void esr_photo_exif(const struct esr_photo_truth *t, struct esr_exif_exposure *out);
 
 /* The file name ending a train frame's file_path carries: ".jpg" for JPEG photos, "" for PNG
  * (FORMAT.md: a file_path without extension names a PNG). */
