@@ -273,6 +273,43 @@ static void test_absurd_exif_is_refused(void **state)
     assert_int_equal(esr_exif_exposure_read(not_exif, sizeof not_exif, &back, why, sizeof why), 0);
 }
 
+/* --noise 0.03: against the same seed's plain render, the linear difference on opaque
+ * mid-tone pixels (where neither clipping nor 8-bit steps matter) has a spread near 0.03. */
+static void test_noise_has_its_sigma(void **state)
+{
+    (void)state;
+    char *tmp = test_make_tmpdir(), args[1024], out[8192], path[1024];
+    snprintf(args, sizeof args, "synth --res 32 --spp 2 --train 2 --test 1 --seed 3 %s/plain", tmp);
+    assert_int_equal(test_run_esr(args, out, sizeof out), 0);
+    snprintf(args, sizeof args, "synth --res 32 --spp 2 --train 2 --test 1 --seed 3 --noise 0.03 %s/photo", tmp);
+    assert_int_equal(test_run_esr(args, out, sizeof out), 0);
+    double sum2 = 0.0;
+    long n = 0;
+    for (int k = 0; k < 4; k++) {
+        struct esr_image plain, photo;
+        snprintf(path, sizeof path, "%s/plain/train/r_%03d.png", tmp, k);
+        assert_int_equal(esr_png_read(path, &plain), 0);
+        snprintf(path, sizeof path, "%s/photo/train/r_%03d.png", tmp, k);
+        assert_int_equal(esr_png_read(path, &photo), 0);
+        for (size_t i = 0; i < (size_t)plain.width * (size_t)plain.height; i++)
+            for (int c = 0; c < 3 && plain.data[4 * i + 3] == 1.0f; c++) {
+                const double a = esr_linear_from_srgb(plain.data[4 * i + (size_t)c]);
+                if (a < 0.15 || a > 0.8)
+                    continue;
+                const double d = esr_linear_from_srgb(photo.data[4 * i + (size_t)c]) - a;
+                sum2 += d * d;
+                n++;
+            }
+        esr_image_free(&plain);
+        esr_image_free(&photo);
+    }
+    assert_true(n > 100);
+    const double sigma = sqrt(sum2 / (double)n);
+    assert_true(sigma > 0.025 && sigma < 0.035);
+    test_rmtree(tmp);
+    free(tmp);
+}
+
 static void test_bad_curve_fails_cleanly(void **state)
 {
     (void)state;
@@ -294,6 +331,7 @@ int main(void)
         cmocka_unit_test(test_jpeg_frames_load),
         cmocka_unit_test(test_exif_round_trips),
         cmocka_unit_test(test_absurd_exif_is_refused),
+        cmocka_unit_test(test_noise_has_its_sigma),
         cmocka_unit_test(test_bad_curve_fails_cleanly),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

@@ -49,6 +49,8 @@ static const struct cli_option synth_options[] = {
      "(src/synth/photo.h)", CLI_FLAG, .at = AT(opt.photo.wb_follow)},
     {"--curve", "NAME", "train photos' tone curve: srgb (default) or filmic (an S-curve, src/synth/photo.h)",
      CLI_CALL, .call = curve_value},
+    {"--noise", "SIGMA", "train photos: Gaussian noise of SIGMA on the exposed linear values, 0..1 "
+     "(default: 0)", CLI_DOUBLE, .at = AT(opt.photo.noise), .lo = 0.0, .hi = 1.0},
     {"--jpeg", "Q", "train photos as JPEG of quality Q, 1..100 (train/<name>.jpg; default: PNG)", CLI_INT,
      .at = AT(opt.photo.jpeg_quality), .lo = 1, .hi = 100},
     {"--exif", NULL, "with --jpeg: each JPEG carries EXIF ExposureTime, FNumber and ISO of its exposure "

@@ -10,6 +10,7 @@
 
 #include "core/colour.h"
 #include "core/error.h"
+#include "core/rng.h"
 #include "io/exif_exposure.h"
 #include "io/ply.h"
 #include "io/staging.h"
@@ -80,7 +81,7 @@ static int write_mask(const char *path, const struct esr_synth_scene *s, const i
 /* A train photo (photo.h) to its PNG or JPEG: opaque over white where the render is not, exposed by
  * 2^stops times the white-balance gains, clipped, through the camera's tone curve. */
 static int write_photo(const char *path, const struct esr_image *lin, const struct esr_photo_truth *t,
-                       const struct esr_photo_options *opt, struct esr_image *tmp)
+                       const struct esr_photo_options *opt, struct esr_rng *noise, struct esr_image *tmp)
 {
     const size_t n = (size_t)lin->width * (size_t)lin->height;
     const double exposure = exp2(t->stops);
@@ -89,7 +90,8 @@ static int write_photo(const char *path, const struct esr_image *lin, const stru
         float *dst = tmp->data + 4 * i;
         for (int c = 0; c < 3; c++) {
             const double scene = (double)src[c] + (1.0 - (double)src[3]); /* premultiplied over white */
-            dst[c] = (float)esr_photo_encode(opt->curve, exposure * t->gain[c] * scene);
+            const double grain = opt->noise > 0.0 ? opt->noise * (double)esr_rng_normal(noise) : 0.0;
+            dst[c] = (float)esr_photo_encode(opt->curve, exposure * t->gain[c] * scene + grain);
         }
         dst[3] = 1.0f;
     }
@@ -172,7 +174,9 @@ static int write_frame_image(struct job *j, enum esr_phase_id ph, const struct e
     if (ph == ESR_PHASE_TRAIN && j->photos) {
         snprintf(path, sizeof path, "%s/%s/%s.%s", j->root, esr_phase_name(ph), f->name,
                  j->opt->photo.jpeg_quality ? "jpg" : "png");
-        return write_photo(path, &j->lin, &j->photos[f - j->plan->frames[ESR_PHASE_TRAIN]], &j->opt->photo, &j->png);
+        const long i = f - j->plan->frames[ESR_PHASE_TRAIN];
+        struct esr_rng noise = esr_rng_init(j->opt->seed, ESR_PHOTO_NOISE_STREAM + (uint64_t)i);
+        return write_photo(path, &j->lin, &j->photos[i], &j->opt->photo, &noise, &j->png);
     }
     snprintf(path, sizeof path, "%s/%s/%s.png", j->root, esr_phase_name(ph), f->name);
     ESR_TRY(write_png_from_linear(path, &j->lin, &j->png));

@@ -225,6 +225,7 @@ int esr_synth_json_photos(const char *dir, const struct esr_synth_plan *plan, co
     cJSON_AddNumberToObject(root, "on_exposure", opt->on_exposure);
     cJSON_AddNumberToObject(root, "wb_jitter", opt->wb_jitter);
     cJSON_AddBoolToObject(root, "wb_follow", opt->wb_follow);
+    cJSON_AddNumberToObject(root, "noise", opt->noise);
     cJSON_AddNumberToObject(root, "jpeg_quality", opt->jpeg_quality);
     cJSON_AddBoolToObject(root, "exif", opt->exif);
     cJSON *frames = cJSON_AddArrayToObject(root, "frames");

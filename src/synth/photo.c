@@ -8,13 +8,11 @@
 #include "core/rng.h"
 #include "io/exif_exposure.h"
 
-/* RNG stream of the photo truth, apart from the plan's and the renders' streams */
-#define PHOTO_STREAM 0x70686f746fULL
 
 int esr_photo_active(const struct esr_photo_options *opt)
 {
     return opt->exposure_jitter != 0.0 || opt->on_exposure != 0.0 || opt->wb_jitter != 0.0 || opt->wb_follow ||
-           opt->curve != ESR_PHOTO_CURVE_SRGB || opt->jpeg_quality;
+           opt->curve != ESR_PHOTO_CURVE_SRGB || opt->jpeg_quality || opt->noise != 0.0;
 }
 
 int esr_photo_check(const struct esr_photo_options *opt)
@@ -25,6 +23,8 @@ int esr_photo_check(const struct esr_photo_options *opt)
         return ESR_FAIL("--on-exposure %g is out of range -8..8 stops", opt->on_exposure);
     if (!(opt->wb_jitter >= 0.0 && opt->wb_jitter <= 0.9))
         return ESR_FAIL("--wb-jitter %g is out of range 0..0.9", opt->wb_jitter);
+    if (!(opt->noise >= 0.0 && opt->noise <= 1.0))
+        return ESR_FAIL("--noise %g is out of range 0..1", opt->noise);
     if (opt->exif && !opt->jpeg_quality)
         return ESR_FAIL("--exif needs --jpeg (EXIF lives in JPEG files)");
     if (opt->jpeg_quality < 0 || opt->jpeg_quality > 100)
@@ -53,7 +53,7 @@ void esr_photo_plan(const struct esr_photo_options *opt, const struct esr_synth_
 {
     const int n = plan->n_frames[ESR_PHASE_TRAIN];
     const struct esr_synth_frame *frames = plan->frames[ESR_PHASE_TRAIN];
-    struct esr_rng rng = esr_rng_init(seed, PHOTO_STREAM);
+    struct esr_rng rng = esr_rng_init(seed, ESR_PHOTO_TRUTH_STREAM);
     double sum[2] = {0.0, 0.0};
     int count[2] = {0, 0};
     for (int i = 0; i < n; i++) {

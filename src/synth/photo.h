@@ -17,14 +17,21 @@ struct esr_photo_options {
     int wb_follow;          /* lights-on white balance pulled towards the lights' colour */
     enum esr_photo_curve curve;
     int jpeg_quality;       /* 1..100: train photos as JPEG (train/<name>.jpg); 0: PNG */
+    double noise;           /* sigma of Gaussian noise on the exposed linear values (before the curve) */
     int exif;               /* JPEGs carry the EXIF exposure of esr_photo_exif */
 };
 
-/* The truth of one train photo: pixel = curve(clip(2^stops * gain[c] * linear[c])). */
+/* The truth of one train photo: pixel = curve(clip(2^stops * gain[c] * linear[c] + n)), n
+ * Gaussian of sigma opt.noise, per pixel and channel. */
 struct esr_photo_truth {
     double stops;
     double gain[3];
 };
+
+/* RNG streams of seed: the photos' truth, and train frame i's noise at ESR_PHOTO_NOISE_STREAM + i
+ * (apart from the plan's and the renders' streams) */
+#define ESR_PHOTO_TRUTH_STREAM 0x70686f746f000000ULL
+#define ESR_PHOTO_NOISE_STREAM 0x70686f746f100000ULL
 
 /* Whether any option makes the train images differ from plain sRGB renders. */
 int esr_photo_active(const struct esr_photo_options *opt);

@@ -55,10 +55,8 @@ static void jitter(const float *pos3, size_t n, float sigma, uint64_t seed, floa
 #pragma omp parallel for schedule(static)
     for (size_t i = 0; i < n; i++) {
         struct esr_rng g = esr_rng_init(seed, i);
-        for (int a = 0; a < 3; a++) {
-            const float u1 = 1.0f - esr_rng_float(&g), u2 = esr_rng_float(&g);
-            jit3[i * 3 + a] = pos3[i * 3 + a] + sigma * sqrtf(-2.0f * logf(u1)) * cosf(6.2831853f * u2);
-        }
+        for (int a = 0; a < 3; a++)
+            jit3[i * 3 + a] = pos3[i * 3 + a] + sigma * esr_rng_normal(&g);
     }
 }
 
