@@ -37,16 +37,23 @@ static void fake_plan(struct esr_synth_plan *plan, struct esr_synth_frame *frame
     plan->frames[ESR_PHASE_TRAIN] = frames;
 }
 
+/* The truth of opt on the fake plan of n frames. */
+static void plan_photos(const struct esr_photo_options *opt, int n, struct esr_synth_frame *frames,
+                        struct esr_photo_truth *t)
+{
+    struct esr_synth_plan plan;
+    fake_plan(&plan, frames, n);
+    esr_photo_plan(opt, &plan, 1, 7, t);
+}
+
 static void test_recentring_is_exact(void **state)
 {
     (void)state;
     enum { N = 31 };
-    struct esr_synth_plan plan;
     struct esr_synth_frame frames[N];
     struct esr_photo_truth t[N];
-    fake_plan(&plan, frames, N);
     const struct esr_photo_options opt = {.exposure_jitter = 1.0, .on_exposure = -1.5, .wb_jitter = 0.1};
-    esr_photo_plan(&opt, &plan, 1, 7, t);
+    plan_photos(&opt, N, frames, t);
     double sum[2] = {0, 0}, spread = 0.0;
     int count[2] = {0, 0};
     for (int i = 0; i < N; i++) {
@@ -67,12 +74,10 @@ static void test_wb_follow_cools_a_warm_light(void **state)
 {
     (void)state;
     enum { N = 6 };
-    struct esr_synth_plan plan;
     struct esr_synth_frame frames[N];
     struct esr_photo_truth t[N];
-    fake_plan(&plan, frames, N);
     const struct esr_photo_options opt = {.wb_follow = 1};
-    esr_photo_plan(&opt, &plan, 1, 7, t);
+    plan_photos(&opt, N, frames, t);
     for (int i = 0; i < N; i++) {
         const double *g = t[i].gain;
         assert_true(fabs(g[0] * g[1] * g[2] - 1.0) < 1e-12);
@@ -99,6 +104,17 @@ static void test_filmic_is_monotone_and_invertible(void **state)
     /* S-shaped against sRGB: darker in the shadows, brighter in the highlights */
     assert_true(esr_photo_filmic(0.05) < esr_srgb_from_linear(0.05f));
     assert_true(esr_photo_filmic(0.6) > esr_srgb_from_linear(0.6f));
+}
+
+/* tmp/plain and tmp/photo: the default scene at res with 2 + 2 train views, seed 3, the second
+ * with the extra options photo. */
+static void synth_pair(const char *tmp, int res, const char *photo)
+{
+    char args[1024], out[8192];
+    snprintf(args, sizeof args, "synth --res %d --spp 2 --train 2 --test 1 --seed 3 %s/plain", res, tmp);
+    assert_int_equal(test_run_esr(args, out, sizeof out), 0);
+    snprintf(args, sizeof args, "synth --res %d --spp 2 --train 2 --test 1 --seed 3 %s %s/photo", res, photo, tmp);
+    assert_int_equal(test_run_esr(args, out, sizeof out), 0);
 }
 
 /* Mean linear value of the pixels of a train image that are opaque and unclipped (no channel at
@@ -128,11 +144,8 @@ static double mean_linear(const char *path, const struct esr_image *plain)
 static void test_on_exposure_in_the_images(void **state)
 {
     (void)state;
-    char *tmp = test_make_tmpdir(), args[1024], out[8192], path[1024];
-    snprintf(args, sizeof args, "synth --res 24 --spp 2 --train 2 --test 1 --seed 3 %s/plain", tmp);
-    assert_int_equal(test_run_esr(args, out, sizeof out), 0);
-    snprintf(args, sizeof args, "synth --res 24 --spp 2 --train 2 --test 1 --seed 3 --on-exposure -1 %s/photo", tmp);
-    assert_int_equal(test_run_esr(args, out, sizeof out), 0);
+    char *tmp = test_make_tmpdir(), path[1024];
+    synth_pair(tmp, 24, "--on-exposure -1");
 
     snprintf(path, sizeof path, "%s/photo/gt/photos.json", tmp);
     cJSON *truth = test_read_json(path);
@@ -278,11 +291,8 @@ static void test_absurd_exif_is_refused(void **state)
 static void test_noise_has_its_sigma(void **state)
 {
     (void)state;
-    char *tmp = test_make_tmpdir(), args[1024], out[8192], path[1024];
-    snprintf(args, sizeof args, "synth --res 32 --spp 2 --train 2 --test 1 --seed 3 %s/plain", tmp);
-    assert_int_equal(test_run_esr(args, out, sizeof out), 0);
-    snprintf(args, sizeof args, "synth --res 32 --spp 2 --train 2 --test 1 --seed 3 --noise 0.03 %s/photo", tmp);
-    assert_int_equal(test_run_esr(args, out, sizeof out), 0);
+    char *tmp = test_make_tmpdir(), path[1024];
+    synth_pair(tmp, 32, "--noise 0.03");
     double sum2 = 0.0;
     long n = 0;
     for (int k = 0; k < 4; k++) {
