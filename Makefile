@@ -3,7 +3,7 @@
 .PHONY: all deps test-tools build check demo test test-release test-asan bench colmap-roundtrip lightmix-blender-check fuzz clean
 
 DEB_PACKAGES := build-essential cmake pkg-config libspng-dev libopenexr-dev libcjson-dev \
-                libjpeg62-turbo-dev libcmocka-dev zlib1g-dev libzip-dev imagemagick libdnnl-dev libopenblas-pthread-dev
+                libjpeg62-turbo-dev libexif-dev libcmocka-dev zlib1g-dev libzip-dev imagemagick libdnnl-dev libopenblas-pthread-dev
 # the Khronos glTF validator the tests check `esr export --gltf` with (npm; Node from Debian)
 GLTF_VALIDATOR := gltf-validator@2.0.0-dev.3.10
 JOBS  ?= $(shell nproc)

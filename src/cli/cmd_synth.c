@@ -18,6 +18,7 @@ struct synth_args {
 };
 
 static int seed_value(void *args, const struct cli_option *o, const char *value);
+static int curve_value(void *args, const struct cli_option *o, const char *value);
 static void list_scenes(FILE *out);
 
 #define AT(field) offsetof(struct synth_args, field)
@@ -37,6 +38,23 @@ static const struct cli_option synth_options[] = {
     {"--backdrop", NULL, "the cameras see a distant backdrop where renders are transparent: opaque "
      "images like photographs of an object in a room (esr then learns the background, "
      "fields/background.h)", CLI_FLAG, .at = AT(opt.backdrop)},
+    {"--exposure-jitter", "STOPS", "train photos: each exposed by 2^u, u uniform in +-STOPS, re-centred so "
+     "the lights-off set's mean is 0 (default: 0; truth in gt/photos.json)", CLI_DOUBLE,
+     .at = AT(opt.photo.exposure_jitter), .lo = 0.0, .hi = 4.0},
+    {"--on-exposure", "STOPS", "train photos: the lights-on set's mean exposure, -8..8 stops (default: 0)",
+     CLI_DOUBLE, .at = AT(opt.photo.on_exposure), .lo = -8.0, .hi = 8.0},
+    {"--wb-jitter", "F", "train photos: per-photo per-channel white-balance gains uniform in 1 +- F, 0..0.9 "
+     "(default: 0)", CLI_DOUBLE, .at = AT(opt.photo.wb_jitter), .lo = 0.0, .hi = 0.9},
+    {"--wb-follow", NULL, "train photos: lights-on white balance half-corrects the lights' colour "
+     "(src/synth/photo.h)", CLI_FLAG, .at = AT(opt.photo.wb_follow)},
+    {"--curve", "NAME", "train photos' tone curve: srgb (default) or filmic (an S-curve, src/synth/photo.h)",
+     CLI_CALL, .call = curve_value},
+    {"--noise", "SIGMA", "train photos: Gaussian noise of SIGMA on the exposed linear values, 0..1 "
+     "(default: 0)", CLI_DOUBLE, .at = AT(opt.photo.noise), .lo = 0.0, .hi = 1.0},
+    {"--jpeg", "Q", "train photos as JPEG of quality Q, 1..100 (train/<name>.jpg; default: PNG)", CLI_INT,
+     .at = AT(opt.photo.jpeg_quality), .lo = 1, .hi = 100},
+    {"--exif", NULL, "with --jpeg: each JPEG carries EXIF ExposureTime, FNumber and ISO of its exposure "
+     "(f/4, ISO 100, (1/60 s) * 2^stops)", CLI_FLAG, .at = AT(opt.photo.exif)},
     {"--force", NULL, "replace a non-empty OUT_DIR", CLI_FLAG, .at = AT(opt.force)},
     {0},
 };
@@ -76,6 +94,17 @@ static int seed_value(void *args, const struct cli_option *o, const char *value)
     if (errno || end == value || *end || v < 0)
         return cli_fail(&cmd_synth, "%s must be a non-negative integer, got '%s'", o->name, value);
     a->opt.seed = (uint64_t)v;
+    return 0;
+}
+
+/* --curve: a name of esr_photo_curve_parse. */
+static int curve_value(void *args, const struct cli_option *o, const char *value)
+{
+    struct synth_args *a = args;
+    const int curve = esr_photo_curve_parse(value);
+    if (curve < 0)
+        return cli_fail(&cmd_synth, "%s must be srgb or filmic, got '%s'", o->name, value);
+    a->opt.photo.curve = (enum esr_photo_curve)curve;
     return 0;
 }
 

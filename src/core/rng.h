@@ -3,6 +3,7 @@
 #ifndef ESR_CORE_RNG_H
 #define ESR_CORE_RNG_H
 
+#include <math.h>
 #include <stdint.h>
 
 #include "core/simd.h"
@@ -45,6 +46,13 @@ ESR_INLINE uint64_t esr_rng_u64(struct esr_rng *rng)
 ESR_INLINE float esr_rng_float(struct esr_rng *rng)
 {
     return (float)(esr_rng_u32(rng) >> 8) * (1.0f / 16777216.0f);
+}
+
+/* A standard normal value by Box-Muller (u1 in (0, 1] keeps the log finite). */
+ESR_INLINE float esr_rng_normal(struct esr_rng *rng)
+{
+    const float u1 = 1.0f - esr_rng_float(rng), u2 = esr_rng_float(rng);
+    return sqrtf(-2.0f * logf(u1)) * cosf(6.2831853f * u2);
 }
 
 /* Uniform integer in [0, n), n > 0 (Lemire's multiply-shift; bias < n / 2^32). */

@@ -69,6 +69,12 @@ int esr_jpeg_read_stored(const char *path, struct esr_image *out);
  * esr_limits()->image_pixels pixels before allocating. */
 int esr_jpeg_decode(const void *bytes, size_t size, const char *name, int upright, struct esr_image *out);
 
+/* img's first three channels (a fourth, alpha, is dropped; one channel is written as grey RGB),
+ * clipped to [0, 1], as a JPEG of quality 1..100 (libjpeg's 4:2:0 defaults); app1, when not
+ * NULL, is written as the APP1 segment (an EXIF payload "Exif\0\0" + TIFF). */
+int esr_jpeg_write(const char *path, const struct esr_image *img, int quality, const unsigned char *app1,
+                   size_t app1_size);
+
 /* Dispatch on the extension (.png / .exr / .jpg / .jpeg, case-insensitive). */
 int esr_image_read(const char *path, struct esr_image *out);
 /* 1 when path ends in .exr (any case): linear values, premultiplied alpha; PNG and JPEG hold

@@ -4,6 +4,8 @@
  * data) are errors too, and stop the decoding at once: a grey-filled photo would silently train
  * a wrong scene, and a few hundred bytes claiming a large image would otherwise be decoded in
  * full only to be refused. */
+#include <errno.h>
+#include <math.h>
 #include <setjmp.h>
 #include <stdint.h>
 #include <stdio.h>
@@ -144,4 +146,64 @@ int esr_jpeg_read_stored(const char *path, struct esr_image *out)
 int esr_jpeg_read(const char *path, struct esr_image *out)
 {
     return read_file(path, 1, out);
+}
+
+/* The compressor's work on an open file: rows of 8-bit RGB from the first three channels. */
+static void encode(struct jpeg_compress_struct *c, const struct esr_image *img, int quality,
+                   const unsigned char *app1, size_t app1_size, unsigned char *row)
+{
+    c->image_width = (JDIMENSION)img->width;
+    c->image_height = (JDIMENSION)img->height;
+    c->input_components = 3;
+    c->in_color_space = JCS_RGB;
+    jpeg_set_defaults(c);
+    jpeg_set_quality(c, quality, TRUE);
+    jpeg_start_compress(c, TRUE);
+    if (app1)
+        jpeg_write_marker(c, JPEG_APP0 + 1, app1, (unsigned)app1_size);
+    while (c->next_scanline < c->image_height) {
+        const float *src = img->data + (size_t)c->next_scanline * (size_t)img->width * (size_t)img->channels;
+        for (int x = 0; x < img->width; x++)
+            for (int k = 0; k < 3; k++) {
+                const float v = src[(size_t)x * (size_t)img->channels + (size_t)(img->channels >= 3 ? k : 0)];
+                row[3 * x + k] = (JSAMPLE)lroundf(fminf(fmaxf(v, 0.0f), 1.0f) * 255.0f);
+            }
+        jpeg_write_scanlines(c, &row, 1);
+    }
+    jpeg_finish_compress(c);
+}
+
+int esr_jpeg_write(const char *path, const struct esr_image *img, int quality, const unsigned char *app1,
+                   size_t app1_size)
+{
+    if (quality < 1 || quality > 100)
+        return ESR_FAIL("%s: JPEG quality %d is out of range 1..100", path, quality);
+    if (app1 && app1_size > 65533)
+        return ESR_FAIL("%s: EXIF segment of %zu bytes is over JPEG's 65533", path, app1_size);
+    FILE *f = fopen(path, "wb");
+    if (!f)
+        return ESR_FAIL("cannot create '%s': %s", path, strerror(errno));
+    unsigned char *row = malloc((size_t)img->width * 3);
+    if (!row) {
+        fclose(f);
+        return ESR_FAIL("%s: out of memory", path);
+    }
+    struct jpeg_compress_struct c;
+    struct jpeg_failure fail;
+    memset(&fail, 0, sizeof fail);
+    c.err = jpeg_std_error(&fail.mgr);
+    fail.mgr.error_exit = on_error;
+    int rc = ESR_OK;
+    jpeg_create_compress(&c);
+    if (setjmp(fail.back) == 0) {
+        jpeg_stdio_dest(&c, f);
+        encode(&c, img, quality, app1, app1_size, row);
+    } else {
+        rc = ESR_FAIL("%s: %s", path, fail.message);
+    }
+    jpeg_destroy_compress(&c);
+    free(row);
+    if (fclose(f) != 0 && rc == ESR_OK)
+        rc = ESR_FAIL("cannot write '%s': %s", path, strerror(errno));
+    return rc;
 }

@@ -1,13 +1,17 @@
 /* `esr synth` end to end: plan, render the train frames and each test camera's light basis, compose
  * the test frames, masks and ground truth, JSON, then publish the staging directory. */
 #include <errno.h>
+#include <math.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
 #include <time.h>
 
 #include "core/colour.h"
 #include "core/error.h"
+#include "core/rng.h"
+#include "io/exif_exposure.h"
 #include "io/ply.h"
 #include "io/staging.h"
 #include "synth/json.h"
@@ -74,6 +78,38 @@ static int write_mask(const char *path, const struct esr_synth_scene *s, const i
     return esr_png_write(path, mask, 8);
 }
 
+/* A train photo (photo.h) to its PNG or JPEG: opaque over white where the render is not, exposed by
+ * 2^stops times the white-balance gains, clipped, through the camera's tone curve. */
+static int write_photo(const char *path, const struct esr_image *lin, const struct esr_photo_truth *t,
+                       const struct esr_photo_options *opt, struct esr_rng *noise, struct esr_image *tmp)
+{
+    const size_t n = (size_t)lin->width * (size_t)lin->height;
+    const double exposure = exp2(t->stops);
+    for (size_t i = 0; i < n; i++) {
+        const float *src = lin->data + 4 * i;
+        float *dst = tmp->data + 4 * i;
+        for (int c = 0; c < 3; c++) {
+            const double scene = (double)src[c] + (1.0 - (double)src[3]); /* premultiplied over white */
+            const double grain = opt->noise > 0.0 ? opt->noise * (double)esr_rng_normal(noise) : 0.0;
+            dst[c] = (float)esr_photo_encode(opt->curve, exposure * t->gain[c] * scene + grain);
+        }
+        dst[3] = 1.0f;
+    }
+    if (opt->jpeg_quality && opt->exif) {
+        struct esr_exif_exposure e;
+        esr_photo_exif(t, &e);
+        unsigned char *app1;
+        size_t size;
+        ESR_TRY(esr_exif_exposure_payload(&e, &app1, &size));
+        const int rc = esr_jpeg_write(path, tmp, opt->jpeg_quality, app1, size);
+        free(app1);
+        return rc;
+    }
+    if (opt->jpeg_quality)
+        return esr_jpeg_write(path, tmp, opt->jpeg_quality, NULL, 0);
+    return esr_png_write(path, tmp, 8);
+}
+
 struct job {
     const char *root;
     const struct esr_synth_scene *scene;
@@ -81,6 +117,7 @@ struct job {
     const struct esr_synth_options *opt;
     int res, spp;
     uint64_t image_id;               /* next RNG image index */
+    const struct esr_photo_truth *photos; /* per train frame; NULL: plain renders */
     struct esr_image lin, png, mask; /* scratch */
 };
 
@@ -134,6 +171,13 @@ static void report(const struct job *j, const char *phase, int done, int total, 
 static int write_frame_image(struct job *j, enum esr_phase_id ph, const struct esr_synth_frame *f)
 {
     char path[PATH_LEN];
+    if (ph == ESR_PHASE_TRAIN && j->photos) {
+        snprintf(path, sizeof path, "%s/%s/%s.%s", j->root, esr_phase_name(ph), f->name,
+                 j->opt->photo.jpeg_quality ? "jpg" : "png");
+        const long i = f - j->plan->frames[ESR_PHASE_TRAIN];
+        struct esr_rng noise = esr_rng_init(j->opt->seed, ESR_PHOTO_NOISE_STREAM + (uint64_t)i);
+        return write_photo(path, &j->lin, &j->photos[i], &j->opt->photo, &noise, &j->png);
+    }
     snprintf(path, sizeof path, "%s/%s/%s.png", j->root, esr_phase_name(ph), f->name);
     ESR_TRY(write_png_from_linear(path, &j->lin, &j->png));
     if (ph == ESR_PHASE_TRAIN)
@@ -294,8 +338,11 @@ static int write_all(struct job *j, const struct esr_synth_settings *set)
     ESR_TRY(render_train(j));
     ESR_TRY(render_test(j));
     for (int i = 0; i < N_PHASES; i++)
-        ESR_TRY(esr_synth_json_transforms(j->root, j->scene, j->plan, phases[i]));
+        ESR_TRY(esr_synth_json_transforms(j->root, j->scene, j->plan, phases[i],
+                                          phases[i] == ESR_PHASE_TRAIN ? esr_synth_train_ext(&j->opt->photo) : ""));
     ESR_TRY(esr_synth_json_scene(j->root, j->scene, j->plan, set));
+    if (j->photos)
+        ESR_TRY(esr_synth_json_photos(j->root, j->plan, &j->opt->photo, j->photos));
     struct esr_mesh mesh;
     ESR_TRY(esr_synth_scene_mesh(j->scene, MESH_SEGMENTS, &mesh));
     char path[PATH_LEN];
@@ -326,6 +373,7 @@ int esr_synth_write_dataset(const char *out_dir, const struct esr_synth_options 
     ESR_TRY(check_range("samples per pixel", set.spp, ESR_SYNTH_SPP_MIN, ESR_SYNTH_SPP_MAX));
     ESR_TRY(check_range("train views per condition", set.n_train, 1, 500));
     ESR_TRY(check_range("test cameras", set.n_test, 1, 500));
+    ESR_TRY(esr_photo_check(&opt->photo));
 
     struct esr_synth_plan plan;
     ESR_TRY(esr_synth_plan_make(&scene, set.res, set.n_train, set.n_test, opt->seed, &plan));
@@ -338,6 +386,16 @@ int esr_synth_write_dataset(const char *out_dir, const struct esr_synth_options 
     j.opt = opt;
     j.res = set.res;
     j.spp = set.spp;
+    struct esr_photo_truth *photos = NULL;
+    if (esr_photo_active(&opt->photo)) {
+        photos = calloc((size_t)plan.n_frames[ESR_PHASE_TRAIN], sizeof *photos);
+        if (!photos) {
+            esr_synth_plan_free(&plan);
+            return ESR_FAIL("out of memory for the photos' truth");
+        }
+        esr_photo_plan(&opt->photo, &plan, scene.n_lights, opt->seed, photos);
+        j.photos = photos;
+    }
     int rc = esr_staging_begin(out_dir, opt->force, staging, sizeof staging);
     if (rc == ESR_OK) {
         rc = esr_image_alloc(&j.png, set.res, set.res, 4);
@@ -352,6 +410,7 @@ int esr_synth_write_dataset(const char *out_dir, const struct esr_synth_options 
     }
     esr_image_free(&j.png);
     esr_image_free(&j.mask);
+    free(photos);
     esr_synth_plan_free(&plan);
     return rc;
 }

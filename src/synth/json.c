@@ -45,7 +45,7 @@ static cJSON *matrix(const struct esr_camera *cam)
 }
 
 int esr_synth_json_transforms(const char *dir, const struct esr_synth_scene *s, const struct esr_synth_plan *plan,
-                              enum esr_phase_id phase)
+                              enum esr_phase_id phase, const char *ext)
 {
     const char *pname = esr_phase_name(phase), *tag = esr_synth_mask_tag(phase);
     cJSON *root = cJSON_CreateObject();
@@ -56,7 +56,7 @@ int esr_synth_json_transforms(const char *dir, const struct esr_synth_scene *s, 
         const struct esr_camera *cam = phase == ESR_PHASE_TRAIN ? &plan->train_cams[f->cam] : &plan->test_cams[f->cam];
         char path[256];
         cJSON *fr = cJSON_CreateObject();
-        snprintf(path, sizeof path, "%s/%s", pname, f->name);
+        snprintf(path, sizeof path, "%s/%s%s", pname, f->name, ext);
         cJSON_AddStringToObject(fr, "file_path", path);
         cJSON_AddItemToObject(fr, "transform_matrix", matrix(cam));
         cJSON *lights = cJSON_AddArrayToObject(fr, "lights");
@@ -210,5 +210,39 @@ int esr_synth_json_scene(const char *dir, const struct esr_synth_scene *s, const
                                         "emission = radiance with the light on");
     char file[4096];
     snprintf(file, sizeof file, "%s/scene.json", dir);
+    return esr_json_write_atomic(file, root);
+}
+
+int esr_synth_json_photos(const char *dir, const struct esr_synth_plan *plan, const struct esr_photo_options *opt,
+                          const struct esr_photo_truth *truth)
+{
+    cJSON *root = cJSON_CreateObject();
+    cJSON_AddStringToObject(root, "model",
+                            "pixel = curve(clip(2^exposure_stops * wb_gain[c] * linear[c], 0, 1)), linear the "
+                            "render over white where it is transparent; lights-off set's mean exposure_stops is 0");
+    cJSON_AddStringToObject(root, "curve", esr_photo_curve_name(opt->curve));
+    cJSON_AddNumberToObject(root, "exposure_jitter", opt->exposure_jitter);
+    cJSON_AddNumberToObject(root, "on_exposure", opt->on_exposure);
+    cJSON_AddNumberToObject(root, "wb_jitter", opt->wb_jitter);
+    cJSON_AddBoolToObject(root, "wb_follow", opt->wb_follow);
+    cJSON_AddNumberToObject(root, "noise", opt->noise);
+    cJSON_AddNumberToObject(root, "jpeg_quality", opt->jpeg_quality);
+    cJSON_AddBoolToObject(root, "exif", opt->exif);
+    cJSON *frames = cJSON_AddArrayToObject(root, "frames");
+    for (int i = 0; i < plan->n_frames[ESR_PHASE_TRAIN]; i++) {
+        const struct esr_synth_frame *f = &plan->frames[ESR_PHASE_TRAIN][i];
+        char path[256];
+        cJSON *fr = cJSON_CreateObject();
+        snprintf(path, sizeof path, "%s/%s%s", esr_phase_name(ESR_PHASE_TRAIN), f->name, esr_synth_train_ext(opt));
+        cJSON_AddStringToObject(fr, "file_path", path);
+        cJSON_AddStringToObject(fr, "mode", esr_light_mode_name(f->mode));
+        cJSON_AddNumberToObject(fr, "exposure_stops", truth[i].stops);
+        cJSON *g = cJSON_AddArrayToObject(fr, "wb_gain");
+        for (int c = 0; c < 3; c++)
+            cJSON_AddItemToArray(g, cJSON_CreateNumber(truth[i].gain[c]));
+        cJSON_AddItemToArray(frames, fr);
+    }
+    char file[4096];
+    snprintf(file, sizeof file, "%s/gt/photos.json", dir);
     return esr_json_write_atomic(file, root);
 }

@@ -5,6 +5,8 @@
 
 #include <stdint.h>
 
+#include "synth/photo.h"
+
 #define ESR_SYNTH_RES_MIN 8
 #define ESR_SYNTH_RES_MAX 2048
 #define ESR_SYNTH_SPP_MIN 1
@@ -27,6 +29,9 @@ struct esr_synth_options {
     uint64_t seed;
     int force;             /* replace a non-empty out_dir */
     int backdrop;          /* 1: cameras see a distant backdrop (alpha 1): "photos" (trace.h) */
+    /* train images as an automatic camera takes them (photo.h): opaque (over the backdrop, or
+     * white), per-photo exposure and white balance, tone curve; truth in gt/photos.json */
+    struct esr_photo_options photo;
     /* Called after every frame written (from the calling thread); may be NULL. */
     void (*progress)(void *user, const struct esr_synth_progress *p);
     void *user;
