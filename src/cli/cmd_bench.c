@@ -446,7 +446,9 @@ static void stage_profile(const struct esr_prof_totals *p, double seconds,
     }
     const double other = seconds - sum;
     cJSON_AddNumberToObject(parts, "other_seconds", other);
-    printf("  %-10s   %-20s %7.2f s %5.1f%%  (lights, checkpoints, logs, the rest of the step)\n", "",
+    /* the parts count wherever they run in the stage, so the lights' estimation at pdra's end
+     * shows in march, fields, MLP and LTS too; other is what no part covers */
+    printf("  %-10s   %-20s %7.2f s %5.1f%%  (in no part: checkpoints, logs, the lights' own bookkeeping)\n", "",
            "other", other, 100.0 * other / seconds);
 }
 

@@ -3,7 +3,8 @@
  *
  * Parts nest (the LTS calls the point fields, which call the MLPs): enter/exit keep a stack, and
  * a part's time excludes the parts entered inside it, so the parts add up to the time spent in
- * any of them. Off unless esr_prof_enable(1): then each enter/exit costs two clock reads. Only
+ * any of them. A part counts wherever it runs while the profile is on (a stage's renders for
+ * the lights' estimation as much as its steps). Off unless esr_prof_enable(1): then each enter/exit costs two clock reads. Only
  * the calling thread outside OpenMP parallel regions counts (the training loop's); a call from
  * inside a parallel region is ignored, so concurrent renders cannot race on the counters. */
 #ifndef ESR_CORE_PROFILE_H
