@@ -519,6 +519,51 @@ static void test_lts_brdf_emo_share(void **state)
     teardown(&fx);
 }
 
+/* lts_emo_base 0: the base colour's gradient is the lights-off error's alone, roughness's and
+ * metallic's still the seed loss's (the lights' highlights), per point at the BRDF's outputs. */
+static void test_lts_emo_base_share(void **state)
+{
+    (void)state;
+    struct fixture fx;
+    setup_emitter_stage(&fx, ESR_STAGE_LTS, ESR_LTS_FIRST_HIT);
+    const size_t P = (size_t)fx.st.lts.P, n5 = P * ESR_BRDF_CHANNELS;
+    float *d1 = malloc(n5 * sizeof(float)), *d0 = malloc(n5 * sizeof(float)), *doff = malloc(n5 * sizeof(float));
+    assert_true(d1 && d0 && doff);
+    analytic_gradient(&fx);
+    memcpy(d1, fx.st.lts.d_brdf5, n5 * sizeof(float));
+    fx.m.cfg.lts_emo_base = 0.0f;
+    analytic_gradient(&fx);
+    memcpy(d0, fx.st.lts.d_brdf5, n5 * sizeof(float));
+    fx.m.cfg.lts_emo_base = 1.0f;
+    fx.st.lts.emo = 0.0f; /* the emo error dropped */
+    analytic_gradient(&fx);
+    memcpy(doff, fx.st.lts.d_brdf5, n5 * sizeof(float));
+    double base_off = 0, base_seed = 0, rm = 0, mx_base = 0, mx_rm = 0, rm_seed = 0;
+    for (size_t p = 0; p < P; p++)
+        for (int c = 0; c < ESR_BRDF_CHANNELS; c++) {
+            const size_t i = p * ESR_BRDF_CHANNELS + (size_t)c;
+            if (c < 3) {
+                base_off = fmax(base_off, fabs((double)d0[i] - doff[i]));
+                base_seed = fmax(base_seed, fabs((double)d1[i] - doff[i]));
+                mx_base = fmax(mx_base, fabs((double)d1[i]));
+            } else {
+                rm = fmax(rm, fabs((double)d0[i] - d1[i]));
+                rm_seed = fmax(rm_seed, fabs((double)d1[i] - doff[i]));
+                mx_rm = fmax(mx_rm, fabs((double)d1[i]));
+            }
+        }
+    print_message("base colour: |share 0 - no emo| %.3g, |seed - no emo| %.3g (max %.3g); "
+                  "roughness/metallic |share 0 - seed| %.3g, |seed - no emo| %.3g (max %.3g)\n",
+                  base_off, base_seed, mx_base, rm, rm_seed, mx_rm);
+    assert_true(mx_base > 1e-4 && mx_rm > 1e-4);
+    assert_true(base_seed > 1e-2 * mx_base); /* the emo error does reach the base colour */
+    assert_true(rm_seed > 1e-2 * mx_rm);     /* and roughness / metallic */
+    assert_true(base_off <= 1e-5 * mx_base); /* share 0: the lights-off error alone */
+    assert_true(rm <= 1e-5 * mx_rm);         /* roughness / metallic: the seed's */
+    free(d1), free(d0), free(doff);
+    teardown(&fx);
+}
+
 /* The fine-tune's loss for the edit test (edit/finetune_loss.h): fixed direct light per point and
  * outgoing direction (the edited light brighter and bluer than the found one), whatever the
  * weights, then the loss. */
@@ -796,6 +841,7 @@ int main(void)
         cmocka_unit_test(test_lts_volume_gradients),
         cmocka_unit_test(test_lts_lights_in_transport),
         cmocka_unit_test(test_lts_brdf_emo_share),
+        cmocka_unit_test(test_lts_emo_base_share),
         cmocka_unit_test(test_finetune_edit_gradients),
         cmocka_unit_test(test_pdra_gradients),
         cmocka_unit_test(test_pdra_split_gradients),

@@ -109,6 +109,10 @@ static const struct opt opts[] = {
      "BRDF learns from the lights-off error only, so the clipped photos round a light, whose "
      "light the incident field cannot show, do not raise the base colour there; the emo error "
      "still trains E and the incident light)"},
+    {"lts_emo_base", OPT_FLOAT, OFF(lts_emo_base), 0, 1, DEF(1, 1),
+     "lts/pdra: of the lights-on error's share in the BRDF (lts_brdf_emo), the part that trains the "
+     "base colour (1 = all of it, the seed's loss; 0 = the base colour learns from the lights-off "
+     "error only while roughness and metallic still learn from the lights' highlights)"},
     {"field_width", OPT_INT, OFF(field_width), 8, 256, DEF(64, 128),
      "lts: emission and BRDF MLP hidden width"},
     {"field_depth", OPT_INT, OFF(field_depth), 1, 8, DEF(2, 4),

@@ -76,6 +76,7 @@ struct esr_train_config {
     int lts_lobe_dirs;      /* lts: of lts_dirs, per outgoing direction, from the BRDF's lobe */
     float lts_weight;       /* lts: weight of the light-transport MSE */
     float lts_brdf_emo;     /* lts/pdra: share of the lights-on error that trains the BRDF */
+    float lts_emo_base;     /* lts/pdra: of that share, the part that trains the base colour */
     int field_width;        /* lts: emission / BRDF MLP width */
     int field_depth;        /* lts: emission / BRDF MLP hidden layers */
     int env_lobes;          /* lts: spherical Gaussians of the environment map */

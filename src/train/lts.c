@@ -251,6 +251,8 @@ struct point_weights {
     int sg;      /* pdra's stop-gradient pair in force: an uncertain point's emo error trains E
                     and L_emo, not the reflection */
     float brdf_emo; /* the share of the emo error that reaches the BRDF (option lts_brdf_emo) */
+    float emo_base; /* of that share, the part that reaches the base colour (option lts_emo_base;
+                       roughness and metallic get all of it) */
 };
 
 /* Estimates, loss and the gradients of everything they read, for point p; *prod gets the split
@@ -260,12 +262,16 @@ static void point_loss(struct esr_lts *l, size_t p, const struct point_weights *
 {
     const float scale = pw->scale, w_l = pw->w_l, w_r = pw->w_r, brdf_emo = pw->brdf_emo;
     const int sg = pw->sg;
+    /* the emo error's BRDF gradient kept apart when the base colour takes another share of it */
+    const int apart = pw->emo_base != 1.0f;
+    const float emo_in_sum = apart ? 0.0f : brdf_emo;
     const size_t M = (size_t)l->M;
     const float *lin = l->pf.lin3, *E = l->mf.emit3 + p * 3;
     const struct esr_material mat = esr_material_of_row(l->mf.brdf5 + p * ESR_BRDF_CHANNELS, 1.0f);
     const struct esr_vec3 n = esr_v3_at(l->nrm3, p);
-    struct esr_material d_mat;
+    struct esr_material d_mat, d_mat_emo;
     memset(&d_mat, 0, sizeof d_mat);
+    memset(&d_mat_emo, 0, sizeof d_mat_emo);
     /* pdra's stop-gradient: an uncertain point's L^_emo = E + sg(reflection), so its emo error
      * trains E (and L_emo), not the BRDF or the incident L_emo */
     const float refl_emo = sg && !l->certain[p] ? 0.0f : 1.0f;
@@ -334,14 +340,26 @@ static void point_loss(struct esr_lts *l, size_t p, const struct point_weights *
             for (int c = 0; c < 3; c++) {
                 const float w = l->wt[i];
                 const float d_off = d_hat_off[j & 1][c], d_emo = refl_emo * d_hat_emo[j & 1][c];
-                d_R[c] = (d_off * l->li_off3[i * 3 + c] + brdf_emo * d_emo * l->li_emo3[i * 3 + c]) * w;
+                d_R[c] = (d_off * l->li_off3[i * 3 + c] + emo_in_sum * d_emo * l->li_emo3[i * 3 + c]) * w;
                 l->d_li_off3[i * 3 + c] += d_off * R[c] * w;
                 l->d_li_emo3[i * 3 + c] += d_emo * R[c] * w;
             }
             esr_brdf_eval_bwd(&mat, n, wo, esr_v3_at(l->wi3, i), d_R, &d_mat);
+            if (apart) {
+                float d_R_emo[3];
+                for (int c = 0; c < 3; c++)
+                    d_R_emo[c] = brdf_emo * refl_emo * d_hat_emo[j & 1][c] * l->li_emo3[i * 3 + c] * l->wt[i];
+                esr_brdf_eval_bwd(&mat, n, wo, esr_v3_at(l->wi3, i), d_R_emo, &d_mat_emo);
+            }
         }
     }
     float *db = l->d_brdf5 + p * ESR_BRDF_CHANNELS;
+    if (apart) {
+        for (int c = 0; c < 3; c++)
+            d_mat.base[c] += pw->emo_base * d_mat_emo.base[c];
+        d_mat.roughness += d_mat_emo.roughness;
+        d_mat.metallic += d_mat_emo.metallic;
+    }
     for (int c = 0; c < 3; c++)
         db[c] = d_mat.base[c];
     db[3] = d_mat.roughness;
@@ -411,7 +429,7 @@ static int run_lts(struct esr_lts *l, const struct esr_model *m, const float *sd
     const float w = l->hook ? 1.0f : m->cfg.lts_weight, scale = w / (float)(P * 2 * 3);
     const int pair = ray_certain && m->cfg.pdra_sg; /* "w/o sg": one plain MSE */
     const float w_l = pair ? m->cfg.pdra_w_l : 1.0f, w_r = pair ? m->cfg.pdra_w_r : 1.0f;
-    const struct point_weights pw = {scale, w_l, w_r, pair, m->cfg.lts_brdf_emo};
+    const struct point_weights pw = {scale, w_l, w_r, pair, m->cfg.lts_brdf_emo, m->cfg.lts_emo_base};
     double se_off = 0.0, se_emo = 0.0, prod = 0.0;
     if (l->hook) {
         ESR_TRY(l->hook->run(l->hook->user, l, m, sdf, &q, P, &se_emo));
