@@ -27,6 +27,7 @@
 #include "import/colmap_undistort.h"
 #include "io/dataset.h"
 #include "io/exif.h"
+#include "io/exif_exposure.h"
 #include "io/image.h"
 #include "io/file.h"
 #include "test_support.h"
@@ -160,8 +161,10 @@ static size_t exif_payload(unsigned char *b, int orientation, int big)
     return 6 + sizeof le + 8;
 }
 
-/* img (1 or 3 channels) as a quality-100 JPEG; orientation 1..8 adds an EXIF segment. */
-static void write_jpeg(const char *path, const struct esr_image *img, int orientation, int big_endian)
+/* img (1 or 3 channels) as a quality-100 JPEG; orientation 1..8 adds an EXIF segment, or app1
+ * (app1_size bytes, when not NULL) is the EXIF segment. */
+static void write_jpeg_app1(const char *path, const struct esr_image *img, int orientation, int big_endian,
+                            const unsigned char *app1, size_t app1_size)
 {
     FILE *f = fopen(path, "wb");
     assert_non_null(f);
@@ -179,9 +182,11 @@ static void write_jpeg(const char *path, const struct esr_image *img, int orient
     for (int i = 0; i < c.num_components; i++) /* no chroma subsampling: flat blocks stay exact */
         c.comp_info[i].h_samp_factor = c.comp_info[i].v_samp_factor = 1;
     jpeg_start_compress(&c, TRUE);
-    if (orientation) {
-        unsigned char app1[64];
-        jpeg_write_marker(&c, JPEG_APP0 + 1, app1, (unsigned)exif_payload(app1, orientation, big_endian));
+    if (app1)
+        jpeg_write_marker(&c, JPEG_APP0 + 1, app1, (unsigned)app1_size);
+    else if (orientation) {
+        unsigned char seg[64];
+        jpeg_write_marker(&c, JPEG_APP0 + 1, seg, (unsigned)exif_payload(seg, orientation, big_endian));
     }
     JSAMPLE *row = malloc((size_t)img->width * (size_t)img->channels);
     while (c.next_scanline < c.image_height) {
@@ -194,6 +199,11 @@ static void write_jpeg(const char *path, const struct esr_image *img, int orient
     jpeg_destroy_compress(&c);
     free(row);
     fclose(f);
+}
+
+static void write_jpeg(const char *path, const struct esr_image *img, int orientation, int big_endian)
+{
+    write_jpeg_app1(path, img, orientation, big_endian, NULL, 0);
 }
 
 static void cross(const double a[3], const double b[3], double out[3])
@@ -974,6 +984,83 @@ static void test_import_end_to_end(void **state)
     }
 }
 
+/* The JPEG photos' EXIF exposure goes into the frames (`esr import colmap`), `esr info` reports
+ * it per lighting and warns of the lights-on set shot a stop shorter; a frame's absurd exposure
+ * is refused by the loader naming the file and the frame. */
+static void test_import_records_exif_exposure(void **state)
+{
+    (void)state;
+    char root[1200], out[8192], data[1300], path[1400];
+    snprintf(root, sizeof root, "%s/capture_exif", test_tmpdir);
+    make_capture(root, 1, 6);
+    struct esr_image photo;
+    assert_int_equal(esr_image_alloc(&photo, 64, 48, 3), ESR_OK);
+    for (size_t i = 0; i < esr_image_count(&photo); i++)
+        photo.data[i] = (float)((i / 3 * 7) % 13) / 12.0f;
+    /* the JPEGs (shots 0 and 1 of each set) again, with exposures: lights off at 1/60 s and
+     * 1/30 s, lights on at 1/120 and 1/60 (one stop shorter on average), f/4, ISO 100 */
+    for (int on = 0; on < 2; on++)
+        for (int k = 0; k < 2; k++) {
+            const struct esr_exif_exposure e = {(k ? 2.0 : 1.0) / (on ? 120.0 : 60.0), 4.0, 100};
+            unsigned char *app1 = NULL;
+            size_t size = 0;
+            assert_int_equal(esr_exif_exposure_payload(&e, &app1, &size), ESR_OK);
+            snprintf(path, sizeof path, "%s/images/%s/shot%d.jpg", root, on ? "on" : "off", k);
+            write_jpeg_app1(path, &photo, 0, 0, app1, size);
+            free(app1);
+        }
+    esr_image_free(&photo);
+    snprintf(data, sizeof data, "%s/data", root);
+    int rc = import_capture(root, 40, out, sizeof out);
+    if (rc != 0)
+        fail_msg("esr import failed (%d): %s", rc, out);
+    assert_non_null(strstr(out, "EXIF exposure recorded for 4 of 6 photos"));
+    assert_non_null(strstr(out, "1.00 stops shorter than the lights-off ones"));
+    struct esr_dataset ds;
+    assert_int_equal(esr_dataset_load(data, &ds), ESR_OK);
+    const struct esr_phase *train = &ds.phases[ESR_PHASE_TRAIN];
+    double ev[2][2];
+    for (int i = 0; i < train->n_frames; i++) {
+        const struct esr_frame *f = &train->frames[i];
+        const int shot = f->name[4] - '0';
+        assert_int_equal(f->has_exposure, shot < 2); /* the PNG has none */
+        if (shot < 2)
+            ev[f->lights_on][shot] = f->exposure_ev;
+    }
+    /* log2(t ISO / N^2): 1/60 s, ISO 100, f/4 is log2(100 / 960) */
+    assert_true(fabs(ev[0][0] - log2(100.0 / 960.0)) < 1e-3);
+    assert_true(fabs(ev[0][1] - ev[0][0] - 1.0) < 1e-3 && fabs(ev[1][0] - ev[0][0] + 1.0) < 1e-3);
+    esr_dataset_free(&ds);
+    char args[2800];
+    snprintf(args, sizeof args, "info '%s'", data);
+    assert_int_equal(test_run_esr(args, out, sizeof out), 0); /* a warning, not a problem */
+    assert_non_null(strstr(out, "exposure  lights off 2 photos"));
+    assert_non_null(strstr(out, "warning: exposure recorded for 4 of the 6 training photos only"));
+    assert_non_null(strstr(out, "warning: the lights-off photos were shot 1.00 stops apart"));
+    assert_non_null(strstr(out, "so they will come out 2.00x too weak"));
+    /* an absurd exposure in a frame */
+    snprintf(path, sizeof path, "%s/transforms/transforms_train.json", data);
+    unsigned char *text = NULL;
+    size_t n = 0;
+    assert_int_equal(esr_file_read_all(path, &text, &n), ESR_OK);
+    char *bad = malloc(n + 1);
+    memcpy(bad, text, n);
+    bad[n] = '\0';
+    char *iso = strstr(bad, "\"iso\":");
+    assert_non_null(iso);
+    iso += strlen("\"iso\":");
+    while (*iso == ' ' || *iso == '\t')
+        iso++;
+    memcpy(iso, "000", 3); /* ISO 100 -> 000 */
+    assert_int_equal(test_write_file(path, bad), 0);
+    free(bad), free(text);
+    esr_error_clear();
+    assert_int_equal(esr_dataset_load(data, &ds), ESR_ERR);
+    assert_non_null(strstr(esr_error_message(), "transforms_train.json"));
+    assert_non_null(strstr(esr_error_message(), "'exposure': 'iso' must be a whole number"));
+    esr_error_clear();
+}
+
 /* Pixel-level check: a point of the COLMAP world lands where COLMAP's own (distorted)
  * projection, undistorted, says, in the written pinhole view. */
 static void test_import_projection_agrees_with_colmap(void **state)
@@ -1212,6 +1299,7 @@ int main(void)
         cmocka_unit_test(test_import_projection_agrees_with_colmap),
         cmocka_unit_test(test_import_masks_become_alpha),
         cmocka_unit_test(test_import_bad_captures),
+        cmocka_unit_test(test_import_records_exif_exposure),
     };
     return cmocka_run_group_tests(tests, test_setup_tmpdir, test_teardown_tmpdir);
 }

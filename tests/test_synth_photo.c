@@ -13,7 +13,10 @@
 #include <string.h>
 
 #include "core/colour.h"
+#include "core/error.h"
 #include "io/dataset.h"
+#include "io/dataset.h"
+#include "io/dataset_summary.h"
 #include "io/exif_exposure.h"
 #include "io/file.h"
 #include "io/image.h"
@@ -259,6 +262,22 @@ static void test_exif_round_trips(void **state)
         n++;
     }
     assert_int_equal(n, 6);
+    /* the frames record the same exposure (as an import does), and the two sets' mean log
+     * exposures are --on-exposure apart, which `esr info` reports */
+    snprintf(path, sizeof path, "%s/ds", tmp);
+    struct esr_dataset ds;
+    assert_int_equal(esr_dataset_load(path, &ds), ESR_OK);
+    struct esr_dataset_summary sum;
+    esr_dataset_summarise(&ds, &sum);
+    const struct esr_phase_summary *t = &sum.phases[ESR_PHASE_TRAIN];
+    assert_int_equal(t->n_exposure[0], 3);
+    assert_int_equal(t->n_exposure[1], 3);
+    assert_true(fabs(t->ev_mean[1] - t->ev_mean[0] + 1.0) < 0.02);
+    assert_true(fabs(t->ev_mean[0] - log2(esr_exif_relative_exposure(&base))) < 0.02); /* re-centred */
+    char note[1024];
+    assert_int_equal(esr_dataset_exposure_note(&sum, note, sizeof note), 1);
+    assert_non_null(strstr(note, "stops shorter than the lights-off ones"));
+    esr_dataset_free(&ds);
     cJSON_Delete(truth);
     test_rmtree(tmp);
     free(tmp);

@@ -6,6 +6,8 @@
 
 #include "cli/commands.h"
 #include "core/error.h"
+#include "io/dataset.h"
+#include "io/dataset_summary.h"
 #include "import/colmap_import.h"
 #include "import/dtu_import.h"
 
@@ -127,6 +129,22 @@ static void print_result(const struct esr_colmap_import_opts *o, const struct es
     }
     if (!r->n_on || !r->n_off)
         printf("warning   no lights-%s photos: the emitter stages need both\n", r->n_on ? "off" : "on");
+    printf("exposure  EXIF exposure recorded for %d of %d photos\n", r->n_exposure, r->n_frames);
+    if (r->n_exposure_bad)
+        printf("warning   %d photo%s EXIF exposure left out as absurd (the first: %s)\n", r->n_exposure_bad,
+               r->n_exposure_bad == 1 ? "'s" : "s'", r->exposure_bad);
+    struct esr_dataset ds; /* what the frames' exposures say, as `esr info` says it */
+    if (r->n_exposure && esr_dataset_load(o->out_dir, &ds) == ESR_OK) {
+        struct esr_dataset_summary sum;
+        esr_dataset_summarise(&ds, &sum);
+        char note[1024];
+        if (esr_dataset_exposure_note(&sum, note, sizeof note))
+            for (char *line = strtok(note, "\n"); line; line = strtok(NULL, "\n"))
+                printf("warning   %s\n", line);
+        esr_dataset_free(&ds);
+    } else {
+        esr_error_clear();
+    }
 }
 
 /* The DTU import with the options parsed for both sources. */

@@ -36,7 +36,9 @@ const struct esr_command cmd_info = {
     "transforms_{train,val,test}.json) and prints its layout, image size, focal length, number\n"
     "of lights, per phase the frame count and the count per lighting mode, the bounding box of\n"
     "the camera centres and their distance from the origin, and the scene box. Then decodes every\n"
-    "image, EXR and mask the dataset refers to and lists every problem found.\n"
+    "image, EXR and mask the dataset refers to and lists every problem found. Where the frames\n"
+    "record their exposure (EXIF, written by `esr import colmap`), prints its range per lighting\n"
+    "and warns when photos of one set, or the two sets, were shot at different exposures.\n"
     "Exit status: 0 when the dataset is valid, 1 when it cannot be loaded or has problems.\n",
     .options = info_options,
     .run = run_info,
@@ -89,6 +91,19 @@ static void print_summary(const struct esr_dataset *ds, const struct esr_dataset
                  (double)ps->centre_max[1], (double)ps->centre_max[2]);
         printf("%-10s %6d  %-34s %-40s %.3f .. %.3f\n", esr_phase_name((enum esr_phase_id)p), ps->n_frames, modes,
                centres, (double)ps->radius_min, (double)ps->radius_max);
+    }
+    const struct esr_phase_summary *t = &s->phases[ESR_PHASE_TRAIN];
+    static const char *const set[2] = {"lights off", "lights on"};
+    if (t->n_exposure[0] || t->n_exposure[1])
+        printf("\n");
+    for (int on = 0; on < 2; on++)
+        if (t->n_exposure[on])
+            printf("exposure  %-10s %d photos, log2(time x ISO / f-number^2) %.2f .. %.2f, mean %.2f\n", set[on],
+                   t->n_exposure[on], t->ev_min[on], t->ev_max[on], t->ev_mean[on]);
+    char note[1024];
+    if (esr_dataset_exposure_note(s, note, sizeof note)) {
+        for (char *line = strtok(note, "\n"); line; line = strtok(NULL, "\n"))
+            printf("warning: %s\n", line);
     }
 }
 

@@ -2,6 +2,7 @@
  * then undistort every photo into a staging folder and write the JSON (see colmap_import.h). */
 #include "import/colmap_import.h"
 
+#include <cJSON.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -13,6 +14,7 @@
 #include "import/colmap_test_views.h"
 #include "import/colmap_undistort.h"
 #include "io/dataset.h"
+#include "io/exif_exposure.h"
 #include "io/file.h"
 #include "import/import_layout.h"
 #include "io/staging.h"
@@ -199,6 +201,23 @@ static int write_frame_image(const struct esr_colmap_model *m, const struct fram
     return esr_import_write_image(staging, p->out_name, &out);
 }
 
+/* The EXIF exposure of a JPEG photo: 1 with *e, 0 when it has none or absurd values (counted in
+ * r, the first reason kept), -1 when the file cannot be read. */
+static int photo_exposure(const struct frame_plan *p, struct esr_exif_exposure *e, struct esr_colmap_import_result *r)
+{
+    unsigned char *data = NULL;
+    size_t size = 0;
+    if (esr_file_read_all(p->src_path, &data, &size) != ESR_OK)
+        return -1;
+    char why[160];
+    const int got = esr_exif_exposure_read(data, size, e, why, sizeof why);
+    free(data);
+    if (got < 0 && r->n_exposure_bad++ == 0)
+        snprintf(r->exposure_bad, sizeof r->exposure_bad, "'%s': %s", p->src_path, why);
+    r->n_exposure += got > 0;
+    return got > 0;
+}
+
 /* transforms_train.json, and the range of camera distances the result reports. */
 static int write_transforms(const struct frame_plan *plans, int n, const char *staging,
                             struct esr_colmap_import_result *r)
@@ -213,6 +232,15 @@ static int write_transforms(const struct frame_plan *plans, int n, const char *s
         esr_import_camera_distance(placed, &r->cam_dist_min, &r->cam_dist_max);
         cJSON *f = esr_import_frame_json(plans[i].out_name, placed, plans[i].lights_on);
         cJSON_AddStringToObject(f, "colmap_image", plans[i].image->name);
+        struct esr_exif_exposure e;
+        const int ex = plans[i].jpeg ? photo_exposure(&plans[i], &e, r) : 0;
+        if (ex < 0) {
+            cJSON_Delete(f);
+            cJSON_Delete(frames);
+            return ESR_ERR;
+        }
+        if (ex > 0)
+            cJSON_AddItemToObject(f, "exposure", esr_exif_exposure_json(&e));
         cJSON_AddItemToArray(frames, f);
     }
     return esr_import_write_transforms(staging, r->camera_angle_x, frames);
@@ -259,6 +287,7 @@ static int write_record(const struct esr_colmap_import_opts *o, const struct esr
     cJSON_AddNumberToObject(root, "focal", r->focal);
     cJSON_AddBoolToObject(root, "masks", o->masks_dir != NULL);
     cJSON_AddStringToObject(root, "alpha", o->masks_dir ? o->masks_dir : "none");
+    cJSON_AddNumberToObject(root, "exif_exposure_frames", r->n_exposure);
     if (r->aligned)
         cJSON_AddItemToObject(root, "alignment", alignment_json(o, r));
     return esr_import_write_record(staging, root);

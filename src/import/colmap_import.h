@@ -49,6 +49,10 @@ struct esr_colmap_import_result {
                                 valid extent covers, as a fraction (1: all; below 1 the outermost
                                 output pixels repeat the photos' edge) */
     int n_test_views;        /* test_nv frames copied from the true dataset */
+    /* EXIF exposure (ExposureTime, FNumber, ISO) recorded per frame from the JPEG photos: how
+     * many carried it, and how many carried absurd values (left out), the first one's reason */
+    int n_exposure, n_exposure_bad;
+    char exposure_bad[256];
 };
 
 /* With align_to (a synthetic capture whose true cameras are known, e.g. `esr synth`'s training

@@ -11,6 +11,7 @@
 #include <sys/stat.h>
 
 #include "core/error.h"
+#include "io/exif_exposure.h"
 #include "io/file.h"
 #include "io/json_file.h"
 
@@ -239,6 +240,29 @@ static size_t frame_image_extension(const char *file_path)
     return 0;
 }
 
+/* The frame's optional "exposure" {"exposure_time_s", "f_number", "iso"}. */
+static int parse_exposure(const struct json_where *w, const cJSON *frame, struct esr_frame *f)
+{
+    const cJSON *ex = cJSON_GetObjectItemCaseSensitive(frame, "exposure");
+    if (!ex)
+        return ESR_OK;
+    if (!cJSON_IsObject(ex))
+        return JSON_FAIL(w, "'exposure' must be an object {\"exposure_time_s\", \"f_number\", \"iso\"}");
+    float t = 0.0f, n = 0.0f, iso = 0.0f;
+    ESR_TRY(json_number(w, ex, "exposure_time_s", &t));
+    ESR_TRY(json_number(w, ex, "f_number", &n));
+    ESR_TRY(json_number(w, ex, "iso", &iso));
+    if (iso != floorf(iso) || !(iso >= 1.0f && iso <= 1e6f))
+        return JSON_FAIL(w, "'exposure': 'iso' must be a whole number in [1, 1000000]");
+    const struct esr_exif_exposure e = {t, n, (int)iso};
+    char why[96];
+    if (esr_exif_exposure_check(&e, why, sizeof why) != 0)
+        return JSON_FAIL(w, "'exposure': %s", why);
+    f->has_exposure = 1;
+    f->exposure_ev = log2(esr_exif_relative_exposure(&e));
+    return ESR_OK;
+}
+
 static int parse_frame(const struct json_where *w, const cJSON *obj, struct esr_dataset *ds, struct esr_frame *f)
 {
     if (!cJSON_IsObject(obj))
@@ -254,6 +278,7 @@ static int parse_frame(const struct json_where *w, const cJSON *obj, struct esr_
     strcpy(f->name, base);
     f->name[strlen(f->name) - frame_image_extension(f->name)] = '\0';
     ESR_TRY(parse_matrix(w, obj, &f->camera));
+    ESR_TRY(parse_exposure(w, obj, f));
     if (ds->layout == ESR_LAYOUT_ESR)
         ESR_TRY(parse_lights(w, obj, ds, f));
     return ESR_OK;

@@ -47,6 +47,11 @@ struct esr_frame {
     struct esr_camera camera;
     int lights_on;                /* 1 when any light has intensity > 0 */
     struct esr_light_state *lights; /* dataset.n_lights entries */
+    /* the photo's exposure as its camera recorded it (the frame's "exposure": EXIF ExposureTime,
+     * FNumber, ISO, which `esr import colmap` and `esr synth --exif` write): has_exposure 1 and
+     * exposure_ev = log2(time * ISO / f-number^2), the light the sensor took in, in stops */
+    int has_exposure;
+    double exposure_ev;
 };
 
 struct esr_phase {

@@ -2,6 +2,7 @@
 
 #include <cJSON.h>
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -33,7 +34,48 @@ static void summarise_phase(const struct esr_dataset *ds, const struct esr_phase
         }
         s->radius_min = fminf(s->radius_min, sqrtf(r2));
         s->radius_max = fmaxf(s->radius_max, sqrtf(r2));
+        if (f->has_exposure) {
+            const int on = f->lights_on ? 1 : 0;
+            const double ev = f->exposure_ev;
+            s->ev_min[on] = s->n_exposure[on] ? fmin(s->ev_min[on], ev) : ev;
+            s->ev_max[on] = s->n_exposure[on] ? fmax(s->ev_max[on], ev) : ev;
+            s->ev_mean[on] += ev;
+            s->n_exposure[on]++;
+        }
     }
+    for (int on = 0; on < 2; on++)
+        if (s->n_exposure[on])
+            s->ev_mean[on] /= s->n_exposure[on];
+}
+
+int esr_dataset_exposure_note(const struct esr_dataset_summary *s, char *out, size_t size)
+{
+    const struct esr_phase_summary *t = &s->phases[ESR_PHASE_TRAIN];
+    static const char *const set[2] = {"lights-off", "lights-on"};
+    size_t at = 0;
+    out[0] = '\0';
+#define SAY(...) (at += (size_t)snprintf(out + at, at < size ? size - at : 0, __VA_ARGS__), at = at < size ? at : size - 1)
+    const int n = t->n_exposure[0] + t->n_exposure[1];
+    if (!t->present || n == 0)
+        return 0;
+    if (n < t->n_frames)
+        SAY("exposure recorded for %d of the %d training photos only: the rest are taken as shot at "
+            "the same exposure\n", n, t->n_frames);
+    for (int on = 0; on < 2; on++)
+        if (t->n_exposure[on] && t->ev_max[on] - t->ev_min[on] >= ESR_EXPOSURE_TOLERANCE_STOPS)
+            SAY("the %s photos were shot %.2f stops apart (exposure differs from photo to photo): esr "
+                "takes every photo as shot at one exposure, so their brightness differences count as "
+                "the scene's\n", set[on], t->ev_max[on] - t->ev_min[on]);
+    if (t->n_exposure[0] && t->n_exposure[1]) {
+        const double d = t->ev_mean[1] - t->ev_mean[0];
+        if (fabs(d) >= ESR_EXPOSURE_TOLERANCE_STOPS)
+            SAY("the lights-on photos were shot %.2f stops %s than the lights-off ones (automatic "
+                "exposure?): the lights' strengths are read from how much brighter the lights-on "
+                "photos are, so they will come out %.2fx %s; shoot both sets at one manual exposure\n",
+                fabs(d), d < 0 ? "shorter" : "longer", pow(2.0, fabs(d)), d < 0 ? "too weak" : "too strong");
+    }
+#undef SAY
+    return out[0] != '\0';
 }
 
 void esr_dataset_summarise(const struct esr_dataset *ds, struct esr_dataset_summary *out)
@@ -54,6 +96,17 @@ static cJSON *phase_json(const struct esr_phase_summary *s)
     cJSON_AddItemToObject(obj, "camera_centre_max", esr_json_float_array(s->centre_max, 3));
     cJSON_AddNumberToObject(obj, "camera_radius_min", (double)s->radius_min);
     cJSON_AddNumberToObject(obj, "camera_radius_max", (double)s->radius_max);
+    static const char *const set[2] = {"lights_off", "lights_on"};
+    for (int on = 0; on < 2; on++)
+        if (s->n_exposure[on]) {
+            char key[32];
+            snprintf(key, sizeof key, "exposure_%s", set[on]);
+            cJSON *e = cJSON_AddObjectToObject(obj, key);
+            cJSON_AddNumberToObject(e, "photos", s->n_exposure[on]);
+            cJSON_AddNumberToObject(e, "ev_mean", s->ev_mean[on]);
+            cJSON_AddNumberToObject(e, "ev_min", s->ev_min[on]);
+            cJSON_AddNumberToObject(e, "ev_max", s->ev_max[on]);
+        }
     return obj;
 }
 
@@ -75,6 +128,9 @@ static cJSON *summary_json(const struct esr_dataset *ds, const struct esr_datase
     for (int p = 0; p < ESR_PHASE_COUNT; p++)
         if (s->phases[p].present)
             cJSON_AddItemToObject(phases, esr_phase_name((enum esr_phase_id)p), phase_json(&s->phases[p]));
+    char note[1024];
+    if (esr_dataset_exposure_note(s, note, sizeof note))
+        cJSON_AddStringToObject(root, "exposure_warnings", note);
     cJSON *list = cJSON_AddArrayToObject(root, "problems");
     for (int i = 0; i < n_problems; i++)
         cJSON_AddItemToArray(list, cJSON_CreateString(problems[i]));

@@ -11,6 +11,9 @@ struct esr_phase_summary {
     int mode_counts[ESR_LIGHT_MODE_COUNT]; /* frames per lighting mode (esr_frame_mode) */
     float centre_min[3], centre_max[3];    /* bounding box of the camera centres */
     float radius_min, radius_max;          /* camera centre distance from the origin */
+    /* the recorded exposures (esr_frame.exposure_ev), per lighting: [0] lights off, [1] on */
+    int n_exposure[2];
+    double ev_mean[2], ev_min[2], ev_max[2];
 };
 
 struct esr_dataset_summary {
@@ -19,6 +22,15 @@ struct esr_dataset_summary {
 
 /* Fills out from ds (no I/O). */
 void esr_dataset_summarise(const struct esr_dataset *ds, struct esr_dataset_summary *out);
+
+/* Exposure differences that bias what esr estimates, as text for a user (lines ending in '\n',
+ * into out of size bytes): photos of one set shot at different exposures, the lights-on set
+ * shot at another exposure than the lights-off one (the lights' strengths are read from how
+ * much brighter the lights-on photos are, so a stop is a factor of two on every light), or
+ * exposures recorded for some training photos only. 1 when there is something to say (out
+ * filled), 0 when not (out empty). Differences under ESR_EXPOSURE_TOLERANCE_STOPS are ignored. */
+#define ESR_EXPOSURE_TOLERANCE_STOPS 0.1
+int esr_dataset_exposure_note(const struct esr_dataset_summary *s, char *out, size_t size);
 
 /* Writes the dataset facts, the summary and the given problems (may be 0) as a JSON object to
  * path (atomically). */

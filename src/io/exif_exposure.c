@@ -1,5 +1,7 @@
 #include "io/exif_exposure.h"
 
+#include <cJSON.h>
+
 #include <libexif/exif-data.h>
 #include <libexif/exif-utils.h>
 #include <math.h>
@@ -8,6 +10,32 @@
 #include <string.h>
 
 #include "core/error.h"
+
+int esr_exif_exposure_check(const struct esr_exif_exposure *e, char *why, size_t why_size)
+{
+    if (!(e->exposure_time_s > 0.0 && e->exposure_time_s <= 3600.0)) {
+        snprintf(why, why_size, "ExposureTime %g s is absurd", e->exposure_time_s);
+        return -1;
+    }
+    if (!(e->f_number >= 0.5 && e->f_number <= 128.0)) {
+        snprintf(why, why_size, "FNumber %g is absurd", e->f_number);
+        return -1;
+    }
+    if (e->iso <= 0 || e->iso > 1000000) {
+        snprintf(why, why_size, "ISO %d is absurd", e->iso);
+        return -1;
+    }
+    return 0;
+}
+
+cJSON *esr_exif_exposure_json(const struct esr_exif_exposure *e)
+{
+    cJSON *j = cJSON_CreateObject();
+    cJSON_AddNumberToObject(j, "exposure_time_s", e->exposure_time_s);
+    cJSON_AddNumberToObject(j, "f_number", e->f_number);
+    cJSON_AddNumberToObject(j, "iso", e->iso);
+    return j;
+}
 
 double esr_exif_relative_exposure(const struct esr_exif_exposure *e)
 {
@@ -99,18 +127,9 @@ int esr_exif_exposure_read(const unsigned char *data, size_t n, struct esr_exif_
     exif_data_unref(d);
     if (!present)
         return 0;
-    if (!(t > 0.0 && t <= 3600.0)) {
-        snprintf(why, why_size, "ExposureTime %g s is absurd", t);
+    const struct esr_exif_exposure found = {t, f, (int)iso_value};
+    if (esr_exif_exposure_check(&found, why, why_size) != 0)
         return -1;
-    }
-    if (!(f >= 0.5 && f <= 128.0)) {
-        snprintf(why, why_size, "FNumber %g is absurd", f);
-        return -1;
-    }
-    if (iso_value <= 0 || iso_value > 1000000) {
-        snprintf(why, why_size, "ISO %ld is absurd", iso_value);
-        return -1;
-    }
     e->exposure_time_s = t;
     e->f_number = f;
     e->iso = (int)iso_value;

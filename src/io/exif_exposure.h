@@ -10,6 +10,14 @@ struct esr_exif_exposure {
     int iso;                /* ISOSpeedRatings */
 };
 
+/* 0 when e is plausible; -1 when any value is absurd (exposure time not in (0, 3600] s, f-number
+ * not in [0.5, 128], ISO 0 or over 10^6), with *why saying which (why_size bytes). */
+int esr_exif_exposure_check(const struct esr_exif_exposure *e, char *why, size_t why_size);
+
+/* e as the dataset's frames record it: {"exposure_time_s", "f_number", "iso"} (a new object). */
+struct cJSON;
+struct cJSON *esr_exif_exposure_json(const struct esr_exif_exposure *e);
+
 /* The light a sensor records, relative: exposure_time_s * iso / f_number^2. */
 double esr_exif_relative_exposure(const struct esr_exif_exposure *e);
 

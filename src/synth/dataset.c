@@ -337,9 +337,23 @@ static int write_all(struct job *j, const struct esr_synth_settings *set)
     ESR_TRY(make_layout(j->root));
     ESR_TRY(render_train(j));
     ESR_TRY(render_test(j));
-    for (int i = 0; i < N_PHASES; i++)
-        ESR_TRY(esr_synth_json_transforms(j->root, j->scene, j->plan, phases[i],
-                                          phases[i] == ESR_PHASE_TRAIN ? esr_synth_train_ext(&j->opt->photo) : ""));
+    /* the train photos' EXIF exposure in the frames too, as an import records it */
+    struct esr_exif_exposure *exif = NULL;
+    if (j->photos && j->opt->photo.exif) {
+        const int n = j->plan->n_frames[ESR_PHASE_TRAIN];
+        exif = malloc((size_t)n * sizeof *exif);
+        if (!exif)
+            return ESR_FAIL("out of memory for the photos' exposures");
+        for (int i = 0; i < n; i++)
+            esr_photo_exif(&j->photos[i], &exif[i]);
+    }
+    int status = ESR_OK;
+    for (int i = 0; i < N_PHASES && status == ESR_OK; i++)
+        status = esr_synth_json_transforms(j->root, j->scene, j->plan, phases[i],
+                                           phases[i] == ESR_PHASE_TRAIN ? esr_synth_train_ext(&j->opt->photo) : "",
+                                           phases[i] == ESR_PHASE_TRAIN ? exif : NULL);
+    free(exif);
+    ESR_TRY(status);
     ESR_TRY(esr_synth_json_scene(j->root, j->scene, j->plan, set));
     if (j->photos)
         ESR_TRY(esr_synth_json_photos(j->root, j->plan, &j->opt->photo, j->photos));

@@ -1,5 +1,7 @@
 #include "synth/json.h"
 
+#include "io/exif_exposure.h"
+
 #include <cjson/cJSON.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -45,7 +47,7 @@ static cJSON *matrix(const struct esr_camera *cam)
 }
 
 int esr_synth_json_transforms(const char *dir, const struct esr_synth_scene *s, const struct esr_synth_plan *plan,
-                              enum esr_phase_id phase, const char *ext)
+                              enum esr_phase_id phase, const char *ext, const struct esr_exif_exposure *exposure)
 {
     const char *pname = esr_phase_name(phase), *tag = esr_synth_mask_tag(phase);
     cJSON *root = cJSON_CreateObject();
@@ -72,6 +74,8 @@ int esr_synth_json_transforms(const char *dir, const struct esr_synth_scene *s, 
             cJSON_AddItemToObject(l, "intensity", num(f->intensity[k]));
             cJSON_AddItemToArray(lights, l);
         }
+        if (exposure)
+            cJSON_AddItemToObject(fr, "exposure", esr_exif_exposure_json(&exposure[i]));
         cJSON_AddItemToArray(frames, fr);
     }
     char file[4096];

@@ -6,9 +6,11 @@
 #include "synth/plan.h"
 
 /* Writes <dir>/transforms/transforms_<phase>.json for the plan's frames of phase, each file_path
- * ending in ext ("" or ".jpg"). */
+ * ending in ext ("" or ".jpg"), and with exposure (one per frame, or NULL) each frame's
+ * "exposure" as its JPEG's EXIF records it (what `esr import colmap` writes for photos). */
+struct esr_exif_exposure;
 int esr_synth_json_transforms(const char *dir, const struct esr_synth_scene *s, const struct esr_synth_plan *plan,
-                              enum esr_phase_id phase, const char *ext);
+                              enum esr_phase_id phase, const char *ext, const struct esr_exif_exposure *exposure);
 
 /* Render settings recorded in scene.json. */
 struct esr_synth_settings {

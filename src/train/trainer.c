@@ -19,6 +19,7 @@
 #include "fields/env_sg.h"
 #include "fields/sdf.h"
 #include "io/dataset.h"
+#include "io/dataset_summary.h"
 #include "io/dir.h"
 #include "io/file.h"
 #include "io/json_file.h"
@@ -767,6 +768,21 @@ static int setup(struct run *r)
                                 "about its centre: [%.3g, %.3g, %.3g] .. [%.3g, %.3g, %.3g]",
             (double)ds.bbox_min[0], (double)ds.bbox_min[1], (double)ds.bbox_min[2], (double)ds.bbox_max[0],
             (double)ds.bbox_max[1], (double)ds.bbox_max[2]);
+    { /* photos shot at other exposures bias the strengths: said before the minutes of training */
+        struct esr_dataset_summary sum;
+        esr_dataset_summarise(&ds, &sum);
+        char note[1024];
+        if (esr_dataset_exposure_note(&sum, note, sizeof note))
+            for (char *line = note; *line;) {
+                char *end = strchr(line, '\n');
+                if (end)
+                    *end = '\0';
+                say(r, ESR_STAGE_COUNT, "warning: %s", line);
+                if (!end)
+                    break;
+                line = end + 1;
+            }
+    }
     r->health.lights_listed = ds.n_lights;
     int rc = esr_ray_set_build(&r->rays, &ds, ESR_PHASE_TRAIN);
     char root[sizeof ds.root];
