@@ -12,6 +12,7 @@
 #include <unistd.h>
 
 #include "cli/commands.h"
+#include "core/isa.h"
 #include "core/error.h"
 #include "core/simd.h"
 #include "edit/editor.h"
@@ -129,9 +130,12 @@ static cJSON *machine_json(void)
     cJSON_AddStringToObject(o, "date", date);
     cJSON_AddStringToObject(o, "mlp_kernels", esr_gemm_isa());
     cJSON_AddStringToObject(o, "hot_loops", esr_hot_loops_isa());
+    cJSON_AddStringToObject(o, "max_isa", esr_isa_name(esr_isa_cap())); /* ESR_MAX_ISA */
     printf("machine: %s, %ld cores, %d OpenMP threads, commit %.12s, %s\n", cpu, sysconf(_SC_NPROCESSORS_ONLN),
            omp_get_max_threads(), commit[0] ? commit : "-", date);
-    printf("code paths: MLP kernels %s, hot loops %s\n", esr_gemm_isa(), esr_hot_loops_isa());
+    printf("code paths: MLP kernels %s, hot loops %s%s%s\n", esr_gemm_isa(), esr_hot_loops_isa(),
+           esr_isa_cap() < ESR_ISA_AVX512 ? ", oneDNN and the MLP kernels capped by ESR_MAX_ISA=" : "",
+           esr_isa_cap() < ESR_ISA_AVX512 ? esr_isa_name(esr_isa_cap()) : "");
     return o;
 }
 

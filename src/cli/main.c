@@ -5,6 +5,9 @@
 #include <string.h>
 
 #include "cli/commands.h"
+#include <oneapi/dnnl/dnnl.h>
+
+#include "core/isa.h"
 #include "core/limits.h"
 #include "core/simd.h"
 #include "core/suggest.h"
@@ -52,6 +55,24 @@ static void keep_freed_memory(void)
 #endif
 }
 
+/* ESR_MAX_ISA caps the run-time code paths (core/isa.h), oneDNN's included: one machine then
+ * times what a machine without AVX-512 runs. */
+static int apply_isa_cap(void)
+{
+    if (esr_isa_cap_valid() != 0) {
+        fprintf(stderr, "esr: error: ESR_MAX_ISA='%s' is not a code path (avx512, avx2 or generic)\n",
+                getenv("ESR_MAX_ISA"));
+        return -1;
+    }
+    const enum esr_isa cap = esr_isa_cap();
+    if (cap < ESR_ISA_AVX512 && dnnl_set_max_cpu_isa(cap == ESR_ISA_AVX2 ? dnnl_cpu_isa_avx2 : dnnl_cpu_isa_sse41) !=
+                                    dnnl_success) {
+        fprintf(stderr, "esr: error: oneDNN refused ESR_MAX_ISA='%s'\n", getenv("ESR_MAX_ISA"));
+        return -1;
+    }
+    return 0;
+}
+
 extern const char esr_build_commit[]; /* generated at build time (cmake/version.cmake) */
 
 /* `esr --version`: what a bug report needs: the release, the commit built, and the code paths
@@ -60,7 +81,9 @@ extern const char esr_build_commit[]; /* generated at build time (cmake/version.
 static void print_version(void)
 {
     printf("esr %s (commit %s, built %s)\n", ESR_VERSION, esr_build_commit, __DATE__);
-    printf("code paths on this CPU: MLP kernels %s, hot loops %s\n", esr_gemm_isa(), esr_hot_loops_isa());
+    printf("code paths on this CPU: MLP kernels %s, hot loops %s%s%s\n", esr_gemm_isa(), esr_hot_loops_isa(),
+           esr_isa_cap() < ESR_ISA_AVX512 ? "; capped by ESR_MAX_ISA=" : "",
+           esr_isa_cap() < ESR_ISA_AVX512 ? esr_isa_name(esr_isa_cap()) : "");
 }
 
 static const struct esr_command *find_command(const char *name)
@@ -86,7 +109,7 @@ static int unknown_command(const char *name)
 
 int main(int argc, char **argv)
 {
-    if (apply_memory_limit() != 0)
+    if (apply_memory_limit() != 0 || apply_isa_cap() != 0)
         return 1;
     if (argc < 2) {
         print_help(stderr);

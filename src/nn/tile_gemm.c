@@ -3,6 +3,7 @@
 
 #include <string.h>
 
+#include "core/isa.h"
 #include "core/simd.h"
 
 #define NR 16     /* columns per micro-block: two 8-float vectors */
@@ -162,13 +163,14 @@ static struct gemm_impl_choice gemm_pick(void)
 {
     struct gemm_impl_choice ch = {gemm_base, GEMM_BASE_NAME};
 #ifdef GEMM_MULTI_ISA
-    if (__builtin_cpu_supports("x86-64-v4")) {
+    const enum esr_isa cap = esr_isa_cap();
+    if (cap >= ESR_ISA_AVX512 && __builtin_cpu_supports("x86-64-v4")) {
         ch.fn = gemm_v4;
         ch.name = "avx512";
-    } else if (__builtin_cpu_supports("x86-64-v3")) {
+    } else if (cap >= ESR_ISA_AVX2 && __builtin_cpu_supports("x86-64-v3")) {
         ch.fn = gemm_v3;
         ch.name = "avx2";
-    }
+    } /* else the portable path */
 #endif
     return ch;
 }
