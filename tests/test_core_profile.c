@@ -73,11 +73,43 @@ static void test_off_parallel_and_unbalanced_count_nothing(void **state)
     assert_string_equal(esr_prof_part_name(ESR_PROF_PARTS), "?");
 }
 
+/* ESR_PROF_STEPS: a part outside the steps counts nothing; inside, it counts, and the steps'
+ * own wall time adds up. */
+static void test_steps_scope(void **state)
+{
+    (void)state;
+    esr_prof_reset();
+    esr_prof_enable(ESR_PROF_STEPS);
+    esr_prof_enter(ESR_PROF_FIELDS); /* outside a step: e.g. the lights' estimation */
+    busy(0.01);
+    esr_prof_exit(ESR_PROF_FIELDS);
+    double inside = 0.0;
+    for (int k = 0; k < 2; k++) {
+        const double t0 = omp_get_wtime();
+        esr_prof_step_begin();
+        busy(0.005);
+        esr_prof_enter(ESR_PROF_MARCH);
+        busy(0.01);
+        esr_prof_exit(ESR_PROF_MARCH);
+        esr_prof_step_end();
+        inside += omp_get_wtime() - t0;
+    }
+    esr_prof_step_end(); /* no step open: nothing */
+    esr_prof_enable(0);
+    struct esr_prof_totals p;
+    esr_prof_totals(&p);
+    assert_true(p.seconds[ESR_PROF_FIELDS] == 0.0);
+    assert_true(p.seconds[ESR_PROF_MARCH] >= 0.02);
+    assert_int_equal(p.steps, 2);
+    assert_true(p.step_seconds >= p.seconds[ESR_PROF_MARCH] + 0.01 && p.step_seconds <= inside + 1e-9);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_nested_parts_count_exclusive_time),
         cmocka_unit_test(test_off_parallel_and_unbalanced_count_nothing),
+        cmocka_unit_test(test_steps_scope),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -448,12 +448,18 @@ static void stage_profile(const struct esr_prof_totals *p, double seconds,
         printf("  %-10s   %-20s %7.2f s %5.1f%%  %s\n", "", esr_prof_part_name((enum esr_prof_part)i), s,
                100.0 * s / seconds, rate);
     }
-    const double other = seconds - sum;
+    /* the parts count inside the training steps only (ESR_PROF_STEPS): other is the steps'
+     * time in no part (batch draw, loss, bookkeeping); outside the steps is the rest of the
+     * stage (start-up, checkpoints, the environment's start, the lights' estimation) */
+    const double other = p->step_seconds - sum, outside = seconds - p->step_seconds;
     cJSON_AddNumberToObject(parts, "other_seconds", other);
-    /* the parts count wherever they run in the stage, so the lights' estimation at pdra's end
-     * shows in march, fields, MLP and LTS too; other is what no part covers */
-    printf("  %-10s   %-20s %7.2f s %5.1f%%  (in no part: checkpoints, logs, the lights' own bookkeeping)\n", "",
+    cJSON_AddNumberToObject(st, "step_seconds", p->step_seconds);
+    cJSON_AddNumberToObject(st, "steps", (double)p->steps);
+    cJSON_AddNumberToObject(st, "outside_steps_seconds", outside);
+    printf("  %-10s   %-20s %7.2f s %5.1f%%  (in the steps, in no part: batch draw, loss, bookkeeping)\n", "",
            "other", other, 100.0 * other / seconds);
+    printf("  %-10s   %-20s %7.2f s %5.1f%%  (start-up, checkpoints, the lights' estimation)\n", "",
+           "outside the steps", outside, 100.0 * outside / seconds);
 }
 
 static int train_section(const struct bench_opts *o, cJSON *root)

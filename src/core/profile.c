@@ -7,7 +7,8 @@
 #define PROF_DEPTH 16
 
 static struct {
-    int on, depth;
+    int on, depth, in_step;
+    double step_start;
     struct {
         enum esr_prof_part part;
         double start, inner; /* inner: time of the parts entered inside it */
@@ -17,18 +18,38 @@ static struct {
 
 static int counting(void)
 {
-    return prof.on && !omp_in_parallel();
+    return prof.on && !omp_in_parallel() && (prof.on != ESR_PROF_STEPS || prof.in_step);
 }
 
-void esr_prof_enable(int on)
+void esr_prof_enable(int mode)
 {
-    prof.on = on;
+    prof.on = mode;
+    prof.in_step = 0;
 }
 
 void esr_prof_reset(void)
 {
     prof.depth = 0;
+    prof.in_step = 0;
     memset(&prof.tot, 0, sizeof prof.tot);
+}
+
+void esr_prof_step_begin(void)
+{
+    if (prof.on != ESR_PROF_STEPS || omp_in_parallel())
+        return;
+    prof.in_step = 1;
+    prof.depth = 0;
+    prof.step_start = omp_get_wtime();
+}
+
+void esr_prof_step_end(void)
+{
+    if (!prof.in_step || omp_in_parallel())
+        return;
+    prof.tot.step_seconds += omp_get_wtime() - prof.step_start;
+    prof.tot.steps++;
+    prof.in_step = 0;
 }
 
 void esr_prof_enter(enum esr_prof_part part)

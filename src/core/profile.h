@@ -3,8 +3,9 @@
  *
  * Parts nest (the LTS calls the point fields, which call the MLPs): enter/exit keep a stack, and
  * a part's time excludes the parts entered inside it, so the parts add up to the time spent in
- * any of them. A part counts wherever it runs while the profile is on (a stage's renders for
- * the lights' estimation as much as its steps). Off unless esr_prof_enable(1): then each enter/exit costs two clock reads. Only
+ * any of them. A part counts wherever it runs while the profile is on, or only inside the
+ * training steps (ESR_PROF_STEPS, what `esr bench` uses). Off unless esr_prof_enable: then each
+ * enter/exit costs two clock reads. Only
  * the calling thread outside OpenMP parallel regions counts (the training loop's); a call from
  * inside a parallel region is ignored, so concurrent renders cannot race on the counters. */
 #ifndef ESR_CORE_PROFILE_H
@@ -30,12 +31,20 @@ enum esr_prof_part {
 };
 
 struct esr_prof_totals {
+    double step_seconds; /* ESR_PROF_STEPS: wall time inside the steps, and their count */
+    long steps;
     double seconds[ESR_PROF_PARTS];
     double flops[ESR_PROF_PARTS]; /* floating-point operations counted (MLPs) */
     double bytes[ESR_PROF_PARTS]; /* bytes moved counted (Adam) */
 };
 
-void esr_prof_enable(int on);
+/* 0: off; ESR_PROF_EVERYWHERE (1): parts count wherever they run; ESR_PROF_STEPS: only inside
+ * esr_prof_step_begin/end (the trainer's iterations: batch, step, regularisers, Adam), so what
+ * a stage does besides its steps (checkpoints, the lights' estimation) stays out of the parts. */
+enum { ESR_PROF_EVERYWHERE = 1, ESR_PROF_STEPS = 2 };
+void esr_prof_enable(int mode);
+void esr_prof_step_begin(void);
+void esr_prof_step_end(void);
 /* Zeroes the totals (and drops an unfinished stack). */
 void esr_prof_reset(void);
 void esr_prof_enter(enum esr_prof_part part);

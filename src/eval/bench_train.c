@@ -48,7 +48,7 @@ int esr_bench_train(const char *data_dir, const char *run_dir, int iters, struct
     o.report = on_report;
     o.user = res;
     esr_prof_reset();
-    esr_prof_enable(1);
+    esr_prof_enable(ESR_PROF_STEPS); /* the steps' parts; the rest of a stage apart */
     const int rc = esr_train_run(&o);
     esr_prof_enable(0);
     ESR_TRY(rc);

@@ -449,15 +449,19 @@ static int run_stage(struct run *r, struct esr_model *m, enum esr_stage s)
         long it = m->step;
         float f = lr_factor(sc, s, it);
         double loss = 0.0;
+        esr_prof_step_begin();
         rc = iterate(r, m, &b, s, it, &w, &loss);
-        if (rc != ESR_OK)
+        if (rc != ESR_OK) {
+            esr_prof_step_end();
             break;
+        }
         if (r->o->nan_test_iter == it && s >= r->o->nan_test_stage &&
             r->nan_injected < r->o->nan_test_times) {
             r->nan_injected++;
             m->params.g[m->params.count / 2] = NAN;
         }
         if (!isfinite(loss) || !esr_nn_all_finite(m->params.g, m->params.count)) {
+            esr_prof_step_end();
             rc = recover(r, m, s, it, &b);
             memset(&w, 0, sizeof w);
             w.t0 = omp_get_wtime();
@@ -466,6 +470,7 @@ static int run_stage(struct run *r, struct esr_model *m, enum esr_stage s)
         esr_prof_enter(ESR_PROF_ADAM);
         adam_all(m, s, f * m->lr_scale, it + 1);
         esr_prof_exit(ESR_PROF_ADAM);
+        esr_prof_step_end();
         /* inv-s follows the step, as esr_model_init and a checkpoint's load set it: what
          * follows a stage (the mask, the lights, the next stage's start, which renders this
          * model: lts's environment level) sees the model a resumed run loads */
