@@ -102,6 +102,13 @@ static void print_dtu_result(const struct esr_dtu_import_opts *o, const struct e
     printf("cameras   %.2f .. %.2f from the origin\n", r->cam_dist_min, r->cam_dist_max);
 }
 
+/* A line of esr_dataset_exposure_warnings, as the import's other warnings are printed. */
+static void print_warning(void *user, const char *line)
+{
+    (void)user;
+    printf("warning   %s\n", line);
+}
+
 static void print_result(const struct esr_colmap_import_opts *o, const struct esr_colmap_import_result *r)
 {
     printf("wrote %s from COLMAP %s model %s\n", o->out_dir, r->format, o->model_dir);
@@ -137,10 +144,7 @@ static void print_result(const struct esr_colmap_import_opts *o, const struct es
     if (r->n_exposure && esr_dataset_load(o->out_dir, &ds) == ESR_OK) {
         struct esr_dataset_summary sum;
         esr_dataset_summarise(&ds, &sum);
-        char note[1024];
-        if (esr_dataset_exposure_note(&sum, note, sizeof note))
-            for (char *line = strtok(note, "\n"); line; line = strtok(NULL, "\n"))
-                printf("warning   %s\n", line);
+        esr_dataset_exposure_warnings(&sum, print_warning, NULL);
         esr_dataset_free(&ds);
     } else {
         esr_error_clear();

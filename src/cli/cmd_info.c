@@ -63,6 +63,12 @@ static void collect_problem(void *user, const char *message)
     list->items[list->count++] = strdup(message);
 }
 
+/* A line of esr_dataset_exposure_warnings after the prefix in user. */
+static void print_warning(void *user, const char *line)
+{
+    printf("%s%s\n", (const char *)user, line);
+}
+
 static void print_summary(const struct esr_dataset *ds, const struct esr_dataset_summary *s)
 {
     printf("dataset   %s\n", ds->root);
@@ -100,11 +106,7 @@ static void print_summary(const struct esr_dataset *ds, const struct esr_dataset
         if (t->n_exposure[on])
             printf("exposure  %-10s %d photos, log2(time x ISO / f-number^2) %.2f .. %.2f, mean %.2f\n", set[on],
                    t->n_exposure[on], t->ev_min[on], t->ev_max[on], t->ev_mean[on]);
-    char note[1024];
-    if (esr_dataset_exposure_note(s, note, sizeof note)) {
-        for (char *line = strtok(note, "\n"); line; line = strtok(NULL, "\n"))
-            printf("warning: %s\n", line);
-    }
+    esr_dataset_exposure_warnings(s, print_warning, "warning: ");
 }
 
 /* Adds up to n frames of phase (those with the given lighting state, or any when lit < 0), spread

@@ -48,34 +48,39 @@ static void summarise_phase(const struct esr_dataset *ds, const struct esr_phase
             s->ev_mean[on] /= s->n_exposure[on];
 }
 
-int esr_dataset_exposure_note(const struct esr_dataset_summary *s, char *out, size_t size)
+int esr_dataset_exposure_warnings(const struct esr_dataset_summary *s, esr_problem_fn say, void *user)
 {
     const struct esr_phase_summary *t = &s->phases[ESR_PHASE_TRAIN];
     static const char *const set[2] = {"lights-off", "lights-on"};
-    size_t at = 0;
-    out[0] = '\0';
-#define SAY(...) (at += (size_t)snprintf(out + at, at < size ? size - at : 0, __VA_ARGS__), at = at < size ? at : size - 1)
     const int n = t->n_exposure[0] + t->n_exposure[1];
     if (!t->present || n == 0)
         return 0;
-    if (n < t->n_frames)
-        SAY("exposure recorded for %d of the %d training photos only: the rest are taken as shot at "
-            "the same exposure\n", n, t->n_frames);
+    char line[512];
+    int said = 0;
+    if (n < t->n_frames) {
+        snprintf(line, sizeof line, "exposure recorded for %d of the %d training photos only: the rest are "
+                 "taken as shot at the same exposure", n, t->n_frames);
+        say(user, line), said++;
+    }
     for (int on = 0; on < 2; on++)
-        if (t->n_exposure[on] && t->ev_max[on] - t->ev_min[on] >= ESR_EXPOSURE_TOLERANCE_STOPS)
-            SAY("the %s photos were shot %.2f stops apart (exposure differs from photo to photo): esr "
-                "takes every photo as shot at one exposure, so their brightness differences count as "
-                "the scene's\n", set[on], t->ev_max[on] - t->ev_min[on]);
+        if (t->n_exposure[on] && t->ev_max[on] - t->ev_min[on] >= ESR_EXPOSURE_TOLERANCE_STOPS) {
+            snprintf(line, sizeof line, "the %s photos were shot %.2f stops apart (exposure differs from "
+                     "photo to photo): esr takes every photo as shot at one exposure, so their brightness "
+                     "differences count as the scene's", set[on], t->ev_max[on] - t->ev_min[on]);
+            say(user, line), said++;
+        }
     if (t->n_exposure[0] && t->n_exposure[1]) {
         const double d = t->ev_mean[1] - t->ev_mean[0];
-        if (fabs(d) >= ESR_EXPOSURE_TOLERANCE_STOPS)
-            SAY("the lights-on photos were shot %.2f stops %s than the lights-off ones (automatic "
-                "exposure?): the lights' strengths are read from how much brighter the lights-on "
-                "photos are, so they will come out %.2fx %s; shoot both sets at one manual exposure\n",
-                fabs(d), d < 0 ? "shorter" : "longer", pow(2.0, fabs(d)), d < 0 ? "too weak" : "too strong");
+        if (fabs(d) >= ESR_EXPOSURE_TOLERANCE_STOPS) {
+            snprintf(line, sizeof line, "the lights-on photos were shot %.2f stops %s than the lights-off ones "
+                     "(automatic exposure?): the lights' strengths are read from how much brighter the "
+                     "lights-on photos are, so they will come out %.2fx %s; shoot both sets at one manual "
+                     "exposure", fabs(d), d < 0 ? "shorter" : "longer", pow(2.0, fabs(d)),
+                     d < 0 ? "too weak" : "too strong");
+            say(user, line), said++;
+        }
     }
-#undef SAY
-    return out[0] != '\0';
+    return said;
 }
 
 void esr_dataset_summarise(const struct esr_dataset *ds, struct esr_dataset_summary *out)
@@ -110,6 +115,19 @@ static cJSON *phase_json(const struct esr_phase_summary *s)
     return obj;
 }
 
+/* Lines said to it, each ending in a newline, as one text (what fits). */
+struct lines {
+    char buf[1024];
+    size_t len;
+};
+
+static void add_line(void *user, const char *line)
+{
+    struct lines *t = user;
+    const int k = snprintf(t->buf + t->len, sizeof t->buf - t->len, "%s\n", line);
+    t->len = k < 0 ? t->len : t->len + (size_t)k < sizeof t->buf ? t->len + (size_t)k : sizeof t->buf - 1;
+}
+
 static cJSON *summary_json(const struct esr_dataset *ds, const struct esr_dataset_summary *s,
                            const char *const *problems, int n_problems)
 {
@@ -128,9 +146,9 @@ static cJSON *summary_json(const struct esr_dataset *ds, const struct esr_datase
     for (int p = 0; p < ESR_PHASE_COUNT; p++)
         if (s->phases[p].present)
             cJSON_AddItemToObject(phases, esr_phase_name((enum esr_phase_id)p), phase_json(&s->phases[p]));
-    char note[1024];
-    if (esr_dataset_exposure_note(s, note, sizeof note))
-        cJSON_AddStringToObject(root, "exposure_warnings", note);
+    struct lines text = {{0}, 0};
+    if (esr_dataset_exposure_warnings(s, add_line, &text))
+        cJSON_AddStringToObject(root, "exposure_warnings", text.buf);
     cJSON *list = cJSON_AddArrayToObject(root, "problems");
     for (int i = 0; i < n_problems; i++)
         cJSON_AddItemToArray(list, cJSON_CreateString(problems[i]));

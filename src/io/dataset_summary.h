@@ -23,14 +23,14 @@ struct esr_dataset_summary {
 /* Fills out from ds (no I/O). */
 void esr_dataset_summarise(const struct esr_dataset *ds, struct esr_dataset_summary *out);
 
-/* Exposure differences that bias what esr estimates, as text for a user (lines ending in '\n',
- * into out of size bytes): photos of one set shot at different exposures, the lights-on set
- * shot at another exposure than the lights-off one (the lights' strengths are read from how
- * much brighter the lights-on photos are, so a stop is a factor of two on every light), or
- * exposures recorded for some training photos only. 1 when there is something to say (out
- * filled), 0 when not (out empty). Differences under ESR_EXPOSURE_TOLERANCE_STOPS are ignored. */
+/* Exposure differences that bias what esr estimates, each said to `say` as one line for a user:
+ * photos of one set shot at different exposures, the lights-on set shot at another exposure
+ * than the lights-off one (the lights' strengths are read from how much brighter the lights-on
+ * photos are, so a stop is a factor of two on every light), or exposures recorded for some
+ * training photos only. Returns how many lines it said. Differences under
+ * ESR_EXPOSURE_TOLERANCE_STOPS are ignored. */
 #define ESR_EXPOSURE_TOLERANCE_STOPS 0.1
-int esr_dataset_exposure_note(const struct esr_dataset_summary *s, char *out, size_t size);
+int esr_dataset_exposure_warnings(const struct esr_dataset_summary *s, esr_problem_fn say, void *user);
 
 /* Writes the dataset facts, the summary and the given problems (may be 0) as a JSON object to
  * path (atomically). */

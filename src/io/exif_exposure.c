@@ -130,8 +130,6 @@ int esr_exif_exposure_read(const unsigned char *data, size_t n, struct esr_exif_
     const struct esr_exif_exposure found = {t, f, (int)iso_value};
     if (esr_exif_exposure_check(&found, why, why_size) != 0)
         return -1;
-    e->exposure_time_s = t;
-    e->f_number = f;
-    e->iso = (int)iso_value;
+    *e = found;
     return 1;
 }

@@ -75,6 +75,12 @@ static void say(struct run *r, enum esr_stage s, const char *fmt, ...)
     emit(r, &p);
 }
 
+/* A warning of the dataset's (esr_problem_fn) in the run's log. */
+static void say_warning(void *user, const char *line)
+{
+    say(user, ESR_STAGE_COUNT, "warning: %s", line);
+}
+
 static void ckpt_path(const struct run *r, enum esr_stage s, char *out, size_t n)
 {
     snprintf(out, n, "%s/ckpt_%s.bin", r->o->run_dir, esr_stage_name(s));
@@ -776,17 +782,7 @@ static int setup(struct run *r)
     { /* photos shot at other exposures bias the strengths: said before the minutes of training */
         struct esr_dataset_summary sum;
         esr_dataset_summarise(&ds, &sum);
-        char note[1024];
-        if (esr_dataset_exposure_note(&sum, note, sizeof note))
-            for (char *line = note; *line;) {
-                char *end = strchr(line, '\n');
-                if (end)
-                    *end = '\0';
-                say(r, ESR_STAGE_COUNT, "warning: %s", line);
-                if (!end)
-                    break;
-                line = end + 1;
-            }
+        esr_dataset_exposure_warnings(&sum, say_warning, r);
     }
     r->health.lights_listed = ds.n_lights;
     int rc = esr_ray_set_build(&r->rays, &ds, ESR_PHASE_TRAIN);
