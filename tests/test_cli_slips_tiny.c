@@ -22,6 +22,25 @@
 #include "test_support.h"
 #include "tiny_run.h"
 
+/* The "model" entry of an eval's JSON: 1 finished, 0 not, -1 missing. */
+static int model_finished(const char *json)
+{
+    unsigned char *text;
+    size_t size;
+    assert_int_equal(esr_file_read_all(json, &text, &size), ESR_OK);
+    cJSON *root = cJSON_ParseWithLength((const char *)text, size);
+    free(text);
+    assert_non_null(root);
+    const cJSON *m = cJSON_GetObjectItemCaseSensitive(root, "model");
+    const cJSON *f = cJSON_GetObjectItemCaseSensitive(m, "finished");
+    const cJSON *st = cJSON_GetObjectItemCaseSensitive(m, "stage");
+    const int r = !cJSON_IsBool(f) ? -1 : cJSON_IsTrue(f);
+    if (r >= 0)
+        assert_string_equal(cJSON_GetStringValue(st), "pdra");
+    cJSON_Delete(root);
+    return r;
+}
+
 /* A slip or an interruption destroys nothing (issue: the command line as a newcomer meets it):
  * a forgotten --resume, a damaged checkpoint, an edit, eval or export stopped by a signal, an
  * edit into an earlier edit's folder, output names that do not say what is written, a run that
@@ -118,6 +137,19 @@ static void test_slips_keep_earlier_outputs(void **state)
     snprintf(report_copy, sizeof report_copy, "%s/report.html.copy", test_tmpdir);
     assert_int_equal(esr_file_copy(json, json_copy), ESR_OK);
     assert_int_equal(esr_file_copy(report, report_copy), ESR_OK);
+    assert_int_equal(model_finished(json), 1);
+    assert_null(strstr(out, "unfinished model"));
+    /* 3c'. an unfinished checkpoint is scored and said to be, in the terminal and the JSON */
+    char unfinished[4400], unfinished_json[4500];
+    snprintf(unfinished, sizeof unfinished, "%s/run_unfinished", test_tmpdir);
+    copy_run_changed(run, unfinished, make_unfinished);
+    snprintf(cmd, sizeof cmd, "eval '%s' --limit 1", unfinished);
+    if (test_run_esr(cmd, out, sizeof out) != 0)
+        fail_msg("%s", out);
+    assert_non_null(strstr(out, "the pdra stage stopped at step 20 of "));
+    assert_non_null(strstr(out, "an unfinished model"));
+    snprintf(unfinished_json, sizeof unfinished_json, "%s/eval/test_nv.json", unfinished);
+    assert_int_equal(model_finished(unfinished_json), 0);
     char many[4400];
     snprintf(many, sizeof many, "%s/many_views", test_tmpdir);
     snprintf(cmd, sizeof cmd, "synth --res 24 --spp 1 --train 1 --test 30 '%s'", many);

@@ -14,6 +14,7 @@
 #include "eval/run_dir.h"
 #include "io/dir.h"
 #include "io/file.h"
+#include "io/json_file.h"
 #include "io/stale.h"
 #include "render/view.h"
 #include "model/model.h"
@@ -78,7 +79,9 @@ const struct esr_command cmd_eval = {
     "same pixels: base colour PSNR of the sRGB maps, also with one least-squares gain per channel\n"
     "(in linear), roughness and metallic mean absolute error, also over the truly metallic (>= 0.9)\n"
     "and non-metallic (<= 0.1) pixels with their mean predicted metallic (JSON \"materials\").\n"
-    "Writes RUN/eval/P.json (per view, mean, mean per lighting mode), RUN/report.html\n"
+    "Writes RUN/eval/P.json (per view, mean, mean per lighting mode; \"model\": the stage, step and\n"
+    "iterations of the checkpoint rendered, \"finished\": false with a warning when it stopped\n"
+    "part-way), RUN/report.html\n"
     "(thumbnails, metrics, training curves from RUN/train_log.jsonl) and prints a table.\n"
     "PSNR of identical images is capped at 100 dB.\n"
     "When the dataset has a ground-truth surface (DATA/gt/mesh.ply, as `esr synth` writes), the\n"
@@ -130,12 +133,60 @@ static void show_edit_progress(void *user, const struct esr_edit_eval_progress *
             p->finetuned ? " (after a fine-tune)" : "");
 }
 
+/* The checkpoint the views are rendered with: an unfinished one is scored, and said to be. */
+struct model_state {
+    int present, stage, done;
+    long step, iters;
+};
+
+static void model_state_of(const struct esr_model *m, struct model_state *st)
+{
+    st->present = 1;
+    st->stage = m->stage;
+    st->done = m->stage_done;
+    st->step = m->step;
+    st->iters = esr_stage_options(&m->cfg, (enum esr_stage)m->stage)->iters;
+}
+
+/* Said after the scores, where it is read: the model stopped part-way. */
+static void warn_model_state(const char *run, const struct model_state *st)
+{
+    if (st->present && !st->done)
+        fprintf(stderr, "warning   %s: the %s stage stopped at step %ld of %ld; these are the scores of "
+                        "an unfinished model (esr train --resume finishes it)%s\n",
+                run, esr_stage_name((enum esr_stage)st->stage), st->step, st->iters,
+                st->stage == ESR_STAGE_PDRA ? "; its lights are the mid-stage estimate" : "");
+}
+
+/* The rendering model's state into the scores' JSON ("model"). */
+static int record_model_state(const struct model_state *st, const char *json)
+{
+    if (!st->present)
+        return ESR_OK;
+    const char *stage = esr_stage_name((enum esr_stage)st->stage);
+    unsigned char *text;
+    size_t size;
+    ESR_TRY(esr_file_read_all(json, &text, &size));
+    cJSON *root = esr_json_parse_whole((const char *)text, size, json);
+    free(text);
+    if (!root)
+        return ESR_ERR;
+    cJSON *o = cJSON_AddObjectToObject(root, "model");
+    cJSON_AddStringToObject(o, "stage", stage);
+    cJSON_AddNumberToObject(o, "step", (double)st->step);
+    cJSON_AddNumberToObject(o, "iters", (double)st->iters);
+    cJSON_AddBoolToObject(o, "finished", st->done);
+    return esr_json_write_atomic(json, root);
+}
+
 /* Renders the selected frames that are missing or stale in render_dir. Without a loadable model
- * the existing renders are used when complete. */
-static int ensure_renders(const struct eval_args *a, const struct esr_run_selection *sel, const char *render_dir)
+ * the existing renders are used when complete (st->present 0). */
+static int ensure_renders(const struct eval_args *a, const struct esr_run_selection *sel, const char *render_dir,
+                          struct model_state *st)
 {
     const struct esr_phase *ph = &sel->ds.phases[sel->phase];
     struct esr_model model;
+    memset(st, 0, sizeof *st);
     if (esr_model_load(&model, a->run) != ESR_OK) {
         for (int i = 0; i < sel->n; i++)
             if (!esr_view_outputs_exist(render_dir, ph->frames[sel->idx[i]].name))
@@ -152,6 +203,7 @@ static int ensure_renders(const struct eval_args *a, const struct esr_run_select
         esr_model_free(&model);
         return ESR_FAIL("out of memory");
     }
+    model_state_of(&model, st);
     esr_view_current(render_dir, &model, &sel->ds, sel->phase, sel->idx, sel->n, current);
     for (int i = 0; i < sel->n; i++)
         if (a->rerender || !current[i])
@@ -311,7 +363,8 @@ static int evaluate(const struct eval_args *a, const struct esr_run_selection *s
 {
     struct esr_eval_result res;
     ESR_TRY(esr_eval_check_truth(&sel->ds, sel->phase, sel->idx, sel->n));
-    ESR_TRY(ensure_renders(a, sel, p->render));
+    struct model_state st;
+    ESR_TRY(ensure_renders(a, sel, p->render, &st));
     int status = esr_eval_phase(&sel->ds, sel->phase, sel->idx, sel->n, p->render, &res);
     /* the lights the run found, for the report and the light count (a run without a pdra
      * checkpoint has none: the count is then the renders' light ids, eval/emitter_strength.h) */
@@ -338,6 +391,8 @@ static int evaluate(const struct eval_args *a, const struct esr_run_selection *s
         status = esr_eval_write_json(json_to, &sel->ds, &res);
     if (status == ESR_OK)
         status = cli_record_into(json_to, "eval", a->argc, a->argv);
+    if (status == ESR_OK)
+        status = record_model_state(&st, json_to);
     struct esr_chamfer_result geometry; /* the surface, for the report too */
     int scored = 0;
     if (status == ESR_OK)
@@ -358,6 +413,7 @@ static int evaluate(const struct eval_args *a, const struct esr_run_selection *s
         print_normals(&res);
         esr_materials_print(stdout, stderr, &res.materials);
         print_emitters(&res);
+        warn_model_state(a->run, &st);
         fprintf(stderr, "wrote %s and %s\n", p->json, p->report);
     }
     esr_eval_result_free(&res);
