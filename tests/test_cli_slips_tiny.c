@@ -25,11 +25,7 @@
 /* The "model" entry of an eval's JSON: 1 finished, 0 not, -1 missing. */
 static int model_finished(const char *json)
 {
-    unsigned char *text;
-    size_t size;
-    assert_int_equal(esr_file_read_all(json, &text, &size), ESR_OK);
-    cJSON *root = cJSON_ParseWithLength((const char *)text, size);
-    free(text);
+    cJSON *root = test_read_json(json);
     assert_non_null(root);
     const cJSON *m = cJSON_GetObjectItemCaseSensitive(root, "model");
     const cJSON *f = cJSON_GetObjectItemCaseSensitive(m, "finished");

@@ -163,20 +163,12 @@ static int record_model_state(const struct model_state *st, const char *json)
 {
     if (!st->present)
         return ESR_OK;
-    const char *stage = esr_stage_name((enum esr_stage)st->stage);
-    unsigned char *text;
-    size_t size;
-    ESR_TRY(esr_file_read_all(json, &text, &size));
-    cJSON *root = esr_json_parse_whole((const char *)text, size, json);
-    free(text);
-    if (!root)
-        return ESR_ERR;
-    cJSON *o = cJSON_AddObjectToObject(root, "model");
-    cJSON_AddStringToObject(o, "stage", stage);
+    cJSON *o = cJSON_CreateObject();
+    cJSON_AddStringToObject(o, "stage", esr_stage_name((enum esr_stage)st->stage));
     cJSON_AddNumberToObject(o, "step", (double)st->step);
     cJSON_AddNumberToObject(o, "iters", (double)st->iters);
     cJSON_AddBoolToObject(o, "finished", st->done);
-    return esr_json_write_atomic(json, root);
+    return cli_json_set(json, "model", o);
 }
 
 /* Renders the selected frames that are missing or stale in render_dir. Without a loadable model

@@ -76,6 +76,8 @@ void cli_parent_dir(const char *path, char *out, size_t n);
  * "esr": version, "commit", "time": ISO 8601 UTC}; the caller owns it. ARGS are argv's: what was
  * typed (cli_parse reads --name=value as it stands), or what `esr demo` gave its step. */
 struct cJSON *cli_record(const char *cmd_name, int argc, char **argv);
+/* Sets key to item (taken over, freed on failure) in the JSON object at path, rewritten atomically. */
+int cli_json_set(const char *path, const char *key, struct cJSON *item);
 /* Sets that record as "made_by" in the JSON object at path (rewritten atomically). */
 int cli_record_into(const char *path, const char *cmd_name, int argc, char **argv);
 

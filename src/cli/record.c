@@ -42,20 +42,28 @@ cJSON *cli_record(const char *cmd_name, int argc, char **argv)
     return r;
 }
 
-int cli_record_into(const char *path, const char *cmd_name, int argc, char **argv)
+int cli_json_set(const char *path, const char *key, struct cJSON *item)
 {
     unsigned char *text;
     size_t size;
-    ESR_TRY(esr_file_read_all(path, &text, &size));
-    cJSON *root = esr_json_parse_whole((const char *)text, size, path);
-    free(text);
-    if (!root)
+    int rc = esr_file_read_all(path, &text, &size);
+    cJSON *root = rc == ESR_OK ? esr_json_parse_whole((const char *)text, size, path) : NULL;
+    if (rc == ESR_OK)
+        free(text);
+    if (!root || !cJSON_IsObject(root)) {
+        cJSON_Delete(item);
+        if (root) {
+            cJSON_Delete(root);
+            return ESR_FAIL("%s: not a JSON object", path);
+        }
         return ESR_ERR;
-    if (!cJSON_IsObject(root)) {
-        cJSON_Delete(root);
-        return ESR_FAIL("%s: not a JSON object", path);
     }
-    cJSON_DeleteItemFromObjectCaseSensitive(root, "made_by");
-    cJSON_AddItemToObject(root, "made_by", cli_record(cmd_name, argc, argv));
+    cJSON_DeleteItemFromObjectCaseSensitive(root, key);
+    cJSON_AddItemToObject(root, key, item);
     return esr_json_write_atomic(path, root);
+}
+
+int cli_record_into(const char *path, const char *cmd_name, int argc, char **argv)
+{
+    return cli_json_set(path, "made_by", cli_record(cmd_name, argc, argv));
 }
