@@ -3,7 +3,8 @@
  * learned background (photos without alpha) the background is not white, and what the level
  * measures must not depend on it: a sphere with a soft edge (many rays partly transparent),
  * measured under two learned backgrounds, gives the same level. Taking the background as white
- * moved it by the background's difference times (1 - a) / a. */
+ * moved it by the background's difference times (1 - a) / a. With env_from_photos the level is
+ * the photos' own pixels over the rays the model renders opaque, whatever colour the model has. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -58,12 +59,32 @@ static void test_level_ignores_the_background(void **state)
     for (int k = 0; k < 2; k++) {
         for (size_t i = 0; i < m.part[ESR_COMP_BACKGROUND].count; i++)
             bg[i] = logit[k];
-        assert_int_equal(esr_env_init_level(&m, o, d, NRAYS, 3, level[k], mean[k]), 0);
+        const struct esr_env_init_rays er = {o, d, NULL, NRAYS};
+        assert_int_equal(esr_env_init_level(&m, &er, 3, 0, level[k], mean[k]), 0);
     }
     for (int c = 0; c < 3; c++) {
         assert_true(mean[0][c] > 0.0f);
         assert_float_equal(mean[0][c], mean[1][c], 1e-4f * mean[0][c] + 1e-6f);
         assert_float_equal(level[0][c], level[1][c], 1e-4f * level[0][c] + 1e-6f);
+    }
+    /* env_from_photos: the photos' pixels (sRGB 0.5 on the sphere, white beyond), made linear,
+     * over the rays the model renders opaque, whatever the model's own colour */
+    static float rgb[NRAYS * 3];
+    for (int i = 0; i < NRAYS; i++) {
+        const float x = o[i * 3], y = o[i * 3 + 1];
+        for (int c = 0; c < 3; c++)
+            rgb[i * 3 + c] = x * x + y * y < 0.25f ? 0.5f - 0.1f * (float)c : 1.0f;
+    }
+    const struct esr_env_init_rays er = {o, d, rgb, NRAYS};
+    for (int k = 0; k < 2; k++) {
+        test_randomise(&m, ESR_COMP_OFF_MLP, 0.3f, 6 + (uint64_t)k); /* another colour: no matter */
+        assert_int_equal(esr_env_init_level(&m, &er, 3, 1, level[k], mean[k]), 0);
+        for (int c = 0; c < 3; c++) {
+            const float x = 0.5f - 0.1f * (float)c; /* sRGB to linear, written out */
+            const float want = powf((x + 0.055f) / 1.055f, 2.4f);
+            assert_float_equal(mean[k][c], want, 1e-5f);
+            assert_float_equal(level[k][c], want / ESR_ENV_INIT_AV, 1e-4f);
+        }
     }
     esr_model_free(&m);
 }

@@ -123,6 +123,10 @@ static const struct opt opts[] = {
      "lts: the environment map's starting mean radiance, grey (0 = from the data, per channel: the "
      "mean lights-off radiance of the surfaces the cameras see / 0.3, a scene that averages "
      "mid-grey under a 60%-visible sky)"},
+    {"env_from_photos", OPT_INT, OFF(env_from_photos), 0, 1, DEF(0, 0),
+     "lts: with env_level 0, the surfaces' mean lights-off radiance read from the photos (1: their "
+     "pixels, sRGB made linear, on 65536 rays the fine model sees as opaque) or from the fine "
+     "model's render (0: on 8192 rays, partly transparent ones divided by their opacity)"},
     {"emitter_k", OPT_FLOAT, OFF(emitter_k), 0, 1e6, DEF(0.2, 0.2),
      "emitter mask threshold on the composited emission (the pdra stage sets it to its final k)"},
     {"pdra.k0", OPT_FLOAT, OFF(pdra_k0), 0, 1e6, DEF(0.2, 0.2),

@@ -81,6 +81,7 @@ struct esr_train_config {
     int field_depth;        /* lts: emission / BRDF MLP hidden layers */
     int env_lobes;          /* lts: spherical Gaussians of the environment map */
     float env_level;        /* lts: the map's starting mean radiance (0: from the data) */
+    int env_from_photos;    /* lts: that level from the photos' pixels (1) or the fine render (0) */
     float emitter_k;        /* emitter mask: composited E above this in any channel */
     float pdra_k0;          /* pdra: k at the start */
     float pdra_k_end;       /* pdra: k from 3/4 of the stage on (0: derived at its start) */

@@ -23,10 +23,21 @@
 
 #define ESR_ENV_INIT_AV 0.3f
 
-/* The level per channel (and the mean surface radiance it came from) measured with model prev
- * on up to 8192 of the n lights-off rays (orig3/dir3), picked at random with seed. ESR_ERR when
- * no ray sees a surface. */
-int esr_env_init_level(const struct esr_model *prev, const float *orig3, const float *dir3,
-                       size_t n, uint64_t seed, float level[3], float surface_mean[3]);
+/* The lights-off training rays the level is measured on: origins, directions and the photos'
+ * pixels (sRGB composited on white, as the ray set holds them), n of each. */
+struct esr_env_init_rays {
+    const float *orig3, *dir3, *rgb3;
+    size_t n;
+};
+
+/* The level per channel (and the mean surface radiance it came from), on rays picked at random
+ * with seed. from_photos 0: the surfaces' radiance as model prev renders it on 8192 rays, a
+ * partly transparent ray's divided by its opacity (the render's biases come with it: an edge
+ * ray's own radiance is overestimated, and the fine model renders a little brighter than the
+ * photos; both moved with the image resolution, 100 to 400 px: +21%). from_photos 1: the photos'
+ * own pixels, made linear, over the 65536 rays prev renders opaque (opacity > 0.99): what the
+ * photos say, with prev only deciding which rays see a surface. ESR_ERR when no ray sees one. */
+int esr_env_init_level(const struct esr_model *prev, const struct esr_env_init_rays *rays,
+                       uint64_t seed, int from_photos, float level[3], float surface_mean[3]);
 
 #endif

@@ -608,14 +608,15 @@ static int stage_model(struct run *r, enum esr_stage s, const struct esr_model *
     float level[3] = {m->cfg.env_level, m->cfg.env_level, m->cfg.env_level}, surface[3];
     int rc = ESR_OK;
     if (level[0] <= 0.0f && prev && r->rays.n_off > 0) {
-        rc = esr_env_init_level(prev, r->rays.orig3, r->rays.dir3, r->rays.n_off,
-                                (uint64_t)r->cfg.seed, level, surface);
+        const struct esr_env_init_rays er = {r->rays.orig3, r->rays.dir3, r->rays.rgb3, r->rays.n_off};
+        rc = esr_env_init_level(prev, &er, (uint64_t)r->cfg.seed, m->cfg.env_from_photos, level, surface);
         if (rc == ESR_OK)
             say(r, s, "environment map starts at mean radiance %.3g %.3g %.3g, derived from the "
-                      "data: the lights-off surfaces' mean radiance %.3g %.3g %.3g / %.1f (a scene "
-                      "that averages grey)",
+                      "data: the lights-off surfaces' mean radiance %.3g %.3g %.3g (%s) / %.1f (a "
+                      "scene that averages grey)",
                 level[0], level[1], level[2], (double)surface[0], (double)surface[1],
-                (double)surface[2], (double)ESR_ENV_INIT_AV);
+                (double)surface[2], m->cfg.env_from_photos ? "the photos' pixels" : "as the fine model renders them",
+                (double)ESR_ENV_INIT_AV);
     }
     if (rc == ESR_OK && level[0] > 0.0f)
         esr_env_sg_set_level(esr_model_values(m, ESR_COMP_ENV), m->cfg.env_lobes, level);
