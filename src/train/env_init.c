@@ -24,64 +24,68 @@ static void set_level(const double sum[3], long count, float level[3], float sur
     }
 }
 
-/* from_photos 1: the photos' pixels where prev renders the ray opaque. */
+/* count rays picked at random (stream `stream` of seed) into o, d (their indices into pick when
+ * not NULL), rendered lights-off by prev: opacity into opac, the linear colour into lin when not
+ * NULL. */
+struct picked {
+    float *o, *d, *lin, *opac;
+    size_t *pick;
+};
+
+static int pick_and_render(const struct esr_model *prev, const struct esr_env_init_rays *rays, int count,
+                           uint64_t seed, uint64_t stream, const struct picked *p)
+{
+    struct esr_rng rng = esr_rng_init(seed, stream);
+    for (int i = 0; i < count; i++) {
+        const size_t r = (size_t)(esr_rng_u64(&rng) % rays->n);
+        if (p->pick)
+            p->pick[i] = r;
+        memcpy(p->o + i * 3, rays->orig3 + r * 3, 3 * sizeof(float));
+        memcpy(p->d + i * 3, rays->dir3 + r * 3, 3 * sizeof(float));
+    }
+    struct esr_render_out out = {.linear = p->lin, .opacity = p->opac};
+    return esr_model_render_rays(prev, p->o, p->d, (size_t)count, 0, &out);
+}
+
+/* from_photos 1: the photos' pixels where prev renders the ray opaque (its colour is not read). */
 static int level_from_photos(const struct esr_model *prev, const struct esr_env_init_rays *rays,
                              uint64_t seed, float level[3], float surface_mean[3])
 {
-    float *o = malloc(PHOTO_RAYS * 3 * sizeof(float)), *d = malloc(PHOTO_RAYS * 3 * sizeof(float));
-    float *lin = malloc(PHOTO_RAYS * 3 * sizeof(float)), *opac = malloc(PHOTO_RAYS * sizeof(float));
-    size_t *pick = malloc(PHOTO_RAYS * sizeof(size_t));
-    int rc = o && d && lin && opac && pick ? ESR_OK : ESR_FAIL("environment level: out of memory");
-    struct esr_rng rng = esr_rng_init(seed, 0xe8);
-    for (int i = 0; rc == ESR_OK && i < PHOTO_RAYS; i++) {
-        pick[i] = (size_t)(esr_rng_u64(&rng) % rays->n);
-        memcpy(o + i * 3, rays->orig3 + pick[i] * 3, 3 * sizeof(float));
-        memcpy(d + i * 3, rays->dir3 + pick[i] * 3, 3 * sizeof(float));
-    }
-    if (rc == ESR_OK) {
-        struct esr_render_out out = {.linear = lin, .opacity = opac};
-        rc = esr_model_render_rays(prev, o, d, PHOTO_RAYS, 0, &out);
-    }
+    const struct picked p = {malloc(PHOTO_RAYS * 3 * sizeof(float)), malloc(PHOTO_RAYS * 3 * sizeof(float)),
+                             NULL, malloc(PHOTO_RAYS * sizeof(float)), malloc(PHOTO_RAYS * sizeof(size_t))};
+    int rc = p.o && p.d && p.opac && p.pick ? ESR_OK : ESR_FAIL("environment level: out of memory");
+    if (rc == ESR_OK)
+        rc = pick_and_render(prev, rays, PHOTO_RAYS, seed, 0xe8, &p);
     double sum[3] = {0.0, 0.0, 0.0};
     long count = 0;
     for (int i = 0; rc == ESR_OK && i < PHOTO_RAYS; i++) {
-        if (opac[i] <= PHOTO_OPACITY)
+        if (p.opac[i] <= PHOTO_OPACITY)
             continue;
         for (int c = 0; c < 3; c++)
-            sum[c] += esr_linear_from_srgb(rays->rgb3[pick[i] * 3 + c]);
+            sum[c] += esr_linear_from_srgb(rays->rgb3[p.pick[i] * 3 + c]);
         count++;
     }
     if (rc == ESR_OK && count == 0)
         rc = ESR_FAIL("environment level: none of %d lights-off rays sees a surface", PHOTO_RAYS);
     if (rc == ESR_OK)
         set_level(sum, count, level, surface_mean);
-    free(o), free(d), free(lin), free(opac), free(pick);
+    free(p.o), free(p.d), free(p.opac), free(p.pick);
     return rc;
 }
 
 int esr_env_init_level(const struct esr_model *prev, const struct esr_env_init_rays *rays,
                        uint64_t seed, int from_photos, float level[3], float surface_mean[3])
 {
-    const size_t n = rays->n;
-    if (n == 0)
+    if (rays->n == 0)
         return ESR_FAIL("environment level: no lights-off rays to measure it on");
     if (from_photos)
         return level_from_photos(prev, rays, seed, level, surface_mean);
-    const float *orig3 = rays->orig3, *dir3 = rays->dir3;
     float *o = malloc(RAYS * 3 * sizeof(float)), *d = malloc(RAYS * 3 * sizeof(float));
     float *lin = malloc(RAYS * 3 * sizeof(float)), *opac = malloc(RAYS * sizeof(float));
     int rc = o && d && lin && opac ? ESR_OK : ESR_FAIL("environment level: out of memory");
-    struct esr_rng rng = esr_rng_init(seed, 0xe7);
-    for (int i = 0; rc == ESR_OK && i < RAYS; i++) {
-        const size_t r = (size_t)(esr_rng_u64(&rng) % n);
-        for (int c = 0; c < 3; c++) {
-            o[i * 3 + c] = orig3[r * 3 + c];
-            d[i * 3 + c] = dir3[r * 3 + c];
-        }
-    }
     if (rc == ESR_OK) {
-        struct esr_render_out out = {.linear = lin, .opacity = opac};
-        rc = esr_model_render_rays(prev, o, d, RAYS, 0, &out);
+        const struct picked p = {o, d, lin, opac, NULL};
+        rc = pick_and_render(prev, rays, RAYS, seed, 0xe7, &p);
     }
     /* what the render composited behind the surface: white, or the learned background */
     float *bg = NULL;
