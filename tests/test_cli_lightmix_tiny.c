@@ -33,7 +33,7 @@ static const char *const frames[] = {"c000_off", "c000_on", "c001_on", "c002_on"
  * light's weights on its layers as worked out by hand (light_K, or light_K_value where value). */
 struct mix_case {
     const char *name, *args, *json;
-    float w[2][3];  /* lights 0 and 1 (the tiny run finds two) */
+    float w[2][3];  /* lights 0 and 1 */
     int value[2];
     float gain;     /* 2^exposure */
 };
@@ -48,7 +48,7 @@ static const struct mix_case cases[] = {
     {"light 0 blue", "--light 0 --color 0.6,1",
      "{\"lights\": [{\"id\": 0, \"hue\": 0.6, \"saturation\": 1}]}", {{0, 0.4f, 1}, {1, 1, 1}},
      {1, 0}, 1},
-    {"all x0.5, exposure +1", "--light all --intensity 0.5 --exposure 1",
+    {"lights 0 and 1 x0.5, exposure +1", "--light 0 --intensity 0.5 --light 1 --intensity 0.5 --exposure 1",
      "{\"lights\": [{\"id\": 0, \"intensity\": 0.5}, {\"id\": 1, \"intensity\": 0.5}], "
      "\"exposure\": 1}", {{0.5f, 0.5f, 0.5f}, {0.5f, 0.5f, 0.5f}}, {0, 0}, 2},
 };
@@ -69,8 +69,9 @@ static double rel_diff(const struct esr_image *a, const struct esr_image *b)
     return worst;
 }
 
-/* The view mix case c gives from the layers of dir/frame.exr (read here, layer by layer). */
-static void mix_layers(const char *dir, const char *frame, const struct mix_case *c,
+/* The view mix case c gives from the layers of dir/frame.exr (read here, layer by layer) of a
+ * run with n_lights lights (lights past 1, which the tiny run's training may find, unedited). */
+static void mix_layers(const char *dir, const char *frame, const struct mix_case *c, int n_lights,
                        struct esr_image *out)
 {
     char path[8900];
@@ -78,15 +79,15 @@ static void mix_layers(const char *dir, const char *frame, const struct mix_case
     if (esr_exr_read_layer(path, "off", out) != ESR_OK)
         fail_msg("%s", esr_error_message());
     const size_t px = (size_t)out->width * (size_t)out->height;
-    for (int k = 0; k < 2; k++) {
+    for (int k = 0; k < n_lights; k++) {
         char layer[32];
-        snprintf(layer, sizeof layer, c->value[k] ? "light_%d_value" : "light_%d", k);
+        snprintf(layer, sizeof layer, k < 2 && c->value[k] ? "light_%d_value" : "light_%d", k);
         struct esr_image L;
         if (esr_exr_read_layer(path, layer, &L) != ESR_OK)
             fail_msg("%s", esr_error_message());
         for (size_t p = 0; p < px; p++)
             for (int ch = 0; ch < 3; ch++)
-                out->data[p * 4 + ch] += c->w[k][ch] * L.data[p * 4 + ch];
+                out->data[p * 4 + ch] += (k < 2 ? c->w[k][ch] : 1.0f) * L.data[p * 4 + ch];
         esr_image_free(&L);
     }
     for (size_t p = 0; p < px; p++)
@@ -121,6 +122,19 @@ static void need_tool(const char *tool, const char *package, const char *uncheck
     }
 }
 
+/* The number of lights run's model found (the fixture's, whatever its training gave). */
+static int lights_of(const char *run)
+{
+    char path[4400];
+    snprintf(path, sizeof path, "%s/ckpt_pdra.bin", run);
+    struct esr_model m;
+    assert_int_equal(esr_model_load(&m, path), ESR_OK);
+    const int n = m.lights.n;
+    esr_model_free(&m);
+    assert_true(n >= 2); /* the cases below edit lights 0 and 1 */
+    return n;
+}
+
 /* A copy of the fixture's pdra run at test_tmpdir/as (its path into run) and its lightmix of
  * frame c001_on into test_tmpdir/out (into lm). */
 static void lightmix_c001(const char *as, const char *out, char run[4300], char lm[4400])
@@ -151,7 +165,9 @@ static void test_layers_mix_to_the_edits(void **state)
         snprintf(path, sizeof path, "%s/lightmix.json", lm);
         cJSON *rec = test_read_json(path);
         assert_non_null(rec);
-        assert_int_equal(cJSON_GetArraySize(cJSON_GetObjectItem(rec, "layers")), 5);
+        /* off, then each light and its _value layer */
+        const int n_lights = lights_of(run);
+        assert_int_equal(cJSON_GetArraySize(cJSON_GetObjectItem(rec, "layers")), 1 + 2 * n_lights);
         cJSON_Delete(rec);
         for (int ci = 0; ci < N_CASES; ci++) {
             const struct mix_case *c = &cases[ci];
@@ -169,7 +185,7 @@ static void test_layers_mix_to_the_edits(void **state)
             double worst = 0.0;
             for (int f = 0; f < N_FRAMES; f++) {
                 struct esr_image mixed, edit, viamix;
-                mix_layers(lm, frames[f], c, &mixed);
+                mix_layers(lm, frames[f], c, n_lights, &mixed);
                 read_view(ed, frames[f], &edit);
                 read_view(edmix, frames[f], &viamix);
                 worst = fmax(worst, rel_diff(&mixed, &edit));
@@ -191,11 +207,13 @@ static void test_refusals(void **state)
     (void)state;
     char run[4300], cmd[24000], out[8192], dst[4400];
     tiny_copy_run("run_pdra", "run_lightmix_bad", run, sizeof run);
-    static const struct {
+    char no_light[128];
+    snprintf(no_light, sizeof no_light, "bad.json: lights[0].id: no light 7: the run found %d", lights_of(run));
+    const struct {
         const char *json, *message;
     } bad[] = {
         {"{\"lights\": [{\"id\": 0,}]}", "bad.json:1:23: malformed JSON"},
-        {"{\"lights\": [{\"id\": 7}]}", "bad.json: lights[0].id: no light 7: the run found 2"},
+        {"{\"lights\": [{\"id\": 7}]}", no_light},
         {"{\"lights\": [{\"id\": 0.5}]}", "bad.json: lights[0].id: no light 0.5"},
         {"{\"lights\": [{\"intensity\": 2}]}", "bad.json: lights[0]: no id"},
         {"{\"lights\": [{\"id\": 0}, {\"id\": 0}]}", "bad.json: lights[1].id: light 0 is given twice"},

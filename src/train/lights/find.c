@@ -9,10 +9,9 @@
 #include "core/colour.h"
 #include "core/error.h"
 #include "fields/grid.h"
-#include "fields/trilerp.h"
 #include "model/render_sdf.h"
+#include "train/lights/seen.h"
 #include "train/lights/surface.h"
-#include "volume/first_hit.h"
 #include "volume/free_space.h"
 
 /* a surface point is outer when free space touches it this many voxels out along its normal */
@@ -82,8 +81,6 @@ static int components(const struct esr_grid *g, const uint8_t *flag, int32_t *co
     return ESR_OK;
 }
 
-/* the rays whose first hits mark_seen finds per batch */
-#define SEEN_BATCH 65536
 /* a lights-on pixel whose every channel reaches this (sRGB) is clipped: it shows an emitter, or
  * light too strong to read, and says nothing on whether the surface it sees emits (nor does a
  * masked photo's background, composited on white, which counts the same) */
@@ -96,38 +93,23 @@ static int sees_clearly(const struct esr_ray_set *rs, size_t r)
     return r >= rs->n_off && fminf(c[0], fminf(c[1], c[2])) < SEEN_CLIPPED;
 }
 
-/* Marks the lattice points (both arrays zeroed by the caller) within one lattice point of the
- * first hit of some ray of rs on sdf (the SDF as first hits see it, model/render_sdf.h): in
- * seen[] for every ray, in seen_clearly[] for the rays that see clearly. One march serves both. */
+/* Marks the lattice points the training views see (train/lights/seen.h): in seen[] by any ray,
+ * in seen_clearly[] by the rays that see clearly. One march serves both. */
 static int mark_seen(const struct esr_model *m, const float *sdf, const struct esr_ray_set *rs,
                      uint8_t *seen, uint8_t *seen_clearly)
 {
     const struct esr_grid *g = esr_model_grid(m, ESR_COMP_SDF);
-    float *t = malloc(SEEN_BATCH * sizeof(float)), *hit = malloc(SEEN_BATCH * 3 * sizeof(float));
-    int rc = t && hit ? ESR_OK : ESR_FAIL("lights: out of memory for the cameras' first hits");
-    struct esr_first_hit_params fp;
-    esr_first_hit_params_init(&fp, g);
-    fp.refine_iters = 4; /* a lattice point is all the precision asked */
-    for (size_t r0 = 0; rc == ESR_OK && r0 < rs->n; r0 += SEEN_BATCH) {
-        const size_t nb = rs->n - r0 < SEEN_BATCH ? rs->n - r0 : SEEN_BATCH;
-        const struct esr_first_hit_rays fr = {rs->orig3 + r0 * 3, rs->dir3 + r0 * 3, NULL, NULL, nb};
-        const struct esr_first_hit_out fo = {t, NULL, hit, NULL};
-        rc = esr_first_hit(g, sdf, &fp, &fr, &fo);
-        for (size_t r = 0; rc == ESR_OK && r < nb; r++) {
-            if (!isfinite(t[r]))
-                continue;
-            const size_t at = esr_trilerp_nearest(g, hit + r * 3); /* the march is clipped to the box */
-            size_t nbr[26];
-            const int nn = neighbours26(g, at, nbr);
-            uint8_t *marks[2] = {seen, sees_clearly(rs, r0 + r) ? seen_clearly : NULL};
-            for (int k = 0; k < 2 && marks[k]; k++) {
-                marks[k][at] = 1;
-                for (int q = 0; q < nn; q++)
-                    marks[k][nbr[q]] = 1;
-            }
-        }
+    const size_t N = esr_grid_voxels(g);
+    float *area = calloc(N, sizeof(float)), *area_clearly = calloc(N, sizeof(float));
+    int rc = area && area_clearly ? ESR_OK : ESR_FAIL("lights: out of memory for the seen surface");
+    if (rc == ESR_OK)
+        rc = esr_seen_area(g, sdf, rs, sees_clearly, area, area_clearly);
+    if (rc == ESR_OK) {
+        const float h = esr_grid_voxel_size(g, 0);
+        esr_seen_marks(g, area, ESR_SEEN_AREA * h * h, seen);
+        esr_seen_marks(g, area_clearly, ESR_SEEN_AREA * h * h, seen_clearly);
     }
-    free(t), free(hit);
+    free(area), free(area_clearly);
     return rc;
 }
 
