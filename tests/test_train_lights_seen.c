@@ -20,6 +20,8 @@
 #include "train/rays.h"
 
 #define RES 48
+/* the default lights_seen_area, in cell faces */
+#define SEEN_AREA 2.0f
 #define MAX_W 200
 /* the camera at (0, 0, EYE) looks down -z; the image spans [-HALF, HALF]^2 at distance 1 */
 #define EYE 2.0f
@@ -98,7 +100,7 @@ static void test_seen_area_is_the_projected_area_at_any_image_size(void **state)
             assert_int_equal(esr_seen_area(&g, sdf, &rs, NULL, area, NULL), 0);
             got[k] = total(area, N);
             const float h = esr_grid_voxel_size(&g, 0);
-            esr_seen_marks(&g, area, ESR_SEEN_AREA * h * h, k ? seen_hi : seen);
+            esr_seen_marks(&g, area, SEEN_AREA * h * h, k ? seen_hi : seen);
             marked[k] = 0;
             for (size_t i = 0; i < N; i++)
                 marked[k] += (k ? seen_hi : seen)[i];

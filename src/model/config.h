@@ -107,6 +107,8 @@ struct esr_train_config {
                                 a light's own pixels bound it from below only */
     int lights_solve_dirs;   /* directions of its lights-off correction (0: none) */
     int lights_solve_drop;   /* 1: lights the solve does not see emitting are dropped */
+    float lights_seen_area;  /* surface the views show round a lattice point for it to be seen, in
+                                cell faces (train/lights/seen.h); 0: any hit */
     int lights_balance;      /* 1: the silhouette colour balance (train/lights/lights.h); 0: none */
     struct esr_stage_config alphamask, coarse, fine, lts, pdra;
 };

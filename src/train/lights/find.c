@@ -105,9 +105,9 @@ static int mark_seen(const struct esr_model *m, const float *sdf, const struct e
     if (rc == ESR_OK)
         rc = esr_seen_area(g, sdf, rs, sees_clearly, area, area_clearly);
     if (rc == ESR_OK) {
-        const float h = esr_grid_voxel_size(g, 0);
-        esr_seen_marks(g, area, ESR_SEEN_AREA * h * h, seen);
-        esr_seen_marks(g, area_clearly, ESR_SEEN_AREA * h * h, seen_clearly);
+        const float h = esr_grid_voxel_size(g, 0), need = m->cfg.lights_seen_area * h * h;
+        esr_seen_marks(g, area, need, seen);
+        esr_seen_marks(g, area_clearly, need, seen_clearly);
     }
     free(area), free(area_clearly);
     return rc;

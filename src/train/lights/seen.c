@@ -76,6 +76,6 @@ void esr_seen_marks(const struct esr_grid *g, const float *area, float need, uin
                     for (int b = y > 0 ? y - 1 : 0; b <= y + 1 && b < ny; b++)
                         for (int a = x > 0 ? x - 1 : 0; a <= x + 1 && a < nx; a++)
                             sum += area[esr_grid_index(g, a, b, c)];
-                seen[esr_grid_index(g, x, y, z)] = sum >= need;
+                seen[esr_grid_index(g, x, y, z)] = need > 0.0f ? sum >= need : sum > 0.0;
             }
 }

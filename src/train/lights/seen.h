@@ -14,12 +14,6 @@
 extern "C" {
 #endif
 
-/* A lattice point is seen when the views show at least this much surface within it and its 26
- * neighbours, in lattice cell faces (h^2): 2 of the about 9 a flat surface has there, as one
- * view showing it at 13 degrees from grazing, or a fifth of it head-on. A lower bar counts
- * single hits again where pixels are large (at 0.5: a 50 px and a 200 px view of a steep plane
- * mark 3.4% apart, at 2: 1%; test_train_lights_seen). */
-#define ESR_SEEN_AREA 2.0f
 
 /* The width across ray r of rs of the surface its pixel covers at ray parameter t: the distance
  * there to the nearer of its two neighbours in the set at the same t (t times the pixel's angle
@@ -36,7 +30,12 @@ int esr_seen_area(const struct esr_grid *g, const float *sdf, const struct esr_r
                   int (*clearly)(const struct esr_ray_set *rs, size_t r), float *area,
                   float *area_clearly);
 
-/* seen[i] = 1 where the area within lattice point i and its 26 neighbours reaches need. */
+/* seen[i] = 1 where the area within lattice point i and its 26 neighbours reaches need (need 0:
+ * where it is above 0, some ray's hit). A point is seen at lights_seen_area (option, default 2)
+ * cell faces h^2: 2 of the about 9 a flat surface has round it, as one view showing it at 13
+ * degrees from grazing, or a fifth of it head-on. A lower bar counts single hits again where
+ * pixels are large (at 0.5 a 50 px and a 200 px view of a steep plane mark 3.4% apart, at 2 1%;
+ * test_train_lights_seen). */
 void esr_seen_marks(const struct esr_grid *g, const float *area, float need, uint8_t *seen);
 
 #ifdef __cplusplus
