@@ -202,12 +202,13 @@ static const struct opt opts[] = {
      "1 = a light whose solved strength is within 3 standard errors of 0 (the photos do not show "
      "it emitting: a reflection of a light, a fleck) is dropped and the others solved again; 0 = "
      "kept (ablation)"},
-    {"lights_seen_area", OPT_FLOAT, OFF(lights_seen_area), 0, 100, DEF(2, 2),
+    {"lights_seen_area", OPT_FLOAT, OFF(lights_seen_area), 0, 100, DEF(0, 0),
      "pdra's end, `esr lights`: the surface the training views must show within a lattice point "
      "and its 26 neighbours, foreshortened and summed over the views, in lattice cell faces, for "
      "it to count as seen (a light grows over the outer surface next to it that is not; "
-     "train/lights/seen.h); 0 = any ray's hit (the rule before it, which the more rays of a "
-     "larger image carry further)"},
+     "train/lights/seen.h); 0 = any ray's hit, which the more rays of a larger image carry "
+     "further (2: a 400 px capture's lights 1.77x instead of 2.04x too strong, but glossy's "
+     "HDR MSE of the lights-on views doubles; docs/experiments/seen-surface.md)"},
     {"lights_balance", OPT_INT, OFF(lights_balance), 0, 1, DEF(1, 1),
      "1 = the lights' colour balanced by their silhouettes in the lights-on photos (base colour "
      "x b, environment / b), 0 = none (ablation)"},

@@ -31,9 +31,10 @@ int esr_seen_area(const struct esr_grid *g, const float *sdf, const struct esr_r
                   float *area_clearly);
 
 /* seen[i] = 1 where the area within lattice point i and its 26 neighbours reaches need (need 0:
- * where it is above 0, some ray's hit). A point is seen at lights_seen_area (option, default 2)
- * cell faces h^2: 2 of the about 9 a flat surface has round it, as one view showing it at 13
- * degrees from grazing, or a fifth of it head-on. A lower bar counts single hits again where
+ * where it is above 0, some ray's hit). With lights_seen_area (option) 2 cell faces h^2, a
+ * point is seen where the views show 2 of the about 9 a flat surface has round it, as one view
+ * showing it at 13 degrees from grazing, or a fifth of it head-on; the default 0 is the any-hit
+ * rule. A lower bar counts single hits again where
  * pixels are large (at 0.5 a 50 px and a 200 px view of a steep plane mark 3.4% apart, at 2 1%;
  * test_train_lights_seen). */
 void esr_seen_marks(const struct esr_grid *g, const float *area, float need, uint8_t *seen);
