@@ -30,9 +30,12 @@ static const char *const frames[] = {"c000_off", "c000_on", "c001_on", "c002_on"
 #define N_FRAMES (int)(sizeof frames / sizeof frames[0])
 
 /* An edit as the test states it: --light options for esr edit, the same as a mix JSON, and each
- * light's weights on its layers as worked out by hand (light_K, or light_K_value where value). */
+ * light's weights on its layers as worked out by hand (light_K, or light_K_value where value).
+ * An edit of every light (`--light all`) has its JSON's lights written for the run's lights:
+ * json then has a %s for the list, each light's entry its id and the fields `each`, and the
+ * lights past 1 weigh as light 0; lights past 1 of any other case stay as found. */
 struct mix_case {
-    const char *name, *args, *json;
+    const char *name, *args, *json, *each;
     float w[2][3];  /* lights 0 and 1 */
     int value[2];
     float gain;     /* 2^exposure */
@@ -40,17 +43,17 @@ struct mix_case {
 
 /* hsv(0.6, 1, 1) = (0, 0.4, 1): H' = 3.6, chroma 1, x = 1 - |3.6 mod 2 - 1| = 0.4 */
 static const struct mix_case cases[] = {
-    {"unedited", "--light 0 --intensity 1", "{\"lights\": []}", {{1, 1, 1}, {1, 1, 1}}, {0, 0}, 1},
+    {"unedited", "--light 0 --intensity 1", "{\"lights\": []}", NULL, {{1, 1, 1}, {1, 1, 1}}, {0, 0}, 1},
     {"light 0 off", "--light 0 --intensity 0", "{\"lights\": [{\"id\": 0, \"intensity\": 0}]}",
-     {{0, 0, 0}, {1, 1, 1}}, {0, 0}, 1},
+     NULL, {{0, 0, 0}, {1, 1, 1}}, {0, 0}, 1},
     {"light 1 x3", "--light 1 --intensity 3", "{\"lights\": [{\"id\": 1, \"intensity\": 3}]}",
-     {{1, 1, 1}, {3, 3, 3}}, {0, 0}, 1},
+     NULL, {{1, 1, 1}, {3, 3, 3}}, {0, 0}, 1},
     {"light 0 blue", "--light 0 --color 0.6,1",
-     "{\"lights\": [{\"id\": 0, \"hue\": 0.6, \"saturation\": 1}]}", {{0, 0.4f, 1}, {1, 1, 1}},
+     "{\"lights\": [{\"id\": 0, \"hue\": 0.6, \"saturation\": 1}]}", NULL, {{0, 0.4f, 1}, {1, 1, 1}},
      {1, 0}, 1},
-    {"lights 0 and 1 x0.5, exposure +1", "--light 0 --intensity 0.5 --light 1 --intensity 0.5 --exposure 1",
-     "{\"lights\": [{\"id\": 0, \"intensity\": 0.5}, {\"id\": 1, \"intensity\": 0.5}], "
-     "\"exposure\": 1}", {{0.5f, 0.5f, 0.5f}, {0.5f, 0.5f, 0.5f}}, {0, 0}, 2},
+    {"all x0.5, exposure +1", "--light all --intensity 0.5 --exposure 1",
+     "{\"lights\": [%s], \"exposure\": 1}", "\"intensity\": 0.5", {{0.5f, 0.5f, 0.5f}, {0.5f, 0.5f, 0.5f}},
+     {0, 0}, 2},
 };
 #define N_CASES (int)(sizeof cases / sizeof cases[0])
 
@@ -70,7 +73,7 @@ static double rel_diff(const struct esr_image *a, const struct esr_image *b)
 }
 
 /* The view mix case c gives from the layers of dir/frame.exr (read here, layer by layer) of a
- * run with n_lights lights (lights past 1, which the tiny run's training may find, unedited). */
+ * run with n_lights lights (the tiny run's training decides how many). */
 static void mix_layers(const char *dir, const char *frame, const struct mix_case *c, int n_lights,
                        struct esr_image *out)
 {
@@ -87,7 +90,7 @@ static void mix_layers(const char *dir, const char *frame, const struct mix_case
             fail_msg("%s", esr_error_message());
         for (size_t p = 0; p < px; p++)
             for (int ch = 0; ch < 3; ch++)
-                out->data[p * 4 + ch] += (k < 2 ? c->w[k][ch] : 1.0f) * L.data[p * 4 + ch];
+                out->data[p * 4 + ch] += (k < 2 ? c->w[k][ch] : c->each ? c->w[0][ch] : 1.0f) * L.data[p * 4 + ch];
         esr_image_free(&L);
     }
     for (size_t p = 0; p < px; p++)
@@ -175,7 +178,16 @@ static void test_layers_mix_to_the_edits(void **state)
             snprintf(ed, sizeof ed, "%s/edit_%s_%d", test_tmpdir, methods[mi], ci);
             snprintf(edmix, sizeof edmix, "%s/editmix_%s_%d", test_tmpdir, methods[mi], ci);
             snprintf(mixfile, sizeof mixfile, "%s/mix_%d.json", test_tmpdir, ci);
-            assert_int_equal(test_write_file(mixfile, c->json), 0);
+            char json[1024], list[768] = "";
+            if (c->each) { /* every light of the run, by id */
+                for (int k = 0, at = 0; k < n_lights; k++)
+                    at += snprintf(list + at, sizeof list - (size_t)at, "%s{\"id\": %d, %s}",
+                                   k ? ", " : "", k, c->each);
+                snprintf(json, sizeof json, c->json, list);
+            } else {
+                snprintf(json, sizeof json, "%s", c->json);
+            }
+            assert_int_equal(test_write_file(mixfile, json), 0);
             snprintf(cmd, sizeof cmd, "edit %s %s --out %s --method %s", run, c->args, ed,
                      methods[mi]);
             run_ok(cmd);

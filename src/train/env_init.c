@@ -24,14 +24,15 @@ static void set_level(const double sum[3], long count, float level[3], float sur
     }
 }
 
-/* count rays picked at random (stream `stream` of seed) into o, d (their indices into pick when
- * not NULL), rendered lights-off by prev: opacity into opac, the linear colour into lin when not
- * NULL. */
+/* Where pick_and_render writes: origins and directions, the linear colour (may be NULL), the
+ * opacity, each ray's index into the rays (may be NULL). */
 struct picked {
     float *o, *d, *lin, *opac;
     size_t *pick;
 };
 
+/* count rays picked at random (stream `stream` of seed) into p's o and d, rendered lights-off by
+ * prev. */
 static int pick_and_render(const struct esr_model *prev, const struct esr_env_init_rays *rays, int count,
                            uint64_t seed, uint64_t stream, const struct picked *p)
 {

@@ -14,7 +14,6 @@
 extern "C" {
 #endif
 
-
 /* The width across ray r of rs of the surface its pixel covers at ray parameter t: the distance
  * there to the nearer of its two neighbours in the set at the same t (t times the pixel's angle
  * for a pinhole camera, the spacing of parallel rays). A set holds each image's pixel-centre
@@ -24,19 +23,18 @@ float esr_seen_footprint(const struct esr_ray_set *rs, size_t r, float t);
 
 /* The first hit of every ray of rs on sdf (on grid g), each standing for its footprint's square,
  * added to area[] at the lattice point nearest the hit, and also to area_clearly[] (may be NULL)
- * for the rays clearly(rs, r, ctx) says see clearly. Both arrays hold esr_grid_voxels(g) floats,
+ * for the rays clearly(rs, r) says see clearly. Both arrays hold esr_grid_voxels(g) floats,
  * zeroed by the caller. */
 int esr_seen_area(const struct esr_grid *g, const float *sdf, const struct esr_ray_set *rs,
                   int (*clearly)(const struct esr_ray_set *rs, size_t r), float *area,
                   float *area_clearly);
 
 /* seen[i] = 1 where the area within lattice point i and its 26 neighbours reaches need (need 0:
- * where it is above 0, some ray's hit). With lights_seen_area (option) 2 cell faces h^2, a
- * point is seen where the views show 2 of the about 9 a flat surface has round it, as one view
- * showing it at 13 degrees from grazing, or a fifth of it head-on; the default 0 is the any-hit
- * rule. A lower bar counts single hits again where
- * pixels are large (at 0.5 a 50 px and a 200 px view of a steep plane mark 3.4% apart, at 2 1%;
- * test_train_lights_seen). */
+ * where it is above 0, some ray's hit: the default, lights_seen_area 0). At lights_seen_area 2
+ * cell faces h^2 a point is seen where the views show 2 of the about 9 a flat surface has round
+ * it, as one view showing it at 13 degrees from grazing, or a fifth of it head-on. A lower bar
+ * counts single hits again where pixels are large (at 0.5 a 50 px and a 200 px view of a steep
+ * plane mark 3.4% apart, at 2 1%; test_train_lights_seen). */
 void esr_seen_marks(const struct esr_grid *g, const float *area, float need, uint8_t *seen);
 
 #ifdef __cplusplus
