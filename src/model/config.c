@@ -75,9 +75,9 @@ static const struct opt opts[] = {
     {"fine_mask_band", OPT_FLOAT, OFF(fine_mask_band), 0, 1000, DEF(4, 0),
      "fine: mask cache narrowed to the band within this many voxels of the coarse surface "
      "(0 = off)"},
-    {"mlp_engine", OPT_INT, OFF(mlp_engine), 0, 2, DEF(1, 1),
-     "MLP training kernels: 0 esr's fused kernel (bitwise the same for any thread count), "
-     "1 oneDNN (fastest in `esr bench`), 2 OpenBLAS"},
+    {"mlp_engine", OPT_INT, OFF(mlp_engine), 0, 2, DEF(0, 0),
+     "MLP training kernels: 0 esr's fused kernel (the fastest in `esr bench`; bitwise the same for any thread count), "
+     "1 oneDNN, 2 OpenBLAS"},
     {"lts_points", OPT_INT, OFF(lts_points), 1, 100000, DEF(128, 100),
      "lts: surface points per step the light-transport loss checks"},
     {"lts_dirs", OPT_INT, OFF(lts_dirs), 1, 4096, DEF(32, 256),

@@ -6,20 +6,35 @@
 #include "core/isa.h"
 #include "core/simd.h"
 
-#define NR 16     /* columns per micro-block: two 8-float vectors */
+#define NR 16     /* columns per micro-block of 8-float vectors: two vectors */
+#define NR_WIDE 32 /* columns per micro-block of 16-float vectors (AVX-512): two vectors */
 #define MR_MAX 8  /* rows per micro-block on the widest path */
 
 typedef float v8 __attribute__((vector_size(32)));
 typedef int v8i __attribute__((vector_size(32)));
+typedef float v16 __attribute__((vector_size(64)));
+typedef int v16i __attribute__((vector_size(64)));
 
-/* Vectors go through pointers: passing 32-byte vectors by value draws GCC's ABI note in the
- * baseline build, although these helpers are always inlined. */
-ESR_INLINE void load8(v8 *v, const float *p) { memcpy(v, p, sizeof(*v)); }
-ESR_INLINE void store8(float *p, const v8 *v) { memcpy(p, v, sizeof(*v)); }
+/* Unaligned vector loads and stores as one instruction each. Vectors go through pointers:
+ * passing 32-byte vectors by value draws GCC's ABI note in the baseline build, although these
+ * helpers are always inlined. (A memcpy into the accumulator array made GCC build the
+ * accumulators on the stack from two 16-byte halves under -mtune=generic and then load them
+ * whole: a failed store forward per accumulator, 40% of the AVX2 forward's time in `perf`.) */
+typedef float v8u __attribute__((vector_size(32), aligned(4), may_alias));
+typedef float v16u __attribute__((vector_size(64), aligned(4), may_alias));
+ESR_INLINE void load8(v8 *v, const float *p) { *v = *(const v8u *)p; }
+ESR_INLINE void store8(float *p, const v8 *v) { *(v8u *)p = *v; }
 ESR_INLINE void relu8(v8 *x)
 {
     v8 zero = {0};
     *x = (v8)((v8i)*x & (*x > zero));
+}
+ESR_INLINE void load16(v16 *v, const float *p) { *v = *(const v16u *)p; }
+ESR_INLINE void store16(float *p, const v16 *v) { *(v16u *)p = *v; }
+ESR_INLINE void relu16(v16 *x)
+{
+    v16 zero = {0};
+    *x = (v16)((v16i)*x & (*x > zero));
 }
 
 /* Non-ReLU activations on a stored block (output layers only: few columns, not hot). */
@@ -30,80 +45,49 @@ ESR_INLINE void act_block(enum esr_nn_act act, float *c, int ldc, int rows, int 
             c[r * ldc + j] = esr_nn_act_fwd(act, c[r * ldc + j]);
 }
 
-/* mr x (8 nv) block of C over the full k; mr and nv (1 or 2 vectors) are literals at every call
- * so the accumulators live in registers. A(r, p) = a[r * rs + p * ks]. b and bias point at 8 nv
- * readable floats per row (padded by the caller if needed).
- * Exempt from the eight-argument rule: a BLAS-convention GEMM microkernel (sizes, strides apart). */
-ESR_INLINE void micro(int mr, int nv, const float *a, size_t rs, size_t ks, const float *b,
-                      int ldb, float *c, int ldc, int k, const float *bias, int accumulate,
-                      enum esr_nn_act act)
-{
-    v8 acc[2][MR_MAX];
-    for (int v = 0; v < nv; v++)
-        for (int r = 0; r < mr; r++) {
-            if (accumulate)
-                load8(&acc[v][r], c + r * ldc + 8 * v);
-            else if (bias)
-                load8(&acc[v][r], bias + 8 * v);
-            else
-                acc[v][r] = (v8){0};
-        }
-    for (int p = 0; p < k; p++) {
-        v8 bv[2];
-        for (int v = 0; v < nv; v++)
-            load8(&bv[v], b + p * ldb + 8 * v);
-        for (int r = 0; r < mr; r++) {
-            float s = a[r * rs + p * ks];
-            v8 x = {s, s, s, s, s, s, s, s};
-            for (int v = 0; v < nv; v++)
-                acc[v][r] += x * bv[v];
-        }
-    }
-    for (int v = 0; v < nv; v++)
-        for (int r = 0; r < mr; r++) {
-            if (act == ESR_NN_ACT_RELU)
-                relu8(&acc[v][r]);
-            store8(c + r * ldc + 8 * v, &acc[v][r]);
-        }
-    if (act != ESR_NN_ACT_RELU && act != ESR_NN_ACT_NONE)
-        act_block(act, c, ldc, mr, 8 * nv);
-}
-
-/* All rows of one panel of 8 nv columns: blocks of mr_main rows, then single rows. rs and ks are
- * A's row and k strides, literals at the call sites below so the common ks = 1 folds away.
- * Exempt from the eight-argument rule: a BLAS-convention GEMM panel kernel, as micro. */
-ESR_INLINE void panel_strided(int mr_main, int nv, const struct esr_gemm_tile *t, size_t rs,
-                              size_t ks, const float *b, int ldb, float *c, int ldc,
-                              const float *bias)
-{
-    int r = 0;
-    for (; r + mr_main <= t->m; r += mr_main)
-        micro(mr_main, nv, t->a + r * rs, rs, ks, b, ldb, c + (size_t)r * ldc, ldc, t->k, bias,
-              t->accumulate, t->act);
-    for (; r < t->m; r++)
-        micro(1, nv, t->a + r * rs, rs, ks, b, ldb, c + (size_t)r * ldc, ldc, t->k, bias,
-              t->accumulate, t->act);
-}
+/* The micro-kernels and panels, once per vector width (nn/tile_gemm_micro.h): micro8 and
+ * panel_strided8 on 8-float vectors, micro16 and panel_strided16 on 16-float ones. Each C
+ * element is the same chain of fused multiply-adds in either, so the widths agree bit for bit. */
+#define TG_W 8
+#include "nn/tile_gemm_micro.h"
+#undef TG_W
+#define TG_W 16
+#include "nn/tile_gemm_micro.h"
+#undef TG_W
 
 /* nv = 1 serves narrow outputs (RGB heads: 3 columns) at half the padded work. */
 ESR_INLINE void panel(int mr_main, int nv, const struct esr_gemm_tile *t, const float *b, int ldb,
                       float *c, int ldc, const float *bias)
 {
     if (t->trans_a && nv == 1)
-        panel_strided(mr_main, 1, t, 1, (size_t)t->lda, b, ldb, c, ldc, bias);
+        panel_strided8(mr_main, 1, t, 1, (size_t)t->lda, b, ldb, c, ldc, bias);
     else if (t->trans_a)
-        panel_strided(mr_main, 2, t, 1, (size_t)t->lda, b, ldb, c, ldc, bias);
+        panel_strided8(mr_main, 2, t, 1, (size_t)t->lda, b, ldb, c, ldc, bias);
     else if (nv == 1)
-        panel_strided(mr_main, 1, t, (size_t)t->lda, 1, b, ldb, c, ldc, bias);
+        panel_strided8(mr_main, 1, t, (size_t)t->lda, 1, b, ldb, c, ldc, bias);
     else
-        panel_strided(mr_main, 2, t, (size_t)t->lda, 1, b, ldb, c, ldc, bias);
+        panel_strided8(mr_main, 2, t, (size_t)t->lda, 1, b, ldb, c, ldc, bias);
 }
 
-/* Full panels run in place; the last partial panel (n % 16 columns) runs on zero-padded copies
+/* A 32-column panel on 16-float vectors (AVX-512 only). */
+ESR_INLINE void panel_wide(int mr_main, const struct esr_gemm_tile *t, const float *b, float *c,
+                           const float *bias)
+{
+    if (t->trans_a)
+        panel_strided16(mr_main, 2, t, 1, (size_t)t->lda, b, t->ldb, c, t->ldc, bias);
+    else
+        panel_strided16(mr_main, 2, t, (size_t)t->lda, 1, b, t->ldb, c, t->ldc, bias);
+}
+
+/* Full panels run in place (on the AVX-512 path 32 columns at a time in 16-float vectors, then
+ * 16); the last partial panel (n % 16 columns) runs on zero-padded copies
  * of B, the bias and C so the micro-kernel never reads or writes past the matrix. */
-ESR_INLINE void gemm_impl(int mr_main, const struct esr_gemm_tile *t)
+ESR_INLINE void gemm_impl(int mr_main, int wide, const struct esr_gemm_tile *t)
 {
     int j = 0;
+    if (wide) /* 32-column panels on 16-float vectors, the rest as below */
+        for (; j + NR_WIDE <= t->n; j += NR_WIDE)
+            panel_wide(mr_main, t, t->b + j, t->c + j, t->bias ? t->bias + j : NULL);
     for (; j + NR <= t->n; j += NR)
         panel(mr_main, 2, t, t->b + j, t->ldb, t->c + j, t->ldc, t->bias ? t->bias + j : NULL);
     if (j == t->n)
@@ -136,21 +120,21 @@ ESR_INLINE void gemm_impl(int mr_main, const struct esr_gemm_tile *t)
  * rows (12 accumulators). */
 __attribute__((target("arch=x86-64-v4"))) static void gemm_v4(const struct esr_gemm_tile *t)
 {
-    gemm_impl(8, t);
+    gemm_impl(8, 1, t);
 }
 __attribute__((target("arch=x86-64-v3"))) static void gemm_v3(const struct esr_gemm_tile *t)
 {
-    gemm_impl(6, t);
+    gemm_impl(6, 0, t);
 }
 #endif
 #if defined(__AVX512F__) && defined(__AVX512VL__)
-static void gemm_base(const struct esr_gemm_tile *t) { gemm_impl(8, t); }
+static void gemm_base(const struct esr_gemm_tile *t) { gemm_impl(8, 1, t); }
 #define GEMM_BASE_NAME "avx512"
 #elif defined(__AVX2__)
-static void gemm_base(const struct esr_gemm_tile *t) { gemm_impl(6, t); }
+static void gemm_base(const struct esr_gemm_tile *t) { gemm_impl(6, 0, t); }
 #define GEMM_BASE_NAME "avx2"
 #else
-static void gemm_base(const struct esr_gemm_tile *t) { gemm_impl(4, t); }
+static void gemm_base(const struct esr_gemm_tile *t) { gemm_impl(4, 0, t); }
 #define GEMM_BASE_NAME "generic"
 #endif
 
@@ -159,11 +143,10 @@ struct gemm_impl_choice {
     const char *name;
 };
 
-static struct gemm_impl_choice gemm_pick(void)
+static struct gemm_impl_choice gemm_pick(enum esr_isa cap)
 {
     struct gemm_impl_choice ch = {gemm_base, GEMM_BASE_NAME};
 #ifdef GEMM_MULTI_ISA
-    const enum esr_isa cap = esr_isa_cap();
     if (cap >= ESR_ISA_AVX512 && __builtin_cpu_supports("x86-64-v4")) {
         ch.fn = gemm_v4;
         ch.name = "avx512";
@@ -171,12 +154,21 @@ static struct gemm_impl_choice gemm_pick(void)
         ch.fn = gemm_v3;
         ch.name = "avx2";
     } /* else the portable path */
+#else
+    (void)cap;
 #endif
     return ch;
 }
 
 /* Picking per call costs two loads of the CPU-feature word: nothing next to a tile, and no
  * shared mutable state. */
-void esr_gemm_tile(const struct esr_gemm_tile *t) { gemm_pick().fn(t); }
+void esr_gemm_tile(const struct esr_gemm_tile *t) { gemm_pick(esr_isa_cap()).fn(t); }
 
-const char *esr_gemm_isa(void) { return gemm_pick().name; }
+const char *esr_gemm_isa(void) { return gemm_pick(esr_isa_cap()).name; }
+
+const char *esr_gemm_tile_upto(enum esr_isa cap, const struct esr_gemm_tile *t)
+{
+    const struct gemm_impl_choice ch = gemm_pick(cap);
+    ch.fn(t);
+    return ch.name;
+}

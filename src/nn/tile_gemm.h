@@ -1,11 +1,14 @@
 /* The dense kernel under the MLPs: one cache-resident tile of C = A B (+ bias or + C), with the
  * activation fused into the store. Register-blocked micro-kernel on 8-float vectors, built three
  * times (AVX-512VL with 32 vector registers, AVX2+FMA, baseline SSE) and picked once by the CPU's
- * features. Each C element sums over k in increasing order whatever the blocking, so a row's
- * result does not depend on which tile or thread computed it. */
+ * features; on AVX-512 the panels of 32 columns run on 16-float vectors. Each C element sums
+ * over k in increasing order by fused multiply-adds whatever the blocking and the vector width,
+ * so a row's result does not depend on which tile or thread computed it, and the AVX-512 and
+ * AVX2 paths agree bit for bit (the generic path, without FMA, rounds differently). */
 #ifndef ESR_NN_TILE_GEMM_H
 #define ESR_NN_TILE_GEMM_H
 
+#include "core/isa.h"
 #include "nn/activation.h"
 
 #define ESR_GEMM_MAX_DIM 256 /* m, n and k of one call */
@@ -26,5 +29,8 @@ struct esr_gemm_tile {
 void esr_gemm_tile(const struct esr_gemm_tile *t);
 /* Name of the code path picked for this CPU ("avx512", "avx2", "generic"). */
 const char *esr_gemm_isa(void);
+/* The tile on the widest path this CPU and build have up to `cap` (whatever ESR_MAX_ISA
+ * says), for tests that compare the paths; returns the name of the path it ran. */
+const char *esr_gemm_tile_upto(enum esr_isa cap, const struct esr_gemm_tile *t);
 
 #endif
