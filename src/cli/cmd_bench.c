@@ -460,6 +460,11 @@ static void stage_profile(const struct esr_prof_totals *p, double seconds,
            "other", other, 100.0 * other / seconds);
     printf("  %-10s   %-20s %7.2f s %5.1f%%  (start-up, checkpoints, the lights' estimation)\n", "",
            "outside the steps", outside, 100.0 * outside / seconds);
+    /* what a faster MLP cannot touch: the stage's time outside the MLPs' forward and backward */
+    const double mlp = p->seconds[ESR_PROF_MLP_FWD] + p->seconds[ESR_PROF_MLP_BWD];
+    cJSON_AddNumberToObject(st, "outside_mlp_share", (seconds - mlp) / seconds);
+    printf("  %-10s   %-20s %7.2f s %5.1f%%  (of the whole stage)\n", "", "outside the MLPs",
+           seconds - mlp, 100.0 * (seconds - mlp) / seconds);
 }
 
 static int train_section(const struct bench_opts *o, cJSON *root)
