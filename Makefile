@@ -1,6 +1,6 @@
 # Set-up and entry points. `make demo` and `make test` are the two commands in the README:
 # both install missing Debian packages (as root, non-interactively), build, and leave build/esr.
-.PHONY: all deps test-tools build check demo test test-release test-asan bench colmap-roundtrip lightmix-blender-check fuzz clean
+.PHONY: all deps test-tools build check demo test test-release test-asan bench colmap-roundtrip lightmix-blender-check gltf-blender-check fuzz clean
 
 DEB_PACKAGES := build-essential cmake pkg-config libspng-dev libopenexr-dev libcjson-dev \
                 libjpeg62-turbo-dev libexif-dev libcmocka-dev zlib1g-dev libzip-dev imagemagick libdnnl-dev libopenblas-pthread-dev
@@ -75,6 +75,15 @@ colmap-roundtrip: build
 LIGHTMIX ?= runs/demo/run/lightmix
 lightmix-blender-check: build
 	ESR=./build/esr tools/lightmix_blender_check.sh $(LIGHTMIX)
+
+# Blender Cycles renders `esr export --gltf`'s asset from every lights-on test camera under esr's
+# own environment map; PSNR against the photos beside esr's own direct and radiance-field renders
+# (tools/gltf_blender_check.sh; installs blender when missing). RUN: a trained run (default: the
+# demo's); SAMPLES: Cycles samples per pixel.
+RUN ?= runs/demo/run
+SAMPLES ?= 64
+gltf-blender-check: build
+	ESR=./build/esr tools/gltf_blender_check.sh $(RUN) "" $(SAMPLES)
 
 # libFuzzer harnesses (fuzz/), clang with ASan+UBSan, each run FUZZ_TIME seconds in turn on one
 # core; exit status 1 on any crash, leak, sanitizer report or memory blow-up (fuzz/run.sh).

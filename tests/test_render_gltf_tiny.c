@@ -16,7 +16,8 @@
 #include "tiny_run.h"
 
 /* The relightable glTF of the pdra run (`esr export --gltf`, render/model_gltf): one node per
- * light (at a coarse --res, a light without a triangle said and not counted), and valid for the
+ * light (at a coarse --res, a light without a triangle said and not counted), the surface in as
+ * many materials as its roughness and metallic call for (at most --materials), and valid for the
  * Khronos validator when it is installed (make test-tools). From test_pdra_finds_lights. */
 static void test_export_gltf_light_nodes(void **state)
 {
@@ -32,6 +33,18 @@ static void test_export_gltf_light_nodes(void **state)
     assert_int_equal(test_run_esr(cmd, out, sizeof out), 0);
     snprintf(cmd, sizeof cmd, "%d light node(s)", m.lights.n);
     assert_non_null(strstr(out, cmd));
+    /* the surface in 1..8 materials by its roughness and metallic; --materials 1: one */
+    const char *mats = strstr(out, "the surface's ");
+    int n_mat = 0;
+    assert_non_null(mats);
+    assert_int_equal(sscanf(mats, "the surface's %d material(s)", &n_mat), 1);
+    print_message("glTF: %d material(s) for the surface\n", n_mat);
+    assert_true(n_mat >= 1 && n_mat <= 8);
+    snprintf(cmd, sizeof cmd, "export %s --gltf %s --materials 1", run, glb);
+    assert_int_equal(test_run_esr(cmd, out, sizeof out), 0);
+    assert_non_null(strstr(out, "the surface's 1 material(s)"));
+    snprintf(cmd, sizeof cmd, "export %s --gltf %s --materials 17", run, glb);
+    assert_int_not_equal(test_run_esr(cmd, out, sizeof out), 0);
     /* at a coarse --res a light may get no triangle: then it is said, and not counted */
     snprintf(cmd, sizeof cmd, "export %s --gltf %s --res 8", run, glb);
     assert_int_equal(test_run_esr(cmd, out, sizeof out), 0);

@@ -21,7 +21,7 @@ static int run_export(int argc, char **argv);
 
 struct export_args {
     const char *run, *mesh, *gltf;
-    int res, no_colour;
+    int res, no_colour, materials;
 };
 
 #define AT(field) offsetof(struct export_args, field)
@@ -33,6 +33,10 @@ static const struct cli_option export_options[] = {
      .at = AT(gltf)},
     {"--res", "N", "resample the SDF to N^3 lattice points first (8..1024; default: the model's "
      "grid)", CLI_INT, .at = AT(res), .lo = ESR_MODEL_MESH_RES_MIN, .hi = ESR_MODEL_MESH_RES_MAX},
+    {"--materials", "N", "glTF: split the surface into at most N materials (1..16; default 8) by "
+     "clustering its triangles' roughness and metallic, centres at least 0.1 apart, each at "
+     "least 1% of the area (1: one material, the surface's mean)", CLI_INT, .at = AT(materials),
+     .lo = 1, .hi = ESR_GLTF_MAX_MATERIALS},
     {"--no-colour", NULL, "PLY: leave out vertex colours (faster)", CLI_FLAG, .at = AT(no_colour)},
     {0},
 };
@@ -50,33 +54,41 @@ const struct esr_command cmd_export = {
     "with the lights off, seen along the normal, clipped to [0,1].\n"
     "\n"
     "With --gltf, a relightable binary glTF (render/model_gltf.h): the same surface with the\n"
-    "reconstructed base colour per vertex, roughness and metallic, and each light found as its\n"
-    "own node (light_<id>) emitting its calibrated radiance (KHR_materials_emissive_strength).\n",
+    "reconstructed base colour per vertex, split into a few materials (surface_<n>) by the\n"
+    "roughness and metallic of its triangles (--materials), and each light found as its own node\n"
+    "(light_<id>) emitting its calibrated radiance (KHR_materials_emissive_strength).\n",
     .options = export_options,
     .run = run_export,
 };
 
-/* The glTF of model to gltf_path, saying which lights got their node. */
-static int export_gltf(const struct esr_model *model, int res, const char *gltf_path)
+/* The glTF of model to gltf_path, saying which lights got their node and the materials. */
+static int export_gltf(const struct esr_model *model, const struct esr_gltf_options *o,
+                       const char *gltf_path)
 {
-    int nodes = 0;
-    ESR_TRY(esr_model_gltf_write(model, res, gltf_path, &nodes));
+    struct esr_gltf_summary sum;
+    ESR_TRY(esr_model_gltf_write(model, o, gltf_path, &sum));
     int written = 0;
     for (int k = 0; k < model->lights.n; k++) {
-        written += (nodes >> k) & 1;
-        if (!((nodes >> k) & 1))
+        written += (sum.light_nodes >> k) & 1;
+        if (!((sum.light_nodes >> k) & 1))
             fprintf(stderr, "esr export: warning: light %d has no triangle at this resolution, so "
                             "no node (a larger --res gives it one)\n", k);
     }
     fprintf(stderr, "wrote %s: the surface and %d light node(s) (%s model)\n", gltf_path, written,
             esr_stage_name((enum esr_stage)model->stage));
+    fprintf(stderr, "  the surface's %d material(s), roughness / metallic (share of the area):",
+            sum.n_materials);
+    for (int j = 0; j < sum.n_materials; j++)
+        fprintf(stderr, "%s %.2f / %.2f (%.0f%%)", j ? "," : "", (double)sum.roughness[j],
+                (double)sum.metallic[j], 100.0 * (double)sum.share[j]);
+    fprintf(stderr, "\n");
     return ESR_OK;
 }
 
 /* Both files or neither: the PLY goes to a temporary name beside mesh_path and takes its name
  * only once the glTF is written, so a failed glTF leaves an earlier mesh_path as it was. */
-static int export_mesh(const char *run, const char *mesh_path, const char *gltf_path, int res,
-                       int colours)
+static int export_mesh(const char *run, const char *mesh_path, const char *gltf_path,
+                       const struct esr_gltf_options *o, int colours)
 {
     struct esr_model model;
     struct esr_mesh mesh;
@@ -87,7 +99,7 @@ static int export_mesh(const char *run, const char *mesh_path, const char *gltf_
     if (mesh_path) {
         char prefix[4150];
         snprintf(prefix, sizeof prefix, "%s.tmp-", mesh_path);
-        status = esr_model_mesh(&model, res, colours, &mesh);
+        status = esr_model_mesh(&model, o->res, colours, &mesh);
         if (status == ESR_OK && gltf_path) { /* the temporary name, reserved */
             status = esr_stale_template(tmp, sizeof tmp, prefix);
             const int fd = status == ESR_OK ? mkstemp(tmp) : -1;
@@ -105,7 +117,7 @@ static int export_mesh(const char *run, const char *mesh_path, const char *gltf_
             status = esr_ply_write(gltf_path ? tmp : mesh_path, &mesh);
     }
     if (status == ESR_OK && gltf_path)
-        status = export_gltf(&model, res, gltf_path);
+        status = export_gltf(&model, o, gltf_path);
     if (status == ESR_OK && mesh_path && gltf_path && rename(tmp, mesh_path) != 0)
         status = ESR_FAIL("cannot rename %s to %s: %s", tmp, mesh_path, strerror(errno));
     if (status != ESR_OK && tmp[0])
@@ -140,12 +152,13 @@ static int check_not_input(const char *run, const char *out)
 
 static int run_export(int argc, char **argv)
 {
-    struct export_args args = {NULL, NULL, NULL, 0, 0};
+    struct export_args args = {.materials = 8};
     const int parsed = cli_parse(&cmd_export, argc, argv, &args);
     if (parsed != CLI_PARSED)
         return parsed == CLI_HELPED ? 0 : 1;
     const char *run = args.run, *mesh = args.mesh, *gltf = args.gltf;
-    const int res = args.res, colours = !args.no_colour;
+    const struct esr_gltf_options gltf_opts = {.res = args.res, .max_materials = args.materials};
+    const int colours = !args.no_colour;
     if (!run)
         return cli_fail(&cmd_export, "missing RUN directory");
     if (!mesh && !gltf)
@@ -173,7 +186,7 @@ static int run_export(int argc, char **argv)
     cli_catch_interrupt(&cmd_export, 1); /* the outputs are written atomically: a Ctrl-C keeps
                                             the earlier ones */
     if (status == ESR_OK)
-        status = export_mesh(run, mesh, gltf, res, colours);
+        status = export_mesh(run, mesh, gltf, &gltf_opts, colours);
     if (status == ESR_OK)
         return 0;
     for (int i = 1; i >= 0; i--)

@@ -8,20 +8,21 @@
 
 #include "core/colour.h"
 #include "core/error.h"
+#include "core/kmeans.h"
 #include "io/glb.h"
 #include "model/material_fields.h"
 #include "render/model_mesh.h"
 
 #define CHUNK 16384
 
-/* Base colour per vertex (into mesh->colour) and the mean roughness and metallic. */
+/* Base colour per vertex (into mesh->colour), roughness and metallic per vertex (rough[],
+ * metal[]). */
 static int vertex_materials(const struct esr_model *m, struct esr_mesh *mesh, float *rough,
                             float *metal)
 {
     struct esr_material_fields mf;
     ESR_TRY(esr_material_fields_init(&mf, m, CHUNK, 0));
     const float *sdf = esr_model_values(m, ESR_COMP_SDF);
-    double r = 0.0, mt = 0.0;
     int rc = ESR_OK;
     for (size_t i0 = 0; i0 < mesh->n_vertices && rc == ESR_OK; i0 += CHUNK) {
         const size_t n = mesh->n_vertices - i0 < CHUNK ? mesh->n_vertices - i0 : CHUNK;
@@ -31,75 +32,175 @@ static int vertex_materials(const struct esr_model *m, struct esr_mesh *mesh, fl
             for (int c = 0; c < 3; c++) /* glTF colours lie in [0, 1]; a colour balance
                                            (model/lights.h) can lift a base colour past 1 */
                 mesh->colour[(i0 + i) * 3 + c] = esr_clamp01(b[c]);
-            r += b[3];
-            mt += b[4];
+            rough[i0 + i] = esr_clamp01(b[3]);
+            metal[i0 + i] = esr_clamp01(b[4]);
         }
     }
     esr_material_fields_free(&mf);
-    *rough = (float)(r / (double)(mesh->n_vertices ? mesh->n_vertices : 1));
-    *metal = (float)(mt / (double)(mesh->n_vertices ? mesh->n_vertices : 1));
     return rc;
 }
 
-int esr_model_gltf_write(const struct esr_model *m, int res, const char *path, int *light_nodes)
+static float triangle_area(const struct esr_mesh *mesh, size_t t)
 {
-    *light_nodes = 0;
+    const float *a = mesh->pos + (size_t)mesh->tri[t * 3] * 3,
+                *b = mesh->pos + (size_t)mesh->tri[t * 3 + 1] * 3,
+                *c = mesh->pos + (size_t)mesh->tri[t * 3 + 2] * 3;
+    const float u[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]},
+                v[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]};
+    const float x = u[1] * v[2] - u[2] * v[1], y = u[2] * v[0] - u[0] * v[2],
+                z = u[0] * v[1] - u[1] * v[0];
+    return 0.5f * sqrtf(x * x + y * y + z * z);
+}
+
+/* The triangles' materials: rm[t * 2] roughness, rm[t * 2 + 1] metallic, the mean of their
+ * vertices'. */
+static void triangle_materials(const struct esr_mesh *mesh, const float *rough,
+                               const float *metal, float *rm)
+{
+    for (size_t t = 0; t < mesh->n_triangles; t++) {
+        float r = 0.0f, mt = 0.0f;
+        for (int v = 0; v < 3; v++) {
+            r += rough[mesh->tri[t * 3 + v]] / 3.0f;
+            mt += metal[mesh->tri[t * 3 + v]] / 3.0f;
+        }
+        rm[t * 2] = r, rm[t * 2 + 1] = mt;
+    }
+}
+
+/* Splits the n surface triangles (indices sel, their materials rm by triangle) into at most
+ * max_k materials, area-weighted: cluster[i] for sel[i], centres into out. */
+static int cluster_surface(const struct esr_mesh *mesh, const uint32_t *sel, size_t n,
+                           const float *rm, int max_k, int32_t *cluster,
+                           struct esr_gltf_summary *out)
+{
+    float *x = malloc((n ? n : 1) * 2 * sizeof(float)), *w = malloc((n ? n : 1) * sizeof(float));
+    int rc = x && w ? ESR_OK : ESR_FAIL("gltf: out of memory for %zu triangles' materials", n);
+    double total = 0.0;
+    for (size_t i = 0; rc == ESR_OK && i < n; i++) {
+        x[i * 2] = rm[(size_t)sel[i] * 2], x[i * 2 + 1] = rm[(size_t)sel[i] * 2 + 1];
+        w[i] = triangle_area(mesh, sel[i]);
+        total += w[i];
+    }
+    float centres[ESR_KMEANS_MAX_K * 2];
+    const struct esr_kmeans_params kp = {.x = x, .w = w, .n = n, .dim = 2, .k_max = max_k,
+                                         .min_separation = ESR_GLTF_MATERIAL_SEPARATION,
+                                         .min_share = ESR_GLTF_MATERIAL_MIN_SHARE, .iters = 30};
+    if (rc == ESR_OK)
+        rc = esr_kmeans(&kp, centres, cluster, &out->n_materials);
+    for (int j = 0; rc == ESR_OK && j < out->n_materials; j++) {
+        out->roughness[j] = centres[j * 2], out->metallic[j] = centres[j * 2 + 1];
+        double a = 0.0;
+        for (size_t i = 0; i < n; i++)
+            a += cluster[i] == j ? w[i] : 0.0;
+        out->share[j] = total > 0.0 ? (float)(a / total) : 1.0f / (float)out->n_materials;
+    }
+    free(x), free(w);
+    return rc;
+}
+
+int esr_model_gltf_write(const struct esr_model *m, const struct esr_gltf_options *o,
+                         const char *path, struct esr_gltf_summary *out)
+{
+    memset(out, 0, sizeof *out);
+    if (o->max_materials < 1 || o->max_materials > ESR_GLTF_MAX_MATERIALS)
+        return ESR_FAIL("gltf: %d materials (1..%d)", o->max_materials, ESR_GLTF_MAX_MATERIALS);
     const int has_fields = esr_model_has(m, ESR_COMP_BRDF_MLP);
     struct esr_mesh mesh;
-    ESR_TRY(esr_model_mesh(m, res, !has_fields, &mesh));
-    float rough = 0.5f, metal = 0.0f;
-    int rc = ESR_OK;
-    if (has_fields) {
+    ESR_TRY(esr_model_mesh(m, o->res, !has_fields, &mesh));
+    const size_t nv = mesh.n_vertices, nt = mesh.n_triangles;
+    float *rough = malloc((nv ? nv : 1) * sizeof(float)), *metal = malloc((nv ? nv : 1) * sizeof(float));
+    float *rm = malloc((nt ? nt : 1) * 2 * sizeof(float));
+    int32_t *part_of = malloc((nt ? nt : 1) * sizeof(int32_t)); /* light k + 1, or 0 */
+    uint32_t *surf = malloc((nt ? nt : 1) * sizeof(uint32_t));
+    int32_t *cluster = malloc((nt ? nt : 1) * sizeof(int32_t));
+    int rc = rough && metal && rm && part_of && surf && cluster
+                 ? ESR_OK
+                 : ESR_FAIL("gltf: out of memory for %zu triangles", nt);
+    for (size_t i = 0; rc == ESR_OK && i < nv; i++) /* a model before lts: the defaults */
+        rough[i] = 0.5f, metal[i] = 0.0f;
+    if (rc == ESR_OK && has_fields) {
         rc = esr_mesh_alloc_colours(&mesh);
         if (rc == ESR_OK)
-            rc = vertex_materials(m, &mesh, &rough, &metal);
+            rc = vertex_materials(m, &mesh, rough, metal);
     }
     const int n_lights = m->lights.n;
-    /* triangles by light: part 0 the surface, part k + 1 light k */
-    uint32_t *tri[ESR_MAX_LIGHTS + 1];
-    size_t cnt[ESR_MAX_LIGHTS + 1];
-    memset(tri, 0, sizeof tri);
-    memset(cnt, 0, sizeof cnt);
-    for (int k = 0; rc == ESR_OK && k <= n_lights; k++)
-        if (!(tri[k] = malloc((mesh.n_triangles ? mesh.n_triangles : 1) * 3 * sizeof(uint32_t))))
-            rc = ESR_FAIL("gltf: out of memory for %zu triangles", mesh.n_triangles);
-    for (size_t t = 0; rc == ESR_OK && t < mesh.n_triangles; t++) {
+    size_t n_surf = 0;
+    for (size_t t = 0; rc == ESR_OK && t < nt; t++) {
         float c[3] = {0, 0, 0};
         for (int v = 0; v < 3; v++)
             for (int a = 0; a < 3; a++)
                 c[a] += mesh.pos[(size_t)mesh.tri[t * 3 + v] * 3 + a] / 3.0f;
-        const int part = esr_lights_id_at(&m->lights, c) + 1;
-        memcpy(tri[part] + cnt[part] * 3, mesh.tri + t * 3, 3 * sizeof(uint32_t));
-        cnt[part]++;
+        part_of[t] = esr_lights_id_at(&m->lights, c) + 1;
+        if (part_of[t] == 0)
+            surf[n_surf++] = (uint32_t)t;
     }
-    struct esr_glb_part parts[ESR_MAX_LIGHTS + 1];
-    char names[ESR_MAX_LIGHTS + 1][32];
-    for (int k = 0; rc == ESR_OK && k <= n_lights; k++) {
-        struct esr_glb_part *p = &parts[k];
+    if (rc == ESR_OK) {
+        triangle_materials(&mesh, rough, metal, rm);
+        rc = cluster_surface(&mesh, surf, n_surf, rm, o->max_materials, cluster, out);
+    }
+    const int n_mat = out->n_materials, n_parts = n_mat + n_lights;
+    /* triangles by part: parts 0 .. n_mat - 1 the surface's materials, then light k */
+    uint32_t *tri[ESR_GLTF_MAX_MATERIALS + ESR_MAX_LIGHTS];
+    size_t cnt[ESR_GLTF_MAX_MATERIALS + ESR_MAX_LIGHTS];
+    double lrm[ESR_MAX_LIGHTS][2]; /* each light's mean roughness and metallic */
+    memset(tri, 0, sizeof tri);
+    memset(cnt, 0, sizeof cnt);
+    memset(lrm, 0, sizeof lrm);
+    for (int k = 0; rc == ESR_OK && k < n_parts; k++)
+        if (!(tri[k] = malloc((nt ? nt : 1) * 3 * sizeof(uint32_t))))
+            rc = ESR_FAIL("gltf: out of memory for %zu triangles", nt);
+    for (size_t i = 0; rc == ESR_OK && i < n_surf; i++) {
+        const int k = cluster[i];
+        memcpy(tri[k] + cnt[k] * 3, mesh.tri + (size_t)surf[i] * 3, 3 * sizeof(uint32_t));
+        cnt[k]++;
+    }
+    for (size_t t = 0; rc == ESR_OK && t < nt; t++) {
+        if (part_of[t] == 0)
+            continue;
+        const int l = part_of[t] - 1, k = n_mat + l;
+        memcpy(tri[k] + cnt[k] * 3, mesh.tri + t * 3, 3 * sizeof(uint32_t));
+        cnt[k]++;
+        lrm[l][0] += rm[t * 2], lrm[l][1] += rm[t * 2 + 1];
+    }
+    struct esr_glb_part parts[ESR_GLTF_MAX_MATERIALS + ESR_MAX_LIGHTS];
+    char names[ESR_GLTF_MAX_MATERIALS + ESR_MAX_LIGHTS][32];
+    int n_written = 0; /* a part without triangles is left out: a glTF mesh needs some */
+    for (int k = 0; rc == ESR_OK && k < n_parts; k++) {
+        if (cnt[k] == 0)
+            continue;
+        struct esr_glb_part *p = &parts[n_written];
         memset(p, 0, sizeof *p);
-        if (k == 0)
-            snprintf(names[k], sizeof names[k], "surface");
+        if (k < n_mat && n_mat == 1)
+            snprintf(names[n_written], sizeof names[n_written], "surface");
+        else if (k < n_mat)
+            snprintf(names[n_written], sizeof names[n_written], "surface_%d", k);
         else
-            snprintf(names[k], sizeof names[k], "light_%d", k - 1);
-        p->name = names[k];
+            snprintf(names[n_written], sizeof names[n_written], "light_%d", k - n_mat);
+        p->name = names[n_written];
         p->tri = tri[k];
         p->n_triangles = cnt[k];
         p->base[0] = p->base[1] = p->base[2] = 1.0f; /* x COLOR_0, the base colour */
-        p->metallic = metal;
-        p->roughness = rough;
         p->emissive_strength = 1.0f;
-        if (k > 0) {
-            const float *L = m->lights.light[k - 1].radiance;
+        if (k < n_mat) {
+            p->roughness = out->roughness[k];
+            p->metallic = out->metallic[k];
+        } else {
+            const int l = k - n_mat;
+            p->roughness = (float)(lrm[l][0] / (double)cnt[k]);
+            p->metallic = (float)(lrm[l][1] / (double)cnt[k]);
+            const float *L = m->lights.light[l].radiance;
             const float mx = fmaxf(L[0], fmaxf(L[1], L[2]));
             if (mx > 0.0f) {
                 for (int c = 0; c < 3; c++)
                     p->emissive[c] = L[c] / mx;
                 p->emissive_strength = mx;
             }
+            out->light_nodes |= 1 << l;
         }
+        n_written++;
     }
     /* glTF is +Y up: the scene's +Z (up) becomes +Y, its +Y becomes -Z */
-    for (size_t i = 0; rc == ESR_OK && i < mesh.n_vertices; i++) {
+    for (size_t i = 0; rc == ESR_OK && i < nv; i++) {
         float *vs[2] = {mesh.pos + i * 3, mesh.normal + i * 3};
         for (int k = 0; k < 2; k++) {
             const float y = vs[k][1], z = vs[k][2];
@@ -108,11 +209,10 @@ int esr_model_gltf_write(const struct esr_model *m, int res, const char *path, i
         }
     }
     if (rc == ESR_OK)
-        rc = esr_glb_write(path, &mesh, parts, n_lights + 1);
-    for (int k = 1; rc == ESR_OK && k <= n_lights; k++) /* a part without triangles has no node */
-        *light_nodes |= (cnt[k] > 0) << (k - 1);
-    for (int k = 0; k <= n_lights; k++)
+        rc = esr_glb_write(path, &mesh, parts, n_written);
+    for (int k = 0; k < n_parts; k++)
         free(tri[k]);
+    free(rough), free(metal), free(rm), free(part_of), free(surf), free(cluster);
     esr_mesh_free(&mesh);
     return rc;
 }
