@@ -81,7 +81,7 @@ lightmix-blender-check: build
 # (tools/gltf_blender_check.sh; installs blender when missing). RUN: a trained run (default: the
 # demo's); SAMPLES: Cycles samples per pixel.
 RUN ?= runs/demo/run
-SAMPLES ?= 64
+SAMPLES ?= 256
 gltf-blender-check: build
 	ESR=./build/esr tools/gltf_blender_check.sh $(RUN) "" $(SAMPLES)
 
