@@ -39,8 +39,11 @@ static void test_finds_blobs(void **state)
     int k = 0;
     const struct esr_kmeans_params p = {.x = x, .n = N, .dim = 2, .k_max = 8,
                                         .min_separation = 0.1f, .min_share = 0.01f, .iters = 50};
-    assert_int_equal(esr_kmeans(&p, centres, assign, &k), 0);
+    double weights[ESR_KMEANS_MAX_K];
+    assert_int_equal(esr_kmeans(&p, centres, assign, weights, &k), 0);
     assert_int_equal(k, 3);
+    for (int b = 0; b < 3; b++) /* each cluster's weight: its blob's points */
+        assert_true(weights[b] == count[b]);
     for (int b = 0; b < 3; b++) /* heaviest first: blob b is cluster b */
         for (int c = 0; c < 2; c++)
             assert_true(fabs(centres[b * 2 + c] - mean[b][c]) < 0.005);
@@ -49,13 +52,13 @@ static void test_finds_blobs(void **state)
     /* a separation wider than the blobs' distances leaves one cluster at the mean */
     const struct esr_kmeans_params wide = {.x = x, .n = N, .dim = 2, .k_max = 8,
                                            .min_separation = 2.0f, .iters = 50};
-    assert_int_equal(esr_kmeans(&wide, centres, assign, &k), 0);
+    assert_int_equal(esr_kmeans(&wide, centres, assign, NULL, &k), 0);
     assert_int_equal(k, 1);
     assert_true(fabs(centres[0] - (1500 * 0.8 + 1000 * 0.2 + 500 * 0.35) / N) < 0.005);
     /* k_max caps the count */
     const struct esr_kmeans_params two = {.x = x, .n = N, .dim = 2, .k_max = 2,
                                           .min_separation = 0.1f, .iters = 50};
-    assert_int_equal(esr_kmeans(&two, centres, assign, &k), 0);
+    assert_int_equal(esr_kmeans(&two, centres, assign, NULL, &k), 0);
     assert_int_equal(k, 2);
 }
 
@@ -69,23 +72,25 @@ static void test_weights_and_small_clusters(void **state)
     int32_t a[2];
     int k = 0;
     const struct esr_kmeans_params one = {.x = x, .w = w, .n = 2, .dim = 1, .k_max = 1, .iters = 5};
-    assert_int_equal(esr_kmeans(&one, c, a, &k), 0);
+    double wsum[ESR_KMEANS_MAX_K];
+    assert_int_equal(esr_kmeans(&one, c, a, wsum, &k), 0);
     assert_int_equal(k, 1);
     assert_true(fabsf(c[0] - 0.25f) < 1e-6f);
+    assert_true(wsum[0] == 4.0);
     /* 999 points at 0 and one at 5: at min_share 0.01 the outlier joins the big cluster */
     static float y[1000];
     static int32_t b[1000];
     y[999] = 5.0f;
     const struct esr_kmeans_params out = {.x = y, .n = 1000, .dim = 1, .k_max = 4,
                                           .min_separation = 0.1f, .min_share = 0.01f, .iters = 20};
-    assert_int_equal(esr_kmeans(&out, c, b, &k), 0);
+    assert_int_equal(esr_kmeans(&out, c, b, NULL, &k), 0);
     assert_int_equal(k, 1);
     assert_int_equal(b[999], 0);
     assert_true(fabsf(c[0] - 0.005f) < 1e-6f);
     /* without the share it is its own cluster, the second */
     const struct esr_kmeans_params keep = {.x = y, .n = 1000, .dim = 1, .k_max = 4,
                                            .min_separation = 0.1f, .iters = 20};
-    assert_int_equal(esr_kmeans(&keep, c, b, &k), 0);
+    assert_int_equal(esr_kmeans(&keep, c, b, NULL, &k), 0);
     assert_int_equal(k, 2);
     assert_int_equal(b[999], 1);
     assert_true(c[0] == 0.0f && c[1] == 5.0f);
@@ -99,23 +104,23 @@ static void test_edges_and_bad_input(void **state)
     int32_t a[3];
     int k = 0;
     const struct esr_kmeans_params empty = {.dim = 2, .k_max = 4, .iters = 5};
-    assert_int_equal(esr_kmeans(&empty, c, a, &k), 0);
+    assert_int_equal(esr_kmeans(&empty, c, a, NULL, &k), 0);
     assert_int_equal(k, 1);
     const float x[6] = {0, 0, 1, 1, 2, 2}, zero[3] = {0, 0, 0};
     const struct esr_kmeans_params nowt = {.x = x, .w = zero, .n = 3, .dim = 2, .k_max = 4,
                                            .iters = 5};
-    assert_int_equal(esr_kmeans(&nowt, c, a, &k), 0);
+    assert_int_equal(esr_kmeans(&nowt, c, a, NULL, &k), 0);
     assert_int_equal(k, 1);
     assert_true(c[0] == 1.0f && c[1] == 1.0f);
     const struct esr_kmeans_params bad_dim = {.x = x, .n = 3, .dim = 0, .k_max = 4};
-    assert_int_not_equal(esr_kmeans(&bad_dim, c, a, &k), 0);
+    assert_int_not_equal(esr_kmeans(&bad_dim, c, a, NULL, &k), 0);
     const struct esr_kmeans_params bad_k = {.x = x, .n = 3, .dim = 2, .k_max = ESR_KMEANS_MAX_K + 1};
-    assert_int_not_equal(esr_kmeans(&bad_k, c, a, &k), 0);
+    assert_int_not_equal(esr_kmeans(&bad_k, c, a, NULL, &k), 0);
     const float nan_x[6] = {0, 0, NAN, 1, 2, 2}, neg_w[3] = {1, -1, 1};
     const struct esr_kmeans_params has_nan = {.x = nan_x, .n = 3, .dim = 2, .k_max = 2};
-    assert_int_not_equal(esr_kmeans(&has_nan, c, a, &k), 0);
+    assert_int_not_equal(esr_kmeans(&has_nan, c, a, NULL, &k), 0);
     const struct esr_kmeans_params has_neg = {.x = x, .w = neg_w, .n = 3, .dim = 2, .k_max = 2};
-    assert_int_not_equal(esr_kmeans(&has_neg, c, a, &k), 0);
+    assert_int_not_equal(esr_kmeans(&has_neg, c, a, NULL, &k), 0);
 }
 
 int main(void)

@@ -101,7 +101,8 @@ static void lloyd(const struct esr_kmeans_params *p, int k, float *centres, int3
     }
 }
 
-int esr_kmeans(const struct esr_kmeans_params *p, float *centres, int32_t *assign, int *k_out)
+int esr_kmeans(const struct esr_kmeans_params *p, float *centres, int32_t *assign,
+               double *weights, int *k_out)
 {
     double total = 0.0;
     ESR_TRY(check(p, &total));
@@ -109,6 +110,8 @@ int esr_kmeans(const struct esr_kmeans_params *p, float *centres, int32_t *assig
     *k_out = 1;
     for (int c = 0; c < d; c++)
         centres[c] = 0.0f;
+    if (weights)
+        weights[0] = 0.0;
     if (p->n == 0)
         return ESR_OK;
     for (size_t i = 0; i < p->n; i++)
@@ -178,6 +181,8 @@ int esr_kmeans(const struct esr_kmeans_params *p, float *centres, int32_t *assig
                (size_t)d * sizeof(float));
     }
     memcpy(centres, sorted, (size_t)k * (size_t)d * sizeof(float));
+    for (int j = 0; weights && j < k; j++)
+        weights[j] = wsum[order[j]];
     for (size_t i = 0; i < p->n; i++)
         assign[i] = rank[assign[i]];
     *k_out = k;

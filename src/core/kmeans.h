@@ -25,8 +25,10 @@ struct esr_kmeans_params {
 };
 
 /* Clusters p's points: centres [k * dim] (k_max * dim floats), assign [n] (cluster of each
- * point), *k_out the number of clusters (1 when n is 0 or every weight is 0: the centre then is
- * the plain mean, or 0). Clusters are numbered by decreasing weight. */
-int esr_kmeans(const struct esr_kmeans_params *p, float *centres, int32_t *assign, int *k_out);
+ * point), weights [k] (k_max doubles, or NULL: each cluster's total weight), *k_out the number
+ * of clusters (1 when n is 0 or every weight is 0: the centre then is the plain mean, or 0, and
+ * its weight 0). Clusters are numbered by decreasing weight. */
+int esr_kmeans(const struct esr_kmeans_params *p, float *centres, int32_t *assign,
+               double *weights, int *k_out);
 
 #endif

@@ -19,6 +19,8 @@ struct esr_mesh {
 
 /* Allocates mesh->colour (zeroed) so the caller can fill per-vertex colours. */
 int esr_mesh_alloc_colours(struct esr_mesh *m);
+/* The area of triangle t. */
+float esr_mesh_triangle_area(const struct esr_mesh *m, size_t t);
 /* Frees every array and zeroes the struct (safe on a zeroed or partly built mesh). */
 void esr_mesh_free(struct esr_mesh *m);
 

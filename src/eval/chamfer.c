@@ -22,10 +22,7 @@ int esr_mesh_sample_surface(const struct esr_mesh *m, size_t n, uint64_t seed, f
         return ESR_FAIL("out of memory for %zu triangle areas", m->n_triangles);
     double total = 0.0;
     for (size_t t = 0; t < m->n_triangles; t++) {
-        const uint32_t *v = m->tri + t * 3;
-        struct esr_vec3 a = mesh_vertex(m, v[0]);
-        struct esr_vec3 e1 = esr_v3_sub(mesh_vertex(m, v[1]), a), e2 = esr_v3_sub(mesh_vertex(m, v[2]), a);
-        total += 0.5 * esr_v3_length(esr_v3_cross(e1, e2));
+        total += esr_mesh_triangle_area(m, t);
         cdf[t] = total;
     }
     if (!(total > 0.0)) {

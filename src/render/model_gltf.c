@@ -40,18 +40,6 @@ static int vertex_materials(const struct esr_model *m, struct esr_mesh *mesh, fl
     return rc;
 }
 
-static float triangle_area(const struct esr_mesh *mesh, size_t t)
-{
-    const float *a = mesh->pos + (size_t)mesh->tri[t * 3] * 3,
-                *b = mesh->pos + (size_t)mesh->tri[t * 3 + 1] * 3,
-                *c = mesh->pos + (size_t)mesh->tri[t * 3 + 2] * 3;
-    const float u[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]},
-                v[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]};
-    const float x = u[1] * v[2] - u[2] * v[1], y = u[2] * v[0] - u[0] * v[2],
-                z = u[0] * v[1] - u[1] * v[0];
-    return 0.5f * sqrtf(x * x + y * y + z * z);
-}
-
 /* The triangles' materials: rm[t * 2] roughness, rm[t * 2 + 1] metallic, the mean of their
  * vertices'. */
 static void triangle_materials(const struct esr_mesh *mesh, const float *rough,
@@ -78,21 +66,19 @@ static int cluster_surface(const struct esr_mesh *mesh, const uint32_t *sel, siz
     double total = 0.0;
     for (size_t i = 0; rc == ESR_OK && i < n; i++) {
         x[i * 2] = rm[(size_t)sel[i] * 2], x[i * 2 + 1] = rm[(size_t)sel[i] * 2 + 1];
-        w[i] = triangle_area(mesh, sel[i]);
+        w[i] = esr_mesh_triangle_area(mesh, sel[i]);
         total += w[i];
     }
     float centres[ESR_KMEANS_MAX_K * 2];
+    double area[ESR_KMEANS_MAX_K];
     const struct esr_kmeans_params kp = {.x = x, .w = w, .n = n, .dim = 2, .k_max = max_k,
                                          .min_separation = ESR_GLTF_MATERIAL_SEPARATION,
                                          .min_share = ESR_GLTF_MATERIAL_MIN_SHARE, .iters = 30};
     if (rc == ESR_OK)
-        rc = esr_kmeans(&kp, centres, cluster, &out->n_materials);
+        rc = esr_kmeans(&kp, centres, cluster, area, &out->n_materials);
     for (int j = 0; rc == ESR_OK && j < out->n_materials; j++) {
         out->roughness[j] = centres[j * 2], out->metallic[j] = centres[j * 2 + 1];
-        double a = 0.0;
-        for (size_t i = 0; i < n; i++)
-            a += cluster[i] == j ? w[i] : 0.0;
-        out->share[j] = total > 0.0 ? (float)(a / total) : 1.0f / (float)out->n_materials;
+        out->share[j] = total > 0.0 ? (float)(area[j] / total) : 1.0f / (float)out->n_materials;
     }
     free(x), free(w);
     return rc;
@@ -146,9 +132,15 @@ int esr_model_gltf_write(const struct esr_model *m, const struct esr_gltf_option
     memset(tri, 0, sizeof tri);
     memset(cnt, 0, sizeof cnt);
     memset(lrm, 0, sizeof lrm);
+    for (size_t i = 0; rc == ESR_OK && i < n_surf; i++) /* each part's size, then its triangles */
+        cnt[cluster[i]]++;
+    for (size_t t = 0; rc == ESR_OK && t < nt; t++)
+        if (part_of[t] > 0)
+            cnt[n_mat + part_of[t] - 1]++;
     for (int k = 0; rc == ESR_OK && k < n_parts; k++)
-        if (!(tri[k] = malloc((nt ? nt : 1) * 3 * sizeof(uint32_t))))
-            rc = ESR_FAIL("gltf: out of memory for %zu triangles", nt);
+        if (!(tri[k] = malloc((cnt[k] ? cnt[k] : 1) * 3 * sizeof(uint32_t))))
+            rc = ESR_FAIL("gltf: out of memory for %zu triangles", cnt[k]);
+    memset(cnt, 0, sizeof cnt);
     for (size_t i = 0; rc == ESR_OK && i < n_surf; i++) {
         const int k = cluster[i];
         memcpy(tri[k] + cnt[k] * 3, mesh.tri + (size_t)surf[i] * 3, 3 * sizeof(uint32_t));
